@@ -1,0 +1,186 @@
+// ChildIndex, assignBranchOrder and computeStats on small hand-built trees.
+#include "species/tree.h"
+
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+
+#include "species/tree_stats.h"
+
+namespace sylva {
+namespace {
+
+int32_t addNode(Tree& t, int32_t parent, Vec3 p, double radius = 0.01, uint8_t part = kShootPart) {
+    SkeletonNode n;
+    n.position = p;
+    n.radius = radius;
+    n.parent = parent;
+    n.part = part;
+    t.nodes.push_back(n);
+    return static_cast<int32_t>(t.nodes.size() - 1);
+}
+
+std::vector<int32_t> orders(const Tree& t) {
+    std::vector<int32_t> o;
+    for (const auto& n : t.nodes) o.push_back(n.order);
+    return o;
+}
+
+TEST(ChildIndex, CsrChildrenInAscendingOrder) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0});
+    addNode(t, 0, {0, 1, 0});  // 1
+    addNode(t, 0, {1, 0, 0});  // 2
+    addNode(t, 1, {0, 2, 0});  // 3
+    addNode(t, 2, {2, 0, 0});  // 4
+    addNode(t, 1, {1, 2, 0});  // 5
+    ChildIndex ci(t);
+    ASSERT_EQ(ci.offset.size(), 7u);
+    EXPECT_EQ(ci.offset, (std::vector<int32_t>{0, 2, 4, 5, 5, 5, 5}));
+    EXPECT_EQ(ci.child, (std::vector<int32_t>{1, 2, 3, 5, 4}));
+    EXPECT_EQ(ci.count(0), 2);
+    EXPECT_EQ(ci.count(1), 2);
+    EXPECT_EQ(ci.count(2), 1);
+    EXPECT_EQ(ci.count(3), 0);
+}
+
+TEST(ChildIndex, EmptyAndSingleNode) {
+    Tree t;
+    ChildIndex e(t);
+    EXPECT_EQ(e.offset, std::vector<int32_t>{0});
+    EXPECT_TRUE(e.child.empty());
+    addNode(t, -1, {0, 0, 0});
+    ChildIndex one(t);
+    EXPECT_EQ(one.offset, (std::vector<int32_t>{0, 0}));
+    EXPECT_EQ(one.count(0), 0);
+}
+
+TEST(ChildIndex, RejectsParentNotSmaller) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0});
+    addNode(t, 2, {0, 1, 0});
+    addNode(t, 0, {0, 2, 0});
+    EXPECT_THROW(ChildIndex{t}, std::invalid_argument);
+}
+
+TEST(BranchOrder, TrunkKeepsOrderLateralsIncrement) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0});     // 0
+    addNode(t, 0, {0, 1, 0});      // 1 trunk
+    addNode(t, 1, {0, 2, 0});      // 2 trunk
+    addNode(t, 2, {0, 3, 0});      // 3 trunk tip
+    addNode(t, 1, {0.5, 1.5, 0});  // 4 lateral at 1 (shorter than the trunk above)
+    addNode(t, 4, {1, 2, 0});      // 5
+    addNode(t, 5, {1.2, 2.1, 0});  // 6 continues the lateral
+    addNode(t, 5, {1.1, 2.5, 0});  // 7 sub-lateral (longer than 6: 0.51 vs 0.22)
+    addNode(t, 2, {0.2, 2.1, 0});  // 8 twig at 2
+    for (auto& n : t.nodes) n.order = 99;
+    assignBranchOrder(t);
+    // 7 is longer than 6 from node 5, so 7 continues order 1 and 6 becomes order 2.
+    EXPECT_EQ(orders(t), (std::vector<int32_t>{0, 0, 0, 0, 1, 1, 2, 1, 1}));
+}
+
+TEST(BranchOrder, LongerLateralTakesOverTheAxis) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0});   // 0
+    addNode(t, 0, {0, 1, 0});    // 1
+    addNode(t, 1, {0, 1.5, 0});  // 2 short "leader"
+    addNode(t, 1, {1, 1, 0});    // 3 long side limb
+    addNode(t, 3, {3, 1, 0});    // 4
+    assignBranchOrder(t);
+    EXPECT_EQ(orders(t), (std::vector<int32_t>{0, 0, 1, 0, 0}));
+}
+
+TEST(BranchOrder, TiesGoToLowerIndex) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0});
+    addNode(t, 0, {0, 1, 0});   // 1
+    addNode(t, 1, {1, 1, 0});   // 2 length 1
+    addNode(t, 1, {-1, 1, 0});  // 3 length 1 (tie)
+    addNode(t, 1, {0, 2, 0});   // 4 length 1 (tie)
+    assignBranchOrder(t);
+    EXPECT_EQ(orders(t), (std::vector<int32_t>{0, 0, 0, 1, 1}));
+}
+
+TEST(BranchOrder, ShootAndRootSystemsEachHaveAnOrderZeroAxis) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0});                       // 0
+    addNode(t, 0, {0, 1, 0});                        // 1 trunk (shorter than taproot)
+    addNode(t, 0, {0, -3, 0}, 0.01, kRootPart);      // 2 taproot
+    addNode(t, 0, {0.5, -0.5, 0}, 0.01, kRootPart);  // 3 lateral root
+    addNode(t, 0, {0.3, 0.2, 0});                    // 4 low shoot
+    addNode(t, 2, {0, -4, 0}, 0.01, kRootPart);      // 5 taproot continues
+    addNode(t, 2, {0.2, -3.1, 0}, 0.01, kRootPart);  // 6 root off the taproot
+    assignBranchOrder(t);
+    EXPECT_EQ(orders(t), (std::vector<int32_t>{0, 0, 0, 1, 1, 0, 1}));
+}
+
+TEST(TreeStats, CountsAndMeasures) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0});                     // 0
+    addNode(t, 0, {0, 2, 0});                      // 1
+    addNode(t, 1, {0, 4, 0});                      // 2 tip (height 4)
+    addNode(t, 1, {1.5, 3, 0});                    // 3
+    addNode(t, 3, {1.5, 3, -0.5});                 // 4 tip
+    addNode(t, 0, {0, -1, 0}, 0.01, kRootPart);    // 5
+    addNode(t, 5, {0, -1.5, 0}, 0.01, kRootPart);  // 6 tip (depth 1.5)
+    assignBranchOrder(t);
+    TreeStats s = computeStats(t);
+    EXPECT_EQ(s.nodes, 7);
+    EXPECT_EQ(s.segments, 6);
+    EXPECT_EQ(s.endpoints, 3);
+    EXPECT_DOUBLE_EQ(s.height, 4.0);
+    EXPECT_DOUBLE_EQ(s.rootDepth, 1.5);
+    EXPECT_DOUBLE_EQ(s.crownWidth, 1.5);  // x-extent 1.5 > z-extent 0.5
+    double len = 2 + 2 + std::sqrt(1.5 * 1.5 + 1.0) + 0.5 + 1 + 0.5;
+    EXPECT_NEAR(s.totalLength, len, 1e-12);
+    EXPECT_EQ(s.highestOrder, 1);
+    // At node 1 the limb via 3 (1.80 + 0.5 m) outlasts the leader to 2 (2 m): 2 is the lateral.
+    EXPECT_EQ(orders(t), (std::vector<int32_t>{0, 0, 1, 0, 0, 0, 0}));
+    EXPECT_EQ(s.segmentsPerOrder, (std::vector<int64_t>{5, 1}));
+    // Shoot points: (0,0,0) (0,2,0) (0,4,0) (1.5,3,0) (1.5,3,-0.5): tetrahedral-ish hull.
+    EXPECT_GT(s.crownHullVolume, 0.0);
+}
+
+TEST(TreeStats, EmptyAndNoRootSystem) {
+    Tree t;
+    TreeStats e = computeStats(t);
+    EXPECT_EQ(e.nodes, 0);
+    EXPECT_EQ(e.segments, 0);
+    EXPECT_EQ(e.crownHullVolume, 0.0);
+    addNode(t, -1, {0, 0, 0});
+    addNode(t, 0, {0, 1, 0});
+    TreeStats s = computeStats(t);
+    EXPECT_EQ(s.endpoints, 1);
+    EXPECT_EQ(s.rootDepth, 0.0);
+    EXPECT_EQ(s.crownHullVolume, 0.0);  // two points
+    EXPECT_EQ(s.segmentsPerOrder, std::vector<int64_t>{1});
+}
+
+TEST(TreeStats, HullOfUnitCubeCornersPlusCentreIsOne) {
+    std::vector<Vec3> pts;
+    for (int i = 0; i < 8; ++i)
+        pts.push_back({double(i & 1), double((i >> 1) & 1), double(i >> 2)});
+    pts.push_back({0.5, 0.5, 0.5});
+    EXPECT_NEAR(convexHullVolume(pts), 1.0, 1e-12);
+
+    // Same through computeStats: a star of shoot nodes from the root at corner (0,0,0).
+    Tree t;
+    addNode(t, -1, pts[0]);
+    for (size_t i = 1; i < pts.size(); ++i) addNode(t, 0, pts[i]);
+    EXPECT_NEAR(computeStats(t).crownHullVolume, 1.0, 1e-12);
+}
+
+TEST(TreeStats, DegenerateHullsAreZero) {
+    EXPECT_EQ(convexHullVolume({}), 0.0);
+    EXPECT_EQ(convexHullVolume({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}), 0.0);
+    // Coplanar (z = 2) and collinear sets, and repeated points.
+    EXPECT_EQ(convexHullVolume({{0, 0, 2}, {1, 0, 2}, {0, 1, 2}, {1, 1, 2}, {0.3, 0.2, 2}}), 0.0);
+    EXPECT_EQ(convexHullVolume({{0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {3, 3, 3}}), 0.0);
+    EXPECT_EQ(convexHullVolume({{1, 2, 3}, {1, 2, 3}, {1, 2, 3}, {1, 2, 3}}), 0.0);
+    // A tetrahedron: 1/6.
+    EXPECT_NEAR(convexHullVolume({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}), 1.0 / 6, 1e-12);
+}
+
+}  // namespace
+}  // namespace sylva
