@@ -1,0 +1,81 @@
+// Crown volumes: the regions in which growth methods place graph nodes, markers and endpoints.
+// Frame: +y up, metres. Every volume answers an inside test and a signed distance
+// (negative inside). Distances are exact for single primitives where the header says so;
+// for CSG results and non-uniformly scaled volumes they are conservative bounds
+// (|reported| ≤ true distance) whose sign is always exact.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "volumes/math.h"
+#include "volumes/rng.h"
+
+namespace sylva {
+
+class Volume {
+public:
+    virtual ~Volume() = default;
+
+    // Signed distance in metres, negative inside.
+    virtual double signedDistance(const Vec3& p) const = 0;
+    bool inside(const Vec3& p) const { return signedDistance(p) <= 0.0; }
+
+    // Tight (or slightly loose) world-space bounds of the inside.
+    virtual Aabb bounds() const = 0;
+
+    // A uniformly distributed point inside. The default rejects from bounds(); primitives
+    // override it with direct sampling. Returns nullopt when maxTries draws all miss.
+    virtual std::optional<Vec3> sample(Rng& rng, int maxTries = 100000) const;
+
+    // Volume in cubic metres: closed form for primitives, otherwise a deterministic
+    // Monte-Carlo estimate over bounds().
+    virtual double measure() const;
+
+    // Short human-readable description, for error messages ("sphere r=2 m").
+    virtual std::string describe() const = 0;
+};
+
+using VolumePtr = std::shared_ptr<const Volume>;
+
+// Placement of a primitive: its local +y axis is turned onto `axis`, then it is scaled
+// (component-wise in the local frame) and moved to `position`.
+struct Placement {
+    Vec3 position{0, 0, 0};
+    Vec3 axis{0, 1, 0};
+    Vec3 scale{1, 1, 1};
+};
+
+// --- Analytic primitives, in their local frame (+y is the primitive's axis) ---------------
+// sphere: centred at the origin. Exact distance.
+VolumePtr makeSphere(double radius);
+// hemisphere: the y ≥ 0 half of a sphere centred at the origin (a dome). Exact distance.
+VolumePtr makeHemisphere(double radius);
+// ellipsoid: centred at the origin with semi-axes (rx, ry, rz). Distance is a bound.
+VolumePtr makeEllipsoid(const Vec3& radii);
+// cylinder: base disc at y = 0, top at y = height. Exact distance.
+VolumePtr makeCylinder(double radius, double height);
+// cone (frustum when topRadius > 0): base disc at y = 0, top at y = height. Exact distance.
+VolumePtr makeCone(double baseRadius, double height, double topRadius = 0.0);
+// box: centred at the origin with full edge lengths `size`. Exact distance.
+VolumePtr makeBox(const Vec3& size);
+// sphere sector (spherical cone): points within `radius` of the origin whose direction lies
+// within angle `alpha` (radians, 0 < α ≤ π) of +y — Xu & Mould 2012 §3.3.2 sub-graph volume.
+// Exact distance.
+VolumePtr makeSphereSector(double radius, double alpha);
+
+// --- Placement and composition ---------------------------------------------------------------
+VolumePtr makePlaced(VolumePtr inner, const Placement& placement);
+VolumePtr makeUnion(std::vector<VolumePtr> parts);
+VolumePtr makeIntersection(std::vector<VolumePtr> parts);
+VolumePtr makeDifference(VolumePtr base, std::vector<VolumePtr> cut);
+
+// --- OpenVDB realisation -------------------------------------------------------------------
+// The volume sampled into a narrow-band OpenVDB level set (FloatGrid) with voxel size
+// `voxelSize` metres and a band of `halfWidth` voxels, inside tiles flood-filled, so that
+// inside tests are exact to about one voxel and distances are trilinear within the band.
+VolumePtr makeLevelSet(const Volume& source, double voxelSize, double halfWidth = 3.0);
+
+}  // namespace sylva
