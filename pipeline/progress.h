@@ -1,0 +1,25 @@
+// Progress on stderr: a live line with count, rate and ETA on a terminal; plain log lines at
+// most every few seconds otherwise.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+namespace sylva {
+
+class Progress {
+public:
+    Progress(int64_t total, bool enabled);
+    void tick(int64_t done, int64_t failed);
+    void finish(int64_t done, int64_t failed);
+
+private:
+    std::string line(int64_t done, int64_t failed) const;
+    int64_t total_;
+    bool enabled_;
+    bool tty_;
+    std::chrono::steady_clock::time_point start_, last_;
+};
+
+}  // namespace sylva

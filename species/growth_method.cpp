@@ -1,0 +1,13 @@
+#include "species/growth_method.h"
+
+namespace sylva {
+
+std::unique_ptr<GrowthMethod> makeGrowthMethod(const std::string& name, Params& species) {
+    if (name == "iterated-graph") return makeIteratedGraphMethod(species);
+    std::string hint;
+    if (auto s = closestWord(name, {"iterated-graph"})) hint = "; did you mean \"" + *s + "\"?";
+    species.fail("method", "unknown growth method \"" + name +
+                               "\" (known: \"iterated-graph\")" + hint);
+}
+
+}  // namespace sylva

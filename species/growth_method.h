@@ -1,0 +1,29 @@
+// Growth methods, created by name from a species file (after pbrt-v4's Create functions).
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+
+#include "species/params.h"
+#include "species/tree.h"
+#include "volumes/rng.h"
+
+namespace sylva {
+
+class GrowthMethod {
+public:
+    virtual ~GrowthMethod() = default;
+    // Grows one tree from rng. `threaded`: the method may split its own work across TBB
+    // workers; results never depend on it. Method-specific counters go into `stats`.
+    virtual Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats) const = 0;
+};
+
+// Reads the method's parameters from the species table (its own keys only) and returns the
+// method; an unknown name is an error naming the file and line of `method`.
+std::unique_ptr<GrowthMethod> makeGrowthMethod(const std::string& name, Params& species);
+
+// Each method's factory, one per file in species/methods/.
+std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& species);
+
+}  // namespace sylva

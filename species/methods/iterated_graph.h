@@ -1,0 +1,132 @@
+// The `iterated-graph` growth method: least-cost paths through random-weighted Poisson-disc
+// graphs, iterated in sub-graphs (Xu & Mould 2012, "Synthetic Tree Models from Iterated
+// Discrete Graphs"; journal-version details as summarised by Wolff 2013).
+//
+// Frame: +y up, metres, radians. The tree's root point R is the origin.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "species/tree.h"
+#include "volumes/rng.h"
+#include "volumes/volume.h"
+
+namespace sylva {
+
+enum class Linking { kDistance, kYao };
+enum class EdgeWeightKind { kUniform, kNormal };
+enum class LifespanRule { kFixed, kStochastic };
+enum class Orientation { kParent, kUp, kDown, kRandom, kFixed };
+
+// Parameters of one level (iteration) i. Level 0 is the user's initial graph; levels ≥ 1
+// are sub-graphs built around the endpoints of the level before.
+struct IteratedGraphLevel {
+    int nodes = 200;              // k / K: graph nodes in each graph of this level
+    double spacing = 0.0;         // Poisson-disc minimum distance, metres; 0 = from K and volume
+    int endpoints = 4;            // b: endpoints (branching factor) per graph
+    double endpointShell = 0.0;   // d_e: endpoints only within this depth of the far side of
+                                  // the volume (Wolff §3.1.1, Abb. 9), metres; 0 = anywhere
+    double alpha = 0.3 * kPi;     // sub-graph sector half-angle α, radians (levels ≥ 1)
+    double radius = 0.0;          // sub-graph sphere radius r, metres; 0 = previous level × a
+    double gamma = 0.0;           // rotation of v_g about the horizontal per level, radians;
+                                  // positive turns branches down (weeping), negative up
+    Orientation orientation = Orientation::kParent;  // how v_g is chosen
+    Vec3 direction{0, 1, 0};      // v_g when orientation == kFixed
+    bool fromAllLevels = false;   // build this level's sub-graphs around the endpoints of
+                                  // all previous levels (Table 2, trees e and g)
+};
+
+// Light steering (journal version; Wolff §3.4): at each sub-graph level, n branching factors
+// and n lifespan decrements are drawn from ranges around the level's values and handed out
+// in order of the angle between the light direction and each sub-graph's orientation:
+// the branch facing the light gets the most endpoints and the smallest decrement.
+struct LightOptions {
+    bool enabled = false;
+    Vec3 direction{0, 1, 0};  // towards the light (unit after parsing)
+    double spread = 0.5;      // b drawn in [b(1−s), b(1+s)], decrement in [1−s, 1+s]
+    bool endpoints = true;    // light modulates the branching factor
+    bool lifespan = true;     // light modulates the lifespan decrement
+};
+
+// A system of levels grown from the root point: the crown (above ground) or the roots.
+struct GraphSystem {
+    VolumePtr volume;           // level-0 graph volume
+    VolumePtr endpointVolume;   // where level-0 endpoints go (default: volume)
+    std::vector<IteratedGraphLevel> levels;
+    double subgraphRadius = 1.0;  // r at level 1, metres (Maketree argument r)
+    double shrink = 0.7;          // a: sub-graph radius ratio between successive levels
+};
+
+// Root system (Xu & Mould 2012 §4, Figure 15): a graph below the ground, a taproot as the
+// path to one deep endpoint, lateral roots from endpoints placed around the taproot, then
+// sub-graph levels as for the crown.
+struct RootOptions {
+    bool enabled = false;
+    GraphSystem system;          // system.volume: below-ground graph volume
+    double taprootDepth = 2.0;   // depth of the taproot endpoint, metres
+    double lateralDistance = 0.5;  // lateral endpoints lie within this distance of the taproot
+};
+
+struct IteratedGraphOptions {
+    GraphSystem crown;
+    RootOptions roots;
+
+    // Graph construction (maketree step 1). The paper uses one d for rejection and linking,
+    // which would leave no edges at all (every pair of nodes is ≥ d apart); we keep the
+    // Poisson spacing and the linking distance apart: link distance = linkFactor × spacing.
+    Linking linking = Linking::kDistance;
+    double linkFactor = 1.8;
+    int yaoSectors = 8;           // Yao graph: 8 octants or 6 cube-face pyramids
+    double spacingFactor = 0.7;   // spacing = f·(V/K)^(1/3) when a level gives none
+
+    // Edge costs: weight × length^lengthExponent, weight drawn per edge.
+    EdgeWeightKind edgeWeightKind = EdgeWeightKind::kUniform;
+    double edgeWeightA = 0.5;     // uniform: low bound; normal: mean
+    double edgeWeightB = 1.5;     // uniform: high bound; normal: sigma (clamped at 0.01)
+    double lengthExponent = 1.0;
+
+    // Lifespan (§3.3.3): fixed decrement L − 1, or stochastic: terminate with probability
+    // terminateProbability, otherwise decrement by a uniform amount in (0, L).
+    LifespanRule lifespan = LifespanRule::kFixed;
+    double terminateProbability = 0.3;
+    double initialLifespan = -1.0;  // < 0: number of levels − 1
+    LightOptions light;
+
+    // Thickness (§3.2): w = scale · (d')^ζ / (i + 1), d' = path length to the branch tip,
+    // i = 1-based level of the segment.
+    double zeta = 0.3;
+    double thicknessScale = 0.05;  // metres per m^ζ
+};
+
+struct IteratedGraphStats {
+    int64_t graphNodes = 0;      // Poisson nodes in all graphs (Table 1 "number of graph nodes")
+    int64_t graphEndpoints = 0;  // endpoints in all graphs
+    int64_t graphs = 0;
+    int64_t bridgingEdges = 0;   // edges added to join a component holding an endpoint to
+                                 // the root's (closest node pair), when the graph was split
+};
+
+// Grows one tree. `threaded`: build the sub-graphs of a level in parallel (TBB); the result
+// is the same for any thread count because every graph draws from its own keyed stream.
+Tree growIteratedGraph(const IteratedGraphOptions& options, Rng& rng, bool threaded = true,
+                       IteratedGraphStats* stats = nullptr);
+
+// --- pieces, exposed for tests ---------------------------------------------------------------
+// A weighted undirected graph in CSR form.
+struct WeightedGraph {
+    std::vector<int32_t> offset;  // size n + 1
+    std::vector<int32_t> target;
+    std::vector<double> cost;
+    int size() const { return static_cast<int>(offset.size()) - 1; }
+};
+// Edges (i < j) with costs into CSR form.
+WeightedGraph makeGraph(int n, const std::vector<std::pair<int32_t, int32_t>>& edges,
+                        const std::vector<double>& costs);
+// Single-source least-cost search (Dijkstra, binary heap). Returns cost per node (infinity
+// if unreachable) and the predecessor (−1 for the source and unreached nodes).
+void leastCostTree(const WeightedGraph& g, int source, std::vector<double>& dist,
+                   std::vector<int32_t>& pred);
+
+}  // namespace sylva

@@ -1,0 +1,10 @@
+// Versions of the libraries species/ builds on, for dataset.json.
+#include <CGAL/version.h>
+
+#include <string>
+
+namespace sylva {
+
+std::string cgalVersion() { return CGAL_VERSION_STR; }
+
+}  // namespace sylva

@@ -1,0 +1,19 @@
+// Volume specs in species files: a table with `type` and the primitive's dimensions, placed by
+// position/axis/scale, composed with union/intersection/difference:
+//
+//   [crown]
+//   type = "union"
+//   parts = [ { type = "cylinder", radius = 0.3, height = 4 },
+//             { type = "sphere-sector", radius = 5, alpha_deg = 54, position = [0, 3, 0] } ]
+//   voxel_size = 0.05   # optional, top level only: realise as an OpenVDB level set
+#pragma once
+
+#include "species/params.h"
+#include "volumes/volume.h"
+
+namespace sylva {
+
+// Parses a volume table (and its parts); errors name file, line and key path.
+VolumePtr parseVolume(Params& p, bool topLevel = true);
+
+}  // namespace sylva
