@@ -479,8 +479,14 @@ void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const Roo
             job.level = next;
             job.rootNode = e.node;
             job.rootPos = e.pos;
-            job.volume = makePlaced(makeSphereSector(radius[next], nl.alpha),
-                                    Placement{e.pos, vg, {1, 1, 1}});
+            if (nl.shape == SubgraphShape::kCone) {
+                const double h = radius[next];
+                job.volume = makePlaced(makeCone(h * std::tan(nl.alpha), h),
+                                        Placement{e.pos + vg * h, -vg, {1, 1, 1}});
+            } else {
+                job.volume = makePlaced(makeSphereSector(radius[next], nl.alpha),
+                                        Placement{e.pos, vg, {1, 1, 1}});
+            }
             job.endpointVolume = job.volume;
             job.endpoints = nl.endpoints;
             job.lifespan = e.lifespan;

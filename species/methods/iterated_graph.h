@@ -19,6 +19,9 @@ enum class Linking { kDistance, kYao };
 enum class EdgeWeightKind { kUniform, kNormal };
 enum class LifespanRule { kFixed, kStochastic };
 enum class Orientation { kParent, kUp, kDown, kRandom, kFixed };
+// Sub-graph volume: the paper's sphere sector, or a cone with its apex at the endpoint,
+// opening along v_g with half-angle α and height r ("cone" sub-graphs of Table 2, j and l).
+enum class SubgraphShape { kSector, kCone };
 
 // Parameters of one level (iteration) i. Level 0 is the user's initial graph; levels ≥ 1
 // are sub-graphs built around the endpoints of the level before.
@@ -28,6 +31,7 @@ struct IteratedGraphLevel {
     int endpoints = 4;            // b: endpoints (branching factor) per graph
     double endpointShell = 0.0;   // d_e: endpoints only within this depth of the far side of
                                   // the volume (Wolff §3.1.1, Abb. 9), metres; 0 = anywhere
+    SubgraphShape shape = SubgraphShape::kSector;
     double alpha = 0.3 * kPi;     // sub-graph sector half-angle α, radians (levels ≥ 1)
     double radius = 0.0;          // sub-graph sphere radius r, metres; 0 = previous level × a
     double gamma = 0.0;           // rotation of v_g about the horizontal per level, radians;

@@ -24,6 +24,7 @@
 // | levels[i].spacing            | metres    | derived       | Poisson-disc minimum distance            |
 // | levels[i].endpoints          | integer   | required      | b, endpoints per graph                   |
 // | levels[i].endpoint_shell     | metres    | 0 (anywhere)  | d_e, endpoint shell thickness            |
+// | levels[i].shape              | string    | "sector"      | "sector" or "cone" (apex at endpoint)    |
 // | levels[i].alpha_deg          | degrees   | 54 (0.3π)     | α, sub-graph sector half-angle           |
 // | levels[i].radius             | metres    | r·a^(i−1)     | sub-graph sphere radius override         |
 // | levels[i].gamma_deg          | degrees   | 0             | γ, rotation of v_g (+ down, − up)        |
@@ -60,14 +61,19 @@ std::vector<IteratedGraphLevel> parseLevels(Params& owner, const char* key) {
         l.endpointShell = p.number("endpoint_shell", 0.0, Range::nonNegative());
         if (i == 0) {
             for (const char* k : {"alpha_deg", "radius", "gamma_deg", "orientation", "direction",
-                                  "from_all_levels"}) {
+                                  "from_all_levels", "shape"}) {
                 if (p.has(k)) {
                     p.raw(k);
                     p.fail(k, "applies to sub-graph levels only (levels[1] and later)");
                 }
             }
         } else {
+            std::string shape = p.choice("shape", "sector", {"sector", "cone"});
+            l.shape = shape == "cone" ? SubgraphShape::kCone : SubgraphShape::kSector;
             l.alpha = p.number("alpha_deg", 54.0, Range::leftOpen(0, 180)) * kDeg;
+            if (l.shape == SubgraphShape::kCone && l.alpha >= 85 * kDeg) {
+                p.fail("alpha_deg", "a cone sub-graph needs alpha_deg < 85");
+            }
             l.radius = p.number("radius", 0.0, Range::nonNegative());
             l.gamma = p.number("gamma_deg", 0.0, Range::closed(-180, 180)) * kDeg;
             std::string o = p.choice("orientation", "parent",
