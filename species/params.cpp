@@ -362,7 +362,18 @@ std::optional<Params> Params::optionalTable(std::string_view key) {
     asked_.insert(std::string(key));
     SourcePos w;
     const toml::node* n = lookup(key, &w);
-    if (!n) return std::nullopt;
+    if (!n) {
+        // An absent optional table still exists for a sweep overriding a key inside it.
+        static const toml::table kEmpty;
+        const std::string inside = path(key) + ".";
+        if (overrides_) {
+            auto it = overrides_->lower_bound(inside);
+            if (it != overrides_->end() && it->first.compare(0, inside.size(), inside) == 0) {
+                return Params(kEmpty, file_, path(key), draw_, overrides_);
+            }
+        }
+        return std::nullopt;
+    }
     const toml::table* t = n->as_table();
     if (!t) throw SpecError(w, path(key), "expected a table");
     return Params(*t, file_, path(key), draw_, overrides_);
