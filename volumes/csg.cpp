@@ -13,8 +13,8 @@ namespace sylva {
 namespace {
 
 // Monte-Carlo estimates below use this many draws and a fixed seed, so measure() is a pure
-// function of the volume (±0.5 % typical error).
-constexpr int kMeasureSamples = 50000;
+// function of the volume (about ±0.5 % error).
+constexpr int kMeasureSamples = 20000;
 constexpr uint64_t kMeasureSeed = 0xc59'0000'0000'0001ull;
 
 std::string joinDescriptions(const char* op, const std::vector<VolumePtr>& parts,

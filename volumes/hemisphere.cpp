@@ -9,6 +9,16 @@
 namespace sylva {
 namespace {
 
+// The largest of three uniforms has CDF u³, the radius law of a uniform unit ball: an exact
+// direct sample, about five times cheaper than cbrt(u) in the Poisson benchmark.
+inline double maxOfThree(Rng& rng) {
+    return std::max({rng.uniform(), rng.uniform(), rng.uniform()});
+}
+
+// √(a² + b²) without std::hypot's overflow guards, which cost a third of the Poisson
+// benchmark; crown coordinates are far from overflow.
+inline double norm2d(double a, double b) { return std::sqrt(a * a + b * b); }
+
 class Hemisphere final : public Volume {
   public:
     explicit Hemisphere(double r) : r_(r) {}
@@ -21,16 +31,17 @@ class Hemisphere final : public Volume {
             return std::max(rho - r_, -p.y);
         }
         // Below the cut plane: nearest point is on the base disc, or on its rim.
-        const double r = std::hypot(p.x, p.z);
+        const double r = norm2d(p.x, p.z);
         if (r <= r_) return -p.y;
-        return std::hypot(r - r_, p.y);
+        return norm2d(r - r_, p.y);
     }
 
     Aabb bounds() const override { return {{-r_, 0.0, -r_}, {r_, r_, r_}}; }
 
-    // Direction uniform on the upper half sphere (cos θ uniform in [0, 1]), radius R·u^(1/3).
+    // Direction uniform on the upper half sphere (cos θ uniform in [0, 1]), radius distributed
+    // as R·u^(1/3).
     std::optional<Vec3> sample(Rng& rng, int) const override {
-        const double rho = r_ * std::cbrt(rng.uniform());
+        const double rho = r_ * maxOfThree(rng);
         const double c = rng.uniform();
         const double phi = rng.uniform(0.0, 2.0 * kPi);
         const double s = std::sqrt(std::max(0.0, 1.0 - c * c));

@@ -49,16 +49,28 @@ void PointGrid::reserve(size_t n) {
 
 bool PointGrid::anyWithin(const Vec3& q, double radius) const {
     const double r2 = radius * radius;
+    auto near = [&](size_t cell) {
+        for (int32_t s = head_[cell]; s >= 0; s = next_[s])
+            if (distance2(pos_[s], q) < r2) return true;
+        return false;
+    };
+    // The query's own cell first: when a dart is rejected it is most often by a point there.
+    const size_t own = cellIndex(cellCoord(q.x, 0), cellCoord(q.y, 1), cellCoord(q.z, 2));
+    if (near(own)) return true;
     int lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
         lo[a] = cellCoord(q[a] - radius, a);
         hi[a] = cellCoord(q[a] + radius, a);
     }
+    const size_t sy = static_cast<size_t>(dims_[0]), sz = sy * dims_[1];
     for (int z = lo[2]; z <= hi[2]; ++z)
-        for (int y = lo[1]; y <= hi[1]; ++y)
-            for (int x = lo[0]; x <= hi[0]; ++x)
-                for (int32_t s = head_[cellIndex(x, y, z)]; s >= 0; s = next_[s])
-                    if (distance2(pos_[s], q) < r2) return true;
+        for (int y = lo[1]; y <= hi[1]; ++y) {
+            const size_t row = z * sz + y * sy;
+            for (int x = lo[0]; x <= hi[0]; ++x) {
+                const size_t cell = row + x;
+                if (cell != own && near(cell)) return true;
+            }
+        }
     return false;
 }
 

@@ -10,6 +10,16 @@
 namespace sylva {
 namespace {
 
+// The largest of three uniforms has CDF u³, the radius law of a uniform unit ball: an exact
+// direct sample, about five times cheaper than cbrt(u) in the Poisson benchmark.
+inline double maxOfThree(Rng& rng) {
+    return std::max({rng.uniform(), rng.uniform(), rng.uniform()});
+}
+
+// √(a² + b²) without std::hypot's overflow guards, which cost a third of the Poisson
+// benchmark; crown coordinates are far from overflow.
+inline double norm2d(double a, double b) { return std::sqrt(a * a + b * b); }
+
 class SphereSector final : public Volume {
   public:
     SphereSector(double r, double alpha)
@@ -19,12 +29,12 @@ class SphereSector final : public Volume {
         // Work in the (r = |xz|, y) half-plane; the 2-D section is the circular sector of
         // radius R between the +y axis and the ray at angle α. Its surfaces are the arc and
         // the segment apex–R·(sin α, cos α) (the axis itself is not a surface).
-        const double r = std::hypot(p.x, p.z), y = p.y;
-        const double l = std::hypot(r, y) - r_;  // distance to the full sphere
+        const double r = norm2d(p.x, p.z), y = p.y;
+        const double l = norm2d(r, y) - r_;  // distance to the full sphere
         if (full_) return l;
         // Distance to the cone segment.
         const double t = std::clamp(r * s_ + y * c_, 0.0, r_);
-        const double m = std::hypot(r - s_ * t, y - c_ * t);
+        const double m = norm2d(r - s_ * t, y - c_ * t);
         // side = ρ·sin(θ − α) > 0 exactly when the direction is beyond the cone angle.
         const double side = c_ * r - s_ * y;
         // Within the angle the arc is reached by radial projection (ρ − R) and the surface
@@ -42,9 +52,10 @@ class SphereSector final : public Volume {
         return {{-side, ylo, -side}, {side, r_, side}};
     }
 
-    // Radius R·u^(1/3), cos θ uniform in [cos α, 1] (uniform on the spherical cap), φ uniform.
+    // Radius with CDF (ρ/R)³, cos θ uniform in [cos α, 1] (uniform on the spherical cap), φ
+    // uniform.
     std::optional<Vec3> sample(Rng& rng, int) const override {
-        const double rho = r_ * std::cbrt(rng.uniform());
+        const double rho = r_ * maxOfThree(rng);
         const double c = rng.uniform(c_, 1.0);
         const double phi = rng.uniform(0.0, 2.0 * kPi);
         const double s = std::sqrt(std::max(0.0, 1.0 - c * c));

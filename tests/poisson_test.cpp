@@ -1,0 +1,185 @@
+// Poisson-disc sampling and the point grid: spacing, count, containment, determinism,
+// saturation (must throw quickly, never hang), degenerate inputs.
+#include "volumes/poisson.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <set>
+#include <vector>
+
+#include "volumes/point_grid.h"
+#include "volumes/volume.h"
+
+namespace sylva {
+namespace {
+
+double minPairDistance(const std::vector<Vec3>& pts) {
+    double best = 1e300;
+    for (size_t i = 0; i < pts.size(); ++i)
+        for (size_t j = i + 1; j < pts.size(); ++j)
+            best = std::min(best, distance2(pts[i], pts[j]));
+    return std::sqrt(best);
+}
+
+void expectValidSampling(const Volume& v, int count, double d, uint64_t seed) {
+    Rng rng(seed);
+    PoissonOptions opt;
+    opt.count = count;
+    opt.minDistance = d;
+    std::vector<Vec3> pts = poissonSample(v, opt, rng);
+    ASSERT_EQ(static_cast<int>(pts.size()), count) << v.describe();
+    for (const Vec3& p : pts) EXPECT_LE(v.signedDistance(p), 1e-9) << v.describe();
+    EXPECT_GE(minPairDistance(pts), d) << v.describe();
+}
+
+TEST(Poisson, SpacingCountAndContainment) {
+    expectValidSampling(*makeSphere(1.0), 200, 0.2, 1);
+    expectValidSampling(*makeSphereSector(2.0, kPi / 4), 300, 0.2, 2);
+    expectValidSampling(*makeCone(1.0, 2.0, 0.3), 150, 0.2, 3);
+    expectValidSampling(*makeHemisphere(1.0), 120, 0.2, 4);
+    Placement pl;
+    pl.axis = {1, 0.5, 0.2};
+    pl.position = {3, 1, 0};
+    expectValidSampling(*makePlaced(makeCylinder(0.4, 3.0), pl), 150, 0.15, 5);
+    expectValidSampling(*makeUnion({makeCylinder(0.2, 1.0), makeSphere(0.8)}), 150, 0.15, 6);
+}
+
+TEST(Poisson, TwoThousandPointsBruteForce) {
+    auto box = makeBox({10, 10, 10});  // capacity 0.7·1000/0.125 = 5600
+    expectValidSampling(*box, 2000, 0.5, 7);
+}
+
+TEST(Poisson, UniformCentroid) {
+    auto s = makeSphereSector(1.0, kPi / 3);
+    Rng rng(8);
+    PoissonOptions opt{1000, 0.05};
+    auto pts = poissonSample(*s, opt, rng);
+    Vec3 mean;
+    for (const Vec3& p : pts) mean += p;
+    mean = mean / pts.size();
+    EXPECT_NEAR(mean.y, 3.0 * (1 + std::cos(kPi / 3)) / 8.0, 0.02);
+    EXPECT_NEAR(mean.x, 0.0, 0.02);
+    EXPECT_NEAR(mean.z, 0.0, 0.02);
+}
+
+TEST(Poisson, Deterministic) {
+    auto v = makeEllipsoid({1, 2, 1});
+    PoissonOptions opt{300, 0.2};
+    Rng a(99), b(99), c(100);
+    auto pa = poissonSample(*v, opt, a);
+    auto pb = poissonSample(*v, opt, b);
+    auto pc = poissonSample(*v, opt, c);
+    EXPECT_EQ(pa, pb);
+    EXPECT_NE(pa, pc);
+}
+
+TEST(Poisson, SaturationThrowsQuickly) {
+    auto s = makeSphere(1.0);  // capacity ≈ 0.7·4.19/0.008 ≈ 367
+    PoissonOptions opt{5000, 0.2};
+    Rng rng(1);
+    const auto start = std::chrono::steady_clock::now();
+    try {
+        poissonSample(*s, opt, rng);
+        FAIL() << "expected PoissonSaturated";
+    } catch (const PoissonSaturated& e) {
+        const std::string msg = e.what();
+        EXPECT_NE(msg.find("placed "), std::string::npos) << msg;
+        EXPECT_NE(msg.find(" of 5000 points at spacing 0.2 m in sphere r=1 m"), std::string::npos)
+            << msg;
+        EXPECT_NE(msg.find("capacity"), std::string::npos) << msg;
+        EXPECT_NE(msg.find("lower the count or the spacing"), std::string::npos) << msg;
+    }
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_LT(seconds, 2.0);
+}
+
+TEST(Poisson, DegenerateInputs) {
+    Rng rng(1);
+    EXPECT_TRUE(poissonSample(*makeSphere(1.0), PoissonOptions{0, 0.1}, rng).empty());
+    EXPECT_TRUE(poissonSample(*makeSphere(1.0), PoissonOptions{-3, 0.1}, rng).empty());
+    // A zero-radius sphere holds exactly one point at spacing d > 0.
+    auto dot = makeSphere(0.0);
+    auto one = poissonSample(*dot, PoissonOptions{1, 0.1}, rng);
+    ASSERT_EQ(one.size(), 1u);
+    EXPECT_EQ(one[0], (Vec3{0, 0, 0}));
+    EXPECT_THROW(poissonSample(*dot, PoissonOptions{2, 0.1}, rng), PoissonSaturated);
+    // No spacing: any count of plain uniform samples.
+    auto many = poissonSample(*makeSphere(1.0), PoissonOptions{50, 0.0}, rng);
+    EXPECT_EQ(many.size(), 50u);
+    // A volume that cannot be sampled at all reports that, not a hang.
+    Placement left, right;
+    left.position = {-3, 0, 0};
+    right.position = {3, 0, 0};
+    auto empty =
+        makeIntersection({makePlaced(makeSphere(1), left), makePlaced(makeSphere(1), right)});
+    try {
+        poissonSample(*empty, PoissonOptions{5, 0.1}, rng);
+        FAIL() << "expected PoissonSaturated";
+    } catch (const PoissonSaturated& e) {
+        EXPECT_NE(std::string(e.what()).find("no point could be drawn"), std::string::npos);
+    }
+}
+
+TEST(Poisson, Capacity) {
+    EXPECT_NEAR(poissonCapacity(1.0, 0.1), 700.0, 1e-9);
+    EXPECT_NEAR(poissonCapacity(8.0, 0.5), 0.7 * 8.0 / 0.125, 1e-9);
+    EXPECT_EQ(poissonCapacity(0.0, 0.5), 0.0);
+}
+
+// --- point grid ----------------------------------------------------------------------------
+
+TEST(PointGrid, QueriesMatchBruteForce) {
+    const Aabb box{{0, 0, 0}, {4, 2, 3}};
+    PointGrid grid(box, 0.3);
+    Rng rng(12);
+    std::vector<Vec3> pts;
+    for (int i = 0; i < 2000; ++i) {
+        // Some points lie outside the bounds: they are clamped into border cells.
+        Vec3 p{rng.uniform(-1, 5), rng.uniform(-1, 3), rng.uniform(-1, 4)};
+        pts.push_back(p);
+        grid.insert(i * 3, p);  // ids need not be dense
+    }
+    EXPECT_EQ(grid.size(), pts.size());
+    for (int k = 0; k < 200; ++k) {
+        Vec3 q{rng.uniform(-2, 6), rng.uniform(-2, 4), rng.uniform(-2, 5)};
+        const double r = rng.uniform(0.05, 1.0);
+        std::set<int> expected, got;
+        for (size_t i = 0; i < pts.size(); ++i)
+            if (distance(pts[i], q) < r) expected.insert(static_cast<int>(i) * 3);
+        grid.forEachWithin(q, r, [&](int32_t id, const Vec3& p) {
+            got.insert(id);
+            EXPECT_EQ(p, pts[id / 3]);
+        });
+        EXPECT_EQ(got, expected);
+        EXPECT_EQ(grid.anyWithin(q, r), !expected.empty());
+    }
+}
+
+TEST(PointGrid, HugeBoundsTinyCellStaysSmall) {
+    // 10⁴ m box at 1 mm cells would be 10²¹ cells; the grid caps its cell count instead.
+    PointGrid grid({{-5000, -5000, -5000}, {5000, 5000, 5000}}, 0.001);
+    grid.insert(0, {1, 2, 3});
+    grid.insert(1, {1.0005, 2, 3});
+    EXPECT_TRUE(grid.anyWithin({1, 2, 3.0001}, 0.001));
+    EXPECT_FALSE(grid.anyWithin({4000, 2, 3}, 0.001));
+    EXPECT_FALSE(grid.anyWithin({1e30, -1e30, 0}, 1.0));  // far outside: no overflow
+    int n = 0;
+    grid.forEachWithin({1, 2, 3}, 0.01, [&](int32_t, const Vec3&) { ++n; });
+    EXPECT_EQ(n, 2);
+}
+
+TEST(PointGrid, EmptyAndDegenerateBounds) {
+    PointGrid a(Aabb{}, 0.1);  // empty bounds: a single cell
+    a.insert(7, {1, 1, 1});
+    EXPECT_TRUE(a.anyWithin({1, 1, 1.05}, 0.1));
+    PointGrid b({{0, 0, 0}, {0, 0, 0}}, 0.0);  // zero-size bounds, zero cell
+    b.insert(1, {0, 0, 0});
+    EXPECT_TRUE(b.anyWithin({0.01, 0, 0}, 0.1));
+    EXPECT_FALSE(b.anyWithin({1, 0, 0}, 0.1));
+}
+
+}  // namespace
+}  // namespace sylva
