@@ -179,6 +179,11 @@ TEST(PointGrid, EmptyAndDegenerateBounds) {
     b.insert(1, {0, 0, 0});
     EXPECT_TRUE(b.anyWithin({0.01, 0, 0}, 0.1));
     EXPECT_FALSE(b.anyWithin({1, 0, 0}, 0.1));
+    const double inf = HUGE_VAL;
+    PointGrid c({{-inf, 0, 0}, {inf, 1, 1}}, 0.1);  // unbounded: must not loop or overflow
+    c.insert(2, {1e6, 0.5, 0.5});
+    EXPECT_TRUE(c.anyWithin({1e6, 0.5, 0.55}, 0.1));
+    EXPECT_FALSE(c.anyWithin({0, 0.5, 0.5}, 0.1));
 }
 
 }  // namespace

@@ -17,6 +17,13 @@ PointGrid::PointGrid(const Aabb& bounds, double cellSize) {
         origin_ = bounds.lo;
         size = bounds.size();
     }
+    // Unbounded (or NaN) boxes get one cell per axis: still correct, just unaccelerated.
+    for (int a = 0; a < 3; ++a) {
+        if (!std::isfinite(origin_[a]) || !std::isfinite(size[a])) {
+            origin_[a] = 0.0;
+            size[a] = 0.0;
+        }
+    }
     const double extent = std::max({size.x, size.y, size.z});
     // A non-positive or non-finite cell would make every coordinate map to infinity.
     if (!(cellSize > 0.0) || !std::isfinite(cellSize)) cellSize = extent > 0.0 ? extent : 1.0;
