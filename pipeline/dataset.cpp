@@ -92,6 +92,13 @@ DatasetSpec loadDataset(const std::string& path) {
     d.table = std::make_shared<const toml::table>(parseTomlFile(path));
     Params p(*d.table, path, "", nullptr);
     d.name = p.string("name", fs::path(path).stem().string());
+    // The name is the default output directory (out/<name>): keep it inside out/.
+    if (d.name.empty() || d.name == "." || d.name == ".." ||
+        d.name.find_first_of("/\\") != std::string::npos) {
+        const std::string got = "got \"" + d.name + "\"";
+        p.fail("name",
+               "expected a name usable as a directory name (no '/', not '.' or '..'), " + got);
+    }
     d.description = p.string("description", "");
     d.seed = static_cast<uint64_t>(p.integer("seed", 0, Range::closed(0, 9.2e18)));
     std::string fp = fileBytes(path);
@@ -154,12 +161,22 @@ DatasetSpec loadDataset(const std::string& path) {
             if (a.species.empty() ||
                 std::find(a.species.begin(), a.species.end(), entry.species.name) !=
                     a.species.end()) {
+                for (const SweepAxis* b : axes) {
+                    if (b->path == a.path) {
+                        throw SpecError(a.where, "sweep.path",
+                                        "\"" + a.path + "\" is already swept (at " +
+                                            b->where.str() + ") for species \"" +
+                                            entry.species.name + "\"");
+                    }
+                }
                 axes.push_back(&a);
             }
         }
         size_t total = 1;
-        for (auto* a : axes) total *= a->values.size();
-        if (total > 1000000) throw SpecError(axes[0]->where, "sweep", "over 10⁶ sweep points");
+        for (auto* a : axes) {
+            total *= a->values.size();
+            if (total > 1000000) throw SpecError(a->where, "sweep", "over 10⁶ sweep points");
+        }
         for (size_t k = 0; k < total; ++k) {
             SweepPoint pt;
             auto ov = std::make_shared<Overrides>();

@@ -200,7 +200,7 @@ double Params::readNumber(const toml::node& node, const SourcePos& where, const 
             }
             throw SpecError(where, path, "distribution parameters must be numbers");
         };
-        if ((kind != "uniform" && kind != "normal") || !arr || arr->size() != 2) {
+        if (kind != "uniform" && kind != "normal") {
             std::string hint;
             if (auto s = closestWord(kind, {"uniform", "normal"})) {
                 hint = "; did you mean \"" + *s + "\"?";
@@ -208,6 +208,11 @@ double Params::readNumber(const toml::node& node, const SourcePos& where, const 
             throw SpecError(where, path,
                             "expected a distribution {uniform = [a, b]} or {normal = [mu, sigma]}, "
                             "got key \"" + kind + "\"" + hint);
+        }
+        if (!arr || arr->size() != 2) {
+            const std::string args = kind == "uniform" ? "a, b" : "mu, sigma";
+            throw SpecError(where, path,
+                            "expected {" + kind + " = [" + args + "]}: an array of two numbers");
         }
         double a = num(0), b = num(1);
         double value;

@@ -1,0 +1,677 @@
+// End-to-end tests of the `sylva` command line: determinism across thread counts, shards,
+// resume after a (simulated and real) kill, one-line errors for bad specs, --help, grow and
+// validate. Every test runs the real binary (SYLVA_EXE) in its own temp directory, on tiny
+// fixture trees from tests/data/ so the whole file takes a few seconds.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+extern char** environ;
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kSource = SYLVA_SOURCE_DIR;
+const fs::path kExe = SYLVA_EXE;
+const fs::path kData = kSource / "tests" / "data";
+const fs::path kDataset = kData / "tiny_dataset.toml";
+const fs::path kTiny = kData / "tiny.toml";
+constexpr int kDatasetInstances = 24;  // tiny_dataset.toml: 2 species × 2 sweep points × 6
+
+std::string slurp(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+void spit(const fs::path& p, const std::string& bytes) {
+    std::ofstream out(p, std::ios::binary);
+    out << bytes;
+}
+
+std::vector<std::string> readLines(const fs::path& p) {
+    std::vector<std::string> lines;
+    std::ifstream in(p, std::ios::binary);
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+    return lines;
+}
+
+// Fresh per-test scratch directory (unique per process, test and instance), removed afterwards.
+class TempDir {
+  public:
+    TempDir() {
+        static std::atomic<int> counter{0};
+        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+        std::string name = std::string(info->test_suite_name()) + "_" + info->name();
+        for (char& c : name) {
+            if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+        }
+        dir_ = fs::temp_directory_path() / ("sylva_cli_test_" + std::to_string(::getpid()) + "_" +
+                                            std::to_string(counter++) + "_" + name);
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        fs::remove_all(dir_, ec);
+    }
+    TempDir(const TempDir&) = delete;
+    TempDir& operator=(const TempDir&) = delete;
+    const fs::path& path() const { return dir_; }
+    fs::path operator/(const std::string& s) const { return dir_ / s; }
+
+  private:
+    fs::path dir_;
+};
+
+// --- running the CLI -------------------------------------------------------------------------
+
+struct RunResult {
+    int code = -1;  // exit status, or 128 + signal number
+    std::string out, err;
+};
+
+int decodeStatus(int status) {
+    if (WIFEXITED(status)) return WEXITSTATUS(status);
+    if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
+    return -1;
+}
+
+// A started `sylva` process, its stdout/stderr going to files in `dir`.
+struct Child {
+    pid_t pid = -1;
+    fs::path outFile, errFile;
+};
+
+// Starts SYLVA_EXE with `args` in working directory `dir`. The environment is the test's,
+// without SYLVA_TEST_ABORT_AFTER, plus `env` ("NAME=value" entries).
+Child spawn(const std::vector<std::string>& args, const fs::path& dir,
+            const std::vector<std::string>& env = {}) {
+    static std::atomic<int> counter{0};
+    Child c;
+    const int n = counter++;
+    c.outFile = dir / ("run" + std::to_string(n) + ".stdout");
+    c.errFile = dir / ("run" + std::to_string(n) + ".stderr");
+
+    // Everything the child needs is prepared before fork (only async-signal-safe calls after).
+    std::vector<std::string> argStore = {kExe.string()};
+    argStore.insert(argStore.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& a : argStore) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    std::vector<std::string> envStore;
+    for (char** e = environ; *e; ++e) {
+        if (std::strncmp(*e, "SYLVA_TEST_ABORT_AFTER=", 23) != 0) envStore.emplace_back(*e);
+    }
+    envStore.insert(envStore.end(), env.begin(), env.end());
+    std::vector<char*> envp;
+    for (auto& e : envStore) envp.push_back(e.data());
+    envp.push_back(nullptr);
+    const std::string dirStr = dir.string(), outStr = c.outFile.string(),
+                      errStr = c.errFile.string();
+
+    c.pid = ::fork();
+    if (c.pid == 0) {
+        int o = ::open(outStr.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        int e = ::open(errStr.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        int in = ::open("/dev/null", O_RDONLY);
+        if (o < 0 || e < 0 || in < 0 || ::dup2(o, 1) < 0 || ::dup2(e, 2) < 0 || ::dup2(in, 0) < 0 ||
+            ::chdir(dirStr.c_str()) != 0) {
+            ::_exit(126);
+        }
+        ::execve(argv[0], argv.data(), envp.data());
+        ::_exit(127);
+    }
+    return c;
+}
+
+RunResult finish(const Child& c) {
+    RunResult r;
+    int status = 0;
+    while (::waitpid(c.pid, &status, 0) < 0 && errno == EINTR) {
+    }
+    r.code = decodeStatus(status);
+    r.out = slurp(c.outFile);
+    r.err = slurp(c.errFile);
+    std::error_code ec;
+    fs::remove(c.outFile, ec);
+    fs::remove(c.errFile, ec);
+    return r;
+}
+
+RunResult run(const std::vector<std::string>& args, const fs::path& dir,
+              const std::vector<std::string>& env = {}) {
+    Child c = spawn(args, dir, env);
+    EXPECT_GT(c.pid, 0) << "fork failed";
+    if (c.pid <= 0) return {};
+    return finish(c);
+}
+
+// Independent runs at the same time (process start-up dominates these tests' time).
+std::vector<RunResult> runAll(const std::vector<std::vector<std::string>>& runs,
+                              const fs::path& dir) {
+    std::vector<Child> children;
+    for (const auto& args : runs) children.push_back(spawn(args, dir));
+    std::vector<RunResult> results;
+    for (const Child& c : children) {
+        EXPECT_GT(c.pid, 0) << "fork failed";
+        results.push_back(c.pid > 0 ? finish(c) : RunResult{});
+    }
+    return results;
+}
+
+std::string describe(const RunResult& r) {
+    return "exit " + std::to_string(r.code) + "\n--- stdout:\n" + r.out + "--- stderr:\n" + r.err;
+}
+
+// `sylva build SPEC --out DIR extra…`, expected to succeed.
+void buildOk(const fs::path& spec, const fs::path& out, const fs::path& cwd,
+             const std::vector<std::string>& extra = {}) {
+    std::vector<std::string> args = {"build", spec.string(), "--out", out.string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    RunResult r = run(args, cwd);
+    ASSERT_EQ(r.code, 0) << describe(r);
+}
+
+// --- comparing outputs -----------------------------------------------------------------------
+
+// Manifest lines with the "timing" object removed (the only field that may differ between
+// identical builds), in file order. Every line must parse and carry a "timing" object.
+std::vector<std::string> strippedManifest(const fs::path& file) {
+    std::vector<std::string> out;
+    EXPECT_TRUE(fs::is_regular_file(file)) << file;
+    for (const std::string& line : readLines(file)) {
+        auto j = nlohmann::json::parse(line, nullptr, false);
+        EXPECT_FALSE(j.is_discarded()) << "unparsable manifest line in " << file << ": " << line;
+        if (j.is_discarded()) continue;
+        EXPECT_TRUE(j.contains("timing") && j["timing"].is_object()) << line;
+        j.erase("timing");
+        out.push_back(j.dump());
+    }
+    return out;
+}
+
+// Every regular file under dir (relative path -> bytes).
+std::map<std::string, std::string> filesUnder(const fs::path& dir) {
+    std::map<std::string, std::string> files;
+    if (!fs::exists(dir)) return files;
+    for (const auto& e : fs::recursive_directory_iterator(dir)) {
+        if (e.is_regular_file()) {
+            files[fs::relative(e.path(), dir).generic_string()] = slurp(e.path());
+        }
+    }
+    return files;
+}
+
+// Files under a/trees and b/trees: the same names and byte-identical contents.
+void expectSameTrees(const fs::path& a, const fs::path& b) {
+    auto fa = filesUnder(a / "trees");
+    auto fb = filesUnder(b / "trees");
+    EXPECT_FALSE(fa.empty()) << "no files under " << a / "trees";
+    int reported = 0;
+    for (const auto& [name, bytes] : fa) {
+        auto it = fb.find(name);
+        if (it == fb.end()) {
+            if (reported++ < 5) ADD_FAILURE() << "only in " << a << ": trees/" << name;
+        } else if (it->second != bytes) {
+            if (reported++ < 5) ADD_FAILURE() << "trees/" << name << " differs";
+        }
+    }
+    for (const auto& [name, bytes] : fb) {
+        if (!fa.count(name) && reported++ < 5) {
+            ADD_FAILURE() << "only in " << b << ": trees/" << name;
+        }
+    }
+    EXPECT_EQ(reported, 0) << "tree files differ between " << a << " and " << b;
+}
+
+// Manifests (timing stripped) equal line by line; a mismatch is reported as the JSON patch
+// between the two records, e.g. [{"op":"replace","path":"/stats/nodes","value":12}].
+void expectSameLines(const std::vector<std::string>& got, const std::vector<std::string>& want) {
+    ASSERT_EQ(got.size(), want.size()) << "manifest line count";
+    int reported = 0;
+    for (size_t i = 0; i < got.size(); ++i) {
+        if (got[i] == want[i]) continue;
+        if (reported++ >= 3) continue;
+        auto g = nlohmann::json::parse(got[i]), w = nlohmann::json::parse(want[i]);
+        ADD_FAILURE() << "manifest line " << i + 1 << " (" << w.value("id", "?")
+                      << ") differs; patch from expected to actual: "
+                      << nlohmann::json::diff(w, g).dump();
+    }
+    EXPECT_EQ(reported, 0) << "manifest lines differ";
+}
+
+std::vector<fs::path> tempFilesUnder(const fs::path& dir) {
+    std::vector<fs::path> tmp;
+    for (const auto& e : fs::recursive_directory_iterator(dir)) {
+        if (e.path().filename().string().find(".tmp.") != std::string::npos) {
+            tmp.push_back(e.path());
+        }
+    }
+    return tmp;
+}
+
+size_t countLines(const fs::path& file) {
+    std::string s = slurp(file);
+    return static_cast<size_t>(std::count(s.begin(), s.end(), '\n'));
+}
+
+// --- 1. determinism --------------------------------------------------------------------------
+
+TEST(CliBuild, SameOutputWithOneAndTwoThreads) {
+    TempDir t;
+    buildOk(kDataset, t / "t1", t.path(), {"--threads", "1"});
+    buildOk(kDataset, t / "t2", t.path(), {"--threads", "2"});
+
+    auto m1 = strippedManifest(t / "t1" / "manifest.jsonl");
+    auto m2 = strippedManifest(t / "t2" / "manifest.jsonl");
+    ASSERT_EQ(m1.size(), static_cast<size_t>(kDatasetInstances));
+    expectSameLines(m2, m1);
+    expectSameTrees(t / "t1", t / "t2");
+
+    // Job order: species in file order, then sweep point, then index; ids unique.
+    std::vector<std::string> ids;
+    for (const auto& line : m1) ids.push_back(nlohmann::json::parse(line)["id"]);
+    EXPECT_EQ(ids.front(), "tiny-p000-00000");
+    EXPECT_EQ(ids.back(), "tiny-var-p001-00005");
+    EXPECT_EQ(std::set<std::string>(ids.begin(), ids.end()).size(), ids.size());
+    // Each record's files exist; drawn parameters are recorded for the variant species.
+    for (const auto& line : m1) {
+        auto j = nlohmann::json::parse(line);
+        for (const auto& [k, v] : j["files"].items()) {
+            EXPECT_TRUE(fs::is_regular_file(t / "t1" / v.get<std::string>())) << v;
+        }
+        EXPECT_EQ(j["files"].size(), 2u) << "outputs = ply + swc";
+        if (j["species"] == "tiny-var") {
+            EXPECT_TRUE(j["params"].contains("levels[0].endpoints"));
+        }
+    }
+    auto ds = nlohmann::json::parse(slurp(t / "t1" / "dataset.json"));
+    EXPECT_EQ(ds["status"], "complete");
+    EXPECT_TRUE(tempFilesUnder(t.path()).empty());
+}
+
+// --- 2. shards -------------------------------------------------------------------------------
+
+TEST(CliBuild, ShardManifestsConcatenateToTheWhole) {
+    TempDir t;
+    buildOk(kDataset, t / "whole", t.path());
+    const auto whole = strippedManifest(t / "whole" / "manifest.jsonl");
+    ASSERT_EQ(whole.size(), static_cast<size_t>(kDatasetInstances));
+
+    // Two shards running at the same time into one directory.
+    const fs::path two = t / "two";
+    Child a =
+        spawn({"build", kDataset.string(), "--out", two.string(), "--shard", "0/2"}, t.path());
+    Child b =
+        spawn({"build", kDataset.string(), "--out", two.string(), "--shard", "1/2"}, t.path());
+    RunResult ra = finish(a), rb = finish(b);
+    ASSERT_EQ(ra.code, 0) << describe(ra);
+    ASSERT_EQ(rb.code, 0) << describe(rb);
+    EXPECT_FALSE(fs::exists(two / "manifest.jsonl"));
+    auto s0 = strippedManifest(two / "manifest.shard-0-of-2.jsonl");
+    auto s1 = strippedManifest(two / "manifest.shard-1-of-2.jsonl");
+    EXPECT_EQ(s0.size(), 12u);
+    std::vector<std::string> cat = s0;
+    cat.insert(cat.end(), s1.begin(), s1.end());
+    expectSameLines(cat, whole);
+    expectSameTrees(t / "whole", two);
+
+    // An uneven split (24 jobs over 5 shards), all at once into one directory.
+    const fs::path five = t / "five";
+    std::vector<std::vector<std::string>> runs;
+    for (int i = 0; i < 5; ++i) {
+        runs.push_back({"build", kDataset.string(), "--out", five.string(), "--shard",
+                        std::to_string(i) + "/5"});
+    }
+    for (const RunResult& r : runAll(runs, t.path())) ASSERT_EQ(r.code, 0) << describe(r);
+    cat.clear();
+    for (int i = 0; i < 5; ++i) {
+        auto s = strippedManifest(five / ("manifest.shard-" + std::to_string(i) + "-of-5.jsonl"));
+        EXPECT_EQ(s.size(), i == 0 ? 4u : 5u) << "shard " << i;  // jobs [24i/5, 24(i+1)/5)
+        cat.insert(cat.end(), s.begin(), s.end());
+    }
+    expectSameLines(cat, whole);
+    expectSameTrees(t / "whole", five);
+}
+
+// --- 3. resume after a kill ------------------------------------------------------------------
+
+TEST(CliResume, SimulatedKillThenRerunEqualsUninterrupted) {
+    TempDir t;
+    buildOk(kDataset, t / "ref", t.path());
+    const fs::path out = t / "out";
+    RunResult killed = run({"build", kDataset.string(), "--out", out.string()}, t.path(),
+                           {"SYLVA_TEST_ABORT_AFTER=5"});
+    EXPECT_NE(killed.code, 0) << describe(killed);
+    EXPECT_EQ(killed.code, 137) << describe(killed);
+    ASSERT_EQ(readLines(out / "manifest.jsonl").size(), 5u);
+
+    RunResult rerun = run({"build", kDataset.string(), "--out", out.string()}, t.path());
+    ASSERT_EQ(rerun.code, 0) << describe(rerun);
+    EXPECT_NE(rerun.err.find("5 already there"), std::string::npos) << rerun.err;
+    expectSameLines(strippedManifest(out / "manifest.jsonl"),
+                    strippedManifest(t / "ref" / "manifest.jsonl"));
+    expectSameTrees(t / "ref", out);
+    EXPECT_EQ(nlohmann::json::parse(slurp(out / "dataset.json"))["status"], "complete");
+
+    // A third run finds everything done and changes nothing.
+    const std::string before = slurp(out / "manifest.jsonl");
+    RunResult again = run({"build", kDataset.string(), "--out", out.string()}, t.path());
+    ASSERT_EQ(again.code, 0) << describe(again);
+    EXPECT_NE(again.err.find("0 built, 24 already there"), std::string::npos) << again.err;
+    EXPECT_EQ(slurp(out / "manifest.jsonl"), before);
+}
+
+// A kill while a file is being written leaves its temp sibling ("<file>.tmp.<pid>.…") behind;
+// the rerun must not leave it in the dataset. Planted deterministically here (the real-kill
+// test below only hits a write now and then).
+TEST(CliResume, RerunRemovesTempFilesLeftByAKill) {
+    TempDir t;
+    const fs::path out = t / "out";
+    RunResult killed = run({"build", kDataset.string(), "--out", out.string()}, t.path(),
+                           {"SYLVA_TEST_ABORT_AFTER=5"});
+    ASSERT_EQ(killed.code, 137) << describe(killed);
+    // The last instance of the dataset: not built yet, it was "being written" by the dead process.
+    const fs::path dir = out / "trees" / "tiny-var" / "tiny-var-p001-00005";
+    fs::create_directories(dir);
+    const fs::path stale = dir / "skeleton.ply.tmp.4194303.123.7";
+    spit(stale, "ply\nformat binary_little_endian 1.0\n");  // torn: no end_header
+
+    RunResult rerun = run({"build", kDataset.string(), "--out", out.string()}, t.path());
+    ASSERT_EQ(rerun.code, 0) << describe(rerun);
+    EXPECT_EQ(countLines(out / "manifest.jsonl"), static_cast<size_t>(kDatasetInstances));
+    for (const fs::path& p : tempFilesUnder(out)) ADD_FAILURE() << "left over: " << p;
+}
+
+TEST(CliResume, RealKillAndTornLineThenRerunEqualsUninterrupted) {
+    TempDir t;
+    // A bigger dataset of the same tiny trees, so a build runs for about a second.
+    const fs::path spec = t / "bigger.toml";
+    spit(spec,
+         "name = \"bigger\"\nseed = 11\n"
+         "[[species]]\nfile = '" +
+             kTiny.string() +
+             "'\ncount = 100\n"
+             "[[species]]\nfile = '" +
+             (kData / "tiny_var.toml").string() +
+             "'\ncount = 100\n"
+             "[[sweep]]\npath = \"levels[1].endpoints\"\nvalues = [2, 3]\n"
+             "[outputs]\nskeleton = [\"ply\", \"swc\"]\n");
+    const size_t total = 400;
+    buildOk(spec, t / "ref", t.path());
+    ASSERT_EQ(countLines(t / "ref" / "manifest.jsonl"), total);
+
+    const fs::path out = t / "out";
+    const fs::path manifest = out / "manifest.jsonl";
+    Child c = spawn({"build", spec.string(), "--out", out.string()}, t.path());
+    ASSERT_GT(c.pid, 0);
+    bool exited = false;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (!(fs::exists(manifest) && countLines(manifest) >= 3)) {
+        int status = 0;
+        if (::waitpid(c.pid, &status, WNOHANG) == c.pid) {
+            exited = true;
+            break;
+        }
+        ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "no manifest lines after 60 s";
+        std::this_thread::sleep_for(std::chrono::microseconds(500));
+    }
+    ASSERT_FALSE(exited) << "the build ended before it could be killed";
+    ASSERT_EQ(::kill(c.pid, SIGKILL), 0);
+    RunResult killed = finish(c);
+    EXPECT_EQ(killed.code, 128 + SIGKILL);
+    const size_t recorded = countLines(manifest);
+    ASSERT_GE(recorded, 3u);
+    ASSERT_LT(recorded, total) << "the build finished before the kill landed";
+
+    // A torn write of the next record.
+    {
+        std::ofstream app(manifest, std::ios::binary | std::ios::app);
+        app << "{\"id\":\"trunc";
+    }
+    RunResult rerun = run({"build", spec.string(), "--out", out.string()}, t.path());
+    ASSERT_EQ(rerun.code, 0) << describe(rerun);
+    EXPECT_EQ(slurp(manifest).find("trunc"), std::string::npos);
+    expectSameLines(strippedManifest(manifest), strippedManifest(t / "ref" / "manifest.jsonl"));
+    expectSameTrees(t / "ref", out);
+    for (const fs::path& p : tempFilesUnder(out)) ADD_FAILURE() << "left over: " << p;
+}
+
+// --- 4. bad specs ----------------------------------------------------------------------------
+
+// A fixture in tests/data/bad/ declares what its error must say in leading comments:
+//   # expect: <substring>      (one or more: key path, message fragments)
+//   # line: <n>                (the line the error must point at)
+struct BadFixture {
+    fs::path path;
+    std::vector<std::string> expect;
+    int line = 0;
+    bool dataset = false;
+};
+
+BadFixture readBadFixture(const fs::path& p) {
+    BadFixture f;
+    f.path = p;
+    for (const std::string& l : readLines(p)) {
+        if (l.rfind("# expect: ", 0) == 0) f.expect.push_back(l.substr(10));
+        if (l.rfind("# line: ", 0) == 0) f.line = std::stoi(l.substr(8));
+        if (l.rfind("[[species]]", 0) == 0) f.dataset = true;
+    }
+    return f;
+}
+
+std::vector<std::string> badFixtureNames() {
+    std::vector<std::string> names;
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(kData / "bad", ec)) {
+        if (e.path().extension() == ".toml") names.push_back(e.path().filename().string());
+    }
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+// Exit 2 and exactly one line on stderr.
+void expectOneLineError(const RunResult& r) {
+    EXPECT_EQ(r.code, 2) << describe(r);
+    ASSERT_FALSE(r.err.empty()) << describe(r);
+    EXPECT_EQ(r.err.back(), '\n') << describe(r);
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << describe(r);
+}
+
+void expectFixtureError(const RunResult& r, const BadFixture& f) {
+    expectOneLineError(r);
+    const std::string at = f.path.filename().string() + ":" + std::to_string(f.line) + ":";
+    EXPECT_NE(r.err.find(at), std::string::npos) << "expected \"" << at << "\" in: " << r.err;
+    for (const std::string& e : f.expect) {
+        EXPECT_NE(r.err.find(e), std::string::npos) << "expected \"" << e << "\" in: " << r.err;
+    }
+}
+
+class CliBadSpec : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(CliBadSpec, OneLineErrorExitTwoAndNothingWritten) {
+    const BadFixture f = readBadFixture(kData / "bad" / GetParam());
+    ASSERT_FALSE(f.expect.empty()) << f.path << " has no '# expect:' line";
+    ASSERT_GT(f.line, 0) << f.path << " has no '# line:' line";
+    TempDir t;
+
+    // build: a dataset fixture directly; a species fixture through a dataset that uses it.
+    fs::path spec = f.path;
+    if (!f.dataset) {
+        spec = t / "uses_bad_species.toml";
+        spit(spec,
+             "name = \"uses-bad\"\n[[species]]\nfile = '" + f.path.string() + "'\ncount = 2\n");
+    }
+    const fs::path buildOut = t / "build_out";
+    const std::vector<std::vector<std::string>> runs = {
+        {"validate", f.path.string()}, {"build", spec.string(), "--out", buildOut.string()}};
+    const std::vector<RunResult> r = runAll(runs, t.path());
+    for (size_t i = 0; i < r.size(); ++i) {
+        SCOPED_TRACE(runs[i][0]);
+        expectFixtureError(r[i], f);
+    }
+    EXPECT_FALSE(fs::exists(buildOut)) << "build of a bad spec created " << buildOut;
+    // Nothing at all in the working directory (no default out/ either).
+    for (const auto& e : fs::directory_iterator(t.path())) {
+        if (e.path() != spec) ADD_FAILURE() << "unexpected " << e.path();
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Cli, CliBadSpec, ::testing::ValuesIn(badFixtureNames()),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                             std::string n = fs::path(info.param).stem().string();
+                             for (char& c : n) {
+                                 if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                             }
+                             return n;
+                         });
+
+TEST(CliBadSpecs, FixturesCoverEveryKindOfError) {
+    const std::vector<std::string> names = badFixtureNames();
+    for (const char* want :
+         {"misspelt_key.toml", "wrong_type.toml", "alpha_out_of_range.toml", "nodes_zero.toml",
+          "endpoints_negative.toml", "spacing_nan.toml", "uniform_bad_bounds.toml",
+          "unknown_distribution.toml", "unknown_method.toml", "unknown_volume_type.toml",
+          "dataset_missing_species_file.toml", "missing_levels.toml", "dataset_sweep_bad_path.toml",
+          "dataset_sweep_bad_species.toml", "toml_syntax.toml"}) {
+        EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
+    }
+}
+
+TEST(CliBadSpecs, NonexistentSpecFile) {
+    TempDir t;
+    const std::string missing = (t / "no_such_spec.toml").string();
+    const fs::path out = t / "out";
+    const std::vector<std::vector<std::string>> runs = {{"validate", missing},
+                                                        {"build", missing, "--out", out.string()},
+                                                        {"grow", missing, "--out", out.string()}};
+    const std::vector<RunResult> r = runAll(runs, t.path());
+    for (size_t i = 0; i < r.size(); ++i) {
+        SCOPED_TRACE(runs[i][0]);
+        expectOneLineError(r[i]);
+        EXPECT_NE(r[i].err.find("no_such_spec.toml"), std::string::npos) << r[i].err;
+        EXPECT_NE(r[i].err.find("not found"), std::string::npos) << r[i].err;
+    }
+    EXPECT_FALSE(fs::exists(out));
+}
+
+// --- 5. arguments ----------------------------------------------------------------------------
+
+TEST(CliArgs, HelpForEverySubcommand) {
+    TempDir t;
+    const std::vector<std::pair<std::vector<std::string>, std::vector<std::string>>> cases = {
+        {{"--help"}, {"build", "grow", "validate"}},
+        {{"build", "--help"}, {"SPEC", "--out", "--threads", "--shard"}},
+        {{"grow", "--help"}, {"SPECIES", "--seed", "--out", "--threads"}},
+        {{"validate", "--help"}, {"SPEC"}},
+    };
+    std::vector<std::vector<std::string>> runs;
+    for (const auto& c : cases) runs.push_back(c.first);
+    const std::vector<RunResult> r = runAll(runs, t.path());
+    for (size_t i = 0; i < r.size(); ++i) {
+        SCOPED_TRACE("sylva " + runs[i][0] + (runs[i].size() > 1 ? " --help" : ""));
+        EXPECT_EQ(r[i].code, 0) << describe(r[i]);
+        for (const auto& w : cases[i].second) {
+            EXPECT_NE(r[i].out.find(w), std::string::npos) << "no \"" << w << "\" in " << r[i].out;
+        }
+    }
+}
+
+TEST(CliArgs, BadArgumentsExitTwoAndWriteNothing) {
+    TempDir t;
+    const fs::path out = t / "out";
+    const std::string spec = kDataset.string(), o = out.string();
+    const std::vector<std::vector<std::string>> runs = {
+        {"build", spec, "--out", o, "--shard", "2/2"},
+        {"build", spec, "--out", o, "--shard", "x"},
+        {"build", spec, "--out", o, "--shard", "-1/2"},
+        {"build", spec, "--out", o, "--shard", "0/0"},
+        {"build", spec, "--out", o, "--threads", "-1"},
+        {"frobnicate"},
+        {}};
+    const std::vector<RunResult> r = runAll(runs, t.path());
+    for (size_t i = 0; i < r.size(); ++i) {
+        std::string cmd = "sylva";
+        for (const auto& a : runs[i]) cmd += " " + a;
+        SCOPED_TRACE(cmd);
+        EXPECT_EQ(r[i].code, 2) << describe(r[i]);
+        EXPECT_FALSE(r[i].err.empty());
+    }
+    EXPECT_FALSE(fs::exists(out));
+}
+
+// --- 6. grow ---------------------------------------------------------------------------------
+
+TEST(CliGrow, WritesFilesAndIsDeterministicPerSeed) {
+    TempDir t;
+    const std::string spec = kTiny.string();
+    for (const RunResult& r : runAll({{"grow", spec, "--seed", "5", "--out", (t / "a").string()},
+                                      {"grow", spec, "--seed", "5", "--out", (t / "b").string()},
+                                      {"grow", spec, "--seed", "6", "--out", (t / "c").string()}},
+                                     t.path())) {
+        EXPECT_EQ(r.code, 0) << describe(r);
+    }
+    for (const char* f : {"skeleton.ply", "skeleton.swc", "preview.png", "stats.json"}) {
+        EXPECT_TRUE(fs::is_regular_file(t / "a" / f)) << f;
+        EXPECT_GT(fs::file_size(t / "a" / f), 0u) << f;
+    }
+    EXPECT_EQ(slurp(t / "a" / "preview.png").substr(0, 4), "\x89PNG");
+    EXPECT_EQ(slurp(t / "a" / "skeleton.ply").substr(0, 4), "ply\n");
+    auto stats = nlohmann::json::parse(slurp(t / "a" / "stats.json"));
+    EXPECT_EQ(stats["species"], "tiny");
+    EXPECT_EQ(stats["seed"], 5);
+    EXPECT_GT(stats["stats"]["nodes"].get<int>(), 1);
+
+    EXPECT_EQ(slurp(t / "a" / "skeleton.ply"), slurp(t / "b" / "skeleton.ply"));
+    EXPECT_EQ(slurp(t / "a" / "skeleton.swc"), slurp(t / "b" / "skeleton.swc"));
+    EXPECT_NE(slurp(t / "a" / "skeleton.ply"), slurp(t / "c" / "skeleton.ply"));
+    EXPECT_TRUE(tempFilesUnder(t.path()).empty());
+}
+
+// --- 7. validate -----------------------------------------------------------------------------
+
+TEST(CliValidate, EveryShippedSpecIsValid) {
+    TempDir t;
+    std::vector<std::vector<std::string>> runs;
+    for (const fs::path& dir : {kSource / "species" / "presets", kSource / "datasets", kData}) {
+        for (const auto& e : fs::directory_iterator(dir)) {
+            if (e.path().extension() == ".toml") runs.push_back({"validate", e.path().string()});
+        }
+    }
+    std::sort(runs.begin(), runs.end());
+    EXPECT_GE(runs.size(), 5u);
+    const std::vector<RunResult> r = runAll(runs, t.path());
+    for (size_t i = 0; i < r.size(); ++i) {
+        SCOPED_TRACE(runs[i][1]);
+        EXPECT_EQ(r[i].code, 0) << describe(r[i]);
+        EXPECT_NE(r[i].out.find(": ok"), std::string::npos) << describe(r[i]);
+        if (fs::path(runs[i][1]) == kDataset) {
+            EXPECT_NE(r[i].out.find(std::to_string(kDatasetInstances) + " instances"),
+                      std::string::npos)
+                << r[i].out;
+        }
+    }
+}
+
+}  // namespace
