@@ -1,15 +1,5 @@
 #include "pipeline/build.h"
 
-#include <atomic>
-#include <chrono>
-#include <cstdio>
-#include <mutex>
-#include <fstream>
-#include <set>
-#include <sstream>
-
-#include <unistd.h>
-
 #include <OpenImageIO/oiioversion.h>
 #include <openvdb/version.h>
 #include <tbb/flow_graph.h>
@@ -17,6 +7,15 @@
 #include <tbb/info.h>
 #include <tbb/version.h>
 #include <toml++/toml.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <mutex>
+#include <set>
+#include <sstream>
 
 #include "pipeline/atomic_file.h"
 #include "pipeline/preview.h"
@@ -115,9 +114,8 @@ nlohmann::json buildInstance(const InstanceJob& job, const OutputOptions& output
     for (const auto& [k, v] : grown.methodStats) st[k] = v;
     rec["stats"] = st;
     // The only fields that differ between identical builds.
-    rec["timing"] = {
-        {"grow_ms", std::chrono::duration<double, std::milli>(t1 - t0).count()},
-        {"write_ms", std::chrono::duration<double, std::milli>(t2 - t1).count()}};
+    rec["timing"] = {{"grow_ms", std::chrono::duration<double, std::milli>(t1 - t0).count()},
+                     {"write_ms", std::chrono::duration<double, std::milli>(t2 - t1).count()}};
     return rec;
 }
 
@@ -155,8 +153,10 @@ void writeDatasetJson(const DatasetSpec& spec, const BuildOptions& o, const fs::
     d["species"] = sp;
     d["versions"] = versionInfo();
     d["shard"] = {{"index", o.shardIndex}, {"count", o.shardCount}};
-    d["counts"] = {{"instances_in_dataset", allJobs}, {"instances_in_shard", s.total},
-                   {"skipped_already_built", s.skipped}, {"built", s.built},
+    d["counts"] = {{"instances_in_dataset", allJobs},
+                   {"instances_in_shard", s.total},
+                   {"skipped_already_built", s.skipped},
+                   {"built", s.built},
                    {"failed", s.failed}};
     d["threads"] = threads;
     d["wall_seconds"] = s.wallSeconds;
@@ -180,7 +180,8 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
 
     // Resume: the ids already recorded (a partial last line from a kill is dropped).
     std::set<std::string> done;
-    if (fs::exists(manifestPath)) {
+    const bool resuming = fs::exists(manifestPath);
+    if (resuming) {
         if (fs::exists(datasetPath)) {
             auto old = nlohmann::json::parse(std::ifstream(datasetPath), nullptr, false);
             if (!old.is_discarded() && old.value("fingerprint", "") != spec.fingerprint) {
@@ -200,8 +201,25 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
     BuildSummary summary;
     summary.total = static_cast<int64_t>(hi - lo);
     for (size_t k = lo; k < hi; ++k) {
-        if (done.count(all[k].id)) ++summary.skipped;
-        else todo.push_back(&all[k]);
+        if (done.count(all[k].id))
+            ++summary.skipped;
+        else
+            todo.push_back(&all[k]);
+    }
+    if (resuming) {
+        // A kill mid-write leaves "<file>.tmp.<pid>.…" siblings in the directories of the
+        // instances not yet recorded: remove those of this shard's remaining instances (never
+        // another shard's, whose process may be writing there right now).
+        for (const InstanceJob* j : todo) {
+            const fs::path dir = o.out / "trees" / j->entry->species.name / j->id;
+            std::error_code ec;
+            for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+                if (it->path().filename().string().find(".tmp.") != std::string::npos) {
+                    std::error_code ignored;
+                    fs::remove(it->path(), ignored);
+                }
+            }
+        }
     }
     writeDatasetJson(spec, o, datasetPath, "running", summary, threads, all.size());
 

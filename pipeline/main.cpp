@@ -1,13 +1,12 @@
 // The `sylva` command line: build, grow, validate. Thin: everything lives in the libraries.
 // Exit codes: 0 success, 1 a runtime failure (some trees failed, I/O), 2 bad input.
+#include <tbb/global_control.h>
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
-
-#include <CLI/CLI.hpp>
-#include <tbb/global_control.h>
 
 #include "pipeline/atomic_file.h"
 #include "pipeline/build.h"
@@ -26,11 +25,10 @@ namespace {
 int runBuild(const std::string& specPath, std::string out, int threads, const std::string& shard) {
     int si = 0, sn = 1;
     if (!shard.empty()) {
-        char slash = 0;
-        if (std::sscanf(shard.c_str(), "%d%c%d", &si, &slash, &sn) != 3 || slash != '/' ||
-            sn < 1 || si < 0 || si >= sn) {
-            std::fprintf(stderr, "sylva: --shard %s: expected I/N with 0 ≤ I < N\n",
-                         shard.c_str());
+        int used = 0;
+        if (std::sscanf(shard.c_str(), "%d/%d%n", &si, &sn, &used) != 2 ||
+            used != static_cast<int>(shard.size()) || sn < 1 || si < 0 || si >= sn) {
+            std::fprintf(stderr, "sylva: --shard %s: expected I/N with 0 ≤ I < N\n", shard.c_str());
             return 2;
         }
     }
@@ -54,8 +52,8 @@ int runGrow(const std::string& speciesPath, uint64_t seed, std::string out, int 
     validateSpecies(species, nullptr);
     std::unique_ptr<tbb::global_control> limit;
     if (threads > 0) {
-        limit = std::make_unique<tbb::global_control>(
-            tbb::global_control::max_allowed_parallelism, threads);
+        limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                      threads);
     }
     fs::path dir = out.empty() ? fs::path("out") / "grow" / species.name : fs::path(out);
     auto t0 = std::chrono::steady_clock::now();
@@ -68,14 +66,18 @@ int runGrow(const std::string& speciesPath, uint64_t seed, std::string out, int 
     writePreviewPng(g.tree, dir / "preview.png", 1024);
     nlohmann::json j = toJson(stats);
     for (const auto& [k, v] : g.methodStats) j[k] = v;
-    nlohmann::json rec = {{"species", species.name}, {"seed", seed}, {"stats", j},
-                          {"params", g.sampled}, {"grow_ms", ms}};
+    nlohmann::json rec = {{"species", species.name},
+                          {"seed", seed},
+                          {"stats", j},
+                          {"params", g.sampled},
+                          {"grow_ms", ms}};
     writeFileAtomic(dir / "stats.json", rec.dump(2) + "\n");
-    std::printf("%s seed %llu: %lld nodes, %lld endpoints, height %.2f m, crown width %.2f m, "
-                "%.1f ms -> %s\n",
-                species.name.c_str(), static_cast<unsigned long long>(seed),
-                static_cast<long long>(stats.nodes), static_cast<long long>(stats.endpoints),
-                stats.height, stats.crownWidth, ms, dir.string().c_str());
+    std::printf(
+        "%s seed %llu: %lld nodes, %lld endpoints, height %.2f m, crown width %.2f m, "
+        "%.1f ms -> %s\n",
+        species.name.c_str(), static_cast<unsigned long long>(seed),
+        static_cast<long long>(stats.nodes), static_cast<long long>(stats.endpoints), stats.height,
+        stats.crownWidth, ms, dir.string().c_str());
     return 0;
 }
 

@@ -2,11 +2,13 @@
 #include "species/tree_stats.h"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Exact_rational.h>
 #include <CGAL/Polygon_mesh_processing/measure.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/convex_hull_3.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
@@ -44,7 +46,23 @@ double convexHullVolume(const std::vector<Vec3>& points) {
     Mesh hull;
     CGAL::convex_hull_3(pts.begin(), pts.end(), hull);
     if (hull.number_of_faces() < 4 || !CGAL::is_closed(hull)) return 0.0;
-    return std::abs(CGAL::to_double(CGAL::Polygon_mesh_processing::volume(hull)));
+    // Sum the tetrahedra exactly: the hull's face order and the triangulation of coplanar
+    // facets depend on the heap state, and a floating-point sum would differ in the last bits
+    // between runs; the exact volume of the hull polytope does not.
+    using Q = CGAL::Exact_rational;
+    const Point& o = hull.point(*hull.vertices().begin());
+    auto rel = [&](const Point& p) -> std::array<Q, 3> {
+        return {Q(p.x()) - o.x(), Q(p.y()) - o.y(), Q(p.z()) - o.z()};
+    };
+    Q vol6 = 0;
+    for (auto f : hull.faces()) {
+        auto h = hull.halfedge(f);
+        auto [ax, ay, az] = rel(hull.point(hull.target(h)));
+        auto [bx, by, bz] = rel(hull.point(hull.target(hull.next(h))));
+        auto [cx, cy, cz] = rel(hull.point(hull.source(h)));
+        vol6 += ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
+    }
+    return std::abs(CGAL::to_double(vol6)) / 6.0;
 }
 
 TreeStats computeStats(const Tree& tree) {
