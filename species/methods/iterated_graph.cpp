@@ -326,7 +326,11 @@ GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
         pos.push_back(Vec3{0, -roots->taprootDepth, 0} + job.rootPos);
         solveGraph(o, pos, firstEndpoint, spacing, weightRng, dist, pred, out);
         std::vector<Vec3> tap;
-        for (int32_t v = firstEndpoint; v >= 0; v = pred[v]) tap.push_back(pos[v]);
+        std::vector<std::pair<int32_t, int32_t>> tapPred;  // (node, pred) along the taproot
+        for (int32_t v = firstEndpoint; v >= 0; v = pred[v]) {
+            tap.push_back(pos[v]);
+            tapPred.push_back({v, pred[v]});
+        }
         const VolumePtr& ev = job.endpointVolume;
         for (int k = 0; k < job.endpoints; ++k) {
             for (int attempt = 0;; ++attempt) {
@@ -349,6 +353,10 @@ GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
         out.bridged = 0;
         Rng weightRng2 = rng.derive("weights");
         solveGraph(o, pos, firstEndpoint, spacing, weightRng2, dist, pred, out);
+        // Keep the taproot the laterals were placed around: the second search draws the
+        // weights in another edge order (the laterals' edges are interleaved) and may find
+        // another path. Lateral paths follow the second search until they meet it.
+        for (auto [v, p] : tapPred) pred[v] = p;
     } else {
         // maketree step 2: b endpoints at random positions in V.
         for (int k = 0; k < job.endpoints; ++k) {
