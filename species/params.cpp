@@ -29,6 +29,7 @@ bool Range::contains(double v) const {
 
 static std::string fmt(double v) {
     std::ostringstream s;
+    s.precision(12);
     s << v;
     return s.str();
 }
