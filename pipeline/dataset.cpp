@@ -10,14 +10,16 @@ namespace sylva {
 
 namespace fs = std::filesystem;
 
-uint64_t instanceSeed(uint64_t datasetSeed, const std::string& species,
-                      const std::string& pointKey, int64_t index) {
+uint64_t instanceSeed(uint64_t datasetSeed, const std::string& species, const std::string& pointKey,
+                      int64_t index) {
     uint64_t h = hashCombine(datasetSeed, hashString(species));
     h = hashCombine(h, hashString(pointKey));
     return hashCombine(h, static_cast<uint64_t>(index));
 }
 
-bool isDatasetFile(const toml::table& t) { return t.contains("species") && t["species"].is_array(); }
+bool isDatasetFile(const toml::table& t) {
+    return t.contains("species") && t["species"].is_array();
+}
 
 namespace {
 
@@ -51,11 +53,16 @@ SweepAxis parseSweep(Params& p) {
     }
     auto add = [&](const toml::node& n) {
         toml::table holder;
-        if (auto i = n.as_integer()) holder.insert("v", i->get());
-        else if (auto f = n.as_floating_point()) holder.insert("v", f->get());
-        else if (auto s = n.as_string()) holder.insert("v", s->get());
-        else if (auto b = n.as_boolean()) holder.insert("v", b->get());
-        else p.fail("values", "sweep values must be numbers, strings or booleans");
+        if (auto i = n.as_integer())
+            holder.insert("v", i->get());
+        else if (auto f = n.as_floating_point())
+            holder.insert("v", f->get());
+        else if (auto s = n.as_string())
+            holder.insert("v", s->get());
+        else if (auto b = n.as_boolean())
+            holder.insert("v", b->get());
+        else
+            p.fail("values", "sweep values must be numbers, strings or booleans");
         a.labels.push_back(valueText(*holder.get("v")));
         a.values.push_back(std::move(holder));
     };
@@ -75,8 +82,10 @@ SweepAxis parseSweep(Params& p) {
             double t = steps == 1 ? 0.0 : static_cast<double>(k) / (steps - 1);
             double v = from + (to - from) * t;
             toml::table holder;
-            if (integer) holder.insert("v", static_cast<int64_t>(std::llround(v)));
-            else holder.insert("v", v);
+            if (integer)
+                holder.insert("v", static_cast<int64_t>(std::llround(v)));
+            else
+                holder.insert("v", v);
             add(*holder.get("v"));
         }
     }
@@ -92,12 +101,12 @@ DatasetSpec loadDataset(const std::string& path) {
     d.table = std::make_shared<const toml::table>(parseTomlFile(path));
     Params p(*d.table, path, "", nullptr);
     d.name = p.string("name", fs::path(path).stem().string());
-    // The name is the default output directory (out/<name>): keep it inside out/.
-    if (d.name.empty() || d.name == "." || d.name == ".." ||
-        d.name.find_first_of("/\\") != std::string::npos) {
-        const std::string got = "got \"" + d.name + "\"";
+    // The name is the default output directory (out/<name>): keep it a plain name.
+    if (!isFileSafeName(d.name)) {
         p.fail("name",
-               "expected a name usable as a directory name (no '/', not '.' or '..'), " + got);
+               "expected 1–64 letters, digits, '-' or '_' (it is used as the "
+               "output directory name), got \"" +
+                   d.name + "\"");
     }
     d.description = p.string("description", "");
     d.seed = static_cast<uint64_t>(p.integer("seed", 0, Range::closed(0, 9.2e18)));
@@ -141,10 +150,13 @@ DatasetSpec loadDataset(const std::string& path) {
         if (o->has("skeleton")) {
             d.outputs.ply = d.outputs.swc = false;
             for (const auto& f : sk) {
-                if (f == "ply") d.outputs.ply = true;
-                else if (f == "swc") d.outputs.swc = true;
-                else o->fail("skeleton", "unknown skeleton format \"" + f +
-                                             "\" (known: \"ply\", \"swc\")");
+                if (f == "ply")
+                    d.outputs.ply = true;
+                else if (f == "swc")
+                    d.outputs.swc = true;
+                else
+                    o->fail("skeleton",
+                            "unknown skeleton format \"" + f + "\" (known: \"ply\", \"swc\")");
             }
         }
         d.outputs.preview = o->boolean("preview", false);
@@ -158,9 +170,8 @@ DatasetSpec loadDataset(const std::string& path) {
     for (SpeciesEntry& entry : d.species) {
         std::vector<const SweepAxis*> axes;
         for (const SweepAxis& a : d.sweeps) {
-            if (a.species.empty() ||
-                std::find(a.species.begin(), a.species.end(), entry.species.name) !=
-                    a.species.end()) {
+            if (a.species.empty() || std::find(a.species.begin(), a.species.end(),
+                                               entry.species.name) != a.species.end()) {
                 for (const SweepAxis* b : axes) {
                     if (b->path == a.path) {
                         throw SpecError(a.where, "sweep.path",
@@ -207,8 +218,7 @@ DatasetSpec loadDataset(const std::string& path) {
     }
     d.fingerprint = [&] {
         char buf[17];
-        std::snprintf(buf, sizeof buf, "%016llx",
-                      static_cast<unsigned long long>(hashString(fp)));
+        std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hashString(fp)));
         return std::string(buf);
     }();
     return d;
@@ -228,8 +238,7 @@ std::vector<InstanceJob> expandJobs(const DatasetSpec& spec) {
                 j.seed = instanceSeed(spec.seed, e.species.name, e.points[pi].key, k);
                 char buf[64];
                 if (swept) {
-                    std::snprintf(buf, sizeof buf, "-p%03zu-%05lld", pi,
-                                  static_cast<long long>(k));
+                    std::snprintf(buf, sizeof buf, "-p%03zu-%05lld", pi, static_cast<long long>(k));
                 } else {
                     std::snprintf(buf, sizeof buf, "-%05lld", static_cast<long long>(k));
                 }

@@ -1,5 +1,6 @@
 #include "species/params.h"
 
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -16,10 +17,8 @@ std::string SourcePos::str() const {
     return s.str();
 }
 
-SpecError::SpecError(const SourcePos& where, const std::string& keyPath,
-                     const std::string& message)
-    : std::runtime_error(where.str() + ": " + (keyPath.empty() ? "" : keyPath + ": ") +
-                         message) {}
+SpecError::SpecError(const SourcePos& where, const std::string& keyPath, const std::string& message)
+    : std::runtime_error(where.str() + ": " + (keyPath.empty() ? "" : keyPath + ": ") + message) {}
 
 bool Range::contains(double v) const {
     if (loOpen ? !(v > lo) : !(v >= lo)) return false;
@@ -45,13 +44,20 @@ std::string Range::describe(bool integer) const {
 
 static const char* typeName(const toml::node& n) {
     switch (n.type()) {
-        case toml::node_type::table: return "a table";
-        case toml::node_type::array: return "an array";
-        case toml::node_type::string: return "a string";
-        case toml::node_type::integer: return "an integer";
-        case toml::node_type::floating_point: return "a float";
-        case toml::node_type::boolean: return "a boolean";
-        default: return "a date/time";
+        case toml::node_type::table:
+            return "a table";
+        case toml::node_type::array:
+            return "an array";
+        case toml::node_type::string:
+            return "a string";
+        case toml::node_type::integer:
+            return "an integer";
+        case toml::node_type::floating_point:
+            return "a float";
+        case toml::node_type::boolean:
+            return "a boolean";
+        default:
+            return "a date/time";
     }
 }
 
@@ -87,6 +93,14 @@ std::optional<std::string> closestWord(std::string_view word, const std::set<std
         }
     }
     return best;
+}
+
+bool isFileSafeName(const std::string& name) {
+    if (name.empty() || name.size() > 64) return false;
+    for (char c : name) {
+        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_')) return false;
+    }
+    return true;
 }
 
 toml::table parseTomlFile(const std::string& file) {
@@ -208,7 +222,8 @@ double Params::readNumber(const toml::node& node, const SourcePos& where, const 
             }
             throw SpecError(where, path,
                             "expected a distribution {uniform = [a, b]} or {normal = [mu, sigma]}, "
-                            "got key \"" + kind + "\"" + hint);
+                            "got key \"" +
+                                kind + "\"" + hint);
         }
         if (!arr || arr->size() != 2) {
             const std::string args = kind == "uniform" ? "a, b" : "mu, sigma";
@@ -343,8 +358,7 @@ Vec3 Params::vec3(std::string_view key, const Vec3& fallback, const Range& range
     return v;
 }
 
-std::pair<double, double> Params::interval(std::string_view key,
-                                           std::pair<double, double> fallback,
+std::pair<double, double> Params::interval(std::string_view key, std::pair<double, double> fallback,
                                            const Range& range) {
     asked_.insert(std::string(key));
     SourcePos w;

@@ -125,6 +125,9 @@ SourcePos sourceOf(const toml::node& node, const std::string& file);
 // Closest word by edit distance, if close enough to be a plausible misspelling.
 std::optional<std::string> closestWord(std::string_view word, const std::set<std::string>& words);
 
+// A name that is also used as a file or directory name: 1–64 letters, digits, '-' or '_'.
+bool isFileSafeName(const std::string& name);
+
 // Parses a TOML file; parse errors and missing files become SpecError.
 toml::table parseTomlFile(const std::string& file);
 

@@ -1,19 +1,8 @@
 #include "species/species.h"
 
-#include <cctype>
 #include <filesystem>
 
 namespace sylva {
-
-namespace {
-bool validName(const std::string& s) {
-    if (s.empty() || s.size() > 64) return false;
-    for (char c : s) {
-        if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_')) return false;
-    }
-    return true;
-}
-}  // namespace
 
 SpeciesFile loadSpecies(const std::string& path) {
     SpeciesFile s;
@@ -23,7 +12,7 @@ SpeciesFile loadSpecies(const std::string& path) {
     draw.draw = false;
     Params p(*s.table, path, "", &draw);
     s.name = p.string("name", std::filesystem::path(path).stem().string());
-    if (!validName(s.name)) {
+    if (!isFileSafeName(s.name)) {
         p.fail("name", "expected 1–64 letters, digits, '-' or '_' (it names files), got \"" +
                            s.name + "\"");
     }
