@@ -2,14 +2,13 @@
 //  - Table1Tree: one iterated-graph tree at the scale of Xu & Mould 2012 Table 1
 //    (~350k graph nodes, ~34k endpoints), on 1 thread and on all cores.
 //  - DemoBuild: the whole demo dataset (1,000 trees, files written), trees per second.
+#include <benchmark/benchmark.h>
 #include <sys/resource.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
 #include <unistd.h>
 
 #include <filesystem>
-
-#include <benchmark/benchmark.h>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
 
 #include "pipeline/build.h"
 #include "pipeline/dataset.h"
@@ -25,8 +24,8 @@ static double peakRssMiB() {
 }
 
 static void Table1Tree(benchmark::State& state) {
-    const int threads = state.range(0) > 0 ? static_cast<int>(state.range(0))
-                                           : tbb::info::default_concurrency();
+    const int threads =
+        state.range(0) > 0 ? static_cast<int>(state.range(0)) : tbb::info::default_concurrency();
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     SpeciesFile species = loadSpecies(SYLVA_SOURCE_DIR "/bench/table1.toml");
     uint64_t seed = 1;
@@ -44,8 +43,8 @@ static void Table1Tree(benchmark::State& state) {
 BENCHMARK(Table1Tree)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond)->MinTime(3.0);
 
 static void DemoBuild(benchmark::State& state) {
-    const int threads = state.range(0) > 0 ? static_cast<int>(state.range(0))
-                                           : tbb::info::default_concurrency();
+    const int threads =
+        state.range(0) > 0 ? static_cast<int>(state.range(0)) : tbb::info::default_concurrency();
     DatasetSpec spec = loadDataset(SYLVA_SOURCE_DIR "/datasets/demo.toml");
     fs::path out = fs::temp_directory_path() / ("sylva-bench-demo-" + std::to_string(getpid()));
     int64_t trees = 0;

@@ -7,9 +7,8 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "pipeline/dataset.h"
 
@@ -20,14 +19,14 @@ struct BuildOptions {
     int threads = 0;            // 0: all cores
     int shardIndex = 0;         // --shard I/N
     int shardCount = 1;
-    int maxInFlight = 0;        // 0: 4 × threads
-    bool progress = true;       // progress on stderr
-    int64_t stopAfter = -1;     // testing: stop (as if killed) after this many records
+    int maxInFlight = 0;     // 0: 4 × threads
+    bool progress = true;    // progress on stderr
+    int64_t stopAfter = -1;  // testing: stop (as if killed) after this many records
 };
 
 struct BuildSummary {
-    int64_t total = 0;      // jobs in this shard
-    int64_t skipped = 0;    // already in the manifest
+    int64_t total = 0;    // jobs in this shard
+    int64_t skipped = 0;  // already in the manifest
     int64_t built = 0;
     int64_t failed = 0;
     double wallSeconds = 0;

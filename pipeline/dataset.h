@@ -14,15 +14,15 @@
 namespace sylva {
 
 struct SweepAxis {
-    std::string path;                    // parameter path, e.g. "levels[1].endpoints"
-    std::vector<std::string> species;    // species it applies to (empty: all)
-    std::vector<toml::table> values;     // each value in holder["v"]
-    std::vector<std::string> labels;     // value as text, for ids and the manifest
+    std::string path;                  // parameter path, e.g. "levels[1].endpoints"
+    std::vector<std::string> species;  // species it applies to (empty: all)
+    std::vector<toml::table> values;   // each value in holder["v"]
+    std::vector<std::string> labels;   // value as text, for ids and the manifest
     SourcePos where;
 };
 
 struct SweepPoint {
-    std::string key;                     // "path=value;…" ("" without sweeps)
+    std::string key;  // "path=value;…" ("" without sweeps)
     std::shared_ptr<const Overrides> overrides;
     std::map<std::string, std::string> values;  // path -> value text
 };
@@ -30,7 +30,7 @@ struct SweepPoint {
 struct SpeciesEntry {
     SpeciesFile species;
     int64_t count = 0;
-    std::vector<SweepPoint> points;      // at least one (the empty point)
+    std::vector<SweepPoint> points;  // at least one (the empty point)
 };
 
 struct OutputOptions {
@@ -56,19 +56,19 @@ struct DatasetSpec {
 DatasetSpec loadDataset(const std::string& path);
 
 struct InstanceJob {
-    std::string id;         // "<species>[-p<point>]-<index>"
+    std::string id;  // "<species>[-p<point>]-<index>"
     const SpeciesEntry* entry = nullptr;
     const SweepPoint* point = nullptr;
     int pointIndex = 0;
-    int64_t index = 0;      // index within (species, point)
+    int64_t index = 0;  // index within (species, point)
     uint64_t seed = 0;
 };
 
 std::vector<InstanceJob> expandJobs(const DatasetSpec& spec);
 
 // Instance seed: a hash of (dataset seed, species name, sweep point key, index).
-uint64_t instanceSeed(uint64_t datasetSeed, const std::string& species,
-                      const std::string& pointKey, int64_t index);
+uint64_t instanceSeed(uint64_t datasetSeed, const std::string& species, const std::string& pointKey,
+                      int64_t index);
 
 // Whether a TOML file is a dataset (has [[species]]) rather than a species file.
 bool isDatasetFile(const toml::table& t);

@@ -15,9 +15,12 @@ Progress::Progress(int64_t total, bool enabled)
 
 static std::string duration(double s) {
     char buf[32];
-    if (s < 60) std::snprintf(buf, sizeof buf, "%.0fs", s);
-    else if (s < 3600) std::snprintf(buf, sizeof buf, "%dm%02ds", int(s) / 60, int(s) % 60);
-    else std::snprintf(buf, sizeof buf, "%dh%02dm", int(s) / 3600, (int(s) / 60) % 60);
+    if (s < 60)
+        std::snprintf(buf, sizeof buf, "%.0fs", s);
+    else if (s < 3600)
+        std::snprintf(buf, sizeof buf, "%dm%02ds", int(s) / 60, int(s) % 60);
+    else
+        std::snprintf(buf, sizeof buf, "%dh%02dm", int(s) / 3600, (int(s) / 60) % 60);
     return buf;
 }
 
@@ -39,15 +42,19 @@ void Progress::tick(int64_t done, int64_t failed) {
     double since = std::chrono::duration<double>(now - last_).count();
     if (since < (tty_ ? 0.1 : 5.0) && done != total_) return;
     last_ = now;
-    if (tty_) std::fprintf(stderr, "\r\033[K%s", line(done, failed).c_str());
-    else std::fprintf(stderr, "sylva: %s\n", line(done, failed).c_str());
+    if (tty_)
+        std::fprintf(stderr, "\r\033[K%s", line(done, failed).c_str());
+    else
+        std::fprintf(stderr, "sylva: %s\n", line(done, failed).c_str());
     std::fflush(stderr);
 }
 
 void Progress::finish(int64_t done, int64_t failed) {
     if (!enabled_) return;
-    if (tty_) std::fprintf(stderr, "\r\033[K%s\n", line(done, failed).c_str());
-    else std::fprintf(stderr, "sylva: %s\n", line(done, failed).c_str());
+    if (tty_)
+        std::fprintf(stderr, "\r\033[K%s\n", line(done, failed).c_str());
+    else
+        std::fprintf(stderr, "sylva: %s\n", line(done, failed).c_str());
 }
 
 }  // namespace sylva

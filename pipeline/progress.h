@@ -9,12 +9,12 @@
 namespace sylva {
 
 class Progress {
-public:
+  public:
     Progress(int64_t total, bool enabled);
     void tick(int64_t done, int64_t failed);
     void finish(int64_t done, int64_t failed);
 
-private:
+  private:
     std::string line(int64_t done, int64_t failed) const;
     int64_t total_;
     bool enabled_;

@@ -6,8 +6,8 @@ std::unique_ptr<GrowthMethod> makeGrowthMethod(const std::string& name, Params& 
     if (name == "iterated-graph") return makeIteratedGraphMethod(species);
     std::string hint;
     if (auto s = closestWord(name, {"iterated-graph"})) hint = "; did you mean \"" + *s + "\"?";
-    species.fail("method", "unknown growth method \"" + name +
-                               "\" (known: \"iterated-graph\")" + hint);
+    species.fail("method",
+                 "unknown growth method \"" + name + "\" (known: \"iterated-graph\")" + hint);
 }
 
 }  // namespace sylva

@@ -12,7 +12,7 @@
 namespace sylva {
 
 class GrowthMethod {
-public:
+  public:
     virtual ~GrowthMethod() = default;
     // Grows one tree from rng. `threaded`: the method may split its own work across TBB
     // workers; results never depend on it. Method-specific counters go into `stats`.

@@ -5,6 +5,8 @@
 // path, so adding or removing one parameter never changes another's draw.
 #pragma once
 
+#include <toml++/toml.h>
+
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -14,8 +16,6 @@
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <toml++/toml.h>
 
 #include "volumes/math.h"
 
@@ -30,7 +30,7 @@ struct SourcePos {
 
 // A bad spec: the message is one line, "file:line:col: key.path: what was expected".
 class SpecError : public std::runtime_error {
-public:
+  public:
     SpecError(const SourcePos& where, const std::string& keyPath, const std::string& message);
 };
 
@@ -64,7 +64,7 @@ struct DrawContext {
 };
 
 class Params {
-public:
+  public:
     Params(const toml::table& table, std::string file, std::string prefix, DrawContext* draw,
            const Overrides* overrides = nullptr);
 
@@ -108,7 +108,7 @@ public:
     // Every key of this table that no read asked for is an error (with a suggestion).
     void finish() const;
 
-private:
+  private:
     const toml::node* lookup(std::string_view key, SourcePos* where) const;
     double readNumber(const toml::node& node, const SourcePos& where, const std::string& path,
                       const Range& range, bool wantInteger);

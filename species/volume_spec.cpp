@@ -34,8 +34,8 @@ VolumePtr parsePrimitive(Params& p, const std::string& type) {
 
 VolumePtr parseVolume(Params& p, bool topLevel) {
     static const std::vector<std::string> kTypes = {
-        "sphere", "hemisphere", "ellipsoid", "cylinder",  "cone",
-        "box",    "sphere-sector", "union",  "intersection", "difference"};
+        "sphere", "hemisphere",    "ellipsoid", "cylinder",     "cone",
+        "box",    "sphere-sector", "union",     "intersection", "difference"};
     std::string type = p.choice("type", "", kTypes);
     VolumePtr v;
     if (type == "union" || type == "intersection" || type == "difference") {

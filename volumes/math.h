@@ -23,19 +23,40 @@ struct Vec3 {
     constexpr Vec3 operator-() const { return {-x, -y, -z}; }
     constexpr Vec3 operator*(double s) const { return {x * s, y * s, z * s}; }
     constexpr Vec3 operator/(double s) const { return {x / s, y / s, z / s}; }
-    Vec3& operator+=(const Vec3& o) { x += o.x; y += o.y; z += o.z; return *this; }
-    Vec3& operator-=(const Vec3& o) { x -= o.x; y -= o.y; z -= o.z; return *this; }
-    Vec3& operator*=(double s) { x *= s; y *= s; z *= s; return *this; }
+    Vec3& operator+=(const Vec3& o) {
+        x += o.x;
+        y += o.y;
+        z += o.z;
+        return *this;
+    }
+    Vec3& operator-=(const Vec3& o) {
+        x -= o.x;
+        y -= o.y;
+        z -= o.z;
+        return *this;
+    }
+    Vec3& operator*=(double s) {
+        x *= s;
+        y *= s;
+        z *= s;
+        return *this;
+    }
     constexpr bool operator==(const Vec3& o) const { return x == o.x && y == o.y && z == o.z; }
 };
 
 inline constexpr Vec3 operator*(double s, const Vec3& v) { return v * s; }
-inline constexpr double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline constexpr double dot(const Vec3& a, const Vec3& b) {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 inline constexpr Vec3 cross(const Vec3& a, const Vec3& b) {
     return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-inline constexpr Vec3 cmul(const Vec3& a, const Vec3& b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
-inline constexpr Vec3 cdiv(const Vec3& a, const Vec3& b) { return {a.x / b.x, a.y / b.y, a.z / b.z}; }
+inline constexpr Vec3 cmul(const Vec3& a, const Vec3& b) {
+    return {a.x * b.x, a.y * b.y, a.z * b.z};
+}
+inline constexpr Vec3 cdiv(const Vec3& a, const Vec3& b) {
+    return {a.x / b.x, a.y / b.y, a.z / b.z};
+}
 inline double length(const Vec3& v) { return std::sqrt(dot(v, v)); }
 inline constexpr double length2(const Vec3& v) { return dot(v, v); }
 inline double distance(const Vec3& a, const Vec3& b) { return length(a - b); }
@@ -110,9 +131,15 @@ struct Aabb {
     Vec3 hi{-1e300, -1e300, -1e300};
 
     bool empty() const { return lo.x > hi.x || lo.y > hi.y || lo.z > hi.z; }
-    void extend(const Vec3& p) { lo = vmin(lo, p); hi = vmax(hi, p); }
+    void extend(const Vec3& p) {
+        lo = vmin(lo, p);
+        hi = vmax(hi, p);
+    }
     void extend(const Aabb& b) {
-        if (!b.empty()) { lo = vmin(lo, b.lo); hi = vmax(hi, b.hi); }
+        if (!b.empty()) {
+            lo = vmin(lo, b.lo);
+            hi = vmax(hi, b.hi);
+        }
     }
     Vec3 size() const { return hi - lo; }
     Vec3 center() const { return (lo + hi) * 0.5; }

@@ -41,7 +41,7 @@ class PointGrid {
     // True if any stored point lies within `radius` of q (early exit).
     bool anyWithin(const Vec3& q, double radius) const;
 
-private:
+  private:
     int cellCoord(double v, int axis) const {
         // Clamp before the cast: far-away (or NaN) coordinates must not overflow int.
         double c = std::floor((v - origin_[axis]) * inv_);

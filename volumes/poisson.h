@@ -14,7 +14,7 @@ namespace sylva {
 
 // Thrown when the requested count does not fit; the message says how many were placed.
 class PoissonSaturated : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 

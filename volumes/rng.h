@@ -37,7 +37,7 @@ inline constexpr uint64_t hashString(std::string_view s) {
 
 // xoshiro256** (Blackman & Vigna), seeded through SplitMix64.
 class Rng {
-public:
+  public:
     explicit Rng(uint64_t seed = 0) : seed_(seed) {
         uint64_t z = seed;
         for (auto& s : s_) {
@@ -91,7 +91,7 @@ public:
         return {uniform(b.lo.x, b.hi.x), uniform(b.lo.y, b.hi.y), uniform(b.lo.z, b.hi.z)};
     }
 
-private:
+  private:
     static constexpr uint64_t rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
     uint64_t seed_;
     uint64_t s_[4];

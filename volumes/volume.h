@@ -16,7 +16,7 @@
 namespace sylva {
 
 class Volume {
-public:
+  public:
     virtual ~Volume() = default;
 
     // Signed distance in metres, negative inside.

@@ -4,13 +4,13 @@
 // random stream, and merged in a fixed order — the result does not depend on thread count.
 #include "species/methods/iterated_graph.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <queue>
 #include <stdexcept>
-
-#include <tbb/parallel_for.h>
 
 #include "volumes/point_grid.h"
 #include "volumes/poisson.h"
@@ -70,16 +70,16 @@ constexpr Vec3 kUp{0, 1, 0};
 
 // One graph to build: a sub-graph volume hanging from an existing skeleton node.
 struct GraphJob {
-    int level = 0;              // index into the system's levels
-    int32_t rootNode = 0;       // skeleton node the graph's root R is
+    int level = 0;         // index into the system's levels
+    int32_t rootNode = 0;  // skeleton node the graph's root R is
     Vec3 rootPos;
     VolumePtr volume;
     VolumePtr endpointVolume;
-    int endpoints = 0;          // b
-    double lifespan = 0.0;      // lifespan of R (as an endpoint of the level before)
-    double decrement = -1.0;    // light mode: decrement handed to this graph; < 0: use the rule
-    uint64_t key = 0;           // stream key
-    bool taproot = false;       // root-system level 0: taproot + lateral endpoints
+    int endpoints = 0;        // b
+    double lifespan = 0.0;    // lifespan of R (as an endpoint of the level before)
+    double decrement = -1.0;  // light mode: decrement handed to this graph; < 0: use the rule
+    uint64_t key = 0;         // stream key
+    bool taproot = false;     // root-system level 0: taproot + lateral endpoints
 };
 
 // A graph's contribution: the nodes on least-cost paths, parents first.
@@ -239,7 +239,6 @@ void solveGraph(const IteratedGraphOptions& o, const std::vector<Vec3>& pos, int
     }
     WeightedGraph g = makeGraph(n, edges, costs);
     leastCostTree(g, 0, dist, pred);
-
 }
 
 // Endpoint positions: uniform in the volume, optionally only in the shell of depth d_e on its
@@ -264,8 +263,8 @@ double segmentDistance(const Vec3& p, const Vec3& a, const Vec3& b) {
 }
 
 // Collects the least-cost paths of all endpoints (maketree step 3) into out, parents first.
-void collectPaths(const std::vector<Vec3>& pos, int firstEndpoint,
-                  const std::vector<int32_t>& pred, GraphResult& out) {
+void collectPaths(const std::vector<Vec3>& pos, int firstEndpoint, const std::vector<int32_t>& pred,
+                  GraphResult& out) {
     const int n = static_cast<int>(pos.size());
     std::vector<int32_t> local(n, -1);
     std::vector<int32_t> chain;
@@ -291,8 +290,8 @@ double nextLifespan(const IteratedGraphOptions& o, double lifespan, double decre
     if (o.lifespan == LifespanRule::kStochastic) {
         // §3.3.3: 30% terminate, otherwise decrement uniformly in (0, L).
         if (rng.uniform() < o.terminateProbability) return 0.0;
-        double amount = decrement >= 0 ? decrement * rng.uniform() * lifespan
-                                       : rng.uniform() * lifespan;
+        double amount =
+            decrement >= 0 ? decrement * rng.uniform() * lifespan : rng.uniform() * lifespan;
         return lifespan - amount;
     }
     return lifespan - (decrement >= 0 ? decrement : 1.0);
@@ -335,9 +334,9 @@ GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
         for (int k = 0; k < job.endpoints; ++k) {
             for (int attempt = 0;; ++attempt) {
                 if (attempt > 100000) {
-                    throw std::runtime_error(
-                        "could not place lateral root endpoints within " +
-                        std::to_string(roots->lateralDistance) + " m of the taproot");
+                    throw std::runtime_error("could not place lateral root endpoints within " +
+                                             std::to_string(roots->lateralDistance) +
+                                             " m of the taproot");
                 }
                 Vec3 p = drawEndpoint(*ev, job.rootPos, level.endpointShell, endRng);
                 double d = std::numeric_limits<double>::infinity();
@@ -360,8 +359,8 @@ GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
     } else {
         // maketree step 2: b endpoints at random positions in V.
         for (int k = 0; k < job.endpoints; ++k) {
-            pos.push_back(drawEndpoint(*job.endpointVolume, job.rootPos, level.endpointShell,
-                                       endRng));
+            pos.push_back(
+                drawEndpoint(*job.endpointVolume, job.rootPos, level.endpointShell, endRng));
         }
         solveGraph(o, pos, firstEndpoint, spacing, weightRng, dist, pred, out);
     }
@@ -371,9 +370,8 @@ GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
     Rng lifeRng = rng.derive("lifespan");
     for (size_t k = 0; k < out.endpoints.size(); ++k) {
         // Level-0 endpoints start with the initial lifespan; later ones inherit R's, decremented.
-        out.endpointLifespan.push_back(job.level == 0 ? job.lifespan
-                                                      : nextLifespan(o, job.lifespan,
-                                                                     job.decrement, lifeRng));
+        out.endpointLifespan.push_back(
+            job.level == 0 ? job.lifespan : nextLifespan(o, job.lifespan, job.decrement, lifeRng));
     }
     return out;
 }
@@ -392,10 +390,18 @@ Vec3 applyGamma(const Vec3& vg, double gamma) {
 Vec3 orientationFor(const IteratedGraphLevel& level, const EndpointRecord& e, Rng& rng) {
     Vec3 vg;
     switch (level.orientation) {
-        case Orientation::kUp: vg = kUp; break;
-        case Orientation::kDown: vg = -kUp; break;
-        case Orientation::kRandom: vg = rng.unitVector(); break;
-        case Orientation::kFixed: vg = normalize(level.direction); break;
+        case Orientation::kUp:
+            vg = kUp;
+            break;
+        case Orientation::kDown:
+            vg = -kUp;
+            break;
+        case Orientation::kRandom:
+            vg = rng.unitVector();
+            break;
+        case Orientation::kFixed:
+            vg = normalize(level.direction);
+            break;
         case Orientation::kParent:
         default:
             // maketree 4B: v_g = (e − R)/|e − R|.
@@ -414,8 +420,8 @@ void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const Roo
     std::vector<double> radius(levels, 0.0);
     for (int i = 1; i < levels; ++i) {
         radius[i] = sys.levels[i].radius > 0 ? sys.levels[i].radius
-                    : i == 1               ? sys.subgraphRadius
-                                           : radius[i - 1] * sys.shrink;
+                    : i == 1                 ? sys.subgraphRadius
+                                             : radius[i - 1] * sys.shrink;
     }
     const double initialLifespan =
         o.initialLifespan >= 0 ? o.initialLifespan : static_cast<double>(levels - 1);
@@ -547,8 +553,8 @@ Tree growIteratedGraph(const IteratedGraphOptions& options, Rng& rng, bool threa
     growSystem(options, options.crown, nullptr, kShootPart, rng.derive("crown"), threaded, tree,
                stats);
     if (options.roots.enabled) {
-        growSystem(options, options.roots.system, &options.roots, kRootPart,
-                   rng.derive("roots"), threaded, tree, stats);
+        growSystem(options, options.roots.system, &options.roots, kRootPart, rng.derive("roots"),
+                   threaded, tree, stats);
     }
 
     // Thickness (§3.2): w = (d')^ζ / (i + 1), d' the distance to the branch tip along the
@@ -562,11 +568,10 @@ Tree growIteratedGraph(const IteratedGraphOptions& options, Rng& rng, bool threa
     }
     for (size_t i = 0; i < n; ++i) {
         SkeletonNode& node = tree.nodes[i];
-        double half = i == 0 ? 0.0 : 0.5 * distance(node.position,
-                                                    tree.nodes[node.parent].position);
+        double half =
+            i == 0 ? 0.0 : 0.5 * distance(node.position, tree.nodes[node.parent].position);
         int level = std::max(1, node.level);
-        node.radius = options.thicknessScale * std::pow(down[i] + half, options.zeta) /
-                      (level + 1);
+        node.radius = options.thicknessScale * std::pow(down[i] + half, options.zeta) / (level + 1);
     }
     // A parent is never thinner than its child (level jumps can only shrink radii, but
     // keep the invariant explicit for meshing).

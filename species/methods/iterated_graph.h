@@ -26,20 +26,20 @@ enum class SubgraphShape { kSector, kCone };
 // Parameters of one level (iteration) i. Level 0 is the user's initial graph; levels ≥ 1
 // are sub-graphs built around the endpoints of the level before.
 struct IteratedGraphLevel {
-    int nodes = 200;              // k / K: graph nodes in each graph of this level
-    double spacing = 0.0;         // Poisson-disc minimum distance, metres; 0 = from K and volume
-    int endpoints = 4;            // b: endpoints (branching factor) per graph
-    double endpointShell = 0.0;   // d_e: endpoints only within this depth of the far side of
-                                  // the volume (Wolff §3.1.1, Abb. 9), metres; 0 = anywhere
+    int nodes = 200;             // k / K: graph nodes in each graph of this level
+    double spacing = 0.0;        // Poisson-disc minimum distance, metres; 0 = from K and volume
+    int endpoints = 4;           // b: endpoints (branching factor) per graph
+    double endpointShell = 0.0;  // d_e: endpoints only within this depth of the far side of
+                                 // the volume (Wolff §3.1.1, Abb. 9), metres; 0 = anywhere
     SubgraphShape shape = SubgraphShape::kSector;
-    double alpha = 0.3 * kPi;     // sub-graph sector half-angle α, radians (levels ≥ 1)
-    double radius = 0.0;          // sub-graph sphere radius r, metres; 0 = previous level × a
-    double gamma = 0.0;           // rotation of v_g about the horizontal per level, radians;
-                                  // positive turns branches down (weeping), negative up
+    double alpha = 0.3 * kPi;  // sub-graph sector half-angle α, radians (levels ≥ 1)
+    double radius = 0.0;       // sub-graph sphere radius r, metres; 0 = previous level × a
+    double gamma = 0.0;        // rotation of v_g about the horizontal per level, radians;
+                               // positive turns branches down (weeping), negative up
     Orientation orientation = Orientation::kParent;  // how v_g is chosen
-    Vec3 direction{0, 1, 0};      // v_g when orientation == kFixed
-    bool fromAllLevels = false;   // build this level's sub-graphs around the endpoints of
-                                  // all previous levels (Table 2, trees e and g)
+    Vec3 direction{0, 1, 0};                         // v_g when orientation == kFixed
+    bool fromAllLevels = false;  // build this level's sub-graphs around the endpoints of
+                                 // all previous levels (Table 2, trees e and g)
 };
 
 // Light steering (journal version; Wolff §3.4): at each sub-graph level, n branching factors
@@ -56,8 +56,8 @@ struct LightOptions {
 
 // A system of levels grown from the root point: the crown (above ground) or the roots.
 struct GraphSystem {
-    VolumePtr volume;           // level-0 graph volume
-    VolumePtr endpointVolume;   // where level-0 endpoints go (default: volume)
+    VolumePtr volume;          // level-0 graph volume
+    VolumePtr endpointVolume;  // where level-0 endpoints go (default: volume)
     std::vector<IteratedGraphLevel> levels;
     double subgraphRadius = 1.0;  // r at level 1, metres (Maketree argument r)
     double shrink = 0.7;          // a: sub-graph radius ratio between successive levels
@@ -68,8 +68,8 @@ struct GraphSystem {
 // sub-graph levels as for the crown.
 struct RootOptions {
     bool enabled = false;
-    GraphSystem system;          // system.volume: below-ground graph volume
-    double taprootDepth = 2.0;   // depth of the taproot endpoint, metres
+    GraphSystem system;            // system.volume: below-ground graph volume
+    double taprootDepth = 2.0;     // depth of the taproot endpoint, metres
     double lateralDistance = 0.5;  // lateral endpoints lie within this distance of the taproot
 };
 
@@ -82,13 +82,13 @@ struct IteratedGraphOptions {
     // Poisson spacing and the linking distance apart: link distance = linkFactor × spacing.
     Linking linking = Linking::kDistance;
     double linkFactor = 1.8;
-    int yaoSectors = 8;           // Yao graph: 8 octants or 6 cube-face pyramids
-    double spacingFactor = 0.7;   // spacing = f·(V/K)^(1/3) when a level gives none
+    int yaoSectors = 8;          // Yao graph: 8 octants or 6 cube-face pyramids
+    double spacingFactor = 0.7;  // spacing = f·(V/K)^(1/3) when a level gives none
 
     // Edge costs: weight × length^lengthExponent, weight drawn per edge.
     EdgeWeightKind edgeWeightKind = EdgeWeightKind::kUniform;
-    double edgeWeightA = 0.5;     // uniform: low bound; normal: mean
-    double edgeWeightB = 1.5;     // uniform: high bound; normal: sigma (clamped at 0.01)
+    double edgeWeightA = 0.5;  // uniform: low bound; normal: mean
+    double edgeWeightB = 1.5;  // uniform: high bound; normal: sigma (clamped at 0.01)
     double lengthExponent = 1.0;
 
     // Lifespan (§3.3.3): fixed decrement L − 1, or stochastic: terminate with probability
@@ -108,8 +108,8 @@ struct IteratedGraphStats {
     int64_t graphNodes = 0;      // Poisson nodes in all graphs (Table 1 "number of graph nodes")
     int64_t graphEndpoints = 0;  // endpoints in all graphs
     int64_t graphs = 0;
-    int64_t bridgingEdges = 0;   // edges added to join a component holding an endpoint to
-                                 // the root's (closest node pair), when the graph was split
+    int64_t bridgingEdges = 0;  // edges added to join a component holding an endpoint to
+                                // the root's (closest node pair), when the graph was split
 };
 
 // Grows one tree. `threaded`: build the sub-graphs of a level in parallel (TBB); the result

@@ -1,41 +1,43 @@
 // Species-file parameters of the `iterated-graph` method → IteratedGraphOptions.
 //
-// | key                          | type      | default       | meaning                                  |
+// | key                          | type      | default       | meaning |
 // |------------------------------|-----------|---------------|------------------------------------------|
-// | crown                        | volume    | required      | level-0 graph volume (§3.3.1)            |
-// | endpoints                    | volume    | crown         | level-0 endpoint region                  |
-// | graph.linking                | string    | "distance"    | "distance" (d) or "yao" (Yao graph)      |
-// | graph.link_factor            | number    | 1.8           | link distance / node spacing             |
-// | graph.yao_sectors            | 6 or 8    | 8             | Yao sectors (cube faces or octants)      |
-// | graph.spacing_factor         | number    | 0.7           | spacing = f·(V/K)^(1/3) if none given    |
-// | graph.edge_weight            | [a, b]    | [0.5, 1.5]    | per-edge weight: uniform [a,b] / [μ,σ]   |
-// | graph.edge_weight_kind       | string    | "uniform"     | "uniform" or "normal"                    |
-// | graph.length_exponent        | number    | 1.0           | cost = weight · length^e                 |
-// | graph.subgraph_radius        | metres    | 1.0           | r: sub-graph sphere radius at level 1    |
-// | graph.shrink                 | number    | 0.7           | a: radius ratio between levels (§3.3.2)  |
-// | lifespan.rule                | string    | "fixed"       | "fixed" (L−1) or "stochastic" (§3.3.3)   |
-// | lifespan.terminate_probability | [0,1]   | 0.3           | stochastic: chance a branch ends         |
-// | lifespan.initial             | number    | levels − 1    | lifespan of level-0 endpoints            |
-// | thickness.zeta               | number    | 0.3           | ζ in w = (d')^ζ/(i+1)                    |
-// | thickness.scale              | metres    | 0.05          | w multiplier                             |
-// | light.direction              | [x,y,z]   | (absent=off)  | towards the light (journal version)      |
-// | light.spread / endpoints / lifespan | …  | 0.5/true/true | range half-width, what light steers      |
-// | levels[i].nodes              | integer   | required      | K (level 0) / k (sub-graphs)             |
-// | levels[i].spacing            | metres    | derived       | Poisson-disc minimum distance            |
-// | levels[i].endpoints          | integer   | required      | b, endpoints per graph                   |
-// | levels[i].endpoint_shell     | metres    | 0 (anywhere)  | d_e, endpoint shell thickness            |
-// | levels[i].shape              | string    | "sector"      | "sector" or "cone" (apex at endpoint)    |
-// | levels[i].alpha_deg          | degrees   | 54 (0.3π)     | α, sub-graph sector half-angle           |
-// | levels[i].radius             | metres    | r·a^(i−1)     | sub-graph sphere radius override         |
-// | levels[i].gamma_deg          | degrees   | 0             | γ, rotation of v_g (+ down, − up)        |
-// | levels[i].orientation        | string    | "parent"      | "parent","up","down","random","fixed"    |
-// | levels[i].direction          | [x,y,z]   | [0,1,0]       | v_g for orientation = "fixed"            |
-// | levels[i].from_all_levels    | bool      | false         | sub-graphs at endpoints of all levels    |
-// | roots.volume                 | volume    | hemisphere ↓  | below-ground graph volume (Figure 15)    |
-// | roots.taproot_depth          | metres    | 2.0           | depth of the taproot endpoint            |
-// | roots.lateral_distance       | metres    | 0.5           | lateral endpoints near the taproot       |
-// | roots.subgraph_radius/shrink | …         | 0.5 / 0.7     | as graph.*, for root sub-graphs          |
-// | roots.levels[i]              | as levels | required      | level 0: nodes, lateral endpoints        |
+// | crown                        | volume    | required      | level-0 graph volume (§3.3.1) | |
+// endpoints                    | volume    | crown         | level-0 endpoint region | |
+// graph.linking                | string    | "distance"    | "distance" (d) or "yao" (Yao graph) |
+// | graph.link_factor            | number    | 1.8           | link distance / node spacing | |
+// graph.yao_sectors            | 6 or 8    | 8             | Yao sectors (cube faces or octants) |
+// | graph.spacing_factor         | number    | 0.7           | spacing = f·(V/K)^(1/3) if none
+// given    | | graph.edge_weight            | [a, b]    | [0.5, 1.5]    | per-edge weight: uniform
+// [a,b] / [μ,σ]   | | graph.edge_weight_kind       | string    | "uniform"     | "uniform" or
+// "normal"                    | | graph.length_exponent        | number    | 1.0           | cost =
+// weight · length^e                 | | graph.subgraph_radius        | metres    | 1.0           |
+// r: sub-graph sphere radius at level 1    | | graph.shrink                 | number    | 0.7 | a:
+// radius ratio between levels (§3.3.2)  | | lifespan.rule                | string    | "fixed" |
+// "fixed" (L−1) or "stochastic" (§3.3.3)   | | lifespan.terminate_probability | [0,1]   | 0.3 |
+// stochastic: chance a branch ends         | | lifespan.initial             | number    | levels −
+// 1    | lifespan of level-0 endpoints            | | thickness.zeta               | number    |
+// 0.3           | ζ in w = (d')^ζ/(i+1)                    | | thickness.scale              |
+// metres    | 0.05          | w multiplier                             | | light.direction |
+// [x,y,z]   | (absent=off)  | towards the light (journal version)      | | light.spread / endpoints
+// / lifespan | …  | 0.5/true/true | range half-width, what light steers      | | levels[i].nodes |
+// integer   | required      | K (level 0) / k (sub-graphs)             | | levels[i].spacing |
+// metres    | derived       | Poisson-disc minimum distance            | | levels[i].endpoints |
+// integer   | required      | b, endpoints per graph                   | | levels[i].endpoint_shell
+// | metres    | 0 (anywhere)  | d_e, endpoint shell thickness            | | levels[i].shape |
+// string    | "sector"      | "sector" or "cone" (apex at endpoint)    | | levels[i].alpha_deg |
+// degrees   | 54 (0.3π)     | α, sub-graph sector half-angle           | | levels[i].radius |
+// metres    | r·a^(i−1)     | sub-graph sphere radius override         | | levels[i].gamma_deg |
+// degrees   | 0             | γ, rotation of v_g (+ down, − up)        | | levels[i].orientation |
+// string    | "parent"      | "parent","up","down","random","fixed"    | | levels[i].direction |
+// [x,y,z]   | [0,1,0]       | v_g for orientation = "fixed"            | |
+// levels[i].from_all_levels    | bool      | false         | sub-graphs at endpoints of all levels
+// | | roots.volume                 | volume    | hemisphere ↓  | below-ground graph volume (Figure
+// 15)    | | roots.taproot_depth          | metres    | 2.0           | depth of the taproot
+// endpoint            | | roots.lateral_distance       | metres    | 0.5           | lateral
+// endpoints near the taproot       | | roots.subgraph_radius/shrink | …         | 0.5 / 0.7     |
+// as graph.*, for root sub-graphs          | | roots.levels[i]              | as levels | required
+// | level 0: nodes, lateral endpoints        |
 #include <cmath>
 
 #include "species/growth_method.h"
@@ -76,8 +78,8 @@ std::vector<IteratedGraphLevel> parseLevels(Params& owner, const char* key) {
             }
             l.radius = p.number("radius", 0.0, Range::nonNegative());
             l.gamma = p.number("gamma_deg", 0.0, Range::closed(-180, 180)) * kDeg;
-            std::string o = p.choice("orientation", "parent",
-                                     {"parent", "up", "down", "random", "fixed"});
+            std::string o =
+                p.choice("orientation", "parent", {"parent", "up", "down", "random", "fixed"});
             l.orientation = o == "up"       ? Orientation::kUp
                             : o == "down"   ? Orientation::kDown
                             : o == "random" ? Orientation::kRandom
@@ -97,7 +99,7 @@ std::vector<IteratedGraphLevel> parseLevels(Params& owner, const char* key) {
 }
 
 class IteratedGraphMethod : public GrowthMethod {
-public:
+  public:
     explicit IteratedGraphMethod(IteratedGraphOptions o) : o_(std::move(o)) {}
     Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats) const override {
         IteratedGraphStats s;
@@ -109,7 +111,7 @@ public:
         return t;
     }
 
-private:
+  private:
     IteratedGraphOptions o_;
 };
 
@@ -129,8 +131,8 @@ std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& sp) {
         o.linkFactor = g->number("link_factor", 1.8, Range::closed(1.0, 10.0));
         o.yaoSectors = static_cast<int>(g->integer("yao_sectors", 8, Range::closed(6, 8)));
         if (o.yaoSectors != 6 && o.yaoSectors != 8) {
-            g->fail("yao_sectors", "expected 6 (cube faces) or 8 (octants), got " +
-                                       std::to_string(o.yaoSectors));
+            g->fail("yao_sectors",
+                    "expected 6 (cube faces) or 8 (octants), got " + std::to_string(o.yaoSectors));
         }
         o.spacingFactor = g->number("spacing_factor", 0.7, Range::leftOpen(0, 0.88));
         std::string kind = g->choice("edge_weight_kind", "uniform", {"uniform", "normal"});
@@ -176,9 +178,8 @@ std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& sp) {
             o.roots.system.volume = parseVolume(*v);
         } else {
             // Default: a hemisphere hanging below the ground (Figure 15).
-            o.roots.system.volume =
-                makePlaced(makeHemisphere(o.roots.taprootDepth * 1.1),
-                           Placement{{0, 0, 0}, {0, -1, 0}, {1, 1, 1}});
+            o.roots.system.volume = makePlaced(makeHemisphere(o.roots.taprootDepth * 1.1),
+                                               Placement{{0, 0, 0}, {0, -1, 0}, {1, 1, 1}});
         }
         if (!o.roots.system.volume->inside({0, -o.roots.taprootDepth, 0})) {
             r->fail("taproot_depth", "the taproot endpoint (0, -" +
