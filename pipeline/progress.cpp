@@ -40,7 +40,7 @@ void Progress::tick(int64_t done, int64_t failed) {
     if (!enabled_) return;
     auto now = std::chrono::steady_clock::now();
     double since = std::chrono::duration<double>(now - last_).count();
-    if (since < (tty_ ? 0.1 : 5.0) && done != total_) return;
+    if (since < (tty_ ? 0.1 : 5.0)) return;  // finish() prints the last line
     last_ = now;
     if (tty_)
         std::fprintf(stderr, "\r\033[K%s", line(done, failed).c_str());

@@ -64,6 +64,26 @@ void leastCostTree(const WeightedGraph& g, int source, std::vector<double>& dist
     }
 }
 
+std::vector<double> subgraphRadii(const GraphSystem& sys) {
+    const size_t levels = sys.levels.size();
+    std::vector<double> radius(levels, 0.0);
+    for (size_t i = 1; i < levels; ++i) {
+        radius[i] = sys.levels[i].radius > 0 ? sys.levels[i].radius
+                    : i == 1                 ? sys.subgraphRadius
+                                             : radius[i - 1] * sys.shrink;
+    }
+    return radius;
+}
+
+VolumePtr subgraphVolume(const IteratedGraphLevel& level, double radius) {
+    if (level.shape == SubgraphShape::kCone) {
+        // Apex at the origin, base disc of radius r·tan α at height r.
+        return makePlaced(makeCone(radius * std::tan(level.alpha), radius),
+                          Placement{{0, radius, 0}, {0, -1, 0}, {1, 1, 1}});
+    }
+    return makeSphereSector(radius, level.alpha);  // §3.3.2
+}
+
 namespace {
 
 constexpr Vec3 kUp{0, 1, 0};
@@ -416,13 +436,7 @@ void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const Roo
                 IteratedGraphStats& stats) {
     const int levels = static_cast<int>(sys.levels.size());
     if (levels == 0) return;
-    // Sub-graph sphere radius per level: r at level 1, then × a (maketree 4D: a·r).
-    std::vector<double> radius(levels, 0.0);
-    for (int i = 1; i < levels; ++i) {
-        radius[i] = sys.levels[i].radius > 0 ? sys.levels[i].radius
-                    : i == 1                 ? sys.subgraphRadius
-                                             : radius[i - 1] * sys.shrink;
-    }
+    const std::vector<double> radius = subgraphRadii(sys);
     const double initialLifespan =
         o.initialLifespan >= 0 ? o.initialLifespan : static_cast<double>(levels - 1);
 
@@ -493,14 +507,8 @@ void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const Roo
             job.level = next;
             job.rootNode = e.node;
             job.rootPos = e.pos;
-            if (nl.shape == SubgraphShape::kCone) {
-                const double h = radius[next];
-                job.volume = makePlaced(makeCone(h * std::tan(nl.alpha), h),
-                                        Placement{e.pos + vg * h, -vg, {1, 1, 1}});
-            } else {
-                job.volume = makePlaced(makeSphereSector(radius[next], nl.alpha),
-                                        Placement{e.pos, vg, {1, 1, 1}});
-            }
+            job.volume =
+                makePlaced(subgraphVolume(nl, radius[next]), Placement{e.pos, vg, {1, 1, 1}});
             job.endpointVolume = job.volume;
             job.endpoints = nl.endpoints;
             job.lifespan = e.lifespan;

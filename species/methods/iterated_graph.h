@@ -117,6 +117,13 @@ struct IteratedGraphStats {
 Tree growIteratedGraph(const IteratedGraphOptions& options, Rng& rng, bool threaded = true,
                        IteratedGraphStats* stats = nullptr);
 
+// Sub-graph sphere radius per level of a system: r at level 1 (index 1), then × a, unless a
+// level gives its own (maketree 4D). Index 0 (the user's graph) is 0.
+std::vector<double> subgraphRadii(const GraphSystem& system);
+
+// A level's sub-graph volume in its local frame: apex at the origin, opening along +y.
+VolumePtr subgraphVolume(const IteratedGraphLevel& level, double radius);
+
 // --- pieces, exposed for tests ---------------------------------------------------------------
 // A weighted undirected graph in CSR form.
 struct WeightedGraph {

@@ -39,10 +39,12 @@
 // as graph.*, for root sub-graphs          | | roots.levels[i]              | as levels | required
 // | level 0: nodes, lateral endpoints        |
 #include <cmath>
+#include <cstdio>
 
 #include "species/growth_method.h"
 #include "species/methods/iterated_graph.h"
 #include "species/volume_spec.h"
+#include "volumes/poisson.h"
 
 namespace sylva {
 
@@ -50,7 +52,28 @@ namespace {
 
 constexpr double kDeg = kPi / 180.0;
 
-std::vector<IteratedGraphLevel> parseLevels(Params& owner, const char* key) {
+// Explicit spacings must leave room for the level's nodes: report it here, with the key's
+// place, rather than as a failed tree in the middle of a build.
+void checkCapacity(std::vector<Params>& ls, const GraphSystem& sys) {
+    const std::vector<double> radius = subgraphRadii(sys);
+    for (size_t i = 0; i < sys.levels.size(); ++i) {
+        const IteratedGraphLevel& l = sys.levels[i];
+        if (l.spacing <= 0) continue;
+        const double v = i == 0 ? sys.volume->measure() : subgraphVolume(l, radius[i])->measure();
+        const double capacity = poissonCapacity(v, l.spacing);
+        if (l.nodes > capacity) {
+            char buf[200];
+            std::snprintf(buf, sizeof buf,
+                          "%d nodes do not fit at spacing %g m in this level's volume (≈ %.3g m³, "
+                          "capacity ≈ %.0f): lower nodes or spacing",
+                          l.nodes, l.spacing, v, capacity);
+            ls[i].fail("nodes", buf);
+        }
+    }
+}
+
+std::vector<IteratedGraphLevel> parseLevels(Params& owner, const char* key,
+                                            std::vector<Params>* tables = nullptr) {
     std::vector<Params> ls = owner.tableArray(key);
     if (ls.empty()) owner.fail(key, "expected at least one [[" + std::string(key) + "]] table");
     std::vector<IteratedGraphLevel> levels;
@@ -95,6 +118,7 @@ std::vector<IteratedGraphLevel> parseLevels(Params& owner, const char* key) {
         p.finish();
         levels.push_back(l);
     }
+    if (tables) *tables = ls;
     return levels;
 }
 
@@ -168,7 +192,9 @@ std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& sp) {
         o.light.lifespan = l->boolean("lifespan", true);
         l->finish();
     }
-    o.crown.levels = parseLevels(sp, "levels");
+    std::vector<Params> levelTables;
+    o.crown.levels = parseLevels(sp, "levels", &levelTables);
+    checkCapacity(levelTables, o.crown);
 
     if (auto r = sp.optionalTable("roots")) {
         o.roots.enabled = true;
@@ -188,7 +214,9 @@ std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& sp) {
         }
         o.roots.system.subgraphRadius = r->number("subgraph_radius", 0.5, Range::positive());
         o.roots.system.shrink = r->number("shrink", 0.7, Range::leftOpen(0, 2));
-        o.roots.system.levels = parseLevels(*r, "levels");
+        std::vector<Params> rootTables;
+        o.roots.system.levels = parseLevels(*r, "levels", &rootTables);
+        checkCapacity(rootTables, o.roots.system);
         r->finish();
     }
     return std::make_unique<IteratedGraphMethod>(std::move(o));
