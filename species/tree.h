@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "volumes/math.h"
@@ -21,11 +22,23 @@ struct SkeletonNode {
     uint8_t part = kShootPart;
 };
 
+// A leaf card (Jain et al.'s particle leaves and Shesh's canopy leaves use the same model).
+struct Leaf {
+    Vec3 position;          // card centre, metres
+    Vec3 normal{0, 1, 0};   // unit; the card faces it
+    Vec3 tangent{1, 0, 0};  // unit, perpendicular to normal: the card's long axis
+    double size = 0.1;      // card length along the tangent, metres
+    double aspect = 0.6;    // width / length
+    uint8_t colour = 0;     // colour class (species-defined: e.g. 0 dark green … 3 yellow)
+    int32_t node = -1;      // skeleton node that carries it, −1 if none (canopy method)
+};
+
 struct Tree {
     // Node 0 is the root; every other node's parent has a smaller index.
     std::vector<SkeletonNode> nodes;
     // Graph endpoints of the method (Xu & Mould: every endpoint reached by a path).
     std::vector<int32_t> endpoints;
+    std::vector<Leaf> leaves;
 };
 
 // Children lists in CSR form (children of node i are child[offset[i] .. offset[i+1])).
