@@ -2,6 +2,8 @@
 
 #include <filesystem>
 
+#include "species/leaves.h"
+
 namespace sylva {
 
 SpeciesFile loadSpecies(const std::string& path) {
@@ -21,13 +23,42 @@ SpeciesFile loadSpecies(const std::string& path) {
     return s;
 }
 
+namespace {
+
+// The species' [leaves] table (shared by methods that do not place their own leaves).
+LeafOptions parseLeaves(Params& sp) {
+    LeafOptions o;
+    auto l = sp.optionalTable("leaves");
+    if (!l) return o;
+    o.enabled = true;
+    o.perTip = static_cast<int>(l->integer("per_tip", 5, Range::closed(0, 1000)));
+    o.alongTwig = l->number("along_twig", 0.4, Range::nonNegative());
+    auto [lo, hi] = l->interval("size", {0.08, 0.14}, Range::positive());
+    o.sizeMin = lo;
+    o.sizeMax = hi;
+    o.aspect = l->number("aspect", 0.6, Range::leftOpen(0, 10));
+    std::string orient = l->choice("orientation", "random", {"random", "sun"});
+    o.orientation = orient == "sun" ? LeafOrientation::kSun : LeafOrientation::kRandom;
+    o.sun = l->vec3("sun_direction", {0.3, 1.0, 0.2});
+    if (length(o.sun) < 1e-12) l->fail("sun_direction", "expected a non-zero direction");
+    o.sunWeight = l->number("sun_weight", 0.7, Range::closed(0, 1));
+    o.colourClasses = static_cast<int>(l->integer("colour_classes", 1, Range::closed(1, 254)));
+    o.colourJitter = l->number("colour_jitter", 0.1, Range::closed(0, 1));
+    l->finish();
+    return o;
+}
+
+}  // namespace
+
 std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
-                                                 const Overrides* overrides) {
+                                                 const Overrides* overrides, LeafOptions* leaves) {
     Params p(*species.table, species.path, "", &draw, overrides);
     p.string("name", "");
     p.string("description", "");
     std::string method = p.string("method");
     std::unique_ptr<GrowthMethod> m = makeGrowthMethod(method, p);
+    LeafOptions l = parseLeaves(p);
+    if (leaves) *leaves = l;
     p.finish();
     return m;
 }
@@ -36,10 +67,15 @@ GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides
                       bool threaded) {
     DrawContext draw;
     draw.seed = hashCombine(seed, 0x9a7a);  // parameter draws: their own stream
-    std::unique_ptr<GrowthMethod> method = instantiateSpecies(species, draw, overrides);
+    LeafOptions leaves;
+    std::unique_ptr<GrowthMethod> method = instantiateSpecies(species, draw, overrides, &leaves);
     GrownTree out;
     Rng rng(seed);
     out.tree = method->grow(rng, threaded, out.methodStats);
+    if (out.tree.leaves.empty()) {
+        Rng leafRng = Rng(seed).derive("leaves");  // its own stream: leaves never move branches
+        placeLeaves(out.tree, leaves, leafRng);
+    }
     out.sampled = std::move(draw.sampled);
     return out;
 }

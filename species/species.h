@@ -32,8 +32,10 @@ struct GrownTree {
 
 // The method for one instance: distributions drawn from `seed` (or, with draw = false, their
 // centres, for validation), `overrides` applied. Every key is checked. Throws SpecError.
+struct LeafOptions;
 std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
-                                                 const Overrides* overrides);
+                                                 const Overrides* overrides,
+                                                 LeafOptions* leaves = nullptr);
 
 // Grows one tree of the species with the given instance seed.
 GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
