@@ -1,0 +1,344 @@
+// Per-view outputs: transforms.json, grey PNGs, depth EXRs, the labelled point cloud and
+// contact sheets. Every file is written atomically (a unique temp sibling with the right
+// extension, so OIIO picks the format, then a rename).
+//
+// transforms.json (nerfstudio "OPENCV" model without distortion, also read by instant-ngp):
+//   top level: camera_model "OPENCV", fl_x, fl_y, cx, cy (pixels; pixel centres at i + 0.5,
+//   cx = w/2), w, h, k1 = k2 = p1 = p2 = 0; perspective: camera_angle_x / camera_angle_y
+//   (radians, instant-ngp); orthographic: "orthographic": true, ortho_height_m, ortho_width_m
+//   and fl_x = fl_y = pixels per metre (nerfstudio has no orthographic model: such files
+//   need a reader that honours the flag). Intrinsics go into every frame as well when the
+//   cameras do not share them.
+//   frames[]: file_path, transform_matrix (4 rows, camera-to-world, OpenGL convention:
+//   columns right, up, back = −forward, eye; world +y up, metres), depth_file_path and
+//   label_file_path when given, azimuth_deg, elevation_deg. Keys sorted (nlohmann default).
+//   Depth EXRs hold metres along the view axis (z-depth, not ray length), 0 = background:
+//   with nerfstudio pass `nerfstudio-data --depth-unit-scale-factor 1.0` (its default 1e-3
+//   expects millimetres).
+// Depth EXR: one FLOAT channel "Z", zip compression; identical pixels give identical bytes.
+// Point cloud PLY: binary little-endian, vertex = float x, y, z (world metres), uchar label
+//   (1 + branch order wood, 255 leaf; 1 when the view has no label image), uchar view
+//   (camera index); views in order, then rows top to bottom, then columns.
+// Contact sheets: 8-bit grey PNG, tiles in row-major order, `columns` per row (≤ 0: about
+//   square), 2 px light grey (200) gutters around and between tiles, white letterboxing.
+//   writeContactSheet draws silhouettes black (0) on white (255); writeContactSheetFromFiles
+//   shows its inputs as they are (no inversion), each fitted into tile × tile keeping its
+//   aspect (OIIO resize, default filter).
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/imageio.h>
+
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+#include "pipeline/atomic_file.h"
+#include "pipeline/views.h"
+
+namespace sylva {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kGutter = 2;            // contact sheet gutter, pixels
+constexpr uint8_t kGutterGrey = 200;  // light grey
+
+void createParent(const fs::path& path) {
+    if (!path.has_parent_path()) return;
+    std::error_code ec;
+    fs::create_directories(path.parent_path(), ec);
+    if (ec) {
+        throw std::runtime_error("cannot create directory '" + path.parent_path().string() +
+                                 "': " + ec.message());
+    }
+}
+
+// One image through OIIO to a temp file ending in the target's extension, then renamed.
+void writeImageAtomic(const fs::path& path, const OIIO::ImageSpec& spec, OIIO::TypeDesc format,
+                      const void* pixels, const char* what) {
+    createParent(path);
+    const fs::path tmp = uniqueTempPath(path, path.extension().string());
+    auto fail = [&](const std::string& why) {
+        std::error_code ignored;
+        fs::remove(tmp, ignored);
+        throw std::runtime_error(std::string("cannot write ") + what + " '" + path.string() +
+                                 "': " + why);
+    };
+    auto out = OIIO::ImageOutput::create(tmp.string());
+    if (!out) fail(OIIO::geterror());
+    if (!out->open(tmp.string(), spec)) fail(out->geterror());
+    if (!out->write_image(format, pixels)) {
+        std::string err = out->geterror();
+        out->close();
+        fail(err);
+    }
+    if (!out->close()) fail(out->geterror());
+    commitTempFile(tmp, path);
+}
+
+void checkSize(int width, int height, size_t have, const char* what) {
+    if (width <= 0 || height <= 0 || have != static_cast<size_t>(width) * height) {
+        throw std::invalid_argument(std::string(what) + ": " + std::to_string(have) +
+                                    " pixels for a " + std::to_string(width) + "x" +
+                                    std::to_string(height) + " image");
+    }
+}
+
+// Explicit little-endian byte order so the file is identical on any host.
+void putU32(std::string& out, uint32_t v) {
+    for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xff));
+}
+void putFloat(std::string& out, double v) {
+    const float f = static_cast<float>(v);
+    uint32_t bits;
+    std::memcpy(&bits, &f, 4);
+    putU32(out, bits);
+}
+
+nlohmann::json matrixRows(const Camera& c) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (int i = 0; i < 4; ++i) {
+        nlohmann::json row = nlohmann::json::array();
+        for (int j = 0; j < 4; ++j) row.push_back(c.cameraToWorld[i][j] + 0.0 /* no -0 */);
+        rows.push_back(row);
+    }
+    return rows;
+}
+
+// Intrinsics shared by nerfstudio (OPENCV model, no distortion) and instant-ngp.
+void putIntrinsics(nlohmann::json& j, const Camera& c) {
+    j["fl_x"] = c.fx();
+    j["fl_y"] = c.fy();
+    j["cx"] = c.cx();
+    j["cy"] = c.cy();
+    j["w"] = c.width;
+    j["h"] = c.height;
+    if (c.orthographic) {
+        j["orthographic"] = true;
+        j["ortho_height_m"] = c.orthoHeight;
+        j["ortho_width_m"] = c.orthoHeight * c.width / c.height;
+    } else {
+        j["camera_angle_x"] = 2.0 * std::atan(0.5 * c.width / c.fx());
+        j["camera_angle_y"] = 2.0 * std::atan(0.5 * c.height / c.fy());
+    }
+}
+
+bool sameIntrinsics(const Camera& a, const Camera& b) {
+    return a.width == b.width && a.height == b.height && a.orthographic == b.orthographic &&
+           a.fx() == b.fx() && a.fy() == b.fy() &&
+           (!a.orthographic || a.orthoHeight == b.orthoHeight);
+}
+
+// Tiles equally sized grey tiles into a sheet: `columns` columns (≤ 0: about square), a
+// kGutter-pixel light grey gutter around and between the tiles.
+struct Sheet {
+    int cols = 0, rows = 0, tileW = 0, tileH = 0, width = 0, height = 0;
+    std::vector<uint8_t> pixels;
+
+    Sheet(size_t count, int columns, int tw, int th) : tileW(tw), tileH(th) {
+        const int n = static_cast<int>(count);
+        cols = columns > 0 ? std::min(columns, n)
+                           : static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
+        rows = (n + cols - 1) / cols;
+        width = cols * (tileW + kGutter) + kGutter;
+        height = rows * (tileH + kGutter) + kGutter;
+        pixels.assign(static_cast<size_t>(width) * height, kGutterGrey);
+    }
+    // Writes tile i (row-major grid) from a w×h image centred in its cell (white letterbox).
+    template <typename PixelFn>
+    void put(size_t i, int w, int h, PixelFn pixel) {
+        const int cx0 = kGutter + static_cast<int>(i % cols) * (tileW + kGutter);
+        const int cy0 = kGutter + static_cast<int>(i / cols) * (tileH + kGutter);
+        for (int y = 0; y < tileH; ++y) {
+            std::fill_n(pixels.begin() + static_cast<size_t>(cy0 + y) * width + cx0, tileW,
+                        uint8_t{255});
+        }
+        const int ox = cx0 + (tileW - w) / 2, oy = cy0 + (tileH - h) / 2;
+        for (int y = 0; y < h; ++y) {
+            for (int x = 0; x < w; ++x) {
+                pixels[static_cast<size_t>(oy + y) * width + ox + x] = pixel(x, y);
+            }
+        }
+    }
+};
+
+// A grey PNG (or any OIIO-readable image) as float grey: 1 channel as is, 3+ channels by
+// Rec. 709 luminance of the first three, 2 channels (grey + alpha) by the first. Read
+// directly (no ImageCache), so a file rewritten during the run is never seen stale.
+OIIO::ImageBuf readGrey(const fs::path& path) {
+    auto in = OIIO::ImageInput::open(path.string());
+    if (!in) {
+        throw std::runtime_error("cannot read image '" + path.string() + "': " + OIIO::geterror());
+    }
+    const OIIO::ImageSpec& spec = in->spec();
+    const int w = spec.width, h = spec.height, nc = spec.nchannels;
+    std::vector<float> data(static_cast<size_t>(w) * h * nc);
+    if (w <= 0 || h <= 0 || nc <= 0 ||
+        !in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, data.data())) {
+        std::string err = in->geterror();
+        throw std::runtime_error("cannot read image '" + path.string() + "': " + err);
+    }
+    in->close();
+    OIIO::ImageBuf grey(OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT));
+    float* out = static_cast<float*>(grey.localpixels());
+    for (size_t k = 0; k < static_cast<size_t>(w) * h; ++k) {
+        const float* p = data.data() + k * nc;
+        out[k] = nc >= 3 ? 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2] : p[0];
+    }
+    return grey;
+}
+
+}  // namespace
+
+nlohmann::json transformsJson(const std::vector<Camera>& cameras,
+                              const std::vector<std::string>& imagePaths,
+                              const std::vector<std::string>& depthPaths,
+                              const std::vector<std::string>& labelPaths) {
+    const size_t n = cameras.size();
+    if (imagePaths.size() != n || (!depthPaths.empty() && depthPaths.size() != n) ||
+        (!labelPaths.empty() && labelPaths.size() != n)) {
+        throw std::invalid_argument("transformsJson: " + std::to_string(n) + " cameras but " +
+                                    std::to_string(imagePaths.size()) + " images, " +
+                                    std::to_string(depthPaths.size()) + " depth maps, " +
+                                    std::to_string(labelPaths.size()) + " label images");
+    }
+    nlohmann::json j;
+    j["camera_model"] = "OPENCV";
+    for (const char* k : {"k1", "k2", "p1", "p2"}) j[k] = 0.0;
+    bool shared = true;
+    for (const Camera& c : cameras) shared = shared && sameIntrinsics(c, cameras.front());
+    if (n > 0) putIntrinsics(j, cameras.front());
+    nlohmann::json frames = nlohmann::json::array();
+    for (size_t i = 0; i < n; ++i) {
+        nlohmann::json f;
+        f["file_path"] = imagePaths[i];
+        f["transform_matrix"] = matrixRows(cameras[i]);
+        if (!depthPaths.empty()) f["depth_file_path"] = depthPaths[i];
+        if (!labelPaths.empty()) f["label_file_path"] = labelPaths[i];
+        f["azimuth_deg"] = cameras[i].azimuthDeg;
+        f["elevation_deg"] = cameras[i].elevationDeg;
+        if (!shared) putIntrinsics(f, cameras[i]);
+        frames.push_back(std::move(f));
+    }
+    j["frames"] = std::move(frames);
+    return j;
+}
+
+void writeGreyPng(const fs::path& path, int width, int height, const std::vector<uint8_t>& pixels) {
+    checkSize(width, height, pixels.size(), "writeGreyPng");
+    OIIO::ImageSpec spec(width, height, 1, OIIO::TypeDesc::UINT8);
+    writeImageAtomic(path, spec, OIIO::TypeDesc::UINT8, pixels.data(), "PNG");
+}
+
+void writeDepthExr(const fs::path& path, int width, int height, const std::vector<float>& depth) {
+    checkSize(width, height, depth.size(), "writeDepthExr");
+    OIIO::ImageSpec spec(width, height, 1, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = {"Z"};
+    spec.attribute("compression", "zip");  // lossless
+    writeImageAtomic(path, spec, OIIO::TypeDesc::FLOAT, depth.data(), "depth EXR");
+}
+
+std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<ViewImage>& views) {
+    if (cameras.size() != views.size()) {
+        throw std::invalid_argument("pointCloudPly: " + std::to_string(cameras.size()) +
+                                    " cameras but " + std::to_string(views.size()) + " views");
+    }
+    if (views.size() > 256) {
+        throw std::invalid_argument("pointCloudPly: at most 256 views fit the uchar view index");
+    }
+    size_t count = 0;
+    for (size_t v = 0; v < views.size(); ++v) {
+        const ViewImage& view = views[v];
+        const size_t n = static_cast<size_t>(view.width) * view.height;
+        if (view.depth.size() != n || view.width != cameras[v].width ||
+            view.height != cameras[v].height || (!view.labels.empty() && view.labels.size() != n)) {
+            throw std::invalid_argument("pointCloudPly: view " + std::to_string(v) +
+                                        " has no depth map or does not match its camera");
+        }
+        for (float z : view.depth) count += z > 0;
+    }
+    std::string out;
+    out.reserve(400 + count * 14);
+    out += "ply\n";
+    out += "format binary_little_endian 1.0\n";
+    out += "comment generated by sylva: depth maps back-projected to world points (metres)\n";
+    out += "comment label: 1 + branch order for wood, 255 for leaves; view: camera index\n";
+    out += "element vertex " + std::to_string(count) + "\n";
+    out += "property float x\n";
+    out += "property float y\n";
+    out += "property float z\n";
+    out += "property uchar label\n";
+    out += "property uchar view\n";
+    out += "end_header\n";
+    for (size_t v = 0; v < views.size(); ++v) {
+        const ViewImage& view = views[v];
+        for (int y = 0; y < view.height; ++y) {
+            for (int x = 0; x < view.width; ++x) {
+                const size_t k = static_cast<size_t>(y) * view.width + x;
+                const float z = view.depth[k];
+                if (!(z > 0)) continue;
+                const Vec3 p = cameras[v].unproject(x + 0.5, y + 0.5, z);
+                putFloat(out, p.x);
+                putFloat(out, p.y);
+                putFloat(out, p.z);
+                out.push_back(static_cast<char>(view.labels.empty() ? 1 : view.labels[k]));
+                out.push_back(static_cast<char>(v));
+            }
+        }
+    }
+    return out;
+}
+
+void writeContactSheet(const fs::path& path, const std::vector<ViewImage>& views, int columns) {
+    if (views.empty()) throw std::invalid_argument("writeContactSheet: no views");
+    int tw = 0, th = 0;
+    for (const ViewImage& v : views) {
+        checkSize(v.width, v.height, v.silhouette.size(), "writeContactSheet");
+        tw = std::max(tw, v.width);
+        th = std::max(th, v.height);
+    }
+    Sheet sheet(views.size(), columns, tw, th);
+    for (size_t i = 0; i < views.size(); ++i) {
+        const ViewImage& v = views[i];
+        sheet.put(i, v.width, v.height, [&](int x, int y) {
+            return static_cast<uint8_t>(v.silhouette[static_cast<size_t>(y) * v.width + x] ? 0
+                                                                                           : 255);
+        });
+    }
+    writeGreyPng(path, sheet.width, sheet.height, sheet.pixels);
+}
+
+void writeContactSheetFromFiles(const fs::path& path, const std::vector<fs::path>& images,
+                                int columns, int tile) {
+    if (images.empty()) throw std::invalid_argument("writeContactSheetFromFiles: no images");
+    if (tile <= 0) {
+        throw std::invalid_argument("writeContactSheetFromFiles: tile size must be positive");
+    }
+    Sheet sheet(images.size(), columns, tile, tile);
+    for (size_t i = 0; i < images.size(); ++i) {
+        const OIIO::ImageBuf src = readGrey(images[i]);
+        const int w = src.spec().width, h = src.spec().height;
+        const double s = static_cast<double>(tile) / std::max(w, h);
+        const int rw = std::clamp(static_cast<int>(std::lround(w * s)), 1, tile);
+        const int rh = std::clamp(static_cast<int>(std::lround(h * s)), 1, tile);
+        OIIO::ImageBuf fitted;
+        if (rw == w && rh == h) {
+            fitted.copy(src);
+        } else if (!OIIO::ImageBufAlgo::resize(fitted, src, "", 0.0f,
+                                               OIIO::ROI(0, rw, 0, rh, 0, 1, 0, 1))) {
+            throw std::runtime_error("cannot resize '" + images[i].string() +
+                                     "': " + fitted.geterror());
+        }
+        std::vector<float> px(static_cast<size_t>(rw) * rh);
+        fitted.get_pixels(OIIO::ROI(0, rw, 0, rh, 0, 1, 0, 1), OIIO::TypeDesc::FLOAT, px.data());
+        sheet.put(i, rw, rh, [&](int x, int y) {
+            const float v = px[static_cast<size_t>(y) * rw + x];
+            return static_cast<uint8_t>(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f)));
+        });
+    }
+    writeGreyPng(path, sheet.width, sheet.height, sheet.pixels);
+}
+
+}  // namespace sylva

@@ -1,0 +1,843 @@
+// Views: cameras, the capsule / leaf-card renderer, silhouette statistics, transforms.json,
+// image writers, the labelled point cloud and contact sheets.
+#include "pipeline/views.h"
+
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "species/species.h"
+
+namespace sylva {
+namespace {
+
+namespace fs = std::filesystem;
+
+int32_t addNode(Tree& t, int32_t parent, Vec3 p, double r, int32_t order = 0) {
+    SkeletonNode n;
+    n.position = p;
+    n.radius = r;
+    n.parent = parent;
+    n.order = order;
+    t.nodes.push_back(n);
+    return static_cast<int32_t>(t.nodes.size() - 1);
+}
+
+Vec3 column(const Camera& c, int j) {
+    return {c.cameraToWorld[0][j], c.cameraToWorld[1][j], c.cameraToWorld[2][j]};
+}
+
+// A camera looking along −z from (0, 0, z) with +y up.
+Camera frontCamera(bool ortho, int w, int h, double eyeZ, double fovDeg, double orthoHeight) {
+    Camera c;
+    c.width = w;
+    c.height = h;
+    c.orthographic = ortho;
+    c.fovY = fovDeg * kPi / 180.0;
+    c.orthoHeight = orthoHeight;
+    for (int i = 0; i < 4; ++i) c.cameraToWorld[i][i] = 1.0;
+    c.cameraToWorld[2][3] = eyeZ;
+    return c;
+}
+
+// World metres per pixel at a depth.
+double footprint(const Camera& c, double depth) {
+    return c.orthographic ? 1.0 / c.fx() : depth / c.fx();
+}
+
+const Tree& grownTree() {
+    static const Tree tree = [] {
+        SpeciesFile species = loadSpecies(SYLVA_SOURCE_DIR "/species/presets/xm-a.toml");
+        return growSpecies(species, 1, nullptr, true).tree;
+    }();
+    return tree;
+}
+
+ViewOptions ringOptions(bool ortho) {
+    ViewOptions o;
+    o.count = 8;
+    o.orthographic = ortho;
+    o.elevationsDeg = {20, -10, 60};
+    o.randomAzimuth = false;
+    o.azimuthOffsetDeg = 10;
+    o.width = 256;
+    o.height = 192;
+    return o;
+}
+
+size_t at(const ViewImage& v, int x, int y) { return static_cast<size_t>(y) * v.width + x; }
+
+double pointSegmentDistance(const Vec3& p, const Vec3& a, const Vec3& b, double& t) {
+    const Vec3 e = b - a;
+    const double ee = dot(e, e);
+    t = ee > 0 ? std::clamp(dot(p - a, e) / ee, 0.0, 1.0) : 0.0;
+    return distance(p, a + e * t);
+}
+
+struct TempDir {
+    fs::path path;
+    TempDir() {
+        path = fs::temp_directory_path() / ("sylva-views-test-" + std::to_string(getpid()));
+        fs::remove_all(path);
+        fs::create_directories(path);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        fs::remove_all(path, ec);
+    }
+};
+
+std::string readBytes(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Cameras
+
+TEST(ViewCamera, ProjectUnprojectRoundTrip) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0}, 0.1);
+    addNode(t, 0, {0.5, 3, -0.2}, 0.05);
+    for (bool ortho : {false, true}) {
+        ViewOptions o = ringOptions(ortho);
+        o.width = 320;
+        o.height = 200;
+        Rng rng(3);
+        for (const Camera& c : makeCameras(t, o, rng)) {
+            for (double px : {0.0, 0.5, 17.25, 160.0, 319.9}) {
+                for (double py : {0.0, 99.5, 199.75}) {
+                    for (double depth : {0.5, 4.0, 13.0}) {
+                        const Vec3 w = c.unproject(px, py, depth);
+                        double qx, qy, qd;
+                        ASSERT_TRUE(c.project(w, qx, qy, qd));
+                        EXPECT_NEAR(qx, px, 1e-9);
+                        EXPECT_NEAR(qy, py, 1e-9);
+                        EXPECT_NEAR(qd, depth, 1e-12);
+                    }
+                }
+            }
+            // And world → pixel → world.
+            for (const SkeletonNode& n : t.nodes) {
+                double px, py, d;
+                ASSERT_TRUE(c.project(n.position, px, py, d));
+                const Vec3 back = c.unproject(px, py, d);
+                EXPECT_NEAR(distance(back, n.position), 0.0, 1e-12);
+            }
+        }
+    }
+}
+
+TEST(ViewCamera, PixelConventionAndIntrinsics) {
+    Camera c = frontCamera(false, 200, 100, 10.0, 90.0, 0);
+    EXPECT_NEAR(c.fx(), 50.0, 1e-12);  // (h/2)/tan(45°)
+    EXPECT_EQ(c.fy(), c.fx());
+    EXPECT_EQ(c.cx(), 100.0);
+    EXPECT_EQ(c.cy(), 50.0);
+    double px, py, d;
+    ASSERT_TRUE(c.project({1, 1, 8}, px, py, d));  // 2 m in front, up-right
+    EXPECT_NEAR(d, 2.0, 1e-12);
+    EXPECT_NEAR(px, 100 + 50 * 0.5, 1e-12);          // x right
+    EXPECT_NEAR(py, 50 - 50 * 0.5, 1e-12);           // y down
+    EXPECT_FALSE(c.project({0, 0, 11}, px, py, d));  // behind
+
+    Camera o = frontCamera(true, 200, 100, 10.0, 0, 4.0);
+    EXPECT_NEAR(o.fx(), 25.0, 1e-12);  // pixels per metre
+    ASSERT_TRUE(o.project({1, -1, 3}, px, py, d));
+    EXPECT_NEAR(px, 125.0, 1e-12);
+    EXPECT_NEAR(py, 75.0, 1e-12);
+    EXPECT_NEAR(d, 7.0, 1e-12);
+}
+
+TEST(ViewCamera, RingFramesTheBoundingSphere) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0}, 0.2);
+    addNode(t, 0, {0, 4, 0}, 0.1);
+    addNode(t, 1, {1.5, 5, 0.5}, 0.05, 1);
+    Leaf leaf;
+    leaf.position = {-1, 5, 0};
+    leaf.size = 0.4;
+    t.leaves.push_back(leaf);
+    for (bool ortho : {false, true}) {
+        ViewOptions o = ringOptions(ortho);
+        Rng rng(1);
+        const auto cams = makeCameras(t, o, rng);
+        ASSERT_EQ(cams.size(), 8u);
+        // Every camera looks at the same centre (projects to the principal point) from the
+        // same distance.
+        const Vec3 eye0 = column(cams[0], 3);
+        Vec3 centre;
+        {
+            // Centre along the view axis of camera 0 at the framing distance: recover it from
+            // two cameras' axes (they intersect at the centre).
+            const Vec3 f0 = -column(cams[0], 2), f2 = -column(cams[2], 2);
+            const Vec3 e2 = column(cams[2], 3);
+            // Solve eye0 + s f0 ≈ e2 + u f2 (least squares).
+            const double a = dot(f0, f0), b = dot(f0, f2), c = dot(f2, f2);
+            const Vec3 w = eye0 - e2;
+            const double d = dot(f0, w), e = dot(f2, w);
+            const double s = (b * e - c * d) / (a * c - b * b);
+            centre = eye0 + f0 * s;
+        }
+        for (int k = 0; k < 8; ++k) {
+            const Camera& c = cams[k];
+            EXPECT_NEAR(c.azimuthDeg, 10 + 45.0 * k, 1e-12);
+            EXPECT_EQ(c.elevationDeg, o.elevationsDeg[k % 3]);
+            // Orthonormal, right-handed, level right vector.
+            const Vec3 r = column(c, 0), u = column(c, 1), b = column(c, 2);
+            EXPECT_NEAR(dot(r, u), 0, 1e-12);
+            EXPECT_NEAR(dot(r, b), 0, 1e-12);
+            EXPECT_NEAR(length(cross(r, u) - b), 0, 1e-12);
+            EXPECT_NEAR(r.y, 0, 1e-12);
+            EXPECT_GT(u.y, 0);
+            EXPECT_NEAR(std::asin(b.y) * 180 / kPi, c.elevationDeg, 1e-9);
+            EXPECT_EQ(c.cameraToWorld[3][3], 1.0);
+            double px, py, d;
+            ASSERT_TRUE(c.project(centre, px, py, d));
+            EXPECT_NEAR(px, c.cx(), 1e-6);
+            EXPECT_NEAR(py, c.cy(), 1e-6);
+            EXPECT_NEAR(distance(column(c, 3), centre), distance(eye0, centre), 1e-9);
+            // Everything (node spheres' extreme points, leaf centre) is inside the image.
+            for (const SkeletonNode& n : t.nodes) {
+                for (const Vec3& dir : {r, -r, u, -u}) {
+                    ASSERT_TRUE(c.project(n.position + dir * n.radius, px, py, d));
+                    EXPECT_GE(px, 0);
+                    EXPECT_LE(px, c.width);
+                    EXPECT_GE(py, 0);
+                    EXPECT_LE(py, c.height);
+                }
+            }
+        }
+        if (ortho) {
+            EXPECT_GT(cams[0].orthoHeight, 0);
+        } else {
+            EXPECT_NEAR(cams[0].fovY, 40 * kPi / 180, 1e-12);
+        }
+    }
+}
+
+TEST(ViewCamera, AzimuthOffsetAndElevationRange) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0}, 0.1);
+    addNode(t, 0, {0, 1, 0}, 0.1);
+    ViewOptions o;
+    o.count = 5;
+    o.elevationsDeg = {-10, 70};
+    o.elevationRange = true;
+    o.randomAzimuth = true;
+    Rng a(7), b(7), c(8);
+    const auto ca = makeCameras(t, o, a), cb = makeCameras(t, o, b), cc = makeCameras(t, o, c);
+    ASSERT_EQ(ca.size(), 5u);
+    const double offset = ca[0].azimuthDeg;
+    EXPECT_GE(offset, 0.0);
+    EXPECT_LT(offset, 360.0);
+    EXPECT_EQ(cb[0].azimuthDeg, offset);
+    EXPECT_NE(cc[0].azimuthDeg, offset);
+    for (int k = 0; k < 5; ++k) {
+        EXPECT_NEAR(ca[k].azimuthDeg, offset + 72.0 * k, 1e-9);
+        EXPECT_NEAR(ca[k].elevationDeg, -10 + 20.0 * k, 1e-12);
+    }
+    o.count = 0;
+    EXPECT_TRUE(makeCameras(t, o, a).empty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Renderer
+
+TEST(ViewRender, GrownTreeNodesLandInsideTheSilhouette) {
+    const Tree& tree = grownTree();
+    ASSERT_GT(tree.nodes.size(), 100u);
+    for (bool ortho : {false, true}) {
+        Rng rng(2);
+        const auto cams = makeCameras(tree, ringOptions(ortho), rng);
+        for (const Camera& c : cams) {
+            const ViewImage v = renderView(tree, c, true, true);
+            ASSERT_EQ(v.silhouette.size(), size_t(c.width) * c.height);
+            ASSERT_EQ(v.depth.size(), v.silhouette.size());
+            ASSERT_EQ(v.labels.size(), v.silhouette.size());
+            int behind = 0;
+            for (const SkeletonNode& n : tree.nodes) {
+                double px, py, d;
+                ASSERT_TRUE(c.project(n.position, px, py, d));
+                const int x = static_cast<int>(std::floor(px)),
+                          y = static_cast<int>(std::floor(py));
+                ASSERT_TRUE(x >= 0 && x < c.width && y >= 0 && y < c.height);
+                ASSERT_EQ(v.silhouette[at(v, x, y)], 255) << "node at " << px << "," << py;
+                // The pixel holds the node, so its depth is never behind the node (it may be
+                // much nearer: the node's own surface, or another branch in front).
+                behind += v.depth[at(v, x, y)] > d * (1 + 1e-6);
+            }
+            EXPECT_EQ(behind, 0);
+            // Background pixels: depth 0, label 0; tree pixels: depth > 0, label ≠ 0.
+            for (size_t k = 0; k < v.silhouette.size(); ++k) {
+                ASSERT_EQ(v.silhouette[k] == 255, v.depth[k] > 0);
+                ASSERT_EQ(v.silhouette[k] == 255, v.labels[k] != kLabelBackground);
+            }
+            const double cov = silhouetteCoverage(v);
+            EXPECT_GT(cov, 0.01);
+            EXPECT_LT(cov, 0.9);
+        }
+    }
+}
+
+// Brute force: the nearest entry of the pixel-centre ray into the spheres of radius r(t)
+// about the axis points a + t (b − a), t sampled finely; depth along the view axis, or −1.
+double bruteFront(const Camera& c, const SkeletonNode& a, const SkeletonNode& b, int x, int y) {
+    const Vec3 eye = column(c, 3);
+    const Vec3 p1 = c.unproject(x + 0.5, y + 0.5, 1.0);
+    const Vec3 dir = c.orthographic ? -column(c, 2) : p1 - eye;  // depth 1 per unit of σ
+    const Vec3 origin = c.orthographic ? p1 - dir : eye;
+    const double len = length(dir);
+    double best = -1;
+    for (int i = 0; i <= 4000; ++i) {
+        const double t = i / 4000.0;
+        const Vec3 centre = a.position + (b.position - a.position) * t;
+        const double r = a.radius + (b.radius - a.radius) * t;
+        const Vec3 oc = centre - origin;
+        const double proj = dot(oc, dir) / len;
+        const double lat2 = dot(oc, oc) - proj * proj;
+        if (lat2 > r * r) continue;
+        const double sigma = (proj - std::sqrt(r * r - lat2)) / len;
+        if (best < 0 || sigma < best) best = sigma;
+    }
+    return best;
+}
+
+TEST(ViewRender, DepthOfAThickSegmentIsItsFrontSurface) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0}, 0.3);
+    addNode(t, 0, {0.2, 2, 0.3}, 0.15);
+    for (bool ortho : {false, true}) {
+        Rng rng(5);
+        ViewOptions o = ringOptions(ortho);
+        o.width = o.height = 64;
+        for (const Camera& c : makeCameras(t, o, rng)) {
+            const ViewImage v = renderView(t, c, true, false);
+            EXPECT_TRUE(v.labels.empty());
+            int compared = 0, missed = 0;
+            for (int y = 0; y < v.height; y += 2) {
+                for (int x = 0; x < v.width; x += 2) {
+                    const double truth = bruteFront(c, t.nodes[0], t.nodes[1], x, y);
+                    const float z = v.depth[at(v, x, y)];
+                    if (truth < 0) continue;  // the ray misses (drawn or not, no reference)
+                    if (z == 0) {
+                        ++missed;  // a hit the 2-D screen capsule left out
+                        continue;
+                    }
+                    EXPECT_NEAR(z, truth, 2e-4 * truth)
+                        << x << "," << y << " az " << c.azimuthDeg << " ortho " << ortho;
+                    ++compared;
+                }
+            }
+            EXPECT_GT(compared, 50);
+            EXPECT_LE(missed, compared / 50);
+            // At the nodes' pixels the surface is in front of the node, at most by the
+            // radius stretched along the oblique ray.
+            for (const SkeletonNode& n : t.nodes) {
+                double px, py, d;
+                ASSERT_TRUE(c.project(n.position, px, py, d));
+                const size_t k = at(v, static_cast<int>(px), static_cast<int>(py));
+                ASSERT_EQ(v.silhouette[k], 255);
+                EXPECT_LT(v.depth[k], d);
+                EXPECT_GT(v.depth[k], d - 3 * n.radius);
+            }
+        }
+    }
+    // Seen square-on (a vertical segment from the side): the pixel of a node sees the front
+    // of the node's sphere, |depth − (node depth − r)| ≤ r + pixel footprint.
+    Tree upright;
+    addNode(upright, -1, {0, 0, 0}, 0.2);
+    addNode(upright, 0, {0, 2, 0}, 0.1);
+    for (bool ortho : {false, true}) {
+        ViewOptions o = ringOptions(ortho);
+        o.elevationsDeg = {0};
+        Rng rng(5);
+        for (const Camera& c : makeCameras(upright, o, rng)) {
+            const ViewImage v = renderView(upright, c, true, false);
+            for (const SkeletonNode& n : upright.nodes) {
+                double px, py, d;
+                ASSERT_TRUE(c.project(n.position, px, py, d));
+                const size_t k = at(v, static_cast<int>(px), static_cast<int>(py));
+                EXPECT_LE(std::abs(v.depth[k] - (d - n.radius)), n.radius + footprint(c, d));
+                EXPECT_NEAR(v.depth[k], d - n.radius, 0.02 * n.radius + footprint(c, d));
+            }
+        }
+    }
+}
+
+TEST(ViewRender, ThinSegmentCoversItsWholeProjectedLength) {
+    for (bool ortho : {false, true}) {
+        // 10 px per metre at the segment (z = 0) in both projections.
+        Camera c = frontCamera(ortho, 120, 100, 10.0, 2 * std::atan(5.0 / 10.0) * 180 / kPi, 10.0);
+        ASSERT_NEAR(footprint(c, 10.0), 0.1, 1e-12);
+        for (Vec3 end : {Vec3{4.5, 0.3, 0}, Vec3{4.0, 3.2, 0}, Vec3{-1.2, 4.4, 0}}) {
+            Tree t;
+            const Vec3 start{-4.1, -2.3, 0};
+            addNode(t, -1, start, 0.005);  // 0.05 px radius: 1/10 px wide
+            addNode(t, 0, end, 0.005);
+            const ViewImage v = renderView(t, c, false, false);
+            EXPECT_TRUE(v.depth.empty());
+            // Every pixel the axis passes through is drawn (sample the axis densely).
+            for (int i = 0; i <= 2000; ++i) {
+                const Vec3 p = start + (end - start) * (i / 2000.0);
+                double px, py, d;
+                ASSERT_TRUE(c.project(p, px, py, d));
+                ASSERT_EQ(v.silhouette[at(v, static_cast<int>(px), static_cast<int>(py))], 255)
+                    << px << "," << py;
+            }
+            // … and the line stays thin: at most 3 pixels across the major axis.
+            double ax, ay, bx, by, d;
+            c.project(start, ax, ay, d);
+            c.project(end, bx, by, d);
+            const bool steep = std::abs(by - ay) > std::abs(bx - ax);
+            int maxRun = 0;
+            size_t total = 0;
+            for (int i = 0; i < (steep ? c.height : c.width); ++i) {
+                int run = 0;
+                for (int j = 0; j < (steep ? c.width : c.height); ++j) {
+                    run += v.silhouette[steep ? at(v, j, i) : at(v, i, j)] != 0;
+                }
+                maxRun = std::max(maxRun, run);
+                total += run;
+            }
+            EXPECT_LE(maxRun, 3);
+            const double len = std::max(std::abs(bx - ax), std::abs(by - ay));
+            EXPECT_GE(total, len - 1);
+            EXPECT_LE(total, 2.1 * len + 6);
+        }
+    }
+}
+
+TEST(ViewRender, LabelsWoodOrderAndLeaves) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0}, 0.1);         // trunk, order 0
+    addNode(t, 0, {0, 2, 0}, 0.08);         //
+    addNode(t, 1, {1.2, 2.6, 0}, 0.03, 1);  // lateral branch, order 1
+    Leaf leaf;                              // a card facing the camera, in front of
+    leaf.position = {0, 1.0, 0.5};          // the trunk's middle, 0.4 m square
+    leaf.normal = {0, 0, 1};
+    leaf.tangent = {0, 1, 0};
+    leaf.size = 0.4;
+    leaf.aspect = 1.0;
+    t.leaves.push_back(leaf);
+    for (bool ortho : {false, true}) {
+        Camera c = frontCamera(ortho, 200, 200, 10.0, 40, 7.0);
+        const ViewImage v = renderView(t, c, true, true);
+        auto labelAt = [&](const Vec3& p, float* depth = nullptr) -> int {
+            double px, py, d;
+            EXPECT_TRUE(c.project(p, px, py, d));
+            const int x = static_cast<int>(std::floor(px)), y = static_cast<int>(std::floor(py));
+            EXPECT_TRUE(x >= 0 && x < c.width && y >= 0 && y < c.height);
+            if (!(x >= 0 && x < c.width && y >= 0 && y < c.height)) return -1;
+            if (depth) *depth = v.depth[at(v, x, y)];
+            return v.labels[at(v, x, y)];
+        };
+        float z;
+        EXPECT_EQ(labelAt({0, 1.0, 0.5}, &z), kLabelLeaf);  // the leaf hides the trunk
+        EXPECT_NEAR(z, 9.5f, 1e-5);                         // card faces the camera: exact
+        EXPECT_EQ(labelAt({0.15, 1.15, 0.5}), kLabelLeaf);
+        EXPECT_EQ(labelAt({0, 0.4, 0}, &z), woodLabel(0));
+        EXPECT_EQ(woodLabel(0), 1);
+        EXPECT_NEAR(z, 10.0 - 0.096, 0.01);  // the front of the trunk
+        EXPECT_EQ(labelAt({0, 1.7, 0}), 1);
+        EXPECT_EQ(labelAt({0.6, 2.3, 0}), 2);  // order 1
+        EXPECT_EQ(labelAt({-0.8, 1.0, 0}, &z), kLabelBackground);
+        EXPECT_EQ(z, 0.0f);
+        EXPECT_EQ(labelAt({0.3, 1.0, 0.5}), kLabelBackground);  // beside the card
+    }
+}
+
+TEST(ViewRender, LeafCardSeenObliquelyHasPerspectiveCorrectDepth) {
+    Tree t;
+    Leaf leaf;
+    leaf.position = {0, 0, 0};
+    leaf.normal = normalize(Vec3{0, 1, 1});  // tilted 45° about x
+    leaf.tangent = {1, 0, 0};
+    leaf.size = 2.0;
+    leaf.aspect = 1.0;
+    t.leaves.push_back(leaf);
+    Camera c = frontCamera(false, 128, 128, 3.0, 60, 0);
+    const ViewImage v = renderView(t, c, true, true);
+    int checked = 0;
+    for (int y = 0; y < v.height; ++y) {
+        for (int x = 0; x < v.width; ++x) {
+            const float z = v.depth[at(v, x, y)];
+            if (z <= 0) continue;
+            ASSERT_EQ(v.labels[at(v, x, y)], kLabelLeaf);
+            // The point seen lies on the card plane (n · p = 0).
+            const Vec3 p = c.unproject(x + 0.5, y + 0.5, z);
+            EXPECT_NEAR(dot(p, leaf.normal), 0.0, 1e-5);
+            ++checked;
+        }
+    }
+    EXPECT_GT(checked, 500);
+}
+
+TEST(ViewRender, SameBytesOnOneThreadAndMany) {
+    const Tree& tree = grownTree();
+    Tree withLeaves = tree;
+    Rng rng(11);
+    for (size_t i = 1; i < tree.nodes.size(); i += 7) {
+        Leaf l;
+        l.position = tree.nodes[i].position;
+        l.normal = rng.unitVector();
+        l.tangent = anyPerpendicular(l.normal);
+        l.size = 0.15;
+        withLeaves.leaves.push_back(l);
+    }
+    for (bool ortho : {false, true}) {
+        Rng r(4);
+        ViewOptions o = ringOptions(ortho);
+        o.count = 3;
+        for (const Camera& c : makeCameras(withLeaves, o, r)) {
+            ViewImage one;
+            {
+                tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+                one = renderView(withLeaves, c, true, true);
+            }
+            const ViewImage many = renderView(withLeaves, c, true, true);
+            EXPECT_EQ(one.silhouette, many.silhouette);
+            EXPECT_EQ(one.labels, many.labels);
+            ASSERT_EQ(one.depth.size(), many.depth.size());
+            EXPECT_EQ(0, std::memcmp(one.depth.data(), many.depth.data(),
+                                     one.depth.size() * sizeof(float)));
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Silhouette statistics
+
+ViewImage blank(int w, int h) {
+    ViewImage v;
+    v.width = w;
+    v.height = h;
+    v.silhouette.assign(static_cast<size_t>(w) * h, 0);
+    return v;
+}
+
+TEST(ViewStats, CoverageAndBoxCountingKnownAnswers) {
+    ViewImage v = blank(256, 256);
+    EXPECT_EQ(silhouetteCoverage(v), 0.0);
+    EXPECT_EQ(boxCountingDimension(v), 0.0);
+
+    ViewImage square = blank(256, 256);
+    for (int y = 64; y < 192; ++y) {
+        for (int x = 64; x < 192; ++x) square.silhouette[at(square, x, y)] = 255;
+    }
+    EXPECT_DOUBLE_EQ(silhouetteCoverage(square), 0.25);
+    EXPECT_NEAR(boxCountingDimension(square), 2.0, 0.1);
+
+    ViewImage line = blank(256, 256);
+    for (int x = 10; x < 246; ++x) line.silhouette[at(line, x, 100)] = 255;
+    EXPECT_NEAR(boxCountingDimension(line), 1.0, 0.1);
+
+    ViewImage diagonal = blank(256, 256);
+    for (int x = 0; x < 256; ++x) diagonal.silhouette[at(diagonal, x, x)] = 255;
+    EXPECT_NEAR(boxCountingDimension(diagonal), 1.0, 0.1);
+
+    // A small image still uses three box sizes.
+    ViewImage small = blank(16, 16);
+    for (int y = 0; y < 16; ++y) {
+        for (int x = 0; x < 16; ++x) small.silhouette[at(small, x, y)] = 255;
+    }
+    EXPECT_NEAR(boxCountingDimension(small), 2.0, 1e-9);
+
+    // A grown tree lies in between.
+    Rng rng(1);
+    const Tree& tree = grownTree();
+    const ViewImage tv =
+        renderView(tree, makeCameras(tree, ringOptions(false), rng)[0], false, false);
+    const double dim = boxCountingDimension(tv);
+    EXPECT_GT(dim, 1.0);
+    EXPECT_LT(dim, 2.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// transforms.json, PLY, image files
+
+TEST(ViewTransforms, NerfstudioFields) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0}, 0.1);
+    addNode(t, 0, {0, 2, 0}, 0.1);
+    for (bool ortho : {false, true}) {
+        Rng rng(1);
+        ViewOptions o = ringOptions(ortho);
+        o.width = 320;
+        o.height = 240;
+        const auto cams = makeCameras(t, o, rng);
+        std::vector<std::string> images, depths, labels;
+        for (int k = 0; k < 8; ++k) {
+            images.push_back("views/" + std::to_string(k) + ".png");
+            depths.push_back("views/" + std::to_string(k) + "_depth.exr");
+        }
+        const nlohmann::json j = transformsJson(cams, images, depths, labels);
+        EXPECT_EQ(j.at("camera_model"), "OPENCV");
+        EXPECT_EQ(j.at("w"), 320);
+        EXPECT_EQ(j.at("h"), 240);
+        EXPECT_DOUBLE_EQ(j.at("fl_x").get<double>(), cams[0].fx());
+        EXPECT_DOUBLE_EQ(j.at("fl_y").get<double>(), cams[0].fy());
+        EXPECT_DOUBLE_EQ(j.at("cx").get<double>(), 160.0);
+        EXPECT_DOUBLE_EQ(j.at("cy").get<double>(), 120.0);
+        for (const char* k : {"k1", "k2", "p1", "p2"}) EXPECT_EQ(j.at(k).get<double>(), 0.0);
+        if (ortho) {
+            EXPECT_TRUE(j.at("orthographic").get<bool>());
+            EXPECT_DOUBLE_EQ(j.at("ortho_height_m").get<double>(), cams[0].orthoHeight);
+            EXPECT_FALSE(j.contains("camera_angle_x"));
+        } else {
+            EXPECT_FALSE(j.contains("orthographic"));
+            EXPECT_NEAR(j.at("camera_angle_x").get<double>(), 2 * std::atan(160.0 / cams[0].fx()),
+                        1e-12);
+        }
+        ASSERT_EQ(j.at("frames").size(), 8u);
+        for (int k = 0; k < 8; ++k) {
+            const auto& f = j["frames"][k];
+            EXPECT_EQ(f.at("file_path"), images[k]);
+            EXPECT_EQ(f.at("depth_file_path"), depths[k]);
+            EXPECT_FALSE(f.contains("label_file_path"));
+            EXPECT_DOUBLE_EQ(f.at("azimuth_deg").get<double>(), cams[k].azimuthDeg);
+            EXPECT_DOUBLE_EQ(f.at("elevation_deg").get<double>(), cams[k].elevationDeg);
+            const auto& m = f.at("transform_matrix");
+            ASSERT_EQ(m.size(), 4u);
+            auto col = [&](int c) {
+                return Vec3{m[0][c].get<double>(), m[1][c].get<double>(), m[2][c].get<double>()};
+            };
+            const Vec3 eye = col(3);
+            EXPECT_EQ(eye, column(cams[k], 3));
+            // Third column = −forward: from the look-at centre (the box centre) to the eye.
+            const Vec3 centre{0, 1, 0};
+            EXPECT_NEAR(length(col(2) - normalize(eye - centre)), 0.0, 1e-12);
+            EXPECT_EQ(m[3], nlohmann::json({0, 0, 0, 1}));
+        }
+        EXPECT_THROW(transformsJson(cams, {"a.png"}, {}, {}), std::invalid_argument);
+    }
+}
+
+TEST(ViewPointCloud, PointsLieOnTheSkeleton) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0}, 0.12);
+    addNode(t, 0, {0, 1.5, 0}, 0.08);
+    addNode(t, 1, {0.8, 2.2, 0.3}, 0.03, 1);
+    addNode(t, 1, {-0.5, 2.5, -0.4}, 0.02, 1);
+    addNode(t, 3, {-0.6, 2.9, -0.2}, 0.004, 2);  // sub-pixel twig
+    ViewOptions o = ringOptions(false);
+    o.count = 4;
+    o.width = 96;
+    o.height = 96;
+    Rng rng(9);
+    const auto cams = makeCameras(t, o, rng);
+    std::vector<ViewImage> views;
+    size_t expected = 0;
+    for (size_t v = 0; v < cams.size(); ++v) {
+        views.push_back(renderView(t, cams[v], true, v != 1));  // view 1: no labels
+        for (float z : views.back().depth) expected += z > 0;
+    }
+    const std::string ply = pointCloudPly(cams, views);
+    const std::string endHeader = "end_header\n";
+    const size_t body = ply.find(endHeader);
+    ASSERT_NE(body, std::string::npos);
+    const std::string header = ply.substr(0, body);
+    EXPECT_NE(header.find("format binary_little_endian 1.0"), std::string::npos);
+    EXPECT_NE(header.find("element vertex " + std::to_string(expected) + "\n"), std::string::npos);
+    EXPECT_NE(header.find("property float x\nproperty float y\nproperty float z\n"
+                          "property uchar label\nproperty uchar view\n"),
+              std::string::npos);
+    const char* p = ply.data() + body + endHeader.size();
+    ASSERT_EQ(ply.size() - (body + endHeader.size()), expected * 14);
+    int lastView = -1;
+    for (size_t i = 0; i < expected; ++i, p += 14) {
+        float xyz[3];
+        std::memcpy(xyz, p, 12);  // the test host is little-endian
+        const uint8_t label = static_cast<uint8_t>(p[12]);
+        const int view = static_cast<uint8_t>(p[13]);
+        ASSERT_GE(view, lastView);  // (view, row, column) order
+        lastView = view;
+        const Vec3 q{xyz[0], xyz[1], xyz[2]};
+        double px, py, d;
+        ASSERT_TRUE(cams[view].project(q, px, py, d));
+        const double tol = 1.5 * footprint(cams[view], d) + 1e-5;
+        // Within tolerance of some segment's surface, and labelled like one such segment.
+        bool near = false, labelOk = view == 1 && label == 1;  // view 1 has no labels: 1
+        for (size_t n = 1; n < t.nodes.size(); ++n) {
+            double s;
+            const SkeletonNode& a = t.nodes[t.nodes[n].parent];
+            const SkeletonNode& b = t.nodes[n];
+            const double dist = pointSegmentDistance(q, a.position, b.position, s) -
+                                (a.radius + s * (b.radius - a.radius));
+            if (dist <= tol) {
+                near = true;
+                labelOk |= view != 1 && label == woodLabel(b.order);
+            }
+        }
+        ASSERT_TRUE(near) << "point " << i << " view " << view;
+        EXPECT_TRUE(labelOk) << "point " << i << " label " << int(label);
+    }
+    EXPECT_EQ(lastView, 3);
+    // Deterministic.
+    EXPECT_EQ(pointCloudPly(cams, views), ply);
+    // Views without depth cannot be back-projected.
+    views[0].depth.clear();
+    EXPECT_THROW(pointCloudPly(cams, views), std::invalid_argument);
+}
+
+TEST(ViewWriters, PngAndExrRoundTrip) {
+    TempDir dir;
+    const int w = 37, h = 23;
+    std::vector<uint8_t> grey(w * h);
+    std::vector<float> depth(w * h);
+    for (int k = 0; k < w * h; ++k) {
+        grey[k] = static_cast<uint8_t>((k * 37) % 256);
+        depth[k] = k % 5 == 0 ? 0.0f : 0.1f + 1.0f / (k + 3) + k * 1e-3f;
+    }
+    const fs::path png = dir.path / "sub" / "a.png";
+    const fs::path exr = dir.path / "sub" / "a.exr";
+    writeGreyPng(png, w, h, grey);
+    writeDepthExr(exr, w, h, depth);
+    {
+        auto in = OIIO::ImageInput::open(png.string());
+        ASSERT_TRUE(in);
+        EXPECT_EQ(in->spec().width, w);
+        EXPECT_EQ(in->spec().height, h);
+        EXPECT_EQ(in->spec().nchannels, 1);
+        EXPECT_EQ(in->spec().format, OIIO::TypeDesc::UINT8);
+        std::vector<uint8_t> back(w * h);
+        ASSERT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::UINT8, back.data()));
+        EXPECT_EQ(back, grey);
+    }
+    {
+        auto in = OIIO::ImageInput::open(exr.string());
+        ASSERT_TRUE(in);
+        EXPECT_EQ(in->spec().nchannels, 1);
+        EXPECT_EQ(in->spec().channelnames.at(0), "Z");
+        EXPECT_EQ(in->spec().format, OIIO::TypeDesc::FLOAT);
+        std::vector<float> back(w * h);
+        ASSERT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, back.data()));
+        EXPECT_EQ(0, std::memcmp(back.data(), depth.data(), depth.size() * sizeof(float)));
+    }
+    // Same pixels → same bytes (nothing time-varying is embedded).
+    const std::string pngBytes = readBytes(png), exrBytes = readBytes(exr);
+    writeGreyPng(png, w, h, grey);
+    writeDepthExr(exr, w, h, depth);
+    EXPECT_EQ(readBytes(png), pngBytes);
+    EXPECT_EQ(readBytes(exr), exrBytes);
+    // No temp files left behind.
+    size_t files = 0;
+    for (const auto& e : fs::directory_iterator(dir.path / "sub")) files += e.is_regular_file();
+    EXPECT_EQ(files, 2u);
+    EXPECT_THROW(writeGreyPng(png, w, h + 1, grey), std::invalid_argument);
+    EXPECT_THROW(writeDepthExr(exr, w + 1, h, depth), std::invalid_argument);
+}
+
+std::vector<uint8_t> readGreyFile(const fs::path& p, int& w, int& h) {
+    auto in = OIIO::ImageInput::open(p.string());
+    EXPECT_TRUE(in);
+    if (!in) return {};
+    w = in->spec().width;
+    h = in->spec().height;
+    EXPECT_EQ(in->spec().nchannels, 1);
+    std::vector<uint8_t> px(static_cast<size_t>(w) * h);
+    EXPECT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::UINT8, px.data()));
+    return px;
+}
+
+TEST(ViewContactSheet, TilesSilhouettesBlackOnWhite) {
+    TempDir dir;
+    std::vector<ViewImage> views;
+    for (int k = 0; k < 5; ++k) {
+        ViewImage v = blank(30, 20);
+        v.silhouette[at(v, k, 3)] = 255;
+        views.push_back(v);
+    }
+    const fs::path sheet = dir.path / "sheet.png";
+    writeContactSheet(sheet, views, 3);
+    int w = 0, h = 0;
+    const auto px = readGreyFile(sheet, w, h);
+    EXPECT_EQ(w, 3 * 30 + 4 * 2);
+    EXPECT_EQ(h, 2 * 20 + 3 * 2);
+    auto pix = [&](int x, int y) { return px.at(static_cast<size_t>(y) * w + x); };
+    EXPECT_EQ(pix(0, 0), 200);                    // gutter
+    EXPECT_EQ(pix(2 + 30, 10), 200);              // gutter between columns
+    EXPECT_EQ(pix(2, 2 + 3), 0);                  // view 0's tree pixel: black
+    EXPECT_EQ(pix(3, 2 + 3), 255);                // background: white
+    EXPECT_EQ(pix(2 + 32 + 1, 2 + 3), 0);         // view 1, pixel (1, 3)
+    EXPECT_EQ(pix(2 + 32 + 4, 2 + 22 + 3), 0);    // view 4 (row 1, column 1), pixel (4, 3)
+    EXPECT_EQ(pix(2 + 64 + 5, 2 + 22 + 5), 200);  // empty cell stays grey
+}
+
+TEST(ViewContactSheet, FromFilesFitsEachImageInItsTile) {
+    TempDir dir;
+    std::vector<fs::path> files;
+    for (int k = 0; k < 3; ++k) {
+        const int w = k == 1 ? 80 : 40, h = 40;
+        std::vector<uint8_t> px(w * h, 255);
+        for (int y = 0; y < h; ++y) {
+            for (int x = 0; x < w; ++x) {
+                if (x < w / 2) px[y * w + x] = 0;  // left half black
+            }
+        }
+        files.push_back(dir.path / ("in" + std::to_string(k) + ".png"));
+        writeGreyPng(files.back(), w, h, px);
+    }
+    const fs::path sheet = dir.path / "species.png";
+    writeContactSheetFromFiles(sheet, files, 2, 20);
+    int w = 0, h = 0;
+    const auto px = readGreyFile(sheet, w, h);
+    EXPECT_EQ(w, 2 * 20 + 3 * 2);
+    EXPECT_EQ(h, 2 * 20 + 3 * 2);
+    auto pix = [&](int x, int y) { return px.at(static_cast<size_t>(y) * w + x); };
+    EXPECT_EQ(pix(2 + 2, 2 + 10), 0);     // tile 0: left half black
+    EXPECT_EQ(pix(2 + 17, 2 + 10), 255);  // right half white
+    // Tile 1 (80×40 → 20×10, letterboxed vertically in white).
+    EXPECT_EQ(pix(24 + 2, 2 + 1), 255);
+    EXPECT_EQ(pix(24 + 2, 2 + 10), 0);
+    EXPECT_EQ(pix(24 + 17, 2 + 10), 255);
+    EXPECT_EQ(pix(1, 1), 200);
+    EXPECT_THROW(writeContactSheetFromFiles(sheet, {dir.path / "missing.png"}, 2, 20),
+                 std::runtime_error);
+}
+
+// Timing report (not part of the default run):
+//   ./sylva_tests --gtest_also_run_disabled_tests --gtest_filter='ViewBench.*'
+TEST(ViewBench, DISABLED_RenderTimes) {
+    auto time = [](const Tree& tree, const Camera& c, int reps) {
+        renderView(tree, c, true, true);  // warm up
+        const auto t0 = std::chrono::steady_clock::now();
+        for (int i = 0; i < reps; ++i) renderView(tree, c, true, true);
+        return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                   .count() /
+               reps;
+    };
+    auto report = [&](const char* name, const Tree& tree, int size) {
+        ViewOptions o;
+        o.count = 8;
+        o.width = o.height = size;
+        o.randomAzimuth = false;
+        Rng rng(1);
+        const auto cams = makeCameras(tree, o, rng);
+        double one = 0, many = 0;
+        {
+            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+            for (const Camera& c : cams) one += time(tree, c, 20) / cams.size();
+        }
+        for (const Camera& c : cams) many += time(tree, c, 20) / cams.size();
+        std::printf("%s: %zu segments, %dx%d: %.3f ms/view on 1 thread, %.3f ms default\n", name,
+                    tree.nodes.size() - 1, size, size, one, many);
+    };
+    report("xm-a", grownTree(), 256);
+    SpeciesFile big = loadSpecies(SYLVA_SOURCE_DIR "/bench/table1.toml");
+    const Tree bigTree = growSpecies(big, 1, nullptr, true).tree;
+    report("table1", bigTree, 512);
+}
+
+}  // namespace
+}  // namespace sylva
