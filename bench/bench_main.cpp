@@ -1,7 +1,9 @@
 // sylva benchmarks (Google Benchmark). Run through scripts/bench.
 //  - Table1Tree: one iterated-graph tree at the scale of Xu & Mould 2012 Table 1
 //    (~350k graph nodes, ~34k endpoints), on 1 thread and on all cores.
-//  - DemoBuild: the whole demo dataset (1,000 trees, files written), trees per second.
+//  - MeshTree / WatertightTree / RenderView: per-tree meshing and per-view rendering.
+//  - DemoBuild: the whole demo dataset (1,000 trees with meshes and 8 views, files written),
+//    trees per second.
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 #include <tbb/global_control.h>
@@ -12,6 +14,9 @@
 
 #include "pipeline/build.h"
 #include "pipeline/dataset.h"
+#include "pipeline/mesh_writers.h"
+#include "pipeline/views.h"
+#include "species/mesh.h"
 #include "species/species.h"
 
 namespace fs = std::filesystem;
@@ -42,12 +47,66 @@ static void Table1Tree(benchmark::State& state) {
 }
 BENCHMARK(Table1Tree)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond)->MinTime(3.0);
 
+// Per tree: tubes + leaf cards for a demo-sized tree (xm-a, ~2.5k nodes, 4 leaves per tip).
+static GrownTree demoTree() {
+    SpeciesFile species = loadSpecies(SYLVA_SOURCE_DIR "/species/presets/xm-a.toml");
+    return growSpecies(species, 1, nullptr, false);
+}
+
+static void MeshTree(benchmark::State& state) {
+    GrownTree g = demoTree();
+    TubeOptions tubes;
+    tubes.maxSides = 12;
+    tubes.edgeLength = 0.04;
+    TreeMesh m;
+    for (auto _ : state) {
+        m.wood = tubeMesh(g.tree, tubes);
+        m.leaves = leafMesh(g.tree);
+        benchmark::DoNotOptimize(m.wood.indices.data());
+    }
+    state.counters["wood_triangles"] = static_cast<double>(m.wood.triangleCount());
+    state.counters["leaf_triangles"] = static_cast<double>(m.leaves.triangleCount());
+    state.counters["ply_bytes"] = static_cast<double>(meshPly(m).size());
+}
+BENCHMARK(MeshTree)->Unit(benchmark::kMillisecond);
+
+static void WatertightTree(benchmark::State& state) {
+    GrownTree g = demoTree();
+    WatertightOptions w;
+    w.voxelSize = 0.03;
+    Mesh m;
+    for (auto _ : state) {
+        m = watertightMesh(g.tree, w);
+        benchmark::DoNotOptimize(m.indices.data());
+    }
+    state.counters["triangles"] = static_cast<double>(m.triangleCount());
+}
+BENCHMARK(WatertightTree)->Unit(benchmark::kMillisecond);
+
+// One 256×256 view with depth and labels (the demo's views), per view.
+static void RenderView(benchmark::State& state) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    GrownTree g = demoTree();
+    ViewOptions vo;
+    vo.count = 8;
+    vo.elevationsDeg = {10, 35};
+    Rng rng(1);
+    std::vector<Camera> cams = makeCameras(g.tree, vo, rng);
+    size_t k = 0;
+    for (auto _ : state) {
+        ViewImage v = renderView(g.tree, cams[k++ % cams.size()], true, true);
+        benchmark::DoNotOptimize(v.silhouette.data());
+    }
+}
+BENCHMARK(RenderView)->Unit(benchmark::kMillisecond);
+
 static void DemoBuild(benchmark::State& state) {
     const int threads =
         state.range(0) > 0 ? static_cast<int>(state.range(0)) : tbb::info::default_concurrency();
     DatasetSpec spec = loadDataset(SYLVA_SOURCE_DIR "/datasets/demo.toml");
     fs::path out = fs::temp_directory_path() / ("sylva-bench-demo-" + std::to_string(getpid()));
     int64_t trees = 0;
+    double bytes = 0;
     for (auto _ : state) {
         state.PauseTiming();
         fs::remove_all(out);
@@ -57,12 +116,18 @@ static void DemoBuild(benchmark::State& state) {
         o.threads = threads;
         o.progress = false;
         trees += buildDataset(spec, o).built;
+        state.PauseTiming();
+        for (const auto& f : fs::recursive_directory_iterator(out)) {
+            if (f.is_regular_file()) bytes += static_cast<double>(f.file_size());
+        }
+        state.ResumeTiming();
     }
     fs::remove_all(out);
     state.counters["threads"] = threads;
     state.counters["trees_per_second"] =
         benchmark::Counter(static_cast<double>(trees), benchmark::Counter::kIsRate);
     state.counters["peak_rss_MiB"] = peakRssMiB();
+    state.counters["MiB_written_per_tree"] = bytes / std::max<int64_t>(1, trees) / (1 << 20);
 }
 BENCHMARK(DemoBuild)->Arg(1)->Arg(0)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 

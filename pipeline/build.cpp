@@ -11,6 +11,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <mutex>
@@ -18,11 +19,8 @@
 #include <sstream>
 
 #include "pipeline/atomic_file.h"
-#include "pipeline/preview.h"
+#include "pipeline/instance.h"
 #include "pipeline/progress.h"
-#include "pipeline/skeleton_writers.h"
-#include "pipeline/stats_json.h"
-#include "species/tree_stats.h"
 
 namespace sylva {
 
@@ -69,64 +67,60 @@ static nlohmann::json tomlToJson(const toml::table& t) {
     return nlohmann::json::parse(s.str());
 }
 
-static std::string hex64(uint64_t v) {
-    char buf[20];
-    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
-    return buf;
-}
-
 nlohmann::json buildInstance(const InstanceJob& job, const OutputOptions& outputs,
                              const fs::path& out) {
-    using Clock = std::chrono::steady_clock;
-    auto t0 = Clock::now();
-    const SpeciesFile& species = job.entry->species;
-    GrownTree grown = growSpecies(species, job.seed, job.point->overrides.get(), true);
-    auto t1 = Clock::now();
-    TreeStats stats = computeStats(grown.tree);
-
-    // Files first (each atomically); the caller appends the manifest line afterwards.
-    const fs::path rel = fs::path("trees") / species.name / job.id;
-    nlohmann::json files = nlohmann::json::object();
-    if (outputs.ply) {
-        writeFileAtomic(out / rel / "skeleton.ply", skeletonPly(grown.tree));
-        files["skeleton_ply"] = (rel / "skeleton.ply").generic_string();
-    }
-    if (outputs.swc) {
-        writeFileAtomic(out / rel / "skeleton.swc", skeletonSwc(grown.tree));
-        files["skeleton_swc"] = (rel / "skeleton.swc").generic_string();
-    }
-    if (outputs.preview) {
-        writePreviewPng(grown.tree, out / rel / "preview.png", outputs.previewSize);
-        files["preview_png"] = (rel / "preview.png").generic_string();
-    }
-    auto t2 = Clock::now();
-
-    nlohmann::json rec;
-    rec["id"] = job.id;
-    rec["species"] = species.name;
-    rec["method"] = species.method;
-    rec["index"] = job.index;
-    rec["seed"] = hex64(job.seed);
-    rec["sweep"] = job.point->values;
-    rec["params"] = grown.sampled;
-    rec["files"] = files;
-    nlohmann::json st = toJson(stats);
-    for (const auto& [k, v] : grown.methodStats) st[k] = v;
-    rec["stats"] = st;
-    // The only fields that differ between identical builds.
-    rec["timing"] = {{"grow_ms", std::chrono::duration<double, std::milli>(t1 - t0).count()},
-                     {"write_ms", std::chrono::duration<double, std::milli>(t2 - t1).count()}};
-    return rec;
+    InstanceWork w;
+    w.job = &job;
+    growStage(w);
+    meshStage(w, outputs, out);
+    renderStage(w, outputs);
+    writeStage(w, outputs, out);
+    return w.record;
 }
 
 namespace {
 
 struct Message {
     size_t seq = 0;  // position among the jobs run now (sequencer order)
-    const InstanceJob* job = nullptr;
-    std::shared_ptr<nlohmann::json> record;  // null on failure
-    std::string error;
+    std::shared_ptr<InstanceWork> work;
 };
+
+// A stage as a flow-graph body: runs `stage` unless an earlier one failed.
+template <class F>
+auto stageBody(F stage) {
+    return [stage](Message m) {
+        if (m.work->error.empty()) {
+            try {
+                stage(*m.work);
+            } catch (const std::exception& e) {
+                m.work->error = e.what();
+            }
+        }
+        return m;
+    };
+}
+
+// Per species, the contact sheets (or first views) of its first K recorded instances.
+void writeSpeciesSheets(const DatasetSpec& spec, const std::vector<InstanceJob>& jobs,
+                        const std::set<std::string>& recorded, const fs::path& out,
+                        const std::string& suffix) {
+    const int k = spec.outputs.speciesSheet;
+    if (k <= 0 || spec.outputs.views.count <= 0) return;
+    for (const SpeciesEntry& e : spec.species) {
+        std::vector<fs::path> images;
+        for (const InstanceJob& j : jobs) {
+            if (j.entry != &e || !recorded.count(j.id)) continue;
+            fs::path dir = out / instanceDir(j);
+            fs::path img =
+                spec.outputs.views.contactSheet ? dir / "contact.png" : dir / "views" / "000.png";
+            if (fs::exists(img)) images.push_back(img);
+            if (static_cast<int>(images.size()) >= k) break;
+        }
+        if (images.empty()) continue;
+        int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(images.size()))));
+        writeContactSheetFromFiles(out / "contact" / (e.species.name + ".png"), images, cols, 256);
+    }
+}
 
 void writeDatasetJson(const DatasetSpec& spec, const BuildOptions& o, const fs::path& file,
                       const std::string& status, const BuildSummary& s, int threads,
@@ -240,42 +234,57 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
         }
         Message m;
         m.seq = next;
-        m.job = todo[next++];
+        m.work = std::make_shared<InstanceWork>();
+        m.work->job = todo[next++];
         return m;
     });
     const size_t inFlight = o.maxInFlight > 0 ? o.maxInFlight : 4 * static_cast<size_t>(threads);
     limiter_node<Message> limiter(g, inFlight);
-    function_node<Message, Message> work(g, unlimited, [&](Message m) {
-        try {
-            m.record = std::make_shared<nlohmann::json>(buildInstance(*m.job, spec.outputs, o.out));
-        } catch (const std::exception& e) {
-            m.error = e.what();
-        }
+    function_node<Message, Message> grow(g, unlimited,
+                                         stageBody([](InstanceWork& w) { growStage(w); }));
+    function_node<Message, Message> mesh(
+        g, unlimited, stageBody([&](InstanceWork& w) { meshStage(w, spec.outputs, o.out); }));
+    function_node<Message, Message> render(
+        g, unlimited, stageBody([&](InstanceWork& w) { renderStage(w, spec.outputs); }));
+    function_node<Message, Message> write(g, unlimited, [&](Message m) {
+        stageBody([&](InstanceWork& w) { writeStage(w, spec.outputs, o.out); })(m);
+        // Free the heavy parts before the message waits in the sequencer.
+        InstanceWork& w = *m.work;
+        w.grown = GrownTree{};
+        w.mesh = TreeMesh{};
+        w.watertight = Mesh{};
+        w.views.clear();
         return m;
     });
     sequencer_node<Message> order(g, [](const Message& m) { return m.seq; });
     int64_t failed = 0;
     function_node<Message, continue_msg> record(g, serial, [&](const Message& m) {
-        if (m.record) {
-            manifest.append(m.record->dump());
+        const InstanceWork& w = *m.work;
+        if (w.error.empty()) {
+            manifest.append(w.record.dump());
+            done.insert(w.job->id);
             ++summary.built;
             if (abortAfter >= 0 && summary.built >= abortAfter) std::_Exit(137);
         } else {
             ++failed;
             std::fprintf(stderr, "%ssylva: %s: %s\n", isatty(2) ? "\r\033[K" : "",
-                         m.job->id.c_str(), m.error.c_str());
+                         w.job->id.c_str(), w.error.c_str());
         }
         progress.tick(summary.built + failed, failed);
         return continue_msg();
     });
     make_edge(source, limiter);
-    make_edge(limiter, work);
-    make_edge(work, order);
+    make_edge(limiter, grow);
+    make_edge(grow, mesh);
+    make_edge(mesh, render);
+    make_edge(render, write);
+    make_edge(write, order);
     make_edge(order, record);
     make_edge(record, limiter.decrementer());
     source.activate();
     g.wait_for_all();
 
+    writeSpeciesSheets(spec, all, done, o.out, shardSuffix(o.shardIndex, o.shardCount));
     summary.failed = failed;
     summary.wallSeconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

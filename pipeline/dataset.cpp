@@ -162,7 +162,89 @@ DatasetSpec loadDataset(const std::string& path) {
         d.outputs.preview = o->boolean("preview", false);
         d.outputs.previewSize =
             static_cast<int>(o->integer("preview_size", 512, Range::closed(16, 8192)));
+        for (const auto& f : o->stringArray("mesh")) {
+            if (f != "ply" && f != "glb" && f != "obj") {
+                o->fail("mesh",
+                        "unknown mesh format \"" + f + "\" (known: \"ply\", \"glb\", \"obj\")");
+            }
+            if (std::find(d.outputs.meshFormats.begin(), d.outputs.meshFormats.end(), f) ==
+                d.outputs.meshFormats.end()) {
+                d.outputs.meshFormats.push_back(f);
+            }
+        }
+        if (auto t = o->optionalTable("tubes")) {
+            TubeOptions& tb = d.outputs.tubes;
+            tb.minSides = static_cast<int>(t->integer("min_sides", 3, Range::closed(3, 256)));
+            tb.maxSides = static_cast<int>(t->integer("max_sides", 16, Range::closed(3, 256)));
+            if (tb.maxSides < tb.minSides) t->fail("max_sides", "expected max_sides ≥ min_sides");
+            tb.edgeLength = t->number("edge_length", 0.03, Range::positive());
+            tb.minRadius = t->number("min_radius", 0.0, Range::nonNegative());
+            tb.dropThin = t->boolean("drop_thin", false);
+            t->finish();
+        }
+        if (const toml::node* w = o->raw("watertight"); w && w->is_boolean()) {
+            d.outputs.watertight = o->boolean("watertight", false);
+        } else if (auto wt = o->optionalTable("watertight")) {
+            d.outputs.watertight = true;
+            d.outputs.watertightOptions.voxelSize =
+                wt->number("voxel_size", 0.02, Range::closed(1e-4, 10));
+            d.outputs.vdb = wt->boolean("vdb", false);
+            wt->finish();
+        }
+        if (d.outputs.watertight && d.outputs.meshFormats.empty()) {
+            o->fail("watertight", "needs a mesh format: set mesh = [\"ply\"] (or glb, obj)");
+        }
+        d.outputs.speciesSheet =
+            static_cast<int>(o->integer("species_sheet", 16, Range::closed(0, 10000)));
         o->finish();
+    }
+    if (auto v = p.optionalTable("views")) {
+        ViewOptions& vo = d.outputs.views;
+        vo.count = static_cast<int>(v->integer("count", 8, Range::closed(0, 1000)));
+        if (v->has("elevations_deg") && v->has("elevation_range_deg")) {
+            v->fail("elevation_range_deg", "give either elevations_deg or elevation_range_deg");
+        }
+        if (v->has("elevation_range_deg")) {
+            auto [lo, hi] = v->interval("elevation_range_deg", {0, 0}, Range::closed(-89, 89));
+            vo.elevationsDeg = {lo, hi};
+            vo.elevationRange = true;
+        } else if (v->has("elevations_deg")) {
+            const toml::array* a = v->raw("elevations_deg")->as_array();
+            if (!a || a->empty())
+                v->fail("elevations_deg", "expected a non-empty array of degrees");
+            vo.elevationsDeg.clear();
+            for (size_t i = 0; i < a->size(); ++i) {
+                auto x = a->get(i)->value<double>();
+                if (!x || !(*x >= -89 && *x <= 89)) {
+                    v->fail("elevations_deg", "expected degrees in [-89, 89]");
+                }
+                vo.elevationsDeg.push_back(*x);
+            }
+        }
+        if (v->has("azimuth_offset_deg")) {
+            vo.randomAzimuth = false;
+            vo.azimuthOffsetDeg = v->number("azimuth_offset_deg", 0, Range::closed(-360, 360));
+        }
+        std::string proj = v->choice("projection", "perspective", {"perspective", "orthographic"});
+        vo.orthographic = proj == "orthographic";
+        vo.fovDeg = v->number("fov_deg", 40, Range::closed(1, 170));
+        if (const toml::node* r = v->raw("resolution")) {
+            const toml::array* a = r->as_array();
+            auto w = a && a->size() == 2 ? a->get(0)->value<int64_t>() : std::nullopt;
+            auto h = a && a->size() == 2 ? a->get(1)->value<int64_t>() : std::nullopt;
+            if (!w || !h || *w < 8 || *h < 8 || *w > 16384 || *h > 16384) {
+                v->fail("resolution", "expected [width, height] in whole pixels, 8 to 16384");
+            }
+            vo.width = static_cast<int>(*w);
+            vo.height = static_cast<int>(*h);
+        }
+        vo.margin = v->number("margin", 1.05, Range::closed(0.5, 10));
+        vo.depth = v->boolean("depth", false);
+        vo.labels = v->boolean("labels", false);
+        vo.pointCloud = v->boolean("point_cloud", false);
+        if (vo.pointCloud && !vo.depth) v->fail("point_cloud", "needs depth = true");
+        vo.contactSheet = v->boolean("contact_sheet", true);
+        v->finish();
     }
     p.finish();
 

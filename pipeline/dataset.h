@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/views.h"
+#include "species/mesh.h"
 #include "species/species.h"
 
 namespace sylva {
@@ -38,6 +40,13 @@ struct OutputOptions {
     bool swc = false;      // skeleton.swc
     bool preview = false;  // preview.png per instance
     int previewSize = 512;
+    std::vector<std::string> meshFormats;  // of "ply", "glb", "obj"; empty: no mesh
+    TubeOptions tubes;                     // level of detail of branch tubes
+    bool watertight = false;               // watertight.<format> (union of capsules)
+    WatertightOptions watertightOptions;
+    bool vdb = false;       // watertight.vdb (the level set itself)
+    ViewOptions views;      // [views]
+    int speciesSheet = 16;  // first K instances per species in a sheet
 };
 
 struct DatasetSpec {

@@ -70,8 +70,8 @@ struct ViewImage {
     std::vector<uint8_t> labels;      // 0 background, 1 + branch order for wood, 255 leaves
 };
 
-// Renders one view: every skeleton segment as a tapered capsule (conservatively at least
-// half a pixel wide, so sub-pixel twigs still appear) and every leaf card as two triangles,
+// Renders one view: every skeleton segment as a tapered capsule (its screen radius at least
+// √½ px, so sub-pixel twigs still appear as unbroken lines) and every leaf card as two triangles,
 // z-buffered. Deterministic whatever the thread count.
 ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, bool wantLabels);
 
@@ -97,7 +97,8 @@ std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<
 // All views of an instance tiled in a grid (silhouettes, black tree on white).
 void writeContactSheet(const std::filesystem::path& path, const std::vector<ViewImage>& views,
                        int columns);
-// A sheet from existing grey PNG files (per-species sheets), each tile `tile` pixels.
+// A sheet from existing grey PNG files (per-species sheets), each fitted into a `tile`-pixel
+// square; inputs are shown as they are (not inverted).
 void writeContactSheetFromFiles(const std::filesystem::path& path,
                                 const std::vector<std::filesystem::path>& images, int columns,
                                 int tile);
