@@ -205,13 +205,18 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
         // instances not yet recorded: remove those of this shard's remaining instances (never
         // another shard's, whose process may be writing there right now).
         for (const InstanceJob* j : todo) {
-            const fs::path dir = o.out / "trees" / j->entry->species.name / j->id;
+            const fs::path dir = o.out / instanceDir(*j);
             std::error_code ec;
-            for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+            std::vector<fs::path> stale;  // (views/ too: collect first, then remove)
+            for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end;
+                 it.increment(ec)) {
                 if (it->path().filename().string().find(".tmp.") != std::string::npos) {
-                    std::error_code ignored;
-                    fs::remove(it->path(), ignored);
+                    stale.push_back(it->path());
                 }
+            }
+            for (const fs::path& p : stale) {
+                std::error_code ignored;
+                fs::remove(p, ignored);
             }
         }
     }

@@ -246,6 +246,9 @@ void writeDepthExr(const fs::path& path, int width, int height, const std::vecto
     OIIO::ImageSpec spec(width, height, 1, OIIO::TypeDesc::FLOAT);
     spec.channelnames = {"Z"};
     spec.attribute("compression", "rle");  // lossless
+    // OpenEXR otherwise stamps the wall-clock time into the header (capDate), and two builds
+    // of the same spec would differ.
+    spec.attribute("DateTime", "");
     writeImageAtomic(path, spec, OIIO::TypeDesc::FLOAT, depth.data(), "depth EXR");
 }
 
