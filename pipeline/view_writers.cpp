@@ -17,7 +17,8 @@
 //   expects millimetres).
 // Depth EXR: one FLOAT channel "Z", RLE compression (lossless; measured 2.7× faster than zip
 //   for 256² depth maps at ~20% more bytes); identical pixels give identical bytes.
-// PNGs use zlib level 1: about twice as fast as the default for ~35% more bytes on silhouettes.
+// PNGs use zlib level 1 and no row filter: for flat silhouette and label images this encodes
+//   about 6× faster than OIIO's defaults (0.26 vs 1.75 ms for 256²) at about the same size.
 // Point cloud PLY: binary little-endian, vertex = float x, y, z (world metres), uchar label
 //   (1 + branch order wood, 255 leaf; 1 when the view has no label image), uchar view
 //   (camera index); views in order, then rows top to bottom, then columns.
@@ -74,7 +75,10 @@ void writeImageAtomic(const fs::path& path, const OIIO::ImageSpec& spec, OIIO::T
     static std::once_flag noExrThreads;
     std::call_once(noExrThreads, [] { OIIO::attribute("exr_threads", -1); });
     OIIO::ImageSpec fileSpec = spec;
-    if (path.extension() == ".png") fileSpec.attribute("png:compressionLevel", 1);
+    if (path.extension() == ".png") {
+        fileSpec.attribute("png:compressionLevel", 1);
+        fileSpec.attribute("png:filter", 8);  // PNG_FILTER_NONE: flat images need no predictor
+    }
     auto out = OIIO::ImageOutput::create(tmp.string());
     if (!out) fail(OIIO::geterror());
     if (!out->open(tmp.string(), fileSpec)) fail(out->geterror());
