@@ -1,14 +1,37 @@
 #include "species/species.h"
 
 #include <filesystem>
+#include <map>
+#include <mutex>
+#include <sstream>
 
 #include "species/leaves.h"
 
 namespace sylva {
 
+struct SpeciesCache {
+    struct Entry {
+        std::shared_ptr<const GrowthMethod> method;
+        LeafOptions leaves;
+    };
+    std::mutex mutex;
+    std::map<std::string, Entry> entries;  // keyed by the sweep point's overrides, as text
+};
+
+namespace {
+std::string overridesKey(const Overrides* overrides) {
+    std::ostringstream key;
+    if (overrides) {
+        for (const auto& [path, o] : *overrides) key << path << '=' << o.holder << ';';
+    }
+    return key.str();
+}
+}  // namespace
+
 SpeciesFile loadSpecies(const std::string& path) {
     SpeciesFile s;
     s.path = path;
+    s.cache = std::make_shared<SpeciesCache>();
     s.table = std::make_shared<const toml::table>(parseTomlFile(path));
     DrawContext draw;
     draw.draw = false;
@@ -65,18 +88,35 @@ std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, Dra
 
 GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
                       bool threaded) {
-    DrawContext draw;
-    draw.seed = hashCombine(seed, 0x9a7a);  // parameter draws: their own stream
+    std::shared_ptr<const GrowthMethod> method;
     LeafOptions leaves;
-    std::unique_ptr<GrowthMethod> method = instantiateSpecies(species, draw, overrides, &leaves);
     GrownTree out;
+    if (species.cache) {
+        std::lock_guard<std::mutex> lock(species.cache->mutex);
+        auto it = species.cache->entries.find(overridesKey(overrides));
+        if (it != species.cache->entries.end()) {
+            method = it->second.method;
+            leaves = it->second.leaves;
+        }
+    }
+    if (!method) {
+        DrawContext draw;
+        draw.seed = hashCombine(seed, 0x9a7a);  // parameter draws: their own stream
+        method = instantiateSpecies(species, draw, overrides, &leaves);
+        out.sampled = std::move(draw.sampled);
+        // Nothing drawn: every instance of this sweep point parses to the same method.
+        if (out.sampled.empty() && species.cache) {
+            std::lock_guard<std::mutex> lock(species.cache->mutex);
+            species.cache->entries.emplace(overridesKey(overrides),
+                                           SpeciesCache::Entry{method, leaves});
+        }
+    }
     Rng rng(seed);
     out.tree = method->grow(rng, threaded, out.methodStats);
     if (out.tree.leaves.empty()) {
         Rng leafRng = Rng(seed).derive("leaves");  // its own stream: leaves never move branches
         placeLeaves(out.tree, leaves, leafRng);
     }
-    out.sampled = std::move(draw.sampled);
     return out;
 }
 

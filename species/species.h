@@ -13,12 +13,17 @@
 
 namespace sylva {
 
+struct SpeciesCache;
+
 struct SpeciesFile {
     std::string path;         // as given (used in error messages)
     std::string name;         // `name`, or the file stem
     std::string method;       // `method`
     std::string description;  // `description`
     std::shared_ptr<const toml::table> table;
+    // Parsed methods of species without distributions, per sweep point: the same for every
+    // instance, so a crown level set or a CSG measure is built once, not once per tree.
+    std::shared_ptr<SpeciesCache> cache;
 };
 
 // Reads and checks the file's top-level keys. Throws SpecError.
