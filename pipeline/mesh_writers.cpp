@@ -10,19 +10,11 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "pipeline/little_endian.h"
+
 namespace sylva {
 
 namespace {
-
-// Explicit little-endian byte order so the file is identical on any host.
-void putU32(std::string& out, uint32_t v) {
-    for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xff));
-}
-void putFloat(std::string& out, float f) {
-    uint32_t bits;
-    std::memcpy(&bits, &f, 4);
-    putU32(out, bits);
-}
 
 // Attribute i of a per-vertex array with `width` components, 0 if the array is absent.
 float attr(const std::vector<float>& a, size_t i, int width, int c) {

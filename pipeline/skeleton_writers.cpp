@@ -3,21 +3,11 @@
 #include <charconv>
 #include <cstring>
 
+#include "pipeline/little_endian.h"
+
 namespace sylva {
 
 namespace {
-
-// Explicit little-endian byte order so the file is identical on any host.
-void putU32(std::string& out, uint32_t v) {
-    for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xff));
-}
-void putFloat(std::string& out, double v) {
-    float f = static_cast<float>(v);
-    uint32_t bits;
-    std::memcpy(&bits, &f, 4);
-    putU32(out, bits);
-}
-void putInt(std::string& out, int32_t v) { putU32(out, static_cast<uint32_t>(v)); }
 
 // %.6g via to_chars: same digits as printf but immune to the process locale.
 void putG6(std::string& out, double v) {

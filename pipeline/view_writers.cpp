@@ -38,6 +38,7 @@
 #include <string>
 
 #include "pipeline/atomic_file.h"
+#include "pipeline/little_endian.h"
 #include "pipeline/views.h"
 
 namespace sylva {
@@ -97,17 +98,6 @@ void checkSize(int width, int height, size_t have, const char* what) {
                                     " pixels for a " + std::to_string(width) + "x" +
                                     std::to_string(height) + " image");
     }
-}
-
-// Explicit little-endian byte order so the file is identical on any host.
-void putU32(std::string& out, uint32_t v) {
-    for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xff));
-}
-void putFloat(std::string& out, double v) {
-    const float f = static_cast<float>(v);
-    uint32_t bits;
-    std::memcpy(&bits, &f, 4);
-    putU32(out, bits);
 }
 
 nlohmann::json matrixRows(const Camera& c) {
