@@ -24,11 +24,14 @@
 #include <thread>
 #include <vector>
 
+#include "tests/test_support.h"
+
 extern char** environ;
 
 namespace {
 
 namespace fs = std::filesystem;
+using sylva::test::slurp;
 
 const fs::path kSource = SYLVA_SOURCE_DIR;
 const fs::path kExe = SYLVA_EXE;
@@ -36,13 +39,6 @@ const fs::path kData = kSource / "tests" / "data";
 const fs::path kDataset = kData / "tiny_dataset.toml";
 const fs::path kTiny = kData / "tiny.toml";
 constexpr int kDatasetInstances = 24;  // tiny_dataset.toml: 2 species × 2 sweep points × 6
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
 
 void spit(const fs::path& p, const std::string& bytes) {
     std::ofstream out(p, std::ios::binary);

@@ -15,21 +15,12 @@
 #include <sstream>
 
 #include "pipeline/mesh_writers.h"
+#include "tests/test_support.h"
 
 namespace sylva {
 namespace {
 
-int32_t addNode(Tree& t, int32_t parent, Vec3 p, double r, int32_t order,
-                uint8_t part = kShootPart) {
-    SkeletonNode n;
-    n.position = p;
-    n.radius = r;
-    n.parent = parent;
-    n.order = order;
-    n.part = part;
-    t.nodes.push_back(n);
-    return static_cast<int32_t>(t.nodes.size() - 1);
-}
+using test::addNode;
 
 Tree segment(double r0, double r1, double h) {
     Tree t;

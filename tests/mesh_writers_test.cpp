@@ -11,19 +11,17 @@
 #include <sstream>
 
 #include "species/mesh.h"
+#include "tests/test_support.h"
 
 namespace sylva {
 namespace {
 
+using test::addNode;
+
 TreeMesh sampleMesh() {
     Tree t;
     auto add = [&](int32_t parent, Vec3 p, double r, int32_t order) {
-        SkeletonNode n;
-        n.position = p;
-        n.radius = r;
-        n.parent = parent;
-        n.order = order;
-        t.nodes.push_back(n);
+        addNode(t, parent, p, r, order);
     };
     add(-1, {0, 0, 0}, 0.08, 0);
     add(0, {0, 0.6, 0}, 0.06, 0);

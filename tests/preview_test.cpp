@@ -9,20 +9,14 @@
 #include <algorithm>
 #include <filesystem>
 
+#include "tests/test_support.h"
+
 namespace sylva {
 namespace {
 
-namespace fs = std::filesystem;
+using test::addNode;
 
-int32_t addNode(Tree& t, int32_t parent, Vec3 p, double r, uint8_t part = kShootPart) {
-    SkeletonNode n;
-    n.position = p;
-    n.radius = r;
-    n.parent = parent;
-    n.part = part;
-    t.nodes.push_back(n);
-    return static_cast<int32_t>(t.nodes.size() - 1);
-}
+namespace fs = std::filesystem;
 
 // The documented framing: x-y box including radii, centred, 4% margin per side.
 struct Framing {
@@ -97,7 +91,7 @@ TEST(Preview, GroundLineOnlyWithRootSystem) {
     const int n = 128;
     auto noRoots = renderPreview(t, n);
     for (int y = 0; y < n; ++y) EXPECT_EQ(at(noRoots, n, 2, y), 255);
-    addNode(t, 0, {0.1, -0.5, 0}, 0.02, kRootPart);
+    addNode(t, 0, {0.1, -0.5, 0}, 0.02, 0, kRootPart);
     auto img = renderPreview(t, n);
     int darkest = 255;
     for (int y = 0; y < n; ++y) darkest = std::min<int>(darkest, at(img, n, 2, y));

@@ -6,19 +6,12 @@
 #include <stdexcept>
 
 #include "species/tree_stats.h"
+#include "tests/test_support.h"
 
 namespace sylva {
 namespace {
 
-int32_t addNode(Tree& t, int32_t parent, Vec3 p, double radius = 0.01, uint8_t part = kShootPart) {
-    SkeletonNode n;
-    n.position = p;
-    n.radius = radius;
-    n.parent = parent;
-    n.part = part;
-    t.nodes.push_back(n);
-    return static_cast<int32_t>(t.nodes.size() - 1);
-}
+using test::addNode;
 
 std::vector<int32_t> orders(const Tree& t) {
     std::vector<int32_t> o;
@@ -104,26 +97,26 @@ TEST(BranchOrder, TiesGoToLowerIndex) {
 
 TEST(BranchOrder, ShootAndRootSystemsEachHaveAnOrderZeroAxis) {
     Tree t;
-    addNode(t, -1, {0, 0, 0});                       // 0
-    addNode(t, 0, {0, 1, 0});                        // 1 trunk (shorter than taproot)
-    addNode(t, 0, {0, -3, 0}, 0.01, kRootPart);      // 2 taproot
-    addNode(t, 0, {0.5, -0.5, 0}, 0.01, kRootPart);  // 3 lateral root
-    addNode(t, 0, {0.3, 0.2, 0});                    // 4 low shoot
-    addNode(t, 2, {0, -4, 0}, 0.01, kRootPart);      // 5 taproot continues
-    addNode(t, 2, {0.2, -3.1, 0}, 0.01, kRootPart);  // 6 root off the taproot
+    addNode(t, -1, {0, 0, 0});                          // 0
+    addNode(t, 0, {0, 1, 0});                           // 1 trunk (shorter than taproot)
+    addNode(t, 0, {0, -3, 0}, 0.01, 0, kRootPart);      // 2 taproot
+    addNode(t, 0, {0.5, -0.5, 0}, 0.01, 0, kRootPart);  // 3 lateral root
+    addNode(t, 0, {0.3, 0.2, 0});                       // 4 low shoot
+    addNode(t, 2, {0, -4, 0}, 0.01, 0, kRootPart);      // 5 taproot continues
+    addNode(t, 2, {0.2, -3.1, 0}, 0.01, 0, kRootPart);  // 6 root off the taproot
     assignBranchOrder(t);
     EXPECT_EQ(orders(t), (std::vector<int32_t>{0, 0, 0, 1, 1, 0, 1}));
 }
 
 TEST(TreeStats, CountsAndMeasures) {
     Tree t;
-    addNode(t, -1, {0, 0, 0});                     // 0
-    addNode(t, 0, {0, 2, 0});                      // 1
-    addNode(t, 1, {0, 4, 0});                      // 2 tip (height 4)
-    addNode(t, 1, {1.5, 3, 0});                    // 3
-    addNode(t, 3, {1.5, 3, -0.5});                 // 4 tip
-    addNode(t, 0, {0, -1, 0}, 0.01, kRootPart);    // 5
-    addNode(t, 5, {0, -1.5, 0}, 0.01, kRootPart);  // 6 tip (depth 1.5)
+    addNode(t, -1, {0, 0, 0});                        // 0
+    addNode(t, 0, {0, 2, 0});                         // 1
+    addNode(t, 1, {0, 4, 0});                         // 2 tip (height 4)
+    addNode(t, 1, {1.5, 3, 0});                       // 3
+    addNode(t, 3, {1.5, 3, -0.5});                    // 4 tip
+    addNode(t, 0, {0, -1, 0}, 0.01, 0, kRootPart);    // 5
+    addNode(t, 5, {0, -1.5, 0}, 0.01, 0, kRootPart);  // 6 tip (depth 1.5)
     assignBranchOrder(t);
     TreeStats s = computeStats(t);
     EXPECT_EQ(s.nodes, 7);

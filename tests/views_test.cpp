@@ -15,21 +15,14 @@
 #include <sstream>
 
 #include "species/species.h"
+#include "tests/test_support.h"
 
 namespace sylva {
 namespace {
 
-namespace fs = std::filesystem;
+using test::addNode;
 
-int32_t addNode(Tree& t, int32_t parent, Vec3 p, double r, int32_t order = 0) {
-    SkeletonNode n;
-    n.position = p;
-    n.radius = r;
-    n.parent = parent;
-    n.order = order;
-    t.nodes.push_back(n);
-    return static_cast<int32_t>(t.nodes.size() - 1);
-}
+namespace fs = std::filesystem;
 
 Vec3 column(const Camera& c, int j) {
     return {c.cameraToWorld[0][j], c.cameraToWorld[1][j], c.cameraToWorld[2][j]};

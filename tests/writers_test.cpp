@@ -11,22 +11,20 @@
 #include "pipeline/atomic_file.h"
 #include "pipeline/skeleton_writers.h"
 #include "pipeline/stats_json.h"
+#include "tests/test_support.h"
 
 namespace sylva {
 namespace {
+
+using test::addNode;
+using test::slurp;
 
 namespace fs = std::filesystem;
 
 Tree smallTree() {
     Tree t;
     auto add = [&](int32_t parent, Vec3 p, double r, int32_t order, uint8_t part) {
-        SkeletonNode n;
-        n.position = p;
-        n.radius = r;
-        n.parent = parent;
-        n.order = order;
-        n.part = part;
-        t.nodes.push_back(n);
+        addNode(t, parent, p, r, order, part);
     };
     add(-1, {0, 0, 0}, 0.25, 0, kShootPart);
     add(0, {0.125, 1.5, -0.375}, 0.125, 0, kShootPart);
@@ -34,13 +32,6 @@ Tree smallTree() {
     add(0, {0, -0.5, 0.0625}, 0.05, 0, kRootPart);
     add(1, {-2.5, 1.75, 1e-7}, 0.02, 2, kShootPart);
     return t;
-}
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
 }
 
 // Fresh per-test scratch directory, removed afterwards.
