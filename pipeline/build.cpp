@@ -67,17 +67,6 @@ static nlohmann::json tomlToJson(const toml::table& t) {
     return nlohmann::json::parse(s.str());
 }
 
-nlohmann::json buildInstance(const InstanceJob& job, const OutputOptions& outputs,
-                             const fs::path& out) {
-    InstanceWork w;
-    w.job = &job;
-    growStage(w);
-    meshStage(w, outputs, out);
-    renderStage(w, outputs);
-    writeStage(w, outputs, out);
-    return w.record;
-}
-
 namespace {
 
 struct Message {

@@ -19,9 +19,8 @@ struct BuildOptions {
     int threads = 0;            // 0: all cores
     int shardIndex = 0;         // --shard I/N
     int shardCount = 1;
-    int maxInFlight = 0;     // 0: 4 × threads
-    bool progress = true;    // progress on stderr
-    int64_t stopAfter = -1;  // testing: stop (as if killed) after this many records
+    int maxInFlight = 0;   // 0: 4 × threads
+    bool progress = true;  // progress on stderr
 };
 
 struct BuildSummary {
@@ -41,10 +40,6 @@ std::string manifestName(int index, int count);
 std::string datasetJsonName(int index, int count);
 
 BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& options);
-
-// One instance grown and written under `out`; returns its manifest record.
-nlohmann::json buildInstance(const InstanceJob& job, const OutputOptions& outputs,
-                             const std::filesystem::path& out);
 
 // Library versions, for dataset.json.
 nlohmann::json versionInfo();
