@@ -2,8 +2,9 @@
 //  - Table1Tree: one iterated-graph tree at the scale of Xu & Mould 2012 Table 1
 //    (~350k graph nodes, ~34k endpoints), on 1 thread and on all cores.
 //  - MeshTree / WatertightTree / RenderView: per-tree meshing and per-view rendering.
-//  - DemoBuild: the whole demo dataset (1,000 trees with meshes and 8 views, files written),
-//    trees per second.
+//  - WriteViewFile: one view's silhouette PNG, label PNG and depth EXR, per file.
+//  - DatasetBuild: the whole demo dataset (1,000 trees with meshes and 8 views, files
+//    written) and an ez-tree-sized one, trees per second.
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 #include <tbb/global_control.h>
@@ -100,11 +101,41 @@ static void RenderView(benchmark::State& state) {
 }
 BENCHMARK(RenderView)->Unit(benchmark::kMillisecond);
 
-static void DemoBuild(benchmark::State& state) {
+// Writing one view's files to a RAM disk (/dev/shm when present): the silhouette PNG, the
+// label PNG and the depth EXR (Arg 0, 1, 2), per file.
+static void WriteViewFile(benchmark::State& state) {
+    GrownTree g = demoTree();
+    ViewOptions vo;
+    vo.count = 1;
+    Rng rng(1);
+    const Camera cam = makeCameras(g.tree, vo, rng).front();
+    const ViewImage v = renderView(g.tree, cam, true, true);
+    const fs::path dir = fs::exists("/dev/shm") ? fs::path("/dev/shm") : fs::temp_directory_path();
+    const fs::path out = dir / ("sylva-bench-view-" + std::to_string(getpid()));
+    for (auto _ : state) {
+        switch (state.range(0)) {
+            case 0:
+                writeGreyPng(out.string() + ".png", v.width, v.height, v.silhouette);
+                break;
+            case 1:
+                writeGreyPng(out.string() + ".png", v.width, v.height, v.labels);
+                break;
+            default:
+                writeDepthExr(out.string() + ".exr", v.width, v.height, v.depth);
+                break;
+        }
+    }
+    fs::remove(out.string() + ".png");
+    fs::remove(out.string() + ".exr");
+}
+BENCHMARK(WriteViewFile)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
+
+// A whole dataset built and written: trees per second on 1 core and on all cores.
+static void DatasetBuild(benchmark::State& state, const char* specPath) {
     const int threads =
         state.range(0) > 0 ? static_cast<int>(state.range(0)) : tbb::info::default_concurrency();
-    DatasetSpec spec = loadDataset(SYLVA_SOURCE_DIR "/datasets/demo.toml");
-    fs::path out = fs::temp_directory_path() / ("sylva-bench-demo-" + std::to_string(getpid()));
+    DatasetSpec spec = loadDataset(std::string(SYLVA_SOURCE_DIR "/") + specPath);
+    fs::path out = fs::temp_directory_path() / ("sylva-bench-build-" + std::to_string(getpid()));
     int64_t trees = 0;
     double bytes = 0;
     for (auto _ : state) {
@@ -129,6 +160,19 @@ static void DemoBuild(benchmark::State& state) {
     state.counters["peak_rss_MiB"] = peakRssMiB();
     state.counters["MiB_written_per_tree"] = bytes / std::max<int64_t>(1, trees) / (1 << 20);
 }
-BENCHMARK(DemoBuild)->Arg(1)->Arg(0)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+// The demo (1,000 Xu & Mould trees, ~37k wood + 9k leaf triangles each) and 300 trees the
+// size of ez-tree's (~9k + 6k triangles), both with meshes and 8 views with depth and labels.
+BENCHMARK_CAPTURE(DatasetBuild, demo, "datasets/demo.toml")
+    ->Arg(1)
+    ->Arg(0)
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(DatasetBuild, ez_size, "bench/ez-size.toml")
+    ->Arg(1)
+    ->Arg(0)
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
 
 BENCHMARK_MAIN();

@@ -484,14 +484,15 @@ ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, boo
     ViewImage out;
     out.width = w;
     out.height = h;
+    // One pass: the silhouette from the drawn pixels, background depth ∞ → 0.
     out.silhouette.resize(n);
-    for (size_t k = 0; k < n; ++k) out.silhouette[k] = std::isfinite(zbuf[k]) ? 255 : 0;
-    if (wantDepth) {
-        for (float& z : zbuf) {
-            if (!std::isfinite(z)) z = 0.0f;
-        }
-        out.depth = std::move(zbuf);
+    constexpr float kInf = std::numeric_limits<float>::infinity();
+    for (size_t k = 0; k < n; ++k) {
+        const bool drawn = zbuf[k] != kInf;
+        out.silhouette[k] = drawn ? 255 : 0;
+        zbuf[k] = drawn ? zbuf[k] : 0.0f;
     }
+    if (wantDepth) out.depth = std::move(zbuf);
     if (wantLabels) out.labels = std::move(lbuf);
     return out;
 }
@@ -510,19 +511,33 @@ double boxCountingDimension(const ViewImage& view) {
     // from its top-left corner (partial boxes at the right and bottom edges count).
     std::vector<int> sizes;
     for (int s = 2; s <= std::min(w, h) / 4 || sizes.size() < 3; s *= 2) sizes.push_back(s);
+    // A pyramid of occupancy maps: boxes of size 2 from the pixels, then each size from the
+    // one below by OR-ing 2×2 boxes (ceil(ceil(w/s)/2) = ceil(w/2s), so partial boxes match).
     std::vector<double> lx, ly;
-    for (int s : sizes) {
-        const int bw = (w + s - 1) / s, bh = (h + s - 1) / s;
-        std::vector<uint8_t> hit(static_cast<size_t>(bw) * bh, 0);
-        for (int y = 0; y < h; ++y) {
-            const uint8_t* row = view.silhouette.data() + static_cast<size_t>(y) * w;
-            uint8_t* hrow = hit.data() + static_cast<size_t>(y / s) * bw;
-            for (int x = 0; x < w; ++x) hrow[x / s] |= row[x] != 0;
+    int bw = (w + 1) / 2, bh = (h + 1) / 2;
+    std::vector<uint8_t> hit(static_cast<size_t>(bw) * bh, 0);
+    for (int y = 0; y < h; ++y) {
+        const uint8_t* row = view.silhouette.data() + static_cast<size_t>(y) * w;
+        uint8_t* hrow = hit.data() + static_cast<size_t>(y / 2) * bw;
+        for (int x = 0; x < w; ++x) hrow[x >> 1] |= row[x] != 0;
+    }
+    for (size_t level = 0; level < sizes.size(); ++level) {
+        if (level > 0) {
+            const int nw = (bw + 1) / 2, nh = (bh + 1) / 2;
+            std::vector<uint8_t> next(static_cast<size_t>(nw) * nh, 0);
+            for (int y = 0; y < bh; ++y) {
+                const uint8_t* row = hit.data() + static_cast<size_t>(y) * bw;
+                uint8_t* nrow = next.data() + static_cast<size_t>(y / 2) * nw;
+                for (int x = 0; x < bw; ++x) nrow[x >> 1] |= row[x];
+            }
+            hit.swap(next);
+            bw = nw;
+            bh = nh;
         }
         size_t count = 0;
         for (uint8_t v : hit) count += v;
         if (count == 0) return 0.0;  // empty image
-        lx.push_back(std::log(1.0 / s));
+        lx.push_back(std::log(1.0 / sizes[level]));
         ly.push_back(std::log(static_cast<double>(count)));
     }
     // Least-squares slope of log N against log 1/s.
