@@ -432,6 +432,51 @@ std::vector<std::string> Params::stringArray(std::string_view key) {
     return out;
 }
 
+std::vector<Vec2> Params::pairArray(std::string_view key, size_t minCount) {
+    asked_.insert(std::string(key));
+    SourcePos w;
+    const toml::node* n = lookup(key, &w);
+    if (!n) fail(key, "missing: expected an array of [a, b] number pairs");
+    const toml::array* a = n->as_array();
+    auto bad = [&](const toml::node& at, const std::string& why) {
+        throw SpecError(sourceOf(at, file_), path(key), why);
+    };
+    if (!a) bad(*n, "expected an array of [a, b] number pairs");
+    std::vector<Vec2> out;
+    for (size_t i = 0; i < a->size(); ++i) {
+        const toml::array* pair = a->get(i)->as_array();
+        if (!pair || pair->size() != 2 || !pair->get(0)->is_number() ||
+            !pair->get(1)->is_number()) {
+            bad(*a->get(i), "item " + std::to_string(i) + ": expected [a, b], two numbers");
+        }
+        const double x = pair->get(0)->value<double>().value_or(NAN);
+        const double y = pair->get(1)->value<double>().value_or(NAN);
+        if (!std::isfinite(x) || !std::isfinite(y)) {
+            bad(*a->get(i), "item " + std::to_string(i) + ": expected finite numbers");
+        }
+        out.push_back({x, y});
+    }
+    if (out.size() < minCount) {
+        bad(*n, "expected at least " + std::to_string(minCount) + " points, got " +
+                    std::to_string(out.size()));
+    }
+    return out;
+}
+
+std::string Params::filePath(std::string_view key) {
+    const std::string name = string(key);
+    std::filesystem::path p(name);
+    if (p.is_relative()) p = std::filesystem::path(file_).parent_path() / p;
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(p, ec)) fail(key, "file not found: " + p.string());
+    return p.string();
+}
+
+Rng Params::randomStream(std::string_view key) {
+    if (draw_ && draw_->draw) draw_->perInstance = true;
+    return Rng((draw_ && draw_->draw) ? draw_->seed : 0).derive(path(key) + "#stream");
+}
+
 void Params::finish() const {
     for (const auto& [k, v] : *table_) {
         std::string key(k.str());

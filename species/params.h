@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "volumes/math.h"
+#include "volumes/rng.h"
 
 namespace sylva {
 
@@ -61,6 +62,9 @@ struct DrawContext {
     uint64_t seed = 0;
     bool draw = true;  // false: validation — use the distribution's centre, check its bounds
     std::map<std::string, double> sampled;  // key path -> drawn value
+    // Set when a random stream was handed out (a volume drawn per instance, e.g. canopy blobs
+    // or refinement spheres): such a species is not cached across instances.
+    bool perInstance = false;
 };
 
 class Params {
@@ -92,6 +96,14 @@ class Params {
     std::vector<Params> tableArray(std::string_view key);  // empty when absent
     // Array of plain strings.
     std::vector<std::string> stringArray(std::string_view key);
+    // Array of [a, b] number pairs (plain numbers), e.g. a sketched stroke; at least `minCount`.
+    std::vector<Vec2> pairArray(std::string_view key, size_t minCount = 1);
+    // A file named by a string key, resolved relative to the spec file's directory; it must
+    // exist ("file not found" otherwise).
+    std::string filePath(std::string_view key);
+    // A random stream for what `key` builds per instance (keyed by the key path and the
+    // instance seed; fixed when validating). Marks the draw context per-instance.
+    Rng randomStream(std::string_view key);
 
     // The raw node (marks the key used); nullptr when absent.
     const toml::node* raw(std::string_view key);

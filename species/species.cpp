@@ -105,7 +105,7 @@ GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides
         method = instantiateSpecies(species, draw, overrides, &leaves);
         out.sampled = std::move(draw.sampled);
         // Nothing drawn: every instance of this sweep point parses to the same method.
-        if (out.sampled.empty() && species.cache) {
+        if (out.sampled.empty() && !draw.perInstance && species.cache) {
             std::lock_guard<std::mutex> lock(species.cache->mutex);
             species.cache->entries.emplace(overridesKey(overrides),
                                            SpeciesCache::Entry{method, leaves});

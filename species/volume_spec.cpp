@@ -33,9 +33,21 @@ VolumePtr parsePrimitive(Params& p, const std::string& type) {
 }  // namespace
 
 VolumePtr parseVolume(Params& p, bool topLevel) {
-    static const std::vector<std::string> kTypes = {
-        "sphere", "hemisphere",    "ellipsoid", "cylinder",     "cone",
-        "box",    "sphere-sector", "union",     "intersection", "difference"};
+    static const std::vector<std::string> kTypes = {"sphere",
+                                                    "hemisphere",
+                                                    "ellipsoid",
+                                                    "cylinder",
+                                                    "cone",
+                                                    "box",
+                                                    "sphere-sector",
+                                                    "revolution",
+                                                    "mask-revolution",
+                                                    "visual-hull",
+                                                    "canopy-envelope",
+                                                    "crown-refinement",
+                                                    "union",
+                                                    "intersection",
+                                                    "difference"};
     std::string type = p.choice("type", "", kTypes);
     VolumePtr v;
     if (type == "union" || type == "intersection" || type == "difference") {
@@ -56,6 +68,16 @@ VolumePtr parseVolume(Params& p, bool topLevel) {
             vs.erase(vs.begin());
             v = makeDifference(base, vs);
         }
+    } else if (type == "revolution") {
+        v = parseRevolutionVolume(p);
+    } else if (type == "mask-revolution") {
+        v = parseMaskRevolutionVolume(p);
+    } else if (type == "visual-hull") {
+        v = parseVisualHullVolume(p);
+    } else if (type == "canopy-envelope") {
+        v = parseCanopyEnvelopeVolume(p);
+    } else if (type == "crown-refinement") {
+        v = parseCrownRefinementVolume(p);
     } else {
         v = parsePrimitive(p, type);
     }

@@ -16,4 +16,13 @@ namespace sylva {
 // Parses a volume table (and its parts); errors name file, line and key path.
 VolumePtr parseVolume(Params& p, bool topLevel = true);
 
+// The sketched and envelope kinds, one file each (species/volume_spec_<kind>.cpp). Each
+// reads the keys of its own type (not `type`, placement or `voxel_size`, which parseVolume
+// handles) and reports bad values at their key with file:line.
+VolumePtr parseRevolutionVolume(Params& p);       // type = "revolution"
+VolumePtr parseMaskRevolutionVolume(Params& p);   // type = "mask-revolution"
+VolumePtr parseVisualHullVolume(Params& p);       // type = "visual-hull"
+VolumePtr parseCanopyEnvelopeVolume(Params& p);   // type = "canopy-envelope"
+VolumePtr parseCrownRefinementVolume(Params& p);  // type = "crown-refinement"
+
 }  // namespace sylva

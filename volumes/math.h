@@ -44,6 +44,22 @@ struct Vec3 {
     constexpr bool operator==(const Vec3& o) const { return x == o.x && y == o.y && z == o.z; }
 };
 
+// A point or vector in a plane: sketched profiles use (x, y) = (distance from the axis,
+// height along it); images use (column, row).
+struct Vec2 {
+    double x = 0, y = 0;
+
+    constexpr Vec2() = default;
+    constexpr Vec2(double x_, double y_) : x(x_), y(y_) {}
+    constexpr Vec2 operator+(const Vec2& o) const { return {x + o.x, y + o.y}; }
+    constexpr Vec2 operator-(const Vec2& o) const { return {x - o.x, y - o.y}; }
+    constexpr Vec2 operator*(double s) const { return {x * s, y * s}; }
+    constexpr bool operator==(const Vec2& o) const { return x == o.x && y == o.y; }
+};
+inline constexpr double dot(const Vec2& a, const Vec2& b) { return a.x * b.x + a.y * b.y; }
+inline constexpr double cross(const Vec2& a, const Vec2& b) { return a.x * b.y - a.y * b.x; }
+inline double length(const Vec2& v) { return std::sqrt(dot(v, v)); }
+
 inline constexpr Vec3 operator*(double s, const Vec3& v) { return v * s; }
 inline constexpr double dot(const Vec3& a, const Vec3& b) {
     return a.x * b.x + a.y * b.y + a.z * b.z;
