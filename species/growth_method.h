@@ -4,10 +4,13 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "species/params.h"
 #include "species/tree.h"
 #include "volumes/rng.h"
+#include "volumes/volume.h"
 
 namespace sylva {
 
@@ -17,6 +20,9 @@ class GrowthMethod {
     // Grows one tree from rng. `threaded`: the method may split its own work across TBB
     // workers; results never depend on it. Method-specific counters go into `stats`.
     virtual Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats) const = 0;
+    // The method's named volumes, as parsed for this instance ("crown", ...), for
+    // `sylva volume`; a method without volumes returns none.
+    virtual std::vector<std::pair<std::string, VolumePtr>> volumes() const { return {}; }
 };
 
 // Reads the method's parameters from the species table (its own keys only) and returns the

@@ -135,6 +135,14 @@ class IteratedGraphMethod : public GrowthMethod {
         return t;
     }
 
+    // "crown", then "endpoints" when [endpoints] is given, then "roots" when [roots] is.
+    std::vector<std::pair<std::string, VolumePtr>> volumes() const override {
+        std::vector<std::pair<std::string, VolumePtr>> v = {{"crown", o_.crown.volume}};
+        if (o_.crown.endpointVolume) v.emplace_back("endpoints", o_.crown.endpointVolume);
+        if (o_.roots.enabled) v.emplace_back("roots", o_.roots.system.volume);
+        return v;
+    }
+
   private:
     IteratedGraphOptions o_;
 };

@@ -1,0 +1,31 @@
+// @brief Any Volume sampled into an OpenVDB narrow-band level set grid.
+// Includes OpenVDB: include it only from .cpp files that link OpenVDB (volumes/, the
+// pipeline's volume output, tests).
+#pragma once
+
+#include <openvdb/openvdb.h>
+
+#include "volumes/volume.h"
+
+namespace sylva {
+
+// Calls openvdb::initialize() once per process (thread-safe). levelSetGrid calls it; call it
+// yourself before reading .vdb files.
+void initializeOpenVdbOnce();
+
+// The signed distance of `v` sampled at voxel centres into a FloatGrid of class
+// GRID_LEVEL_SET, unnamed:
+//  - voxel: voxel edge in world units (metres); index (i, j, k) is the point
+//    (i, j, k)·voxel (a linear transform, no offset);
+//  - halfWidth: narrow-band half width in voxels (≥ 1); the background is halfWidth·voxel;
+//  - voxels whose |distance| < halfWidth·voxel are active with the source distance; the
+//    others in the sampled leaf blocks are inactive ±background, and tiles enclosed by the
+//    band are flood-filled to −background (inside).
+// Only the 8³ leaf blocks over v.bounds() (padded by the band) that the source distance says
+// can reach the band are sampled, in parallel; each block depends only on its own voxels, so
+// the grid is identical for any thread count. An empty volume gives an empty grid.
+// Throws std::invalid_argument for a voxel that is not finite and > 0, a halfWidth < 1, or a
+// grid over 10⁷ voxels along an axis.
+openvdb::FloatGrid::Ptr levelSetGrid(const Volume& v, double voxel, double halfWidth = 3.0);
+
+}  // namespace sylva
