@@ -5,13 +5,20 @@
 //  - WriteViewFile: one view's silhouette PNG, label PNG and depth EXR, per file.
 //  - DatasetBuild: the whole demo dataset (1,000 trees with meshes and 8 views, files
 //    written) and an ez-tree-sized one, trees per second.
+//  - VolumeBuild / InsideTest: what a crown volume costs per tree — building each kind from
+//    its spec, and inside() queries per second (analytic primitives, CSG, level set, and the
+//    sketched and envelope kinds from their presets).
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
+#include <functional>
+#include <optional>
+#include <vector>
 
 #include "pipeline/build.h"
 #include "pipeline/dataset.h"
@@ -19,6 +26,7 @@
 #include "pipeline/views.h"
 #include "species/mesh.h"
 #include "species/species.h"
+#include "species/volume_spec.h"
 
 namespace fs = std::filesystem;
 using namespace sylva;
@@ -174,5 +182,186 @@ BENCHMARK_CAPTURE(DatasetBuild, ez_size, "bench/ez-size.toml")
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();
+
+// --- crown volumes -----------------------------------------------------------------------------
+
+// A volume table to parse: inline TOML (primitives) or the first table of a kind in the
+// [crown] of a preset (parts of a union searched depth first), so relative files resolve.
+struct VolumeSource {
+    std::string file;   // for file-relative keys and messages
+    toml::table owner;  // keeps the table alive
+    const toml::table* table = nullptr;
+    std::string prefix;
+};
+
+static std::optional<VolumeSource> inlineVolume(const char* toml) {
+    VolumeSource v;
+    v.file = "bench";
+    v.owner = toml::parse(toml);
+    v.table = v.owner["crown"].as_table();
+    v.prefix = "crown";
+    return v;
+}
+
+static const toml::table* findKind(const toml::table& t, const std::string& kind,
+                                   std::string& prefix) {
+    if (t["type"].value_or(std::string()) == kind) return &t;
+    if (const toml::array* parts = t["parts"].as_array()) {
+        for (size_t i = 0; i < parts->size(); ++i) {
+            if (const toml::table* part = (*parts)[i].as_table()) {
+                std::string sub = prefix + ".parts[" + std::to_string(i) + "]";
+                if (const toml::table* found = findKind(*part, kind, sub)) {
+                    prefix = sub;
+                    return found;
+                }
+            }
+        }
+    }
+    return nullptr;
+}
+
+// The first preset (sorted by name) among species/presets/<prefix>*.toml whose [crown] or
+// [endpoints] holds a volume of type `kind`.
+static std::optional<VolumeSource> presetVolume(const std::string& filePrefix,
+                                                const std::string& kind) {
+    std::vector<fs::path> files;
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(SYLVA_SOURCE_DIR "/species/presets", ec)) {
+        const std::string name = e.path().filename().string();
+        if (name.rfind(filePrefix, 0) == 0 && e.path().extension() == ".toml")
+            files.push_back(e.path());
+    }
+    std::sort(files.begin(), files.end());
+    for (const fs::path& f : files) {
+        VolumeSource v;
+        v.file = f.string();
+        v.owner = parseTomlFile(v.file);
+        for (const char* top : {"crown", "endpoints"}) {
+            const toml::table* t = v.owner[top].as_table();
+            std::string prefix = top;
+            if (t && (v.table = findKind(*t, kind, prefix))) {
+                v.prefix = prefix;
+                return v;
+            }
+        }
+    }
+    return std::nullopt;
+}
+
+static VolumePtr parseSource(const VolumeSource& v, uint64_t seed,
+                             const toml::table* table = nullptr) {
+    DrawContext draw;
+    draw.seed = seed;
+    Params p(table ? *table : *v.table, v.file, v.prefix, &draw);
+    return parseVolume(p);
+}
+
+using SourceFn = std::function<std::optional<VolumeSource>()>;
+
+struct VolumeCase {
+    const char* name;
+    SourceFn source;
+};
+
+static const char* kSphere = "[crown]\ntype = 'sphere'\nradius = 4.0\nposition = [0, 6, 0]\n";
+static const char* kEllipsoid =
+    "[crown]\ntype = 'ellipsoid'\nradii = [4.0, 6.0, 3.0]\nposition = [0, 7, 0]\n";
+// Xu & Mould's sub-graph sector on a trunk cylinder: a CSG union of two primitives.
+static const char* kSectorCylinder =
+    "[crown]\ntype = 'union'\nparts = [ { type = 'cylinder', radius = 0.4, height = 3 },\n"
+    "  { type = 'sphere-sector', radius = 6, alpha_deg = 54, position = [0, 2, 0] } ]\n";
+// The same union realised as a level set (voxel_size ≈ its largest extent, 9.7 m, / 128).
+static const char* kLevelSet =
+    "[crown]\ntype = 'union'\nvoxel_size = 0.075\nparts = [ { type = 'cylinder', radius = 0.4, "
+    "height = 3 },\n  { type = 'sphere-sector', radius = 6, alpha_deg = 54, position = [0, 2, 0] "
+    "} ]\n";
+
+static const std::vector<VolumeCase>& volumeCases() {
+    static const std::vector<VolumeCase> cases = {
+        {"sphere", [] { return inlineVolume(kSphere); }},
+        {"ellipsoid", [] { return inlineVolume(kEllipsoid); }},
+        {"sector_cylinder_union", [] { return inlineVolume(kSectorCylinder); }},
+        {"level_set", [] { return inlineVolume(kLevelSet); }},
+        {"revolution", [] { return presetVolume("xm-sketch-", "revolution"); }},
+        {"mask_revolution", [] { return presetVolume("xm-mask-", "mask-revolution"); }},
+        {"visual_hull", [] { return presetVolume("xm-mask-", "visual-hull"); }},
+        {"canopy_envelope", [] { return presetVolume("xm-canopy-", "canopy-envelope"); }},
+        {"crown_refinement", [] { return presetVolume("xm-refined", "crown-refinement"); }},
+    };
+    return cases;
+}
+
+static const VolumeCase& volumeCase(const char* name) {
+    for (const VolumeCase& c : volumeCases())
+        if (std::string(c.name) == name) return c;
+    throw std::invalid_argument(name);
+}
+
+// Parse and build one volume from its spec (one instance's draw per iteration), as a tree
+// of the species would; counters: its measure, m³, and the largest bounds extent, m.
+static void VolumeBuild(benchmark::State& state, const char* kind) {
+    const std::optional<VolumeSource> src = volumeCase(kind).source();
+    if (!src) {
+        state.SkipWithError("preset not present");
+        return;
+    }
+    // makeRevolution keeps its last 8 results in-process (a species names one sketch for its
+    // crown and endpoints), so for the revolved kinds `segments` cycles through 9 values
+    // (64–72 around the spec's own) and every iteration is a fresh build.
+    std::vector<toml::table> variants;
+    const std::string type = (*src->table)["type"].value_or(std::string());
+    if (type == "revolution" || type == "mask-revolution") {
+        const int64_t base = (*src->table)["segments"].value_or(int64_t{64});
+        for (int k = 0; k < 9; ++k) {
+            variants.push_back(*src->table);
+            variants.back().insert_or_assign("segments", base + k);
+        }
+    }
+    uint64_t seed = 1;
+    size_t i = 0;
+    VolumePtr v;
+    for (auto _ : state) {
+        v = parseSource(*src, seed++, variants.empty() ? nullptr : &variants[i++ % 9]);
+        benchmark::DoNotOptimize(v.get());
+    }
+    const Vec3 e = v->bounds().size();
+    state.counters["extent_m"] = std::max({e.x, e.y, e.z});
+    state.counters["measure_m3"] = v->measure();
+}
+
+// inside() on random points in the volume's bounds (fixed draw, single thread).
+static void InsideTest(benchmark::State& state, const char* kind) {
+    const std::optional<VolumeSource> src = volumeCase(kind).source();
+    if (!src) {
+        state.SkipWithError("preset not present");
+        return;
+    }
+    const VolumePtr v = parseSource(*src, 1);
+    const Aabb b = v->bounds();
+    Rng rng(7);
+    std::vector<Vec3> points(1 << 14);
+    for (Vec3& p : points)
+        p = {rng.uniform(b.lo.x, b.hi.x), rng.uniform(b.lo.y, b.hi.y), rng.uniform(b.lo.z, b.hi.z)};
+    size_t inside = 0, queries = 0;
+    for (auto _ : state) {
+        for (const Vec3& p : points) inside += v->inside(p);
+        queries += points.size();
+    }
+    state.SetItemsProcessed(static_cast<int64_t>(queries));
+    state.counters["inside_fraction"] = static_cast<double>(inside) / std::max<size_t>(1, queries);
+}
+
+#define SYLVA_VOLUME_BENCH(kind)                                                              \
+    BENCHMARK_CAPTURE(VolumeBuild, kind, #kind)->Unit(benchmark::kMillisecond)->MinTime(0.5); \
+    BENCHMARK_CAPTURE(InsideTest, kind, #kind)->Unit(benchmark::kMicrosecond)->MinTime(0.5)
+SYLVA_VOLUME_BENCH(sphere);
+SYLVA_VOLUME_BENCH(ellipsoid);
+SYLVA_VOLUME_BENCH(sector_cylinder_union);
+SYLVA_VOLUME_BENCH(level_set);
+SYLVA_VOLUME_BENCH(revolution);
+SYLVA_VOLUME_BENCH(mask_revolution);
+SYLVA_VOLUME_BENCH(visual_hull);
+SYLVA_VOLUME_BENCH(canopy_envelope);
+SYLVA_VOLUME_BENCH(crown_refinement);
 
 BENCHMARK_MAIN();
