@@ -37,7 +37,9 @@ VolumePtr parseCrownRefinementVolume(Params& p) {
     try {
         return refineCrown(*crown, o, rng).volume;
     } catch (const PoissonSaturated& e) {
-        p.fail("count", std::string("the spheres do not fit: ") + e.what());
+        p.fail("count",
+               std::string("the spheres do not fit (centres 2·sphere_radius + gap apart): ") +
+                   e.what());
     }
 }
 
