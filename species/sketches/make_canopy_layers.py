@@ -7,9 +7,9 @@
                            (the base layer of the paper's Figure 4(c) maple, lower inset).
   canopy-maple-blobs.png   three functions packed in one RGB image (128 x 128), "constant-
                            colour ellipses" softened into Gaussian bumps (§3.3.1: smooth
-                           variations, no sharp edges, look better): R = five large soft ellipses, G = eight medium
-                           ones, B = twelve small ones. The envelope reads them as layers 1-3 with
-                           `channel = 0, 1, 2`.
+                           variations, no sharp edges, look better): R = five large ellipses,
+                           G = eight medium ones, B = twelve small ones. A layer picks one
+                           with `channel = 0, 1, 2` (the maple uses R as g1 and G as g3).
   canopy-pine-tiers.png    g0 of xm-canopy-pine.toml (conical domain, Figure 4(b)), 64 x 128
                            grey: six tiers down the cone (theta = 0 at the apex, pi at the
                            base), each widening downwards from 0.55 to 1 and dropping back
