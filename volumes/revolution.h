@@ -49,8 +49,14 @@ struct TriangleSoup {
 TriangleSoup revolveProfile(const std::vector<Vec2>& profile, int segments);
 
 // The revolved volume as an OpenVDB level set (MeshToVolume) of voxel size `voxelSize`
-// metres: inside tests exact to about a voxel, distances trilinear in the narrow band.
-// Exact measure is not available; measure() counts interior voxels.
+// metres: inside tests exact to about a voxel, distances trilinear in the narrow band (±3
+// voxels; beyond it ±3 voxels with the right sign). bounds() is the mesh's plus a voxel.
+// measure() is closed-form, not a voxel count: Pappus' volume 2π·∫∫x dA of the revolved
+// profile polygon times n·sin(2π/n)/2π, the share of each circle the mesh's n-gon
+// cross-sections cover (the faceted solid the level set realises). Safe for concurrent readers.
+// `profile` is a cleaned one (cleanStroke); throws StrokeError like revolveProfile.
+// Memoized: the same profile, voxel size and segments give the same volume (the 8 most
+// recently used are kept), so a sketch named twice in a species is built once.
 VolumePtr makeRevolution(const std::vector<Vec2>& profile, double voxelSize, int segments = 64);
 
 // --- Stroke sources --------------------------------------------------------------------------
@@ -64,7 +70,14 @@ std::vector<Vec2> readSvgStroke(const std::string& path, double axisX, double he
 // A stroke drawn in an image (dark strokes on a light background, or opaque on transparent),
 // read through OpenImageIO and traced row by row: for every row holding stroke pixels, the
 // one farthest from the axis column `axisColumn` (pixels, may be fractional) gives a point.
-// Scaled like readSvgStroke.
+// Scaled like readSvgStroke. A stroke pixel is one with alpha > 0.5 when the image has an
+// alpha channel that is not opaque everywhere, otherwise one with luminance < 0.5. The trace
+// is one point per row (x as a function of height): draw the outer outline, ends near the
+// axis.
+// Errors of both readers (StrokeError): unreadable file, no <path> / no d / bad path data
+// (with the token), arcs, a path in several pieces or crossing the axis, no height, an image
+// without stroke pixels. The SVG reader ignores `transform` attributes and the viewBox (the
+// scale comes from `height`); curves are flattened with 16 steps each.
 std::vector<Vec2> traceStrokeImage(const std::string& path, double axisColumn, double height);
 
 }  // namespace sylva
