@@ -413,6 +413,36 @@ TEST(MaskRevolution, RevolvedDiscIsASphere) {
     EXPECT_THROW(makeMaskRevolution(half, o), MaskError);
 }
 
+// The fall-off reaches the revolved volume's draws: within 1.5 px of the sphere's surface a
+// uniform draw lands with probability 1 − (1 − 1.5/40)³ ≈ 0.108; soft-edged draws land there
+// far less often (the visual-hull test above pins the exact profile).
+TEST(MaskRevolution, SoftEdgedDrawsThinAtTheSurface) {
+    const double mpp = 1.0 / 40, cy = 1.25;
+    const Mask disc = discMask(100, 100, 50, 50, 40);
+    const double uniform = 1 - std::pow(1 - 1.5 / 40, 3);
+    for (bool soft : {false, true}) {
+        SCOPED_TRACE(soft ? "soft edge" : "uniform");
+        MaskRevolutionOptions o;
+        o.metresPerPixel = mpp;
+        o.voxelSize = 0.03;
+        o.falloff.enabled = soft;
+        VolumePtr v = makeMaskRevolution(disc, o);
+        Rng rng(4);
+        const int n = 20000;
+        int near = 0;
+        for (int i = 0; i < n; ++i) {
+            const Vec3 p = *v->sample(rng);
+            if (length(p - Vec3{0, cy, 0}) > 1.0 - 1.5 * mpp) ++near;
+        }
+        const double fraction = double(near) / n;
+        if (soft) {
+            EXPECT_LT(fraction, 0.6 * uniform);
+        } else {
+            EXPECT_NEAR(fraction, uniform, 0.15 * uniform);
+        }
+    }
+}
+
 TEST(MaskRevolution, EveryDrawLiesInside) {
     // A crown on a trunk: a disc over a narrow column.
     const Mask tree = makeMask(80, 100, [](double x, double y) {
