@@ -31,6 +31,7 @@
 #include "pipeline/atomic_file.h"
 #include "pipeline/mesh_writers.h"
 #include "pipeline/views.h"
+#include "species/level_set_mesh.h"
 #include "species/species.h"
 #include "volumes/level_set_grid.h"
 
@@ -61,42 +62,7 @@ Mesh meshLevelSet(const openvdb::FloatGrid& grid, double voxel) {
         // ≤ 0 is inside (Volume::inside), so a value of exactly 0 goes inwards.
         if (std::abs(*it) < nudge) it.setValue(*it <= 0.0f ? -nudge : nudge);
     }
-    std::vector<openvdb::Vec3s> points;
-    std::vector<openvdb::Vec3I> triangles;
-    std::vector<openvdb::Vec4I> quads;
-    openvdb::tools::volumeToMesh(*g, points, triangles, quads, 0.0, 0.0);
-
-    Mesh mesh;
-    // volumeToMesh winds clockwise seen from outside (species/watertight.cpp checks this by
-    // signed volume), so every polygon is reversed; quads split along their 0–2 diagonal.
-    mesh.indices.reserve(3 * (triangles.size() + 2 * quads.size()));
-    for (const auto& q : quads) {
-        const uint32_t t[6] = {q[0], q[2], q[1], q[0], q[3], q[2]};
-        mesh.indices.insert(mesh.indices.end(), t, t + 6);
-    }
-    for (const auto& t : triangles) {
-        const uint32_t r[3] = {t[0], t[2], t[1]};
-        mesh.indices.insert(mesh.indices.end(), r, r + 3);
-    }
-    const size_t nv = points.size();
-    mesh.positions.resize(3 * nv);
-    for (size_t v = 0; v < nv; ++v)
-        for (int a = 0; a < 3; ++a) mesh.positions[3 * v + a] = points[v][a];
-    std::vector<double> acc(3 * nv, 0.0);
-    for (size_t t = 0; t < mesh.indices.size(); t += 3) {
-        const uint32_t i[3] = {mesh.indices[t], mesh.indices[t + 1], mesh.indices[t + 2]};
-        Vec3 p[3];
-        for (int k = 0; k < 3; ++k) p[k] = {points[i[k]][0], points[i[k]][1], points[i[k]][2]};
-        const Vec3 n = cross(p[1] - p[0], p[2] - p[0]);
-        for (uint32_t v : i)
-            for (int a = 0; a < 3; ++a) acc[3 * v + a] += n[a];
-    }
-    mesh.normals.resize(3 * nv);
-    for (size_t v = 0; v < nv; ++v) {
-        const Vec3 n = normalize({acc[3 * v], acc[3 * v + 1], acc[3 * v + 2]});
-        for (int a = 0; a < 3; ++a) mesh.normals[3 * v + a] = static_cast<float>(n[a]);
-    }
-    return mesh;
+    return levelSetMesh(*g);
 }
 
 Vec3 vertex(const Mesh& m, uint32_t i) {
@@ -113,10 +79,7 @@ double enclosedVolume(const Mesh& m) {
 }
 
 double interiorMeasure(const openvdb::FloatGrid& grid, double voxel) {
-    double n = 0;
-    for (auto it = grid.constTree().cbeginValueAll(); it; ++it)
-        if (*it <= 0.0f) n += static_cast<double>(it.getVoxelCount());
-    return n * voxel * voxel * voxel;
+    return interiorVoxelCount(grid) * voxel * voxel * voxel;
 }
 
 void writeVdb(const openvdb::FloatGrid::Ptr& grid, const fs::path& path) {

@@ -31,6 +31,7 @@
 #include <string>
 #include <unordered_map>
 
+#include "species/level_set_mesh.h"
 #include "species/mesh.h"
 
 namespace sylva {
@@ -539,14 +540,31 @@ Mesh watertightMesh(const Tree& tree, const WatertightOptions& options,
     Mesh mesh;
     if (segments.empty()) return mesh;
 
+    mesh = levelSetMesh(*grid);
+    const size_t nv = mesh.vertexCount();
+
+    // Branch order of the segment whose surface the vertex lies on (smallest distance).
+    const SegmentBuckets buckets(segments, voxel);
+    mesh.order.resize(nv);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nv), [&](const auto& range) {
+        for (size_t v = range.begin(); v != range.end(); ++v) {
+            const Vec3 p{mesh.positions[3 * v], mesh.positions[3 * v + 1],
+                         mesh.positions[3 * v + 2]};
+            const int32_t s = buckets.nearest(segments, p);
+            mesh.order[v] = tree.nodes[segments[s].node].order;
+        }
+    });
+    mesh.colour.assign(nv, 0);
+    return mesh;
+}
+
+Mesh levelSetMesh(const openvdb::FloatGrid& grid) {
     std::vector<openvdb::Vec3s> points;
     std::vector<openvdb::Vec3I> triangles;
     std::vector<openvdb::Vec4I> quads;
-    openvdb::tools::volumeToMesh(*grid, points, triangles, quads, 0.0, 0.0);
+    openvdb::tools::volumeToMesh(grid, points, triangles, quads, 0.0, 0.0);
 
-    // volumeToMesh winds its polygons clockwise seen from outside (checked by the signed
-    // volume of a sphere in the tests), so every polygon is reversed here. Quads are split
-    // along their 0–2 diagonal.
+    Mesh mesh;
     mesh.indices.reserve(3 * (triangles.size() + 2 * quads.size()));
     for (const auto& q : quads) {
         const uint32_t t[6] = {q[0], q[2], q[1], q[0], q[3], q[2]};
@@ -556,14 +574,11 @@ Mesh watertightMesh(const Tree& tree, const WatertightOptions& options,
         const uint32_t r[3] = {t[0], t[2], t[1]};
         mesh.indices.insert(mesh.indices.end(), r, r + 3);
     }
-
     const size_t nv = points.size();
     mesh.positions.resize(3 * nv);
     for (size_t v = 0; v < nv; ++v)
         for (int a = 0; a < 3; ++a) mesh.positions[3 * v + a] = points[v][a];
 
-    // Area-weighted face normals (unnormalised cross products) summed per vertex, in triangle
-    // order (deterministic).
     std::vector<double> acc(3 * nv, 0.0);
     for (size_t t = 0; t < mesh.indices.size(); t += 3) {
         const uint32_t i0 = mesh.indices[t], i1 = mesh.indices[t + 1], i2 = mesh.indices[t + 2];
@@ -579,18 +594,6 @@ Mesh watertightMesh(const Tree& tree, const WatertightOptions& options,
         const Vec3 n = normalize({acc[3 * v], acc[3 * v + 1], acc[3 * v + 2]});
         for (int a = 0; a < 3; ++a) mesh.normals[3 * v + a] = static_cast<float>(n[a]);
     }
-
-    // Branch order of the segment whose surface the vertex lies on (smallest distance).
-    const SegmentBuckets buckets(segments, voxel);
-    mesh.order.resize(nv);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nv), [&](const auto& range) {
-        for (size_t v = range.begin(); v != range.end(); ++v) {
-            const Vec3 p{points[v][0], points[v][1], points[v][2]};
-            const int32_t s = buckets.nearest(segments, p);
-            mesh.order[v] = tree.nodes[segments[s].node].order;
-        }
-    });
-    mesh.colour.assign(nv, 0);
     return mesh;
 }
 

@@ -91,59 +91,6 @@ void sampleInto(openvdb::FloatGrid& grid, const Volume& source, const Aabb& boun
     openvdb::tools::signedFloodFill(tree);
 }
 
-class LevelSet final : public Volume {
-  public:
-    LevelSet(const Volume& source, double voxel, double halfWidth)
-        : voxel_(voxel),
-          bounds_(source.bounds()),
-          description_(source.describe()),
-          grid_(levelSetGrid(source, voxel, halfWidth)) {
-        // The realised surface can sit up to a voxel outside the source's bounds.
-        if (!bounds_.empty()) {
-            const Vec3 pad{voxel, voxel, voxel};
-            bounds_.lo -= pad;
-            bounds_.hi += pad;
-        }
-        measure_ = countInterior() * voxel * voxel * voxel;
-    }
-    double signedDistance(const Vec3& p) const override {
-        // An unregistered accessor per call: cheap, and safe for concurrent readers because
-        // the tree is never modified after construction.
-        openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> acc(grid_->constTree());
-        float value = 0.0f;
-        openvdb::tools::BoxSampler::sample(acc, openvdb::Vec3R(p.x, p.y, p.z) / voxel_, value);
-        return value;
-    }
-
-    Aabb bounds() const override { return bounds_; }
-
-    // sample(): Volume's default rejection from bounds().
-
-    // The number of voxels whose centre is inside, times the voxel volume: the measure of
-    // the realised level set (not of the source), accurate to about a voxel layer of surface.
-    double measure() const override { return measure_; }
-
-    std::string describe() const override {
-        char buf[64];
-        std::snprintf(buf, sizeof buf, " (level set, voxel %g m)", voxel_);
-        return description_ + buf;
-    }
-
-  private:
-    double countInterior() const {
-        double n = 0;
-        for (auto it = grid_->constTree().cbeginValueAll(); it; ++it)
-            if (*it <= 0.0f) n += static_cast<double>(it.getVoxelCount());
-        return n;
-    }
-
-    double voxel_;
-    Aabb bounds_;
-    std::string description_;
-    openvdb::FloatGrid::Ptr grid_;
-    double measure_ = 0.0;
-};
-
 }  // namespace
 
 void initializeOpenVdbOnce() {
@@ -163,9 +110,39 @@ openvdb::FloatGrid::Ptr levelSetGrid(const Volume& v, double voxel, double halfW
     return grid;
 }
 
+double interiorVoxelCount(const openvdb::FloatGrid& grid) {
+    double n = 0;
+    for (auto it = grid.constTree().cbeginValueAll(); it; ++it)
+        if (*it <= 0.0f) n += static_cast<double>(it.getVoxelCount());
+    return n;
+}
+
+double GridVolume::signedDistance(const Vec3& p) const {
+    // An unregistered accessor per call: cheap, and safe for concurrent readers because the
+    // tree is never modified after construction.
+    openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> acc(grid_->constTree());
+    float value = 0.0f;
+    openvdb::tools::BoxSampler::sample(acc, openvdb::Vec3R(p.x, p.y, p.z) / voxel_, value);
+    return value;
+}
+
 VolumePtr makeLevelSet(const Volume& source, double voxelSize, double halfWidth) {
     checkVoxel("makeLevelSet", voxelSize, halfWidth);
-    return std::make_shared<LevelSet>(source, voxelSize, halfWidth);
+    openvdb::FloatGrid::Ptr grid = levelSetGrid(source, voxelSize, halfWidth);
+    // The realised surface can sit up to a voxel outside the source's bounds.
+    Aabb bounds = source.bounds();
+    if (!bounds.empty()) {
+        const Vec3 pad{voxelSize, voxelSize, voxelSize};
+        bounds.lo -= pad;
+        bounds.hi += pad;
+    }
+    // Measure: the voxels whose centre is inside, times the voxel volume — the measure of the
+    // realised level set (not of the source), accurate to about a voxel layer of surface.
+    const double measure = interiorVoxelCount(*grid) * voxelSize * voxelSize * voxelSize;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, " (level set, voxel %g m)", voxelSize);
+    return std::make_shared<GridVolume>(std::move(grid), voxelSize, bounds, measure,
+                                        source.describe() + buf);
 }
 
 }  // namespace sylva

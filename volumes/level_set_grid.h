@@ -5,6 +5,9 @@
 
 #include <openvdb/openvdb.h>
 
+#include <string>
+#include <utility>
+
 #include "volumes/volume.h"
 
 namespace sylva {
@@ -27,5 +30,35 @@ void initializeOpenVdbOnce();
 // Throws std::invalid_argument for a voxel that is not finite and > 0, a halfWidth < 1, or a
 // grid over 10⁷ voxels along an axis.
 openvdb::FloatGrid::Ptr levelSetGrid(const Volume& v, double voxel, double halfWidth = 3.0);
+
+// The number of voxels (tiles counted by their voxels) whose value is ≤ 0: inside.
+double interiorVoxelCount(const openvdb::FloatGrid& grid);
+
+// A level-set grid (linear transform of edge `voxel`, index (i, j, k) at (i, j, k)·voxel) as
+// a Volume: the signed distance is trilinear in the narrow band and ±band beyond it (the
+// sign stays right). Safe for concurrent readers (the grid is never modified). bounds,
+// measure and describe() are given by the maker (e.g. a voxel count or a closed form).
+class GridVolume final : public Volume {
+  public:
+    GridVolume(openvdb::FloatGrid::Ptr grid, double voxel, const Aabb& bounds, double measure,
+               std::string description)
+        : grid_(std::move(grid)),
+          voxel_(voxel),
+          bounds_(bounds),
+          measure_(measure),
+          description_(std::move(description)) {}
+
+    double signedDistance(const Vec3& p) const override;
+    Aabb bounds() const override { return bounds_; }
+    double measure() const override { return measure_; }
+    std::string describe() const override { return description_; }
+
+  private:
+    openvdb::FloatGrid::Ptr grid_;
+    double voxel_;
+    Aabb bounds_;
+    double measure_;
+    std::string description_;
+};
 
 }  // namespace sylva

@@ -10,7 +10,6 @@
 #include <CGAL/boost/graph/helpers.h>
 #include <OpenImageIO/imageio.h>
 #include <openvdb/openvdb.h>
-#include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/MeshToVolume.h>
 
 #include <algorithm>
@@ -315,64 +314,42 @@ TriangleSoup revolveProfile(const std::vector<Vec2>& profile, int segments) {
 
 namespace {
 
-// The revolved mesh as a narrow-band level set. Inside tests are exact to about a voxel;
-// distances are trilinear within ±3 voxels of the surface and ±3 voxels beyond (sign right).
-class Revolution final : public Volume {
-  public:
-    Revolution(const std::vector<Vec2>& profile, double voxel, int segments)
-        : voxel_(voxel), profilePoints_(profile.size()) {
-        initializeOpenVdbOnce();
-        const TriangleSoup soup = revolveProfile(profile, segments);
-        std::vector<openvdb::Vec3s> points;
-        points.reserve(soup.points.size());
-        for (const Vec3& p : soup.points) {
-            points.emplace_back(float(p.x), float(p.y), float(p.z));
-            bounds_.extend(p);
-        }
-        std::vector<openvdb::Vec3I> triangles;
-        triangles.reserve(soup.triangles.size());
-        for (const auto& t : soup.triangles) triangles.emplace_back(t[0], t[1], t[2]);
-        const auto xform = openvdb::math::Transform::createLinearTransform(voxel);
-        grid_ = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, points, triangles, 3.0f);
-        // The realised surface can sit up to a voxel outside the mesh's bounds.
-        const Vec3 pad{voxel, voxel, voxel};
-        bounds_.lo -= pad;
-        bounds_.hi += pad;
-        // Pappus: the profile polygon revolved has volume 2π·∫∫x dA; the mesh's cross-sections
-        // are regular n-gons inscribed in those circles, n·sin(2π/n)/(2π) of their area.
-        double area = 0, momentX = 0;
-        polygonMoments(profile, &area, &momentX);
-        const double n = segments;
-        measure_ = 2.0 * kPi * std::abs(momentX) * (n * std::sin(2.0 * kPi / n) / (2.0 * kPi));
+// The revolved mesh as a narrow-band level set (MeshToVolume). Inside tests are exact to
+// about a voxel; distances are trilinear within ±3 voxels of the surface and ±3 voxels beyond
+// (sign right).
+VolumePtr revolvedLevelSet(const std::vector<Vec2>& profile, double voxel, int segments) {
+    initializeOpenVdbOnce();
+    const TriangleSoup soup = revolveProfile(profile, segments);
+    std::vector<openvdb::Vec3s> points;
+    points.reserve(soup.points.size());
+    Aabb bounds;
+    for (const Vec3& p : soup.points) {
+        points.emplace_back(float(p.x), float(p.y), float(p.z));
+        bounds.extend(p);
     }
-
-    double signedDistance(const Vec3& p) const override {
-        // A fresh unregistered accessor per call: safe for concurrent readers, the tree is
-        // never modified after construction.
-        openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> acc(grid_->constTree());
-        float value = 0.0f;
-        openvdb::tools::BoxSampler::sample(acc, openvdb::Vec3R(p.x, p.y, p.z) / voxel_, value);
-        return value;
-    }
-
-    Aabb bounds() const override { return bounds_; }
-
-    // Closed form (Pappus' theorem) for the faceted solid the level set realises, not a voxel
-    // count: the voxelised inside differs from it by about a voxel layer of surface.
-    double measure() const override { return measure_; }
-
-    std::string describe() const override {
-        return format("revolution of a %zu-point profile (level set, voxel %.3g m)", profilePoints_,
-                      voxel_);
-    }
-
-  private:
-    double voxel_;
-    size_t profilePoints_;
-    Aabb bounds_;
-    openvdb::FloatGrid::Ptr grid_;
-    double measure_ = 0.0;
-};
+    std::vector<openvdb::Vec3I> triangles;
+    triangles.reserve(soup.triangles.size());
+    for (const auto& t : soup.triangles) triangles.emplace_back(t[0], t[1], t[2]);
+    const auto xform = openvdb::math::Transform::createLinearTransform(voxel);
+    auto grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, points, triangles, 3.0f);
+    // The realised surface can sit up to a voxel outside the mesh's bounds.
+    const Vec3 pad{voxel, voxel, voxel};
+    bounds.lo -= pad;
+    bounds.hi += pad;
+    // Measure, closed form (Pappus' theorem) for the faceted solid the level set realises, not
+    // a voxel count: the profile polygon revolved has volume 2π·∫∫x dA; the mesh's
+    // cross-sections are regular n-gons inscribed in those circles, n·sin(2π/n)/(2π) of their
+    // area. The voxelised inside differs from it by about a voxel layer of surface.
+    double area = 0, momentX = 0;
+    polygonMoments(profile, &area, &momentX);
+    const double n = segments;
+    const double measure =
+        2.0 * kPi * std::abs(momentX) * (n * std::sin(2.0 * kPi / n) / (2.0 * kPi));
+    return std::make_shared<GridVolume>(
+        std::move(grid), voxel, bounds, measure,
+        format("revolution of a %zu-point profile (level set, voxel %.3g m)", profile.size(),
+               voxel));
+}
 
 }  // namespace
 
@@ -401,7 +378,7 @@ VolumePtr makeRevolution(const std::vector<Vec2>& profile, double voxelSize, int
             }
         }
     }
-    VolumePtr v = std::make_shared<Revolution>(profile, voxelSize, segments);
+    VolumePtr v = revolvedLevelSet(profile, voxelSize, segments);
     std::lock_guard<std::mutex> lock(mutex);
     if (kept.size() == kKept) kept.erase(kept.begin());
     kept.push_back({profile, voxelSize, segments, v});
