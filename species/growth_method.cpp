@@ -4,10 +4,13 @@ namespace sylva {
 
 std::unique_ptr<GrowthMethod> makeGrowthMethod(const std::string& name, Params& species) {
     if (name == "iterated-graph") return makeIteratedGraphMethod(species);
+    if (name == "space-colonization") return makeSpaceColonizationMethod(species);
     std::string hint;
-    if (auto s = closestWord(name, {"iterated-graph"})) hint = "; did you mean \"" + *s + "\"?";
-    species.fail("method",
-                 "unknown growth method \"" + name + "\" (known: \"iterated-graph\")" + hint);
+    if (auto s = closestWord(name, {"iterated-graph", "space-colonization"})) {
+        hint = "; did you mean \"" + *s + "\"?";
+    }
+    species.fail("method", "unknown growth method \"" + name +
+                               "\" (known: \"iterated-graph\", \"space-colonization\")" + hint);
 }
 
 }  // namespace sylva

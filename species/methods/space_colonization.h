@@ -46,7 +46,10 @@ struct SpaceColonizationOptions {
     double perception = 4.0;  // r, internodes
     double perceptionAngle = 75.0 * kPi / 180.0;  // θ, half-angle of the perception cone
     int markers = 20000;                          // baseline: markers in the crown
-    int markersPerBud = 8;            // improved: markers each live bud generates per iteration
+    // improved: markers each live bud generates per iteration. A bud in free space expects
+    // N·(1/κ)³·(1−cos θ)/2 of its own in its perception volume (64 → 0.88: it grows in ~58 %
+    // of iterations); more markers make denser crowns, fewer sparser ones.
+    int markersPerBud = 64;
     double kappa = 3.0;               // improved: markers within κ·r of their bud (2…4)
     double sigma = 1.0;               // improved: ω's σ, internodes
     double gravityWeight = 0.0;       // λ (improved; the baseline's tropism below)
@@ -63,6 +66,10 @@ struct SpaceColonizationOptions {
     // Limits.
     int maxIterations = 200;
     int maxInternodes = 20000;
+
+    // Split the per-bud work of each iteration across TBB workers; the tree is identical
+    // either way (every parallel step is a pure function of the iteration's start state).
+    bool threaded = false;
 };
 
 // Grows one tree. Deterministic for a given rng, whatever the thread count. Counters

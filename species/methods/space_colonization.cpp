@@ -1,0 +1,592 @@
+// The `space-colonization` growth method (see space_colonization.h for the two variants).
+//
+// Tree form (Palubicki et al. 2009 §3, metamers): every internode ends in a node that carries
+// a terminal bud (the internode's direction; it continues the axis, same branch order) and a
+// lateral bud (at branchAngle from the internode, turned about it by the phyllotaxis angle
+// from the previous lateral bud on the same axis; when it grows it starts a new axis, order
+// + 1). A bud grows at most one metamer per iteration. The root (node 0) sits at the origin
+// with one terminal bud pointing +y; a trunk of trunkLength is grown straight up first, its
+// nodes carrying no lateral buds (a clear bole).
+//
+// Conventions decided here (not fixed by the papers):
+//  - Occupancy and perception are tested against the skeleton *nodes* (each bud sits on one).
+//  - Baseline: markers never come back, so a bud that perceives no marker at all is dropped
+//    (it could never grow); a bud that perceives markers but wins none stays dormant.
+//    Growth stops when an iteration grows nothing (the state is then fixed).
+//  - Improved: a bud "has space" when at least one of its own surviving markers, or a guide
+//    marker, lies in its perception volume (within r, angle ≤ θ); markers of *other* buds
+//    there only push it (Σ ω v_m). A bud without space does not grow; after kMaxFailures
+//    such iterations in a row it dies, except that the tree's last bud is kept (see grow()),
+//    so this variant ends at max_iterations or max_internodes. Markers drawn outside the crown are
+//    dropped (not redrawn), so marker density is uniform wherever the crown is. v_opt is
+//    the normalised mean of the unit vectors to the bud's markers, so λ and the guide
+//    weights are relative to a unit vector; ω takes d and σ in internode lengths.
+//  - Guides: directional guide markers add weight·direction to every bud that perceives
+//    them (Liu 2020 §4.3); tropism is added last and the direction normalised again.
+//  - Radii: pipe model from the tips up, r_parentⁿ = Σ r_childⁿ; a node's radius is that of
+//    the internode ending at it.
+//
+// Determinism: per-bud work of an iteration (perception, marker generation from a stream
+// keyed by (bud id, iteration), directions) reads only the iteration's start state and writes
+// its own slot; everything that changes state (competition for markers, new nodes, marker
+// removal) runs serially in bud order. Threaded and serial runs give identical trees.
+//
+// Frame: +y up, metres, radians.
+#include "species/methods/space_colonization.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "species/methods/space_colonization_detail.h"
+
+namespace sylva {
+
+namespace {
+
+constexpr int kMaxFailures = 3;  // improved: iterations in a row without space before a bud dies
+constexpr double kOmegaCutoff = 4.3;  // improved: ω(4.3σ) < 1e-4·ω(0): such markers push nothing
+
+// Runs f(i) for every i in [0, n), across TBB workers when `threaded`.
+template <class F>
+void forEachIndex(size_t n, bool threaded, const F& f) {
+    if (threaded && n > 32) {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16),
+                          [&](const tbb::blocked_range<size_t>& r) {
+                              for (size_t i = r.begin(); i != r.end(); ++i) f(i);
+                          });
+    } else {
+        for (size_t i = 0; i < n; ++i) f(i);
+    }
+}
+
+// A uniform hash grid of point indices. Queries visit the cells a ball touches in a fixed
+// order, each cell's indices in insertion order, so sums over query results are reproducible.
+class HashGrid {
+  public:
+    explicit HashGrid(double cell) : inv_(1.0 / cell) {}
+
+    void clear() { cells_.clear(); }
+    void insert(int32_t index, const Vec3& p) {
+        cells_[key(coord(p.x), coord(p.y), coord(p.z))].push_back(index);
+    }
+
+    // f(index) for every point in the cells the ball (p, radius) touches; the caller tests the
+    // actual distance.
+    template <class F>
+    void forEachNear(const Vec3& p, double radius, F&& f) const {
+        const int64_t x0 = coord(p.x - radius), x1 = coord(p.x + radius);
+        const int64_t y0 = coord(p.y - radius), y1 = coord(p.y + radius);
+        const int64_t z0 = coord(p.z - radius), z1 = coord(p.z + radius);
+        for (int64_t x = x0; x <= x1; ++x) {
+            for (int64_t y = y0; y <= y1; ++y) {
+                for (int64_t z = z0; z <= z1; ++z) {
+                    auto it = cells_.find(key(x, y, z));
+                    if (it == cells_.end()) continue;
+                    for (int32_t i : it->second) f(i);
+                }
+            }
+        }
+    }
+
+    // Drops every index for which drop(index) is true from the cells the ball touches.
+    template <class P>
+    void eraseNear(const Vec3& p, double radius, P&& drop) {
+        const int64_t x0 = coord(p.x - radius), x1 = coord(p.x + radius);
+        const int64_t y0 = coord(p.y - radius), y1 = coord(p.y + radius);
+        const int64_t z0 = coord(p.z - radius), z1 = coord(p.z + radius);
+        for (int64_t x = x0; x <= x1; ++x) {
+            for (int64_t y = y0; y <= y1; ++y) {
+                for (int64_t z = z0; z <= z1; ++z) {
+                    auto it = cells_.find(key(x, y, z));
+                    if (it == cells_.end()) continue;
+                    std::vector<int32_t>& v = it->second;
+                    v.erase(std::remove_if(v.begin(), v.end(), drop), v.end());
+                }
+            }
+        }
+    }
+
+  private:
+    static constexpr int64_t kHalf = int64_t(1) << 20;  // 21 bits per axis
+    int64_t coord(double v) const {
+        const double c = std::floor(v * inv_);
+        return static_cast<int64_t>(std::clamp(c, double(-kHalf), double(kHalf - 1)));
+    }
+    static uint64_t key(int64_t x, int64_t y, int64_t z) {
+        return uint64_t(x + kHalf) | uint64_t(y + kHalf) << 21 | uint64_t(z + kHalf) << 42;
+    }
+
+    double inv_;
+    std::unordered_map<uint64_t, std::vector<int32_t>> cells_;
+};
+
+// Persistent markers: the guides (indices [0, guides)), then, in the baseline, the crown's.
+struct MarkerSet {
+    std::vector<Vec3> position;
+    std::vector<Vec3> pull;  // weight · direction of a directional guide marker, else zero
+    std::vector<uint8_t> alive;
+    HashGrid grid;
+    explicit MarkerSet(double cell) : grid(cell) {}
+    int32_t add(const Vec3& p, const Vec3& pull_) {
+        const auto i = static_cast<int32_t>(position.size());
+        position.push_back(p);
+        pull.push_back(pull_);
+        alive.push_back(1);
+        grid.insert(i, p);
+        return i;
+    }
+};
+
+// A marker in a bud's perception volume, with its squared distance to the bud.
+struct Perceived {
+    int32_t marker;
+    double d2;
+};
+
+// The perception volume (Palubicki 2009 §4, Liu 2020 Fig. 3a): within `radius` of the bud and
+// at most θ from its direction (cosAngle = cos θ). Markers on the bud itself are not seen.
+inline bool inCone(const Vec3& v, double d2, const Vec3& direction, double cosAngle) {
+    return d2 > 0.0 && dot(v, direction) >= cosAngle * std::sqrt(d2);
+}
+
+std::vector<Perceived> perceive(const MarkerSet& set, const Vec3& at, const Vec3& direction,
+                                double radius, double cosAngle) {
+    std::vector<Perceived> out;
+    const double r2 = radius * radius;
+    set.grid.forEachNear(at, radius, [&](int32_t m) {
+        if (!set.alive[m]) return;
+        const Vec3 v = set.position[m] - at;
+        const double d2 = length2(v);
+        if (d2 <= r2 && inCone(v, d2, direction, cosAngle)) out.push_back({m, d2});
+    });
+    return out;
+}
+
+// The baseline competition: each perceived marker goes to the closest bud, ties to the lower
+// bud index (serial, in bud order). `owner` must hold −1 for every listed marker on entry.
+void resolveOwners(const std::vector<std::vector<Perceived>>& lists, std::vector<int32_t>& owner,
+                   std::vector<double>& best) {
+    for (size_t b = 0; b < lists.size(); ++b) {
+        for (const Perceived& p : lists[b]) {
+            if (owner[p.marker] < 0 || p.d2 < best[p.marker]) {
+                owner[p.marker] = static_cast<int32_t>(b);
+                best[p.marker] = p.d2;
+            }
+        }
+    }
+}
+
+struct Bud {
+    Vec3 position;
+    Vec3 direction;  // unit
+    // Terminal bud: the azimuth (unit, ⊥ its internode) of the previous lateral bud on its
+    // axis. Lateral bud: its parent internode's direction (the new axis' first reference).
+    Vec3 reference;
+    int32_t node = 0;
+    int32_t order = 0;  // the branch order of the axis it grows
+    uint64_t id = 0;    // creation number: keys its marker stream (improved)
+    int failures = 0;   // improved: iterations in a row without space
+};
+
+// What a bud does this iteration.
+struct Step {
+    bool grow = false;
+    bool dies = false;
+    Vec3 direction;
+};
+
+// An improved-variant marker of this iteration (Liu 2020 §3, Fig. 4).
+struct BudMarker {
+    Vec3 position;
+    Vec3 push;  // ω · v_m: its weight times the unit vector from its bud to it
+};
+
+Vec3 uniformInBall(Rng& rng) {
+    const Vec3 u = rng.unitVector();
+    return u * std::cbrt(rng.uniform());
+}
+
+// Binomial(n, p) by inversion, exact and deterministic: p ≤ 1/2 by symmetry and chunks of
+// 512 trials, so that P(k = 0) = (1 − p)^512 never underflows; O(n·p + n/512) steps.
+int64_t binomial(Rng& rng, int64_t n, double p) {
+    if (p <= 0.0 || n <= 0) return 0;
+    if (p >= 1.0) return n;
+    if (p > 0.5) return n - binomial(rng, n, 1.0 - p);
+    const double q = p / (1.0 - p);
+    int64_t total = 0;
+    for (int64_t left = n; left > 0; left -= 512) {
+        const int64_t m = std::min<int64_t>(left, 512);
+        double pk = std::pow(1.0 - p, static_cast<double>(m));
+        double cdf = pk;
+        const double u = rng.uniform();
+        int64_t k = 0;
+        while (u > cdf && k < m) {
+            pk *= q * static_cast<double>(m - k) / static_cast<double>(k + 1);
+            ++k;
+            cdf += pk;
+        }
+        total += k;
+    }
+    return total;
+}
+
+void validate(const SpaceColonizationOptions& o) {
+    auto bad = [](const std::string& what) {
+        throw std::invalid_argument("space-colonization: " + what);
+    };
+    if (!(o.internode > 0)) bad("internode must be > 0");
+    if (!(o.occupancy >= 0)) bad("occupancy must be ≥ 0");
+    if (!(o.perception > o.occupancy)) bad("perception must exceed occupancy");
+    if (!(o.perceptionAngle > 0 && o.perceptionAngle < kPi)) bad("perception angle not in (0, π)");
+    if (o.variant == ColonizationVariant::kBaseline && !o.crown) bad("the baseline needs a crown");
+    if (o.variant == ColonizationVariant::kImproved && o.markersPerBud < 1) {
+        bad("markersPerBud must be ≥ 1");
+    }
+    if (!(o.kappa > 0) || !(o.sigma > 0)) bad("kappa and sigma must be > 0");
+    if (!(o.pipeExponent > 0) || !(o.tipRadius > 0)) bad("pipe exponent and tip radius > 0");
+    if (o.markers < 0 || o.maxIterations < 0 || o.maxInternodes < 0) bad("negative limit");
+}
+
+class Grower {
+  public:
+    Grower(const SpaceColonizationOptions& o, Rng& rng)
+        : o_(o),
+          rng_(rng),
+          L_(o.internode),
+          rho_(o.occupancy * o.internode),
+          r_(o.perception * o.internode),
+          cosTheta_(std::cos(o.perceptionAngle)),
+          nodeGrid_(std::max(o.occupancy, 0.5) * o.internode),
+          persistent_(o.perception * o.internode),
+          owner_(),
+          best_() {}
+
+    Tree grow(std::map<std::string, double>* stats);
+
+  private:
+    int32_t addNode(const Vec3& p, int32_t parent, int32_t order, int32_t level);
+    bool occupied(const Vec3& p) const;
+    Vec3 finish(Vec3 v, const Vec3& fallback) const;
+    std::vector<Step> baselineSteps();
+    std::vector<Step> improvedSteps(int iteration);
+    void growBud(const Bud& b, const Vec3& g, int level, std::vector<Bud>& born);
+
+    const SpaceColonizationOptions& o_;
+    Rng& rng_;
+    const double L_, rho_, r_, cosTheta_;
+    std::vector<SkeletonNode> nodes_;
+    HashGrid nodeGrid_;
+    MarkerSet persistent_;
+    std::vector<int32_t> owner_;  // baseline competition scratch, −1 between iterations
+    std::vector<double> best_;
+    std::vector<Bud> buds_;
+    uint64_t nextBudId_ = 0;
+    double generated_ = 0, removed_ = 0;
+};
+
+int32_t Grower::addNode(const Vec3& p, int32_t parent, int32_t order, int32_t level) {
+    SkeletonNode n;
+    n.position = p;
+    n.parent = parent;
+    n.order = order;
+    n.level = level;
+    const auto index = static_cast<int32_t>(nodes_.size());
+    nodes_.push_back(n);
+    nodeGrid_.insert(index, p);
+    // The new node's occupancy zone: persistent markers within ρ are gone for good.
+    const double rho2 = rho_ * rho_;
+    persistent_.grid.eraseNear(p, rho_, [&](int32_t m) {
+        if (distance2(persistent_.position[m], p) > rho2) return false;
+        persistent_.alive[m] = 0;
+        removed_ += 1;
+        return true;
+    });
+    return index;
+}
+
+bool Grower::occupied(const Vec3& p) const {
+    bool hit = false;
+    const double rho2 = rho_ * rho_;
+    nodeGrid_.forEachNear(p, rho_, [&](int32_t i) {
+        if (!hit && distance2(nodes_[i].position, p) <= rho2) hit = true;
+    });
+    return hit;
+}
+
+// The growth direction from the summed contributions, then tropism, each normalised.
+Vec3 Grower::finish(Vec3 v, const Vec3& fallback) const {
+    Vec3 g = length2(v) > 1e-24 ? normalize(v) : fallback;
+    const Vec3 t = g + o_.tropism;
+    return length2(t) > 1e-24 ? normalize(t) : g;
+}
+
+// Baseline (Palubicki 2009 §4; Runions 2007): perception per bud in parallel, the
+// competition serially, then each bud's direction v = norm(Σ unit vectors to its markers)
+// plus Σ ω·v_stroke over the guide markers it perceives (Liu 2020 §4.3).
+std::vector<Step> Grower::baselineSteps() {
+    const size_t n = buds_.size();
+    std::vector<std::vector<Perceived>> lists(n);
+    forEachIndex(n, o_.threaded, [&](size_t i) {
+        lists[i] = perceive(persistent_, buds_[i].position, buds_[i].direction, r_, cosTheta_);
+    });
+    owner_.resize(persistent_.position.size(), -1);
+    best_.resize(persistent_.position.size(), 0.0);
+    resolveOwners(lists, owner_, best_);
+
+    std::vector<Step> steps(n);
+    forEachIndex(n, o_.threaded, [&](size_t i) {
+        const Bud& b = buds_[i];
+        Step& s = steps[i];
+        if (lists[i].empty()) {
+            s.dies = true;  // markers never return: this bud can never grow
+            return;
+        }
+        Vec3 sum, pull;
+        int count = 0;
+        for (const Perceived& p : lists[i]) {
+            pull += persistent_.pull[p.marker];
+            if (owner_[p.marker] != static_cast<int32_t>(i)) continue;
+            sum += (persistent_.position[p.marker] - b.position) / std::sqrt(p.d2);
+            ++count;
+        }
+        if (count == 0) return;  // dormant: every marker it sees went to a closer bud
+        s.grow = true;
+        s.direction = finish(normalize(sum) + pull, b.direction);
+    });
+    for (const auto& l : lists) {
+        for (const Perceived& p : l) owner_[p.marker] = -1;
+    }
+    return steps;
+}
+
+// Liu 2020 §3: every live bud draws markersPerBud markers within κ·r of itself (inside the
+// crown), drops those in any node's occupancy zone, and grows along
+// norm(v_opt + Σ ωᵢ v_m(i) + λ v_g + Σ ω v_stroke).
+std::vector<Step> Grower::improvedSteps(int iteration) {
+    const size_t n = buds_.size();
+    const double reach = o_.kappa * r_;
+    // Only markers within `cutoff` of their bud can matter: farther ones lie outside its own
+    // perception radius and push other buds with ω < 1e-4 of its peak. Their number is drawn
+    // binomially and their positions uniformly in the smaller ball — the same distribution
+    // as drawing all markersPerBud in the κ·r ball and dropping the rest, at a fraction of
+    // the cost (κ = 3, σ = 1: 6 % of the markers).
+    const double cutoff = std::min(reach, std::max(r_, kOmegaCutoff * o_.sigma * L_));
+    const double within = std::pow(cutoff / reach, 3);
+    const Rng streams = rng_.derive("bud-markers");
+    std::vector<std::vector<BudMarker>> own(n);
+    std::vector<int> drawn(n, 0), dropped(n, 0);
+    forEachIndex(n, o_.threaded, [&](size_t i) {
+        const Bud& b = buds_[i];
+        Rng rng = streams.derive(hashCombine(b.id, static_cast<uint64_t>(iteration)));
+        const int64_t count = binomial(rng, o_.markersPerBud, within);
+        for (int64_t k = 0; k < count; ++k) {
+            const Vec3 p = b.position + uniformInBall(rng) * cutoff;
+            if (o_.crown && !o_.crown->inside(p)) continue;  // markers stay in the crown
+            ++drawn[i];
+            if (occupied(p)) {
+                ++dropped[i];
+                continue;
+            }
+            const Vec3 v = p - b.position;
+            const double d = length(v) / L_;  // ω's d in internode lengths
+            const double omega =
+                std::exp(-d * d / (2 * o_.sigma * o_.sigma)) / (std::sqrt(2 * kPi) * o_.sigma);
+            own[i].push_back({p, d > 0 ? v * (omega / (d * L_)) : Vec3{}});
+        }
+    });
+
+    // This iteration's markers in one grid, for the other buds' perception.
+    std::vector<const BudMarker*> field;
+    std::vector<int32_t> fieldBud;
+    HashGrid grid(r_);
+    for (size_t i = 0; i < n; ++i) {
+        generated_ += drawn[i];
+        removed_ += dropped[i];
+        for (const BudMarker& m : own[i]) {
+            grid.insert(static_cast<int32_t>(field.size()), m.position);
+            field.push_back(&m);
+            fieldBud.push_back(static_cast<int32_t>(i));
+        }
+    }
+
+    std::vector<Step> steps(n);
+    const double r2 = r_ * r_;
+    forEachIndex(n, o_.threaded, [&](size_t i) {
+        const Bud& b = buds_[i];
+        Vec3 sum, pull, push;
+        int count = 0;
+        for (const BudMarker& m : own[i]) {
+            const Vec3 v = m.position - b.position;
+            const double d2 = length2(v);
+            if (d2 > r2 || !inCone(v, d2, b.direction, cosTheta_)) continue;
+            sum += v / std::sqrt(d2);
+            ++count;
+        }
+        // Guide markers give space like the bud's own markers (and pull along their stroke).
+        for (const Perceived& p : perceive(persistent_, b.position, b.direction, r_, cosTheta_)) {
+            sum += (persistent_.position[p.marker] - b.position) / std::sqrt(p.d2);
+            pull += persistent_.pull[p.marker];
+            ++count;
+        }
+        if (count == 0) return;  // no space this iteration
+        // Markers of other buds in this bud's perception volume push it away from them.
+        grid.forEachNear(b.position, r_, [&](int32_t j) {
+            if (fieldBud[j] == static_cast<int32_t>(i)) return;
+            const Vec3 v = field[j]->position - b.position;
+            const double d2 = length2(v);
+            if (d2 <= r2 && inCone(v, d2, b.direction, cosTheta_)) push += field[j]->push;
+        });
+        Step& s = steps[i];
+        s.grow = true;
+        s.direction =
+            finish(normalize(sum) + push + pull + Vec3{0, -o_.gravityWeight, 0}, b.direction);
+    });
+    return steps;
+}
+
+// One metamer along g from bud b: a node with a terminal and a lateral bud (Palubicki 2009 §3).
+void Grower::growBud(const Bud& b, const Vec3& g, int level, std::vector<Bud>& born) {
+    const Vec3 p = b.position + g * L_;
+    const int32_t node = addNode(p, b.node, b.order, level);
+    // Phyllotaxis: the previous lateral azimuth carried onto the plane ⊥ g, then turned.
+    Vec3 a = b.reference - g * dot(b.reference, g);
+    a = length2(a) > 1e-12 ? normalize(a) : anyPerpendicular(g);
+    a = rotate(a, g, o_.phyllotaxis);
+    const Vec3 lateral = normalize(g * std::cos(o_.branchAngle) + a * std::sin(o_.branchAngle));
+    born.push_back({p, g, a, node, b.order, nextBudId_++, 0});
+    born.push_back({p, lateral, g, node, b.order + 1, nextBudId_++, 0});
+}
+
+Tree Grower::grow(std::map<std::string, double>* stats) {
+    const bool improved = o_.variant == ColonizationVariant::kImproved;
+    for (const GuideMarker& g : o_.guides) persistent_.add(g.position, g.direction * g.weight);
+    generated_ += static_cast<double>(o_.guides.size());
+    if (!improved) {
+        Rng markerRng = rng_.derive("crown-markers");
+        for (int i = 0; i < o_.markers; ++i) {
+            if (auto p = o_.crown->sample(markerRng)) {
+                persistent_.add(*p, {0, 0, 0});
+                generated_ += 1;
+            }
+        }
+    }
+
+    // Root and trunk; their occupancy zones clear the markers around them.
+    addNode({0, 0, 0}, -1, 0, 0);
+    const int trunk =
+        std::min(o_.maxInternodes, static_cast<int>(std::floor(o_.trunkLength / L_ + 1e-9)));
+    for (int k = 1; k <= trunk; ++k) addNode({0, k * L_, 0}, k - 1, 0, 0);
+    const double azimuth = rng_.derive("phyllotaxis").uniform(0.0, 2 * kPi);
+    buds_.push_back({nodes_.back().position,
+                     {0, 1, 0},
+                     rotate({1, 0, 0}, {0, 1, 0}, azimuth),
+                     static_cast<int32_t>(nodes_.size() - 1),
+                     0,
+                     nextBudId_++,
+                     0});
+
+    int iterations = 0;
+    while (iterations < o_.maxIterations && !buds_.empty() &&
+           static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes) {
+        ++iterations;
+        const std::vector<Step> steps = improved ? improvedSteps(iterations) : baselineSteps();
+        std::vector<Bud> kept, born;
+        bool grew = false;
+        int firstStarved = -1;  // improved: the first bud that just died of failures
+        for (size_t i = 0; i < buds_.size(); ++i) {
+            const Step& s = steps[i];
+            const bool room = static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes;
+            if (s.grow && room) {
+                growBud(buds_[i], s.direction, iterations, born);
+                grew = true;
+                continue;
+            }
+            if (s.dies) continue;
+            Bud b = buds_[i];
+            if (improved && !s.grow && ++b.failures >= kMaxFailures) {
+                if (firstStarved < 0) firstStarved = static_cast<int>(i);
+                continue;
+            }
+            kept.push_back(b);
+        }
+        // Improved: the tree's last bud is not given up. A bud in free space still finds no
+        // marker in its perception volume with probability e^(−N·(1/κ)³·(1−cos θ)/2) per
+        // iteration (N = markersPerBud), so a young tree of one or two buds would otherwise
+        // end as a bare trunk in a few percent of seeds.
+        if (kept.empty() && born.empty() && firstStarved >= 0) {
+            kept.push_back(buds_[firstStarved]);
+            kept.back().failures = kMaxFailures - 1;
+        }
+        // Survivors first, then the new buds: the list stays in creation (id) order.
+        kept.insert(kept.end(), born.begin(), born.end());
+        buds_ = std::move(kept);
+        if (!grew && !improved) break;  // the baseline's state cannot change any more
+    }
+
+    Tree tree;
+    tree.nodes = std::move(nodes_);
+    // Pipe model (da Vinci / Murray; Palubicki 2009 §3): from the tips down, rⁿ = Σ childrenⁿ.
+    const double n = o_.pipeExponent;
+    std::vector<double> sum(tree.nodes.size(), 0.0);
+    std::vector<uint8_t> hasChild(tree.nodes.size(), 0);
+    for (size_t i = tree.nodes.size(); i-- > 0;) {
+        SkeletonNode& node = tree.nodes[i];
+        node.radius = hasChild[i] ? std::pow(sum[i], 1.0 / n) : o_.tipRadius;
+        if (node.parent >= 0) {
+            sum[node.parent] += std::pow(node.radius, n);
+            hasChild[node.parent] = 1;
+        }
+    }
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+        if (!hasChild[i]) tree.endpoints.push_back(static_cast<int32_t>(i));
+    }
+
+    if (stats) {
+        (*stats)["variant"] = improved ? 1.0 : 0.0;
+        (*stats)["iterations"] = iterations;
+        (*stats)["internodes"] = static_cast<double>(tree.nodes.size() - 1);
+        (*stats)["markers_generated"] = generated_;
+        (*stats)["markers_removed"] = removed_;
+        (*stats)["buds_live_final"] = static_cast<double>(buds_.size());
+    }
+    return tree;
+}
+
+}  // namespace
+
+Tree growSpaceColonization(const SpaceColonizationOptions& options, Rng& rng,
+                           std::map<std::string, double>* stats) {
+    validate(options);
+    Grower grower(options, rng);
+    return grower.grow(stats);
+}
+
+namespace detail {
+
+std::vector<int32_t> closestPerceivingBud(const std::vector<PerceivingBud>& buds,
+                                          const std::vector<Vec3>& markers, double radius,
+                                          double angle, bool threaded) {
+    MarkerSet set(radius);
+    for (const Vec3& m : markers) set.add(m, {0, 0, 0});
+    std::vector<std::vector<Perceived>> lists(buds.size());
+    const double cosAngle = std::cos(angle);
+    forEachIndex(buds.size(), threaded, [&](size_t i) {
+        lists[i] = perceive(set, buds[i].position, normalize(buds[i].direction), radius, cosAngle);
+    });
+    std::vector<int32_t> owner(markers.size(), -1);
+    std::vector<double> best(markers.size(), 0.0);
+    resolveOwners(lists, owner, best);
+    return owner;
+}
+
+}  // namespace detail
+
+}  // namespace sylva

@@ -1,0 +1,144 @@
+// Species-file parameters of the `space-colonization` method → SpaceColonizationOptions.
+// The keys sit at the top level of the species file (before its first [table]); lengths
+// marked "internodes" are multiples of `internode`.
+//
+// clang-format off
+// | key                  | type      | default     | meaning |
+// |----------------------|-----------|-------------|---------|
+// | variant              | string    | "baseline"  | "baseline" (Palubicki 2009) or "improved" (Liu 2020 §3) |
+// | [crown]              | volume    | required for the baseline | where markers may be (any volume kind); improved: optional bound |
+// | internode            | metres    | 0.1         | metamer (internode) length, the unit of ρ, r, σ |
+// | occupancy            | internodes| 2           | ρ, occupancy-zone radius (Liu 2020 §3 default) |
+// | perception           | internodes| 4           | r, perception radius, must be > ρ (Liu 2020 §3) |
+// | perception_angle_deg | degrees   | 75          | θ, perception half-angle, in (0, 180) (Liu 2020 §3) |
+// | markers              | integer   | 20000       | baseline only: markers spread uniformly in the crown |
+// | markers_per_bud      | integer   | 64          | improved only: markers each live bud draws per iteration (§3; more = denser) |
+// | kappa                | number    | 3           | improved only: κ, markers within κ·r of their bud; [1, 4] (paper: 2–4) |
+// | sigma                | internodes| 1           | improved only: σ of ω = exp(−d²/2σ²)/(√(2π)σ) (§3) |
+// | gravity              | number    | 0           | improved only: λ ≥ 0, weight of v_g = (0, −1, 0) (§3) |
+// | branch_angle_deg     | degrees   | 45          | lateral bud direction from its internode, in (0, 180) |
+// | phyllotaxis_deg      | degrees   | 137.5       | divergence between successive lateral buds on an axis |
+// | tropism              | [x, y, z] | [0, 0, 0]   | added to every growth direction (then normalised) |
+// | trunk_length         | metres    | 0           | straight bole grown first (no lateral buds on it) |
+// | pipe_exponent        | number    | 2.5         | n in r_parentⁿ = Σ r_childⁿ, [1.5, 3.5] |
+// | tip_radius           | metres    | 0.004       | radius of every terminal internode |
+// | max_iterations       | integer   | 200         | growth iterations at most |
+// | max_internodes       | integer   | 20000       | internodes at most (the bole included) |
+// | [guides]             | table     | none        | brush strokes / silhouette (space_colonization_guides.h) |
+// clang-format on
+//
+// κ: the paper gives 2–4; values down to 1 are accepted too (κ = 1 draws a bud's markers
+// exactly within its perception radius), below 1 a bud's markers could not fill its
+// perception volume. Guide markers are drawn per tree (a stream keyed by the instance seed),
+// so a species with [guides] is parsed once per tree rather than cached.
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "species/growth_method.h"
+#include "species/methods/space_colonization.h"
+#include "species/methods/space_colonization_guides.h"
+#include "species/volume_spec.h"
+
+namespace sylva {
+
+namespace {
+
+constexpr double kDeg = kPi / 180.0;
+
+Range open(double a, double b) { return {a, b, true, true}; }
+
+std::string num(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+}
+
+class SpaceColonizationMethod : public GrowthMethod {
+  public:
+    explicit SpaceColonizationMethod(SpaceColonizationOptions o) : o_(std::move(o)) {}
+
+    Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats) const override {
+        if (threaded == o_.threaded) return growSpaceColonization(o_, rng, &stats);
+        SpaceColonizationOptions o = o_;
+        o.threaded = threaded;
+        return growSpaceColonization(o, rng, &stats);
+    }
+
+    std::vector<std::pair<std::string, VolumePtr>> volumes() const override {
+        if (!o_.crown) return {};
+        return {{"crown", o_.crown}};
+    }
+
+  private:
+    SpaceColonizationOptions o_;
+};
+
+}  // namespace
+
+std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
+    SpaceColonizationOptions o;
+    const std::string variant = sp.choice("variant", "baseline", {"baseline", "improved"});
+    const bool improved = variant == "improved";
+    o.variant = improved ? ColonizationVariant::kImproved : ColonizationVariant::kBaseline;
+
+    if (auto crown = sp.optionalTable("crown")) {
+        o.crown = parseVolume(*crown);
+    } else if (!improved) {
+        sp.failHere("[crown] is required for variant = \"baseline\" (its markers fill the crown)");
+    }
+
+    // Keys of one variant only are errors in the other, rather than silently ignored.
+    const std::vector<std::string> baselineOnly = {"markers"};
+    const std::vector<std::string> improvedOnly = {"markers_per_bud", "kappa", "sigma", "gravity"};
+    for (const std::string& k : improved ? baselineOnly : improvedOnly) {
+        if (sp.has(k)) {
+            sp.raw(k);
+            sp.fail(k, std::string("applies to variant = \"") +
+                           (improved ? "baseline" : "improved") + "\" only");
+        }
+    }
+
+    o.internode = sp.number("internode", o.internode, Range::positive());
+    o.occupancy = sp.number("occupancy", o.occupancy, Range::positive());
+    o.perception = sp.number("perception", o.perception, Range::positive());
+    if (!(o.perception > o.occupancy)) {
+        const std::string msg =
+            "the perception radius r must exceed the occupancy radius ρ (got r = " +
+            num(o.perception) + ", ρ = " + num(o.occupancy) + " internodes)";
+        sp.fail(sp.has("perception") ? "perception" : "occupancy", msg);
+    }
+    o.perceptionAngle =
+        sp.number("perception_angle_deg", o.perceptionAngle / kDeg, open(0, 180)) * kDeg;
+    if (improved) {
+        o.markersPerBud = static_cast<int>(
+            sp.integer("markers_per_bud", o.markersPerBud, Range::closed(1, 100000)));
+        o.kappa = sp.number("kappa", o.kappa, Range::closed(1, 4));
+        o.sigma = sp.number("sigma", o.sigma, Range::positive());
+        o.gravityWeight = sp.number("gravity", o.gravityWeight, Range::nonNegative());
+    } else {
+        o.markers = static_cast<int>(sp.integer("markers", o.markers, Range::closed(1, 5e7)));
+    }
+
+    o.branchAngle = sp.number("branch_angle_deg", o.branchAngle / kDeg, open(0, 180)) * kDeg;
+    o.phyllotaxis =
+        sp.number("phyllotaxis_deg", o.phyllotaxis / kDeg, Range::closed(-360, 360)) * kDeg;
+    o.tropism = sp.vec3("tropism", o.tropism);
+    o.trunkLength = sp.number("trunk_length", o.trunkLength, Range::nonNegative());
+    o.pipeExponent = sp.number("pipe_exponent", o.pipeExponent, Range::closed(1.5, 3.5));
+    o.tipRadius = sp.number("tip_radius", o.tipRadius, Range::positive());
+    o.maxIterations =
+        static_cast<int>(sp.integer("max_iterations", o.maxIterations, Range::closed(1, 1e6)));
+    o.maxInternodes =
+        static_cast<int>(sp.integer("max_internodes", o.maxInternodes, Range::closed(1, 5e7)));
+
+    if (auto g = sp.optionalTable("guides")) {
+        Rng rng = g->randomStream("markers");
+        o.guides = parseGuides(*g, rng);
+    }
+    return std::make_unique<SpaceColonizationMethod>(std::move(o));
+}
+
+}  // namespace sylva
