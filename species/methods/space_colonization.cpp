@@ -323,6 +323,7 @@ bool Grower::occupied(const Vec3& p) const {
 
 // The growth direction from the summed contributions, then tropism, each normalised.
 Vec3 Grower::finish(Vec3 v, const Vec3& fallback) const {
+    v += fallback * o_.budDirectionWeight;
     Vec3 g = length2(v) > 1e-24 ? normalize(v) : fallback;
     const Vec3 t = g + o_.tropism;
     return length2(t) > 1e-24 ? normalize(t) : g;

@@ -58,7 +58,11 @@ struct SpaceColonizationOptions {
     // Tree form.
     double branchAngle = 45.0 * kPi / 180.0;   // lateral bud direction from its internode
     double phyllotaxis = 137.5 * kPi / 180.0;  // divergence between successive lateral buds
-    Vec3 tropism{0, 0, 0};      // added to every growth direction (e.g. (0, −0.1, 0))
+    Vec3 tropism{0, 0, 0};  // added to every growth direction (e.g. (0, −0.1, 0))
+    // ξ: the bud's own direction times ξ is added to v_opt (both variants) — a direction
+    // memory that smooths the zig-zag of few markers (cf. Palubicki 2009, where a new
+    // metamer's direction weighs the bud's default orientation against the optimal one).
+    double budDirectionWeight = 0.0;
     double trunkLength = 0.0;   // metres grown straight up before branching starts
     double pipeExponent = 2.5;  // n in rⁿ = Σ childrenⁿ (da Vinci 2, Murray 3)
     double tipRadius = 0.004;   // metres, radius of every terminal internode

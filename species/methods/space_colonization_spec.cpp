@@ -18,6 +18,7 @@
 // | gravity              | number    | 0           | improved only: λ ≥ 0, weight of v_g = (0, −1, 0) (§3) |
 // | branch_angle_deg     | degrees   | 45          | lateral bud direction from its internode, in (0, 180) |
 // | phyllotaxis_deg      | degrees   | 137.5       | divergence between successive lateral buds on an axis |
+// | bud_direction_weight | number    | 0           | ξ ≥ 0: the bud's own direction added to v_opt (smoother axes; cf. Palubicki 2009's default bud orientation) |
 // | tropism              | [x, y, z] | [0, 0, 0]   | added to every growth direction (then normalised) |
 // | trunk_length         | metres    | 0           | straight bole grown first (no lateral buds on it) |
 // | pipe_exponent        | number    | 2.5         | n in r_parentⁿ = Σ r_childⁿ, [1.5, 3.5] |
@@ -126,6 +127,8 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
     o.phyllotaxis =
         sp.number("phyllotaxis_deg", o.phyllotaxis / kDeg, Range::closed(-360, 360)) * kDeg;
     o.tropism = sp.vec3("tropism", o.tropism);
+    o.budDirectionWeight =
+        sp.number("bud_direction_weight", o.budDirectionWeight, Range::nonNegative());
     o.trunkLength = sp.number("trunk_length", o.trunkLength, Range::nonNegative());
     o.pipeExponent = sp.number("pipe_exponent", o.pipeExponent, Range::closed(1.5, 3.5));
     o.tipRadius = sp.number("tip_radius", o.tipRadius, Range::positive());
