@@ -497,5 +497,60 @@ TEST(SpaceColonizationSpec, SpeciesGrowsAndReportsItsCrown) {
     EXPECT_EQ(a.methodStats.at("internodes"), 800.0);
 }
 
+// ------------------------------------------------------------------------------------------
+// Shipped presets.
+
+TEST(SpaceColonizationPresets, EveryPresetGrowsARootedTreeInItsCrown) {
+    const fs::path dir = fs::path(SYLVA_SOURCE_DIR) / "species" / "presets";
+    std::vector<fs::path> files;
+    for (const auto& e : fs::directory_iterator(dir)) {
+        if (e.path().extension() == ".toml") files.push_back(e.path());
+    }
+    std::sort(files.begin(), files.end());
+    int grown = 0;
+    for (const fs::path& file : files) {
+        const SpeciesFile species = loadSpecies(file.string());
+        if (species.method != "space-colonization") continue;
+        SCOPED_TRACE(file.filename().string());
+        DrawContext draw;
+        draw.draw = false;
+        const auto method = instantiateSpecies(species, draw, nullptr);
+        const VolumePtr crown = method->volumes().empty() ? nullptr : method->volumes()[0].second;
+        const bool guided = species.table->contains("guides");
+        const double internode =
+            species.table->get("internode") ? *(*species.table)["internode"].value<double>() : 0.1;
+        const GrownTree g = growSpecies(species, 1, nullptr, true);
+        ++grown;
+        const Tree& t = g.tree;
+        ASSERT_GT(t.nodes.size(), 100u);
+        EXPECT_EQ(t.nodes[0].parent, -1);
+        // A bole that stops short of the crown starts colonization outside it: allow for that.
+        int32_t boleTop = 0;
+        while (boleTop + 1 < static_cast<int32_t>(t.nodes.size()) &&
+               t.nodes[boleTop + 1].level == 0) {
+            ++boleTop;
+        }
+        const double tolerance =
+            internode * (1 + 1e-9) +
+            (crown ? std::max(0.0, crown->signedDistance(t.nodes[boleTop].position)) : 0.0);
+        int outside = 0;
+        for (size_t i = 1; i < t.nodes.size(); ++i) {
+            ASSERT_GE(t.nodes[i].parent, 0);
+            ASSERT_LT(t.nodes[i].parent, static_cast<int32_t>(i));
+            if (crown && !guided && t.nodes[i].level > 0 &&
+                crown->signedDistance(t.nodes[i].position) > tolerance) {
+                ++outside;
+                ADD_FAILURE() << "node " << i << " is "
+                              << crown->signedDistance(t.nodes[i].position)
+                              << " m outside the crown";
+            }
+        }
+        // Guide markers may lie outside the crown (strokes reaching out, silhouettes), so
+        // containment is checked for unguided presets only.
+        EXPECT_EQ(outside, 0);
+    }
+    if (grown == 0) GTEST_SKIP() << "no space-colonization presets in " << dir;
+}
+
 }  // namespace
 }  // namespace sylva

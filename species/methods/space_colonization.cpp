@@ -96,6 +96,26 @@ class HashGrid {
         }
     }
 
+    // True as soon as hit(index) is true for a point in a cell the ball touches.
+    template <class F>
+    bool anyNear(const Vec3& p, double radius, F&& hit) const {
+        const int64_t x0 = coord(p.x - radius), x1 = coord(p.x + radius);
+        const int64_t y0 = coord(p.y - radius), y1 = coord(p.y + radius);
+        const int64_t z0 = coord(p.z - radius), z1 = coord(p.z + radius);
+        for (int64_t x = x0; x <= x1; ++x) {
+            for (int64_t y = y0; y <= y1; ++y) {
+                for (int64_t z = z0; z <= z1; ++z) {
+                    auto it = cells_.find(key(x, y, z));
+                    if (it == cells_.end()) continue;
+                    for (int32_t i : it->second) {
+                        if (hit(i)) return true;
+                    }
+                }
+            }
+        }
+        return false;
+    }
+
     // Drops every index for which drop(index) is true from the cells the ball touches.
     template <class P>
     void eraseNear(const Vec3& p, double radius, P&& drop) {
@@ -289,7 +309,7 @@ class Grower {
     std::vector<double> best_;
     std::vector<Bud> buds_;
     uint64_t nextBudId_ = 0;
-    double generated_ = 0, removed_ = 0;
+    double generated_ = 0, removed_ = 0, budIterations_ = 0;
 };
 
 int32_t Grower::addNode(const Vec3& p, int32_t parent, int32_t order, int32_t level) {
@@ -313,12 +333,9 @@ int32_t Grower::addNode(const Vec3& p, int32_t parent, int32_t order, int32_t le
 }
 
 bool Grower::occupied(const Vec3& p) const {
-    bool hit = false;
     const double rho2 = rho_ * rho_;
-    nodeGrid_.forEachNear(p, rho_, [&](int32_t i) {
-        if (!hit && distance2(nodes_[i].position, p) <= rho2) hit = true;
-    });
-    return hit;
+    return nodeGrid_.anyNear(p, rho_,
+                             [&](int32_t i) { return distance2(nodes_[i].position, p) <= rho2; });
 }
 
 // The growth direction from the summed contributions, then tropism, each normalised.
@@ -498,6 +515,7 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
     while (iterations < o_.maxIterations && !buds_.empty() &&
            static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes) {
         ++iterations;
+        budIterations_ += static_cast<double>(buds_.size());
         const std::vector<Step> steps = improved ? improvedSteps(iterations) : baselineSteps();
         std::vector<Bud> kept, born;
         bool grew = false;
@@ -550,8 +568,13 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
         if (!hasChild[i]) tree.endpoints.push_back(static_cast<int32_t>(i));
     }
 
+    // markers_generated: guides + crown markers (baseline) or + the markers drawn near buds
+    // inside the crown (improved; only those within the cutoff radius exist, see
+    // improvedSteps); markers_removed: those lost to an occupancy zone; bud_iterations: live
+    // buds summed over iterations (improved: × markersPerBud = the nominal marker budget).
     if (stats) {
         (*stats)["variant"] = improved ? 1.0 : 0.0;
+        (*stats)["bud_iterations"] = budIterations_;
         (*stats)["iterations"] = iterations;
         (*stats)["internodes"] = static_cast<double>(tree.nodes.size() - 1);
         (*stats)["markers_generated"] = generated_;
