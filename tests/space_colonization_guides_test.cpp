@@ -287,6 +287,50 @@ TEST(ScGuideSilhouette, MarkersProjectBackIntoTheMask) {
     }
 }
 
+// depth_profile = "round": a triangle (apex up) seen from the front, its rows' sections are
+// ellipses as wide as the row and depth·e_row/(2·e_max) deep, so from the side it is a
+// triangle too, and from above a disc rather than a slab's rectangle.
+TEST(ScGuideSilhouette, RoundDepthProfileGivesEllipticalSections) {
+    SilhouetteGuide g;
+    g.mask.width = 41;
+    g.mask.height = 40;
+    g.mask.on.assign(41 * 40, 0);
+    for (int y = 0; y < 40; ++y)  // row y spans columns [20 − y/2, 20 + y/2]
+        for (int x = 20 - y / 2; x <= 20 + y / 2; ++x) g.mask.on[y * 41 + x] = 1;
+    g.metresPerPixel = 0.1;
+    g.axisColumn = 20.5;  // the rows' middle
+    g.depth = 3.9;        // at the widest rows (38, 39: 39 pixels = 3.9 m): circular sections
+    g.depthProfile = SilhouetteGuide::DepthProfile::kRound;
+    g.falloff.enabled = false;  // r_m = 0: only the depth spread moves a marker off its pixel
+    g.markersPerPixel = 4;
+    Rng rng(2);
+    const std::vector<GuideMarker> m = silhouetteMarkers(g, rng);
+    ASSERT_EQ(m.size(), 4 * g.mask.count());
+    double topDeepest = 0, bottomDeepest = 0;
+    int corner = 0;
+    for (const GuideMarker& marker : m) {
+        const int r = static_cast<int>(std::lround(g.mask.height - marker.position.y / 0.1 - 0.5));
+        const double e = (2 * (r / 2) + 1) * 0.1 / 2;  // the row's half extent, metres
+        const double semiDepth = g.depth / 2 * e / 1.95;
+        const double x = marker.position.x / e, z = marker.position.z / semiDepth;
+        EXPECT_LE(x * x + z * z, 1.0 + 1e-9) << marker.position.x << " " << marker.position.z;
+        if (r < 10) topDeepest = std::max(topDeepest, std::abs(marker.position.z));
+        if (r >= 36) bottomDeepest = std::max(bottomDeepest, std::abs(marker.position.z));
+        corner += std::abs(marker.position.x) > 0.75 * e && std::abs(marker.position.z) > 0.75 * e;
+    }
+    EXPECT_LT(topDeepest, 0.46);    // rows 0–9: at most 9/39 of ±1.95 m
+    EXPECT_GT(bottomDeepest, 1.8);  // the widest rows use nearly all of it
+    EXPECT_EQ(corner, 0);           // no marker in the corners of the section's square
+    // The slab: every row spreads over the full depth, corners included.
+    g.depthProfile = SilhouetteGuide::DepthProfile::kSlab;
+    Rng again(2);
+    double topSlab = 0;
+    for (const GuideMarker& marker : silhouetteMarkers(g, again)) {
+        if (marker.position.y > 3.0) topSlab = std::max(topSlab, std::abs(marker.position.z));
+    }
+    EXPECT_GT(topSlab, 1.5);
+}
+
 TEST(ScGuideSilhouette, DeterministicPerSeed) {
     SilhouetteGuide g;
     g.mask = discMask(30, 30, 15, 15, 11);
@@ -374,6 +418,7 @@ falloff_radius = 6
 falloff_k = 0.5
 markers_per_pixel = 2
 depth = 1.5
+depth_profile = "round"
 )";
     const std::vector<GuideMarker> got = parse(text, dir / "s.toml", 77);
 
@@ -402,6 +447,7 @@ depth = 1.5
     s.falloff.k = 0.5;
     s.markersPerPixel = 2;
     s.depth = 1.5;
+    s.depthProfile = SilhouetteGuide::DepthProfile::kRound;
     Rng rs = rng.derive("silhouette");
     for (auto& g : silhouetteMarkers(s, rs)) want.push_back(g);
 

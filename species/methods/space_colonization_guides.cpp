@@ -111,6 +111,29 @@ std::vector<GuideMarker> silhouetteMarkers(const SilhouetteGuide& g, Rng& rng) {
     const Mask& mask = g.mask;
     const std::vector<uint8_t> n = unmaskedNeighbourCounts(mask);
     const double depth = g.depth < 0 ? mask.width * g.metresPerPixel / 2 : g.depth;
+    // Per row: the middle and half extent (pixels) of its masked pixels, for the round profile.
+    const bool round = g.depthProfile == SilhouetteGuide::DepthProfile::kRound;
+    std::vector<double> middle(mask.height, 0.0), halfExtent(mask.height, 0.0);
+    double widest = 0.0;
+    for (int row = 0; row < mask.height; ++row) {
+        int lo = mask.width, hi = -1;
+        for (int column = 0; column < mask.width; ++column) {
+            if (mask.at(column, row)) {
+                lo = std::min(lo, column);
+                hi = column;
+            }
+        }
+        if (hi < lo) continue;
+        middle[row] = (lo + hi + 1) / 2.0;
+        halfExtent[row] = (hi + 1 - lo) / 2.0;
+        widest = std::max(widest, halfExtent[row]);
+    }
+    // The full spread across the view at a pixel centre (metres).
+    auto spread = [&](int column, int row) {
+        if (!round) return depth;
+        const double t = (column + 0.5 - middle[row]) / halfExtent[row];
+        return depth * halfExtent[row] / widest * std::sqrt(std::max(0.0, 1.0 - t * t));
+    };
     std::vector<GuideMarker> out;
     out.reserve(static_cast<size_t>(g.markersPerPixel * mask.count()) + 1);
     double carry = 0.0;  // fractional markers carried from pixel to pixel
@@ -125,7 +148,8 @@ std::vector<GuideMarker> silhouetteMarkers(const SilhouetteGuide& g, Rng& rng) {
                 falloffRadius(n[static_cast<size_t>(row) * mask.width + column], g.falloff);
             for (int i = 0; i < k; ++i) {
                 const Vec3 ball = rm > 0 ? uniformInBall(rng, rm) : Vec3{};
-                const double across = depth > 0 ? rng.uniform(-depth / 2, depth / 2) : 0.0;
+                const double half = spread(column, row) / 2;
+                const double across = half > 0 ? rng.uniform(-half, half) : 0.0;
                 GuideMarker m;
                 m.position = silhouetteToTree(g, column + 0.5 + ball.x, row + 0.5 + ball.y,
                                               across + ball.z * g.metresPerPixel);
@@ -213,6 +237,9 @@ SilhouetteGuide readSilhouette(Params& p) {
     g.falloff.k = p.number("falloff_k", g.falloff.k, Range::positive());
     g.markersPerPixel = p.number("markers_per_pixel", 1.0, Range::leftOpen(0, 1000));
     g.depth = p.number("depth", g.mask.width * g.metresPerPixel / 2, Range::nonNegative());
+    g.depthProfile = p.choice("depth_profile", "slab", {"slab", "round"}) == "round"
+                         ? SilhouetteGuide::DepthProfile::kRound
+                         : SilhouetteGuide::DepthProfile::kSlab;
     if (g.markersPerPixel * g.mask.count() > kMaxGuideMarkers) {
         p.fail("markers_per_pixel", "markers_per_pixel × masked pixels is over 10⁷ markers");
     }

@@ -23,11 +23,17 @@
 // markers_per_pixel markers (fractions carried from pixel to pixel, so the total is
 // floor(markers_per_pixel × masked pixels)), each at the pixel centre plus a uniform offset in
 // a ball of radius r_m(x) = R·(1/(1 + e^(−k·n_x)) − 0.5) pixels (Liu 2020 §4.3; n_x = unmasked
-// pixels in the 5×5 neighbourhood), plus a uniform offset in [−depth/2, depth/2] along the view
-// direction. Deep inside (n_x = 0) r_m = 0 and markers sit on the pixel centres; toward the
-// border r_m grows (n_x = 5 on a straight edge: 0.38·R, a corner more) up to R/2, so markers
-// spill past the outline and thin out there: the border is soft, not a cut. Silhouette markers
-// carry no direction and weight 0: they only offer space.
+// pixels in the 5×5 neighbourhood), plus a uniform offset along the view direction: in
+// [−depth/2, depth/2] for depth_profile = "slab" (the paper's single view; a slab-like crown),
+// or for "round" in [−s/2, s/2] with s = depth · (e_row / e_max) · √(1 − t²), where e_row is the
+// row's half extent (leftmost to rightmost masked pixel edge), e_max the widest row's and t the
+// pixel centre's offset from the row's middle in units of e_row: every horizontal section is
+// an ellipse as wide as the drawing and depth · e_row / (2·e_max) deep, so the crown narrows
+// from the side and from above where the drawing does (markers crowd toward each row's ends,
+// where the chord is short). Deep inside (n_x = 0) r_m = 0 and markers sit on the pixel centres;
+// toward the border r_m grows (n_x = 5 on a straight edge: 0.38·R, a corner more) up to R/2, so
+// markers spill past the outline and thin out there: the border is soft, not a cut. Silhouette
+// markers carry no direction and weight 0: they only offer space.
 #pragma once
 
 #include <vector>
@@ -72,6 +78,9 @@ struct SilhouetteGuide {
     MaskFalloff falloff;       // R = 10 px, k = 0.4 (`enabled` false: r_m = 0 everywhere)
     double markersPerPixel = 1.0;
     double depth = -1.0;  // metres, full spread along the view direction; < 0: width·mpp / 2
+    // kSlab: every pixel spreads over the full depth; kRound: elliptical horizontal sections
+    // scaled by each row's extent (see the file comment).
+    enum class DepthProfile { kSlab, kRound } depthProfile = DepthProfile::kSlab;
 };
 
 // The tree-frame position of image point (column, row) (pixels, fractional; pixel centres at
@@ -102,7 +111,8 @@ std::vector<GuideMarker> silhouetteMarkers(const SilhouetteGuide& guide, Rng& rn
 // | silhouette.falloff_radius     | pixels   | 10               | R of r_m = R·(1/(1+e^(−k·n_x)) − 0.5)    |
 // | silhouette.falloff_k          | number   | 0.4              | k, steepness of the logistic in n_x      |
 // | silhouette.markers_per_pixel  | number   | 1                | markers per masked pixel                 |
-// | silhouette.depth              | metres   | width·mpp / 2    | spread across the view direction         |
+// | silhouette.depth              | metres   | width·mpp / 2    | spread across the view (widest row)      |
+// | silhouette.depth_profile      | string   | "slab"           | "slab" or "round" (elliptical sections)  |
 // clang-format on
 //
 // Stroke i draws from rng.derive("strokes[i]"), the silhouette from rng.derive("silhouette"), so
