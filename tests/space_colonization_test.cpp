@@ -234,6 +234,47 @@ TEST(SpaceColonizationCompetition, MatchesBruteForceThreadedOrNot) {
     EXPECT_GT(std::count(expected.begin(), expected.end(), 17), 0);
 }
 
+TEST(SpaceColonizationMarkers, BinomialCountsHaveTheExactDistribution) {
+    // The improved variant draws how many of a bud's N markers land within the radius where
+    // they can matter; these counts must be Binomial(N, p): exact pmf for a small case
+    // (χ² over all outcomes), mean and variance across the symmetric and chunked paths.
+    Rng rng(17);
+    {
+        const int n = 6, draws = 60000;
+        const double p = 0.3;
+        std::vector<int> hist(n + 1, 0);
+        for (int i = 0; i < draws; ++i) ++hist[detail::binomial(rng, n, p)];
+        double chi2 = 0, pmf = std::pow(1 - p, n);
+        for (int k = 0; k <= n; ++k) {
+            const double expected = draws * pmf;
+            chi2 += (hist[k] - expected) * (hist[k] - expected) / expected;
+            pmf *= (p / (1 - p)) * (n - k) / (k + 1.0);
+        }
+        EXPECT_LT(chi2, 22.5);  // 6 degrees of freedom: p ≈ 0.001
+    }
+    struct Case {
+        int64_t n;
+        double p;
+    };
+    for (const Case& c : {Case{64, 0.0588}, Case{1300, 0.7}, Case{2000, 0.3}, Case{50, 1.0}}) {
+        SCOPED_TRACE(std::to_string(c.n) + ", " + std::to_string(c.p));
+        const int draws = 20000;
+        double sum = 0, sum2 = 0;
+        for (int i = 0; i < draws; ++i) {
+            const double k = static_cast<double>(detail::binomial(rng, c.n, c.p));
+            ASSERT_GE(k, 0);
+            ASSERT_LE(k, c.n);
+            sum += k;
+            sum2 += k * k;
+        }
+        const double mean = sum / draws, var = sum2 / draws - mean * mean;
+        const double mu = c.n * c.p, sigma2 = c.n * c.p * (1 - c.p);
+        EXPECT_NEAR(mean, mu, 5 * std::sqrt(sigma2 / draws) + 1e-12);
+        EXPECT_NEAR(var, sigma2, 0.05 * sigma2 + 1e-12);
+    }
+    EXPECT_EQ(detail::binomial(rng, 100, 0.0), 0);
+}
+
 // ------------------------------------------------------------------------------------------
 // Directions: gravity, guide strokes.
 
@@ -419,14 +460,14 @@ class TempDir {
 
 const char* kCrown = "[crown]\ntype = \"sphere\"\nradius = 1.5\nposition = [0, 1.5, 0]\n";
 
-// Validates a species whose top-level keys are `keys` (the crown appended); returns the
+// Validates a species whose top-level keys are `keys` (the crown table appended); returns the
 // error message, or "" when it is valid.
-std::string specError(const std::string& keys, bool crown = true) {
+std::string specError(const std::string& keys, const std::string& crown = kCrown) {
     TempDir dir;
     const fs::path file = dir / "sc.toml";
     {
         std::ofstream out(file);
-        out << "name = \"sc\"\nmethod = \"space-colonization\"\n" << keys << (crown ? kCrown : "");
+        out << "name = \"sc\"\nmethod = \"space-colonization\"\n" << keys << crown;
     }
     try {
         validateSpecies(loadSpecies(file.string()), nullptr);
@@ -464,9 +505,22 @@ TEST(SpaceColonizationSpec, BadParametersNameFileLineAndKey) {
         EXPECT_NE(e.find(c.what), std::string::npos) << e;
         EXPECT_EQ(e.find('\n'), std::string::npos) << e;
     }
-    EXPECT_NE(specError("variant = \"baseline\"\n", false).find("[crown] is required"),
+    EXPECT_NE(specError("variant = \"baseline\"\n", "").find("[crown] is required"),
               std::string::npos);
-    EXPECT_EQ(specError("variant = \"improved\"\n", false), "");  // no crown: unbounded
+    EXPECT_EQ(specError("variant = \"improved\"\n", ""), "");  // no crown: unbounded
+
+    // A crown out of the bole top's reach (r = 0.4 m): the tree could never start.
+    const std::string high = "[crown]\ntype = \"sphere\"\nradius = 1\nposition = [0, 3, 0]\n";
+    std::string e = specError("trunk_length = 0.75\n", high);  // top at 0.7 m, 1.3 m away
+    EXPECT_NE(e.find("sc.toml:3:"), std::string::npos) << e;
+    EXPECT_NE(e.find("trunk_length: growth starts at the bole top (0, 0.7, 0), 1.3 m from the "
+                     "crown, beyond the 0.4 m"),
+              std::string::npos)
+        << e;
+    e = specError("variant = \"improved\"\n", high);  // no bole: reported at [crown]
+    EXPECT_NE(e.find("sc.toml:4:"), std::string::npos) << e;
+    EXPECT_NE(e.find("2 m from the crown"), std::string::npos) << e;
+    EXPECT_EQ(specError("trunk_length = 1.75\n", high), "");  // top 0.3 m away: in reach
     EXPECT_EQ(specError("variant = \"improved\"\nkappa = 2\nsigma = 1.5\ngravity = 0.3\n"), "");
 }
 

@@ -234,30 +234,6 @@ Vec3 uniformInBall(Rng& rng) {
     return u * std::cbrt(rng.uniform());
 }
 
-// Binomial(n, p) by inversion, exact and deterministic: p ≤ 1/2 by symmetry and chunks of
-// 512 trials, so that P(k = 0) = (1 − p)^512 never underflows; O(n·p + n/512) steps.
-int64_t binomial(Rng& rng, int64_t n, double p) {
-    if (p <= 0.0 || n <= 0) return 0;
-    if (p >= 1.0) return n;
-    if (p > 0.5) return n - binomial(rng, n, 1.0 - p);
-    const double q = p / (1.0 - p);
-    int64_t total = 0;
-    for (int64_t left = n; left > 0; left -= 512) {
-        const int64_t m = std::min<int64_t>(left, 512);
-        double pk = std::pow(1.0 - p, static_cast<double>(m));
-        double cdf = pk;
-        const double u = rng.uniform();
-        int64_t k = 0;
-        while (u > cdf && k < m) {
-            pk *= q * static_cast<double>(m - k) / static_cast<double>(k + 1);
-            ++k;
-            cdf += pk;
-        }
-        total += k;
-    }
-    return total;
-}
-
 void validate(const SpaceColonizationOptions& o) {
     auto bad = [](const std::string& what) {
         throw std::invalid_argument("space-colonization: " + what);
@@ -404,7 +380,7 @@ std::vector<Step> Grower::improvedSteps(int iteration) {
     forEachIndex(n, o_.threaded, [&](size_t i) {
         const Bud& b = buds_[i];
         Rng rng = streams.derive(hashCombine(b.id, static_cast<uint64_t>(iteration)));
-        const int64_t count = binomial(rng, o_.markersPerBud, within);
+        const int64_t count = detail::binomial(rng, o_.markersPerBud, within);
         for (int64_t k = 0; k < count; ++k) {
             const Vec3 p = b.position + uniformInBall(rng) * cutoff;
             if (o_.crown && !o_.crown->inside(p)) continue;  // markers stay in the crown
@@ -594,6 +570,30 @@ Tree growSpaceColonization(const SpaceColonizationOptions& options, Rng& rng,
 }
 
 namespace detail {
+
+// By inversion: p ≤ 1/2 by symmetry and chunks of 512 trials, so that P(k = 0) =
+// (1 − p)^512 never underflows; O(n·p + n/512) steps.
+int64_t binomial(Rng& rng, int64_t n, double p) {
+    if (p <= 0.0 || n <= 0) return 0;
+    if (p >= 1.0) return n;
+    if (p > 0.5) return n - binomial(rng, n, 1.0 - p);
+    const double q = p / (1.0 - p);
+    int64_t total = 0;
+    for (int64_t left = n; left > 0; left -= 512) {
+        const int64_t m = std::min<int64_t>(left, 512);
+        double pk = std::pow(1.0 - p, static_cast<double>(m));
+        double cdf = pk;
+        const double u = rng.uniform();
+        int64_t k = 0;
+        while (u > cdf && k < m) {
+            pk *= q * static_cast<double>(m - k) / static_cast<double>(k + 1);
+            ++k;
+            cdf += pk;
+        }
+        total += k;
+    }
+    return total;
+}
 
 std::vector<int32_t> closestPerceivingBud(const std::vector<PerceivingBud>& buds,
                                           const std::vector<Vec3>& markers, double radius,

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "volumes/math.h"
+#include "volumes/rng.h"
 
 namespace sylva::detail {
 
@@ -22,5 +23,9 @@ struct PerceivingBud {
 std::vector<int32_t> closestPerceivingBud(const std::vector<PerceivingBud>& buds,
                                           const std::vector<Vec3>& markers, double radius,
                                           double angle, bool threaded = false);
+
+// A Binomial(n, p) draw, exact and deterministic for a given rng. The improved variant
+// draws how many of a bud's markers fall within the radius where they can matter.
+int64_t binomial(Rng& rng, int64_t n, double p);
 
 }  // namespace sylva::detail

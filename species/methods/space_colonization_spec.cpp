@@ -30,10 +30,14 @@
 //
 // κ: the paper gives 2–4; values down to 1 are accepted too (κ = 1 draws a bud's markers
 // exactly within its perception radius), below 1 a bud's markers could not fill its
-// perception volume. Guide markers are drawn per tree (a stream keyed by the instance seed),
+// perception volume. The bole top (where growth starts) must lie within r of the crown or
+// of a guide marker, else the tree could never start: an error at trunk_length (or [crown]).
+// Guide markers are drawn per tree (a stream keyed by the instance seed),
 // so a species with [guides] is parsed once per tree rather than cached.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -85,8 +89,9 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
     const bool improved = variant == "improved";
     o.variant = improved ? ColonizationVariant::kImproved : ColonizationVariant::kBaseline;
 
-    if (auto crown = sp.optionalTable("crown")) {
-        o.crown = parseVolume(*crown);
+    std::optional<Params> crownTable = sp.optionalTable("crown");
+    if (crownTable) {
+        o.crown = parseVolume(*crownTable);
     } else if (!improved) {
         sp.failHere("[crown] is required for variant = \"baseline\" (its markers fill the crown)");
     }
@@ -140,6 +145,28 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
     if (auto g = sp.optionalTable("guides")) {
         Rng rng = g->randomStream("markers");
         o.guides = parseGuides(*g, rng);
+    }
+
+    // Growth starts at the bole top: with nothing to perceive there (no crown and no guide
+    // within r), the tree would stay a bare pole — a spec error, reported here. The crown's
+    // signed distance never overstates, so this never rejects a crown that is in reach.
+    const double reach = o.perception * o.internode;
+    const int bole = static_cast<int>(
+        std::min<double>(o.maxInternodes, std::floor(o.trunkLength / o.internode + 1e-9)));
+    const Vec3 top{0, bole * o.internode, 0};
+    const bool guideNear = std::any_of(o.guides.begin(), o.guides.end(), [&](const GuideMarker& g) {
+        return distance(g.position, top) < reach;
+    });
+    if (o.crown && !guideNear) {
+        const double d = o.crown->signedDistance(top);
+        if (d >= reach) {
+            const std::string msg = "growth starts at the bole top (0, " + num(top.y) + ", 0), " +
+                                    num(d) + " m from the crown, beyond the " + num(reach) +
+                                    " m buds perceive (perception × internode): "
+                                    "lengthen the bole or lower the crown";
+            if (sp.has("trunk_length")) sp.fail("trunk_length", msg);
+            crownTable->failHere(msg);
+        }
     }
     return std::make_unique<SpaceColonizationMethod>(std::move(o));
 }
