@@ -8,6 +8,9 @@
 //  - VolumeBuild / InsideTest: what a crown volume costs per tree — building each kind from
 //    its spec, and inside() queries per second (analytic primitives, CSG, level set, and the
 //    sketched and envelope kinds from their presets).
+//  - Colonization/<variant>/<internodes>: the space-colonization method's baseline
+//    (Palubicki 2009) and improved (Liu 2020 §3) variants growing to 2k, 10k and 50k
+//    internodes in the same crown with the same marker budget, one thread (Liu 2020 Fig. 17).
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 #include <tbb/global_control.h>
@@ -25,6 +28,7 @@
 #include "pipeline/mesh_writers.h"
 #include "pipeline/views.h"
 #include "species/mesh.h"
+#include "species/methods/space_colonization.h"
 #include "species/species.h"
 #include "species/volume_spec.h"
 
@@ -368,5 +372,59 @@ SYLVA_VOLUME_BENCH(mask_revolution);
 SYLVA_VOLUME_BENCH(visual_hull);
 SYLVA_VOLUME_BENCH(canopy_envelope);
 SYLVA_VOLUME_BENCH(crown_refinement);
+
+// Liu 2020 Fig. 17: time per tree of Palubicki's method and the improved variant on the same
+// crown and marker budget. The crown (an ellipsoid 10 × 8 × 10 m over a 1 m bole, internodes
+// of 0.1 m) holds a 50k-internode tree; both variants stop at max_internodes = the argument,
+// so the 2k and 10k trees are the young stages of the same growth. The budget: the baseline
+// spreads 400,000 markers once; the improved variant's 40 markers per bud and iteration draw
+// about as many by 50k internodes (counter markers_generated; the draws beyond max(r, 4.3σ)
+// that could not matter are skipped, see space_colonization.cpp). One thread. Peak RSS is the
+// process's (monotone), so run one case per process to compare memory; the counters give the
+// method's own sizes (markers, internodes, iterations, height).
+static void Colonization(benchmark::State& state, ColonizationVariant variant) {
+    SpaceColonizationOptions o;
+    o.variant = variant;
+    o.crown = makePlaced(makeEllipsoid({5, 4, 5}), Placement{{0, 5, 0}, {0, 1, 0}, {1, 1, 1}});
+    o.internode = 0.1;
+    o.trunkLength = 1.0;
+    o.markers = 400000;
+    o.markersPerBud = 40;
+    o.maxIterations = 1000;
+    o.maxInternodes = static_cast<int>(state.range(0));
+    o.threaded = false;
+    std::map<std::string, double> stats;
+    Tree tree;
+    uint64_t seed = 1;
+    static const double rssBefore = peakRssMiB();  // at the first Colonization case's start
+    for (auto _ : state) {
+        Rng rng(seed++);
+        stats.clear();
+        tree = growSpaceColonization(o, rng, &stats);
+        benchmark::DoNotOptimize(tree.nodes.data());
+    }
+    double height = 0.0;
+    for (const SkeletonNode& n : tree.nodes) height = std::max(height, n.position.y);
+    state.counters["internodes"] = stats["internodes"];
+    state.counters["iterations"] = stats["iterations"];
+    state.counters["markers_generated"] = stats["markers_generated"];
+    state.counters["height_m"] = height;
+    state.counters["peak_rss_MiB"] = peakRssMiB();
+    // What growing added to the process's peak since the first Colonization case started:
+    // the method's own peak when this case runs alone in its process.
+    state.counters["peak_rss_added_MiB"] = peakRssMiB() - rssBefore;
+}
+BENCHMARK_CAPTURE(Colonization, baseline, ColonizationVariant::kBaseline)
+    ->Arg(2000)
+    ->Arg(10000)
+    ->Arg(50000)
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(1.0);
+BENCHMARK_CAPTURE(Colonization, improved, ColonizationVariant::kImproved)
+    ->Arg(2000)
+    ->Arg(10000)
+    ->Arg(50000)
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(1.0);
 
 BENCHMARK_MAIN();
