@@ -1,9 +1,10 @@
-// The `sylva` command line: build, grow, validate, volume. Thin: everything lives in the libraries.
-// Exit codes: 0 success, 1 a runtime failure (some trees failed, I/O), 2 bad input.
+// The `sylva` command line: build, grow, validate, volume, species list. Thin: everything lives in
+// the libraries. Exit codes: 0 success, 1 a runtime failure (some trees failed, I/O), 2 bad input.
 #include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -13,6 +14,7 @@
 #include "pipeline/dataset.h"
 #include "pipeline/preview.h"
 #include "pipeline/skeleton_writers.h"
+#include "pipeline/species_list.h"
 #include "pipeline/stats_json.h"
 #include "pipeline/volume_output.h"
 #include "species/species.h"
@@ -117,6 +119,42 @@ int runVolume(const std::string& speciesPath, const VolumeOutputOptions& options
     return 0;
 }
 
+// Lists the species under `dir` (default: the repository's species/). Exit 2 when a file
+// fails to load (it is still listed, with its error), so scripts can check a library.
+int runSpeciesList(std::string dir) {
+    fs::path d = dir;
+    if (d.empty()) {
+        std::error_code ec;
+        fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+        std::optional<fs::path> found = defaultSpeciesDir(exe);
+        if (!found) {
+            std::fprintf(stderr,
+                         "sylva: species list: no species/ directory with presets/ above the "
+                         "executable or the current directory; give DIR\n");
+            return 2;
+        }
+        // Relative to the current directory when below it, so the paths are short.
+        fs::path rel = found->lexically_relative(fs::current_path(ec));
+        d = !ec && !rel.empty() && *rel.begin() != ".." ? rel : *found;
+    }
+    std::vector<SpeciesListEntry> entries;
+    try {
+        entries = listSpecies(d);
+    } catch (const std::runtime_error& e) {
+        std::fprintf(stderr, "sylva: species list: %s\n", e.what());
+        return 2;
+    }
+    std::fputs(formatSpeciesList(entries).c_str(), stdout);
+    size_t failed = std::count_if(entries.begin(), entries.end(),
+                                  [](const SpeciesListEntry& e) { return !e.error.empty(); });
+    if (failed) {
+        std::fprintf(stderr, "sylva: species list: %zu of %zu species files failed to load\n",
+                     failed, entries.size());
+        return 2;
+    }
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -162,6 +200,18 @@ int main(int argc, char** argv) {
                      "Voxel size, metres (default: each volume's largest extent / 128)")
         ->check(CLI::PositiveNumber);
 
+    std::string speciesDir;
+    auto* species = app.add_subcommand("species", "The species library");
+    species->require_subcommand(1);
+    auto* speciesList = species->add_subcommand(
+        "list",
+        "List every species file under DIR (name, method, description, path), each validated; "
+        "exit 2 if any fails to load");
+    speciesList->add_option(
+        "DIR", speciesDir,
+        "Directory searched recursively for *.toml (default: the species/ directory above the "
+        "executable or the current directory)");
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -177,6 +227,7 @@ int main(int argc, char** argv) {
         if (*grow) return runGrow(speciesPath, seed, growOut, growThreads);
         if (*validate) return runValidate(validatePath);
         if (*volume) return runVolume(volumePath, volumeOptions, volumeOut);
+        if (*speciesList) return runSpeciesList(speciesDir);
     } catch (const SpecError& e) {
         std::fprintf(stderr, "%s\n", e.what());
         return 2;
