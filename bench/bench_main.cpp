@@ -11,6 +11,9 @@
 //  - Colonization/<variant>/<internodes>: the space-colonization method's baseline
 //    (Palubicki 2009) and improved (Liu 2020 §3) variants growing to 2k, 10k and 50k
 //    internodes in the same crown with the same marker budget, one thread (Liu 2020 Fig. 17).
+//  - SpeciesTree/<species>: every preset in species/presets/ (found at run time), time per
+//    tree with its mesh and 8 views at 256² as in datasets/species-gallery.toml, one thread,
+//    no file writes; GalleryBuild: the whole gallery built and written, all cores, trees/s.
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 #include <tbb/global_control.h>
@@ -25,6 +28,7 @@
 
 #include "pipeline/build.h"
 #include "pipeline/dataset.h"
+#include "pipeline/instance.h"
 #include "pipeline/mesh_writers.h"
 #include "pipeline/views.h"
 #include "species/mesh.h"
@@ -427,4 +431,108 @@ BENCHMARK_CAPTURE(Colonization, improved, ColonizationVariant::kImproved)
     ->Unit(benchmark::kMillisecond)
     ->MinTime(1.0);
 
-BENCHMARK_MAIN();
+// --- the species library (issue 6) -------------------------------------------------------------
+
+// What one gallery tree costs: grow + mesh (tubes + leaf cards) + 8 views at 256² with depth
+// and labels, the stages of `sylva build` (pipeline/instance.h) with the outputs of
+// datasets/species-gallery.toml, but no file writes (they cost the same for every species and
+// are measured by WriteViewFile and GalleryBuild). One thread, so the figure is per core; a
+// new instance seed every iteration, as a build draws them. Registered per preset by main().
+static OutputOptions galleryOutputs() {
+    OutputOptions o;
+    o.meshFormats = {"ply"};
+    o.tubes.minSides = 3;
+    o.tubes.maxSides = 12;
+    o.tubes.edgeLength = 0.04;
+    o.views.count = 8;
+    o.views.elevationsDeg = {10, 35};
+    o.views.depth = true;
+    o.views.labels = true;
+    return o;
+}
+
+static void SpeciesTree(benchmark::State& state, const std::string& file) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    SpeciesEntry entry;
+    try {
+        entry.species = loadSpecies(file);
+        validateSpecies(entry.species, nullptr);
+    } catch (const std::exception& e) {
+        state.SkipWithError(e.what());
+        return;
+    }
+    entry.count = 1;
+    entry.points.emplace_back();  // no sweep
+    const OutputOptions outputs = galleryOutputs();
+    InstanceJob job;
+    job.entry = &entry;
+    job.point = &entry.points.front();
+    job.seed = 1;
+    double nodes = 0, leaves = 0, triangles = 0, growMs = 0, meshMs = 0, renderMs = 0;
+    int64_t trees = 0;
+    for (auto _ : state) {
+        InstanceWork w;
+        w.job = &job;
+        growStage(w);
+        meshStage(w, outputs, fs::path());
+        renderStage(w, outputs);
+        benchmark::DoNotOptimize(w.views.data());
+        nodes += static_cast<double>(w.grown.tree.nodes.size());
+        leaves += static_cast<double>(w.grown.tree.leaves.size());
+        triangles +=
+            static_cast<double>(w.mesh.wood.triangleCount() + w.mesh.leaves.triangleCount());
+        growMs += w.growMs;
+        meshMs += w.meshMs;
+        renderMs += w.renderMs;
+        ++trees;
+        ++job.seed;
+    }
+    const double n = static_cast<double>(std::max<int64_t>(1, trees));
+    state.counters["nodes"] = nodes / n;
+    state.counters["leaves"] = leaves / n;
+    state.counters["triangles"] = triangles / n;
+    state.counters["grow_ms"] = growMs / n;
+    state.counters["mesh_ms"] = meshMs / n;
+    state.counters["render_ms"] = renderMs / n;
+}
+
+// One SpeciesTree benchmark per species/presets/*.toml, in name order.
+static void registerSpeciesTrees() {
+    std::vector<fs::path> files;
+    const fs::path dir = SYLVA_SOURCE_DIR "/species/presets";
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir, ec)) {
+        if (e.path().extension() == ".toml") files.push_back(e.path());
+    }
+    std::sort(files.begin(), files.end());
+    for (const fs::path& f : files) {
+        const std::string name = "SpeciesTree/" + f.stem().string();
+        benchmark::RegisterBenchmark(name.c_str(), SpeciesTree, f.string())
+            ->Unit(benchmark::kMillisecond)
+            ->MinTime(1.0);
+    }
+}
+
+// The whole gallery (a few trees of every preset, meshes, 8 views, contact sheets, files
+// written to the temp directory) on all cores: trees per second.
+static void GalleryBuild(benchmark::State& state) {
+    const char* spec = "datasets/species-gallery.toml";
+    try {  // a species that does not load is reported, not a crash of the whole run
+        loadDataset(std::string(SYLVA_SOURCE_DIR "/") + spec);
+    } catch (const std::exception& e) {
+        state.SkipWithError(e.what());
+        return;
+    }
+    DatasetBuild(state, spec);
+}
+BENCHMARK(GalleryBuild)->Arg(0)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+
+// BENCHMARK_MAIN(), plus the per-preset benchmarks registered before the run.
+int main(int argc, char** argv) {
+    registerSpeciesTrees();
+    benchmark::Initialize(&argc, argv);
+    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+    benchmark::RunSpecifiedBenchmarks();
+    benchmark::Shutdown();
+    return 0;
+}
