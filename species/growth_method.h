@@ -32,5 +32,6 @@ std::unique_ptr<GrowthMethod> makeGrowthMethod(const std::string& name, Params& 
 // Each method's factory, one per file in species/methods/.
 std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& species);
 std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& species);
+std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& species);
 
 }  // namespace sylva

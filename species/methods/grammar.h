@@ -49,7 +49,7 @@
 // |                    |             |          | 360°/n apart, azimuth_deg added as jitter     |
 // | position           | [lo, hi]    | [1, 1]   | attachment as a fraction of the parent stem's |
 // |                    |             |          | length (1 = its end); snapped to the nearest  |
-// |                    |             |          | parent skeleton node                          |
+// |                    |             |          | parent skeleton node (never its base node)    |
 // | reduce_width_begin | (0, 1]      | 1.0      | r_wb: child base width w · r_wb               |
 // | reduce_width_end   | (0, 1]      | 0.7      | r_we: child tip width w · r_we (w = parent's  |
 // |                    |             |          | width at the attachment; widths interpolated) |
@@ -215,21 +215,21 @@ struct GrammarOptions {
 // One drawn stem, for statistics and tests.
 struct GrammarStem {
     int state = 0;
-    int parent = -1;        // index of the parent stem, −1 for the start rule's outputs
-    int level = 0;          // c
-    int order = 0;          // branch order
-    uint64_t key = 0;       // derivation-path key
-    int32_t baseNode = 0;   // skeleton node it grows from (on the parent, or node 0)
+    int parent = -1;             // index of the parent stem, −1 for the start rule's outputs
+    int level = 0;               // c
+    int order = 0;               // branch order
+    uint64_t key = 0;            // derivation-path key
+    int32_t baseNode = 0;        // skeleton node it grows from (on the parent, or node 0)
     std::vector<int32_t> nodes;  // its own skeleton nodes, base excluded, tip last
-    double length = 0.0;    // true length t_l (the control polygon's arc before noise), m
-    Vec3 direction;         // initial direction (unit), after the Euler angles
-    Vec3 parentTangent;     // parent's tangent at the attachment (+y for the start rule)
+    double length = 0.0;         // true length t_l (the control polygon's arc before noise), m
+    Vec3 direction;              // initial direction (unit), after the Euler angles
+    Vec3 parentTangent;          // parent's tangent at the attachment (+y for the start rule)
     double widthBegin = 0.0, widthEnd = 0.0;  // metres
 };
 
 struct GrammarStats {
     int64_t stems = 0;
-    int depthReached = 0;  // deepest level c + 1 with a stem
+    int depthReached = 0;    // deepest level c + 1 with a stem
     int64_t stopStates = 0;  // stop states produced
     int64_t truncated = 0;   // states not expanded because of D or max_stems
     int64_t leaves = 0;

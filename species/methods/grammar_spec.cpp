@@ -1,0 +1,444 @@
+// Species-file parameters of the `grammar` method → GrammarOptions. The format (every key,
+// default and unit) is documented in species/methods/grammar.h.
+#include <cmath>
+#include <cstdio>
+#include <optional>
+#include <set>
+
+#include "species/growth_method.h"
+#include "species/methods/grammar.h"
+
+namespace sylva {
+
+namespace {
+
+constexpr double kDeg = kPi / 180.0;
+
+std::string fmt(double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.9g", v);
+    return buf;
+}
+
+// The key names of a table, in file order (toml++ keeps them sorted; good enough: we only
+// need them for iteration, every check reports its own key's position).
+std::vector<std::string> keysOf(Params& owner, std::string_view key) {
+    std::vector<std::string> out;
+    const toml::node* n = owner.raw(key);
+    if (!n) return out;
+    const toml::table* t = n->as_table();
+    if (!t) owner.fail(key, "expected a table");
+    for (const auto& [k, v] : *t) out.emplace_back(k.str());
+    return out;
+}
+
+// A geometry table's keys, each optional: merged from the most specific table that sets it.
+struct GeometryTable {
+    std::optional<std::pair<double, double>> length, azimuth, tilt, roll, position, curve;
+    std::optional<double> reduceLength, reduceWidthBegin, reduceWidthEnd, tropism;
+    std::optional<Vec3> reduceAngle;
+    std::optional<bool> even;
+    std::optional<int> controlPoints;
+};
+
+GeometryTable readGeometry(Params& p) {
+    GeometryTable g;
+    auto range = [&](const char* key, const Range& r, double scale) {
+        std::optional<std::pair<double, double>> v;
+        if (p.has(key)) {
+            auto [lo, hi] = p.interval(key, {0, 0}, r);
+            v = std::make_pair(lo * scale, hi * scale);
+        }
+        return v;
+    };
+    auto number = [&](const char* key, const Range& r) {
+        std::optional<double> v;
+        if (p.has(key)) v = p.number(key, r);
+        return v;
+    };
+    g.length = range("length", Range::positive(), 1.0);
+    g.azimuth = range("azimuth_deg", Range::closed(-720, 720), kDeg);
+    g.tilt = range("tilt_deg", Range::closed(-180, 180), kDeg);
+    g.roll = range("roll_deg", Range::closed(-360, 360), kDeg);
+    g.position = range("position", Range::closed(0, 1), 1.0);
+    g.curve = range("curve", Range::closed(0, 2), 1.0);
+    g.reduceLength = number("reduce_length", Range::leftOpen(0, 2));
+    g.reduceWidthBegin = number("reduce_width_begin", Range::leftOpen(0, 1));
+    g.reduceWidthEnd = number("reduce_width_end", Range::leftOpen(0, 1));
+    if (auto t = number("tropism_deg", Range::closed(-180, 180))) g.tropism = *t * kDeg;
+    if (p.has("reduce_angle")) g.reduceAngle = p.vec3("reduce_angle", {1, 1, 1}, Range::positive());
+    if (p.has("phyllotaxis"))
+        g.even = p.choice("phyllotaxis", "random", {"random", "even"}) == "even";
+    if (p.has("control_points")) {
+        g.controlPoints = static_cast<int>(p.integer("control_points", Range::closed(2, 32)));
+    }
+    // Absent keys count as asked, so a misspelt one gets a "did you mean" suggestion.
+    for (const char* key : {"length", "azimuth_deg", "tilt_deg", "roll_deg", "position", "curve",
+                            "reduce_length", "reduce_width_begin", "reduce_width_end",
+                            "tropism_deg", "reduce_angle", "phyllotaxis", "control_points"}) {
+        p.raw(key);
+    }
+    p.finish();
+    return g;
+}
+
+// Applies the keys a table sets on top of `g`.
+void apply(const GeometryTable& t, GrammarGeometry& g) {
+    if (t.length) std::tie(g.lengthLo, g.lengthHi) = *t.length;
+    if (t.azimuth) std::tie(g.azimuthLo, g.azimuthHi) = *t.azimuth;
+    if (t.tilt) std::tie(g.tiltLo, g.tiltHi) = *t.tilt;
+    if (t.roll) std::tie(g.rollLo, g.rollHi) = *t.roll;
+    if (t.position) std::tie(g.positionLo, g.positionHi) = *t.position;
+    if (t.curve) std::tie(g.curveLo, g.curveHi) = *t.curve;
+    if (t.reduceLength) g.reduceLength = *t.reduceLength;
+    if (t.reduceWidthBegin) g.reduceWidthBegin = *t.reduceWidthBegin;
+    if (t.reduceWidthEnd) g.reduceWidthEnd = *t.reduceWidthEnd;
+    if (t.tropism) g.tropism = *t.tropism;
+    if (t.reduceAngle) g.reduceAngle = *t.reduceAngle;
+    if (t.even) g.evenSpread = *t.even;
+    if (t.controlPoints) g.controlPoints = *t.controlPoints;
+}
+
+const std::vector<std::string> kSeasonNames = {"spring", "summer", "autumn", "winter"};
+
+// "name" or "name*N" → (name, N).
+std::pair<std::string, int> parseOutput(Params& alt, const std::string& item) {
+    const size_t star = item.find('*');
+    if (star == std::string::npos) return {item, 1};
+    const std::string name = item.substr(0, star);
+    const std::string count = item.substr(star + 1);
+    char* end = nullptr;
+    const long n = std::strtol(count.c_str(), &end, 10);
+    if (name.empty() || count.empty() || *end != '\0' || n < 1 || n > 1000) {
+        alt.fail("out",
+                 "expected \"state\" or \"state*N\" with 1 ≤ N ≤ 1000, got \"" + item + "\"");
+    }
+    return {name, static_cast<int>(n)};
+}
+
+std::vector<uint8_t> readClasses(Params& p, std::string_view key) {
+    std::vector<uint8_t> out;
+    const toml::node* n = p.raw(key);
+    if (!n) return out;
+    const toml::array* a = n->as_array();
+    if (!a) p.fail(key, "expected an array of colour classes (integers 0–255)");
+    for (const toml::node& e : *a) {
+        auto i = e.as_integer();
+        if (!i || i->get() < 0 || i->get() > 255) {
+            p.fail(key, "expected an array of colour classes (integers 0–255)");
+        }
+        out.push_back(static_cast<uint8_t>(i->get()));
+    }
+    return out;
+}
+
+class GrammarMethod : public GrowthMethod {
+  public:
+    explicit GrammarMethod(GrammarOptions o) : o_(std::move(o)) {}
+    Tree grow(Rng& rng, bool, std::map<std::string, double>& stats) const override {
+        GrammarStats s;
+        Tree t = growGrammar(o_, rng, &s);
+        stats["stems"] = static_cast<double>(s.stems);
+        stats["depth_reached"] = s.depthReached;
+        stats["stop_states"] = static_cast<double>(s.stopStates);
+        stats["truncated"] = static_cast<double>(s.truncated);
+        stats["leaves"] = static_cast<double>(s.leaves);
+        stats["fruit"] = static_cast<double>(s.fruit);
+        return t;
+    }
+
+  private:
+    GrammarOptions o_;
+};
+
+}  // namespace
+
+std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
+    if (sp.has("leaves")) {
+        sp.raw("leaves");
+        sp.fail("leaves",
+                "grammar species place particle leaves per state: use [particles.<state>] "
+                "(and [fruit.<state>]) instead of [leaves]");
+    }
+    GrammarOptions o;
+
+    // [grammar]
+    std::string startName = "s";
+    std::vector<std::string> stopNames = {"t"};
+    std::optional<Params> g = sp.optionalTable("grammar");
+    bool startGiven = false;
+    if (g) {
+        startGiven = g->has("start");
+        startName = g->string("start", "s");
+        if (g->has("stop")) stopNames = g->stringArray("stop");
+        o.maxDepth = g->has("max_depth")
+                         ? static_cast<int>(g->integer(
+                               "max_depth", Range::closed(1, GrammarOptions::kMaxLevels)))
+                         : 0;
+        auto [wlo, whi] = g->interval("trunk_width", {0.2, 0.2}, Range::positive());
+        o.trunkWidthLo = wlo;
+        o.trunkWidthHi = whi;
+        o.segmentLength = g->number("segment_length", 0.1, Range::positive());
+        o.maxStems = static_cast<int>(g->integer("max_stems", 50000, Range::closed(1, 1e7)));
+        const std::string season = g->choice("season", "summer", kSeasonNames);
+        for (size_t i = 0; i < kSeasonNames.size(); ++i) {
+            if (season == kSeasonNames[i]) o.season = static_cast<Season>(i);
+        }
+    }
+    auto failGrammar = [&](const char* key, const std::string& msg) {
+        if (g && g->has(key)) g->fail(key, msg);
+        if (g) g->failHere(msg);
+        sp.failHere(msg);
+    };
+    if (startName.find('*') != std::string::npos || startName.find("->") != std::string::npos) {
+        failGrammar("start", "expected a state name without '*' or '->'");
+    }
+    o.start = o.state(startName);
+    for (const std::string& s : stopNames) {
+        if (s == startName) failGrammar("stop", "the start state cannot be a stop state");
+        o.stop[o.state(s)] = true;
+    }
+
+    // [rules]: first every input state, so outputs can be checked against them.
+    if (!sp.has("rules")) sp.fail("rules", "required table missing: the grammar's rules");
+    const std::vector<std::string> ruleNames = keysOf(sp, "rules");
+    Params rules = sp.table("rules");
+    std::set<std::string> known(stopNames.begin(), stopNames.end());
+    for (const std::string& name : ruleNames) {
+        if (name.find('*') != std::string::npos || name.find("->") != std::string::npos) {
+            rules.fail(name, "a state name may not contain '*' or '->'");
+        }
+        if (o.stop[o.state(name)]) {
+            rules.fail(name, "\"" + name + "\" is a stop state: stop states have no rule");
+        }
+        known.insert(name);
+    }
+    if (!known.count(startName) || o.stop[o.start]) {
+        const std::string msg = "no rule for the start state \"" + startName + "\"";
+        if (startGiven) g->fail("start", msg);
+        rules.failHere(msg);
+    }
+    for (const std::string& name : ruleNames) {
+        const int from = o.state(name);
+        std::vector<Params> alts = rules.tableArray(name);
+        if (alts.empty()) rules.fail(name, "expected at least one alternative { out = [...] }");
+        double sum = 0;
+        for (Params& alt : alts) {
+            GrammarAlternative a;
+            const std::vector<std::string> out = alt.stringArray("out");
+            if (!alt.has("out")) alt.failHere("missing \"out\": the alternative's output states");
+            if (out.empty()) alt.fail("out", "expected at least one output state");
+            for (const std::string& item : out) {
+                auto [outName, count] = parseOutput(alt, item);
+                if (!known.count(outName)) {
+                    std::string hint;
+                    if (auto w = closestWord(outName, known))
+                        hint = "; did you mean \"" + *w + "\"?";
+                    alt.fail("out", "unknown state \"" + outName +
+                                        "\": it has no rule and is not a stop state" + hint);
+                }
+                const int to = o.state(outName);
+                for (int k = 0; k < count; ++k) a.out.push_back(to);
+            }
+            if (alts.size() == 1) {
+                a.p = alt.number("p", 1.0, Range::closed(0, 1));
+            } else {
+                if (!alt.has("p")) {
+                    alt.failHere(
+                        "missing \"p\": a rule with several alternatives needs each one's "
+                        "probability");
+                }
+                a.p = alt.number("p", Range::closed(0, 1));
+            }
+            sum += a.p;
+            alt.finish();
+            o.rules[from].push_back(std::move(a));
+        }
+        if (std::abs(sum - 1.0) > 1e-6) {
+            rules.fail(name, "the alternatives' probabilities sum to " + fmt(sum) +
+                                 ", expected 1 (±1e-6)");
+        }
+    }
+    rules.finish();
+    const int nStates = static_cast<int>(o.states.size());
+
+    // Reachable states, and (with D unbounded) a path to termination from each.
+    std::vector<bool> reachable(nStates, false);
+    std::vector<int> todo = {o.start};
+    reachable[o.start] = true;
+    while (!todo.empty()) {
+        const int s = todo.back();
+        todo.pop_back();
+        for (const GrammarAlternative& a : o.rules[s]) {
+            for (int t : a.out) {
+                if (!reachable[t]) {
+                    reachable[t] = true;
+                    todo.push_back(t);
+                }
+            }
+        }
+    }
+    if (o.maxDepth == 0) {
+        // Least fixed point: a state can terminate if some alternative's outputs all can.
+        std::vector<bool> ends(o.stop.begin(), o.stop.end());
+        for (bool changed = true; changed;) {
+            changed = false;
+            for (int s = 0; s < nStates; ++s) {
+                if (ends[s]) continue;
+                for (const GrammarAlternative& a : o.rules[s]) {
+                    bool all = a.p > 0;
+                    for (int t : a.out) all = all && ends[t];
+                    if (all) {
+                        ends[s] = changed = true;
+                        break;
+                    }
+                }
+            }
+        }
+        for (const std::string& name : ruleNames) {
+            const int s = o.state(name);
+            if (reachable[s] && !ends[s]) {
+                rules.fail(name, "no path from \"" + name +
+                                     "\" to a stop state while grammar.max_depth is unbounded: "
+                                     "add a stop state to the rule or set grammar.max_depth");
+            }
+        }
+    }
+
+    // [geometry.*]: "default", an output state, or a transition "from->to".
+    std::set<std::pair<int, int>> transitions;
+    for (int s = 0; s < nStates; ++s) {
+        for (const GrammarAlternative& a : o.rules[s]) {
+            for (int t : a.out) {
+                if (!o.stop[t]) transitions.insert({s, t});
+            }
+        }
+    }
+    GeometryTable fallbackTable;
+    std::map<int, GeometryTable> stateTables;
+    std::map<std::pair<int, int>, GeometryTable> transitionTables;
+    if (sp.has("geometry")) {
+        const std::vector<std::string> names = keysOf(sp, "geometry");
+        Params geo = sp.table("geometry");
+        auto stemState = [&](const std::string& name, const std::string& key) {
+            if (!known.count(name)) {
+                std::string hint;
+                if (auto w = closestWord(name, known)) hint = "; did you mean \"" + *w + "\"?";
+                geo.fail(key, "unknown state \"" + name + "\"" + hint);
+            }
+            const int s = o.state(name);
+            if (o.stop[s]) geo.fail(key, "\"" + name + "\" is a stop state: it draws no stem");
+            return s;
+        };
+        for (const std::string& name : names) {
+            Params t = geo.table(name);
+            const size_t arrow = name.find("->");
+            if (name == "default") {
+                fallbackTable = readGeometry(t);
+            } else if (arrow == std::string::npos) {
+                stateTables[stemState(name, name)] = readGeometry(t);
+            } else {
+                const int from = stemState(name.substr(0, arrow), name);
+                const int to = stemState(name.substr(arrow + 2), name);
+                if (!transitions.count({from, to})) {
+                    geo.fail(name, "no rule turns \"" + o.states[from] + "\" into \"" +
+                                       o.states[to] + "\"");
+                }
+                transitionTables[{from, to}] = readGeometry(t);
+            }
+        }
+        geo.finish();
+    }
+    apply(fallbackTable, o.fallback);
+    for (const auto& [from, to] : transitions) {
+        GrammarGeometry gg = o.fallback;
+        if (auto it = stateTables.find(to); it != stateTables.end()) apply(it->second, gg);
+        if (auto it = transitionTables.find({from, to}); it != transitionTables.end()) {
+            apply(it->second, gg);
+        }
+        o.transition[{from, to}] = gg;
+    }
+
+    // [particles.<state>] and [fruit.<state>]
+    auto stateOf = [&](Params& owner, const std::string& name) {
+        if (!known.count(name)) {
+            std::string hint;
+            if (auto w = closestWord(name, known)) hint = "; did you mean \"" + *w + "\"?";
+            owner.fail(name, "unknown state \"" + name + "\"" + hint);
+        }
+        const int s = o.state(name);
+        if (o.stop[s]) owner.fail(name, "\"" + name + "\" is a stop state: it draws no stem");
+        return s;
+    };
+    if (sp.has("particles")) {
+        const std::vector<std::string> names = keysOf(sp, "particles");
+        Params parts = sp.table("particles");
+        for (const std::string& name : names) {
+            const int s = stateOf(parts, name);
+            Params p = parts.table(name);
+            GrammarParticles& pp = o.particles[s];
+            pp.enabled = true;
+            pp.count = static_cast<int>(p.integer("count", Range::closed(0, 100000)));
+            std::tie(pp.sizeLo, pp.sizeHi) = p.interval("size", {0.05, 0.1}, Range::positive());
+            pp.aspect = p.number("aspect", 0.5, Range::leftOpen(0, 10));
+            auto [rlo, rhi] = p.interval("rotation_deg", {30, 60}, Range::closed(0, 180));
+            pp.rotationLo = rlo * kDeg;
+            pp.rotationHi = rhi * kDeg;
+            pp.randomness = p.number("randomness", 0.5, Range::closed(0, 1));
+            std::tie(pp.alongLo, pp.alongHi) = p.interval("along", {0, 1}, Range::closed(0, 1));
+            pp.minLevel = static_cast<int>(p.integer("min_level", 0, Range::closed(0, 1000)));
+            p.finish();
+        }
+        parts.finish();
+    }
+    if (sp.has("fruit")) {
+        const std::vector<std::string> names = keysOf(sp, "fruit");
+        Params fruits = sp.table("fruit");
+        for (const std::string& name : names) {
+            const int s = stateOf(fruits, name);
+            Params p = fruits.table(name);
+            GrammarFruit& f = o.fruit[s];
+            f.enabled = true;
+            f.count = static_cast<int>(p.integer("count", Range::closed(0, 100000)));
+            std::tie(f.sizeLo, f.sizeHi) = p.interval("size", {0.06, 0.1}, Range::positive());
+            f.aspect = p.number("aspect", 1.0, Range::leftOpen(0, 10));
+            f.colour = static_cast<uint8_t>(p.integer("colour", 8, Range::closed(0, 255)));
+            std::tie(f.alongLo, f.alongHi) = p.interval("along", {0.5, 1}, Range::closed(0, 1));
+            f.minLevel = static_cast<int>(p.integer("min_level", 0, Range::closed(0, 1000)));
+            if (p.has("seasons")) {
+                f.seasons = {false, false, false, false};
+                for (const std::string& sn : p.stringArray("seasons")) {
+                    auto it = std::find(kSeasonNames.begin(), kSeasonNames.end(), sn);
+                    if (it == kSeasonNames.end()) {
+                        p.fail("seasons", "unknown season \"" + sn +
+                                              "\" (expected spring, summer, autumn, winter)");
+                    }
+                    f.seasons[it - kSeasonNames.begin()] = true;
+                }
+            }
+            p.finish();
+        }
+        fruits.finish();
+    }
+
+    // [seasons.<name>]
+    if (sp.has("seasons")) {
+        const std::vector<std::string> names = keysOf(sp, "seasons");
+        Params seasons = sp.table("seasons");
+        for (const std::string& name : names) {
+            auto it = std::find(kSeasonNames.begin(), kSeasonNames.end(), name);
+            if (it == kSeasonNames.end()) {
+                seasons.fail(name, "unknown season (expected spring, summer, autumn, winter)");
+            }
+            Params p = seasons.table(name);
+            GrammarSeason& s = o.seasons[it - kSeasonNames.begin()];
+            if (p.has("classes")) s.classes = readClasses(p, "classes");
+            s.density = p.number("density", s.density, Range::closed(0, 1));
+            p.finish();
+        }
+        seasons.finish();
+    }
+    return std::make_unique<GrammarMethod>(std::move(o));
+}
+
+}  // namespace sylva

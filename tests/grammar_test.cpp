@@ -1,0 +1,535 @@
+// The grammar method (Jain et al. 2021 §3): rule probabilities, depth bound, nested growth
+// stages, the reduce-length/angle/width laws on generated stems, particle leaves and seasons,
+// determinism, and spec errors with their file:line.
+#include "species/methods/grammar.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <tuple>
+
+#include "species/species.h"
+
+namespace sylva {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kDeg = kPi / 180.0;
+
+// s → (a); a → (a a) on straight stems of fixed geometry.
+GrammarOptions binaryTree(int depth) {
+    GrammarOptions o;
+    o.start = o.state("s");
+    const int a = o.state("a");
+    o.rules[o.start] = {{{a}, 1.0}};
+    o.rules[a] = {{{a, a}, 1.0}};
+    o.maxDepth = depth;
+    o.fallback.lengthLo = o.fallback.lengthHi = 1.0;
+    return o;
+}
+
+// A Fir-like grammar (Table 1) with every random element switched on.
+GrammarOptions firLike(int depth) {
+    GrammarOptions o;
+    o.start = o.state("s");
+    const int a = o.state("a"), b1 = o.state("b1"), b2 = o.state("b2");
+    const int c1 = o.state("c1"), c2 = o.state("c2"), t = o.state("t");
+    o.stop[t] = true;
+    o.rules[o.start] = {{{a}, 1.0}};
+    o.rules[a] = {{{a, b1, b1, b2, b2}, 0.5}, {{a, b1, b1, b2}, 0.3}, {{a, b1, b1}, 0.2}};
+    o.rules[b1] = {{{t}, 1.0}};
+    o.rules[b2] = {{{c1, c2}, 1.0}};
+    o.rules[c1] = {{{t}, 1.0}};
+    o.rules[c2] = {{{t}, 1.0}};
+    o.maxDepth = depth;
+    o.trunkWidthLo = 0.2;
+    o.trunkWidthHi = 0.3;
+    GrammarGeometry g;
+    g.lengthLo = 0.8;
+    g.lengthHi = 1.2;
+    g.reduceLength = 0.9;
+    g.tiltLo = 60 * kDeg;
+    g.tiltHi = 80 * kDeg;
+    g.curveLo = 0.05;
+    g.curveHi = 0.1;
+    g.tropism = 20 * kDeg;
+    g.positionLo = 0.5;
+    g.positionHi = 1.0;
+    o.fallback = g;
+    GrammarGeometry leader = g;
+    leader.tiltLo = 0;
+    leader.tiltHi = 5 * kDeg;
+    leader.tropism = 0;
+    leader.positionLo = leader.positionHi = 1.0;
+    o.transition[{o.start, a}] = leader;
+    o.transition[{a, a}] = leader;
+    GrammarGeometry even = g;
+    even.evenSpread = true;
+    even.azimuthLo = -10 * kDeg;
+    even.azimuthHi = 10 * kDeg;
+    o.transition[{a, b1}] = even;
+    o.transition[{a, b2}] = even;
+    o.particles[b1].enabled = true;
+    o.particles[b1].count = 10;
+    return o;
+}
+
+TEST(Grammar, RuleProbabilitiesAreHonoured) {
+    // 4000 independent a-stems each choose x (0.2), y (0.5) or z (0.3): counts within
+    // 4.5 binomial standard deviations.
+    GrammarOptions o;
+    o.start = o.state("s");
+    const int a = o.state("a"), x = o.state("x"), y = o.state("y"), z = o.state("z");
+    o.rules[o.start] = {{std::vector<int>(4000, a), 1.0}};
+    o.rules[a] = {{{x}, 0.2}, {{y}, 0.5}, {{z}, 0.3}};
+    o.maxDepth = 2;
+    o.segmentLength = 10.0;
+    const int n = 4000;
+    for (uint64_t seed : {1u, 2u, 3u}) {
+        Rng rng(seed);
+        std::vector<GrammarStem> stems;
+        growGrammar(o, rng, nullptr, &stems);
+        int count[3] = {0, 0, 0};
+        for (const GrammarStem& s : stems) {
+            if (s.state == x) ++count[0];
+            if (s.state == y) ++count[1];
+            if (s.state == z) ++count[2];
+        }
+        EXPECT_EQ(count[0] + count[1] + count[2], n);
+        const double p[3] = {0.2, 0.5, 0.3};
+        for (int k = 0; k < 3; ++k) {
+            const double sd = std::sqrt(n * p[k] * (1 - p[k]));
+            EXPECT_NEAR(count[k], n * p[k], 4.5 * sd) << "alternative " << k << " seed " << seed;
+        }
+    }
+}
+
+TEST(Grammar, DepthBoundsTheBranchingLevel) {
+    for (int d = 1; d <= 7; ++d) {
+        GrammarOptions o = binaryTree(d);
+        Rng rng(5);
+        GrammarStats stats;
+        std::vector<GrammarStem> stems;
+        Tree t = growGrammar(o, rng, &stats, &stems);
+        EXPECT_EQ(stats.stems, (int64_t{1} << d) - 1) << "D = " << d;  // 1 + 2 + … + 2^(D−1)
+        EXPECT_EQ(stats.depthReached, d);
+        EXPECT_EQ(stats.truncated, int64_t{1} << (d - 1));  // the leaves of the derivation
+        int maxLevel = 0;
+        for (const SkeletonNode& n : t.nodes) maxLevel = std::max(maxLevel, n.level);
+        EXPECT_EQ(maxLevel, d - 1);
+        for (const GrammarStem& s : stems) EXPECT_LT(s.level, d);
+        EXPECT_EQ(t.endpoints.size(), stems.size());
+    }
+}
+
+TEST(Grammar, UnboundedDepthStopsAtStopStates) {
+    GrammarOptions o;
+    o.start = o.state("s");
+    const int a = o.state("a"), t = o.state("t");
+    o.stop[t] = true;
+    o.rules[o.start] = {{{a}, 1.0}};
+    o.rules[a] = {{{a, t}, 0.5}, {{t}, 0.5}};  // geometric chain, ends with probability 1
+    GrammarStats stats;
+    Rng rng(11);
+    growGrammar(o, rng, &stats);
+    EXPECT_EQ(stats.truncated, 0);
+    EXPECT_EQ(stats.stopStates, stats.stems);  // every a emits exactly one t
+    EXPECT_EQ(stats.depthReached, stats.stems);
+}
+
+// Growth stages (Jain Fig. 4): the tree at D is a subtree of the tree at D + 1.
+TEST(Grammar, GrowthStagesAreNested) {
+    for (uint64_t seed : {3u, 4u}) {
+        Tree prev;
+        for (int d = 1; d <= 9; ++d) {
+            Rng rng(seed);
+            Tree t = growGrammar(firLike(d), rng);
+            std::set<std::tuple<double, double, double, double>> here;
+            for (const SkeletonNode& n : t.nodes) {
+                here.insert({n.position.x, n.position.y, n.position.z, n.radius});
+            }
+            EXPECT_GE(t.nodes.size(), prev.nodes.size());
+            for (const SkeletonNode& n : prev.nodes) {
+                ASSERT_TRUE(here.count({n.position.x, n.position.y, n.position.z, n.radius}))
+                    << "node of D = " << d - 1 << " missing at D = " << d << ", seed " << seed;
+            }
+            if (d > 1) EXPECT_GT(t.nodes.size(), prev.nodes.size());
+            prev = std::move(t);
+        }
+    }
+}
+
+TEST(Grammar, ReduceLengthAndAngleLawsHoldOnGeneratedStems) {
+    // Straight stems: chord = b_l · r_l^c; angle to the parent's axis = b_a · r_a^c.
+    GrammarOptions o = binaryTree(6);
+    o.fallback.lengthLo = o.fallback.lengthHi = 2.0;
+    o.fallback.reduceLength = 0.8;
+    o.fallback.tiltLo = o.fallback.tiltHi = 40 * kDeg;
+    o.fallback.reduceAngle = {1.0, 0.7, 1.0};
+    GrammarGeometry trunk = o.fallback;
+    trunk.tiltLo = trunk.tiltHi = 0;
+    o.transition[{o.start, 1}] = trunk;
+    o.segmentLength = 0.07;
+    Rng rng(9);
+    std::vector<GrammarStem> stems;
+    Tree t = growGrammar(o, rng, nullptr, &stems);
+    ASSERT_EQ(stems.size(), 63u);
+    auto chord = [&](const GrammarStem& s) {
+        return t.nodes[s.nodes.back()].position - t.nodes[s.baseNode].position;
+    };
+    for (const GrammarStem& s : stems) {
+        EXPECT_NEAR(length(chord(s)), 2.0 * std::pow(0.8, s.level), 1e-9);
+        const Vec3 parentAxis = s.parent < 0 ? Vec3{0, 1, 0} : chord(stems[s.parent]);
+        const double expected = s.parent < 0 ? 0.0 : 40 * kDeg * std::pow(0.7, s.level);
+        EXPECT_NEAR(angleBetween(chord(s), parentAxis), expected, 1e-7) << "level " << s.level;
+    }
+}
+
+TEST(Grammar, WidthsFollowReduceWidthBeginAndEnd) {
+    GrammarOptions o = binaryTree(5);
+    o.trunkWidthLo = o.trunkWidthHi = 0.4;
+    o.fallback.reduceWidthBegin = 0.8;
+    o.fallback.reduceWidthEnd = 0.5;
+    o.fallback.positionLo = 0.3;  // attachments along the parent, not only at its end
+    o.fallback.positionHi = 1.0;
+    o.fallback.tiltLo = o.fallback.tiltHi = 30 * kDeg;
+    o.segmentLength = 0.1;
+    Rng rng(2);
+    std::vector<GrammarStem> stems;
+    Tree t = growGrammar(o, rng, nullptr, &stems);
+    EXPECT_DOUBLE_EQ(t.nodes[0].radius, 0.2);
+    int midAttachments = 0;
+    for (const GrammarStem& s : stems) {
+        const double w = 2 * t.nodes[s.baseNode].radius;  // parent's width at the attachment
+        const size_t n = s.nodes.size();
+        for (size_t i = 0; i < n; ++i) {
+            const double expected = 0.5 * w * (0.8 + (0.5 - 0.8) * double(i + 1) / double(n));
+            EXPECT_NEAR(t.nodes[s.nodes[i]].radius, expected, 1e-12);
+        }
+        if (s.parent >= 0 && s.baseNode != stems[s.parent].nodes.back()) ++midAttachments;
+    }
+    EXPECT_GT(midAttachments, 10);
+}
+
+TEST(Grammar, EvenPhyllotaxisSpreadsSiblingsEvenly) {
+    GrammarOptions o;
+    o.start = o.state("s");
+    const int a = o.state("a"), b = o.state("b");
+    o.rules[o.start] = {{{a}, 1.0}};
+    o.rules[a] = {{std::vector<int>(7, b), 1.0}};
+    o.maxDepth = 2;
+    GrammarGeometry g;
+    g.tiltLo = g.tiltHi = 90 * kDeg;
+    g.evenSpread = true;
+    g.azimuthLo = g.azimuthHi = 0;
+    o.transition[{a, b}] = g;
+    for (uint64_t seed : {1u, 2u}) {
+        Rng rng(seed);
+        std::vector<GrammarStem> stems;
+        growGrammar(o, rng, nullptr, &stems);
+        std::vector<double> az;
+        for (const GrammarStem& s : stems) {
+            if (s.state != b) continue;
+            EXPECT_NEAR(s.direction.y, 0.0, 1e-12);
+            az.push_back(std::atan2(s.direction.z, s.direction.x));
+        }
+        ASSERT_EQ(az.size(), 7u);
+        std::sort(az.begin(), az.end());
+        for (size_t i = 0; i < az.size(); ++i) {
+            const double next = i + 1 < az.size() ? az[i + 1] : az[0] + 2 * kPi;
+            EXPECT_NEAR(next - az[i], 2 * kPi / 7, 1e-9);
+        }
+    }
+}
+
+TEST(Grammar, OrderCountsLateralsAndLevelCountsDerivationDepth) {
+    Rng rng(1);
+    std::vector<GrammarStem> stems;
+    GrammarOptions o = firLike(6);
+    Tree t = growGrammar(o, rng, nullptr, &stems);
+    for (const GrammarStem& s : stems) {
+        const std::string& name = o.states[s.state];
+        const int expected = name == "a" ? 0 : (name[0] == 'b' ? 1 : 2);
+        EXPECT_EQ(s.order, expected) << name;
+        for (int32_t n : s.nodes) {
+            EXPECT_EQ(t.nodes[n].order, expected);
+            EXPECT_EQ(t.nodes[n].level, s.level);
+            EXPECT_LT(t.nodes[n].parent, n);  // rooted: parents first
+        }
+    }
+}
+
+TEST(Grammar, LeafCountSizeAndColourFollowHeight) {
+    GrammarOptions o = binaryTree(6);
+    o.fallback.tiltLo = 20 * kDeg;
+    o.fallback.tiltHi = 40 * kDeg;
+    o.trunkWidthLo = o.trunkWidthHi = 0.01;  // leaves sit on the axis: heights compare
+    GrammarParticles& p = o.particles[1];
+    p.enabled = true;
+    p.count = 25;
+    p.sizeLo = 0.04;
+    p.sizeHi = 0.12;
+    p.randomness = 0.0;
+    Rng rng(4);
+    GrammarStats stats;
+    Tree t = growGrammar(o, rng, &stats);
+    ASSERT_EQ(t.leaves.size(), 25u * 63u);
+    EXPECT_EQ(stats.leaves, 25 * 63);
+    double yLo = 1e300, yHi = -1e300;
+    for (const SkeletonNode& n : t.nodes) {
+        yLo = std::min(yLo, n.position.y);
+        yHi = std::max(yHi, n.position.y);
+    }
+    const std::vector<uint8_t>& palette = o.seasons[int(Season::kSummer)].classes;
+    const int k = static_cast<int>(palette.size());
+    double lowColour = 0, highColour = 0;
+    int low = 0, high = 0;
+    for (const Leaf& leaf : t.leaves) {
+        // Height of the leaf's attachment point: its base on the stem (centre − half a card
+        // along the tangent, − half the stem width sideways: well below 1 cm here).
+        const Vec3 base = leaf.position - leaf.tangent * (0.5 * leaf.size);
+        const double h = (base.y - yLo) / (yHi - yLo);
+        EXPECT_NEAR(leaf.size, 0.12 - 0.08 * h, 0.08 * 0.02) << "larger low, smaller high";
+        const int ci = static_cast<int>(std::find(palette.begin(), palette.end(), leaf.colour) -
+                                        palette.begin());
+        ASSERT_LT(ci, k);
+        const int lo = std::clamp(static_cast<int>(std::floor(h * k - 0.5)) - 1, 0, k - 1);
+        const int hi = std::clamp(static_cast<int>(std::floor(h * k - 0.5)) + 2, 0, k - 1);
+        EXPECT_GE(ci, lo);
+        EXPECT_LE(ci, hi);
+        if (h < 0.3) lowColour += ci, ++low;
+        if (h > 0.7) highColour += ci, ++high;
+        EXPECT_NEAR(length(leaf.normal), 1.0, 1e-9);
+        EXPECT_NEAR(dot(leaf.normal, leaf.tangent), 0.0, 1e-9);
+    }
+    ASSERT_GT(low, 20);
+    ASSERT_GT(high, 20);
+    EXPECT_LT(lowColour / low + 1.5, highColour / high) << "lighter classes higher up";
+}
+
+TEST(Grammar, SeasonsChooseDensityAndPalette) {
+    auto grow = [](Season s) {
+        GrammarOptions o = firLike(7);
+        o.season = s;
+        Rng rng(8);
+        return growGrammar(o, rng);
+    };
+    const Tree summer = grow(Season::kSummer), autumn = grow(Season::kAutumn);
+    const Tree winter = grow(Season::kWinter), spring = grow(Season::kSpring);
+    EXPECT_TRUE(winter.leaves.empty()) << "winter is bare";
+    ASSERT_FALSE(summer.leaves.empty());
+    // Density 0.8 and 0.6: binomial thinning of the summer leaves, which are a superset.
+    const double n = static_cast<double>(summer.leaves.size());
+    EXPECT_NEAR(autumn.leaves.size(), 0.8 * n, 4.5 * std::sqrt(n * 0.16));
+    EXPECT_NEAR(spring.leaves.size(), 0.6 * n, 4.5 * std::sqrt(n * 0.24));
+    std::set<std::tuple<double, double, double>> all;
+    for (const Leaf& l : summer.leaves) all.insert({l.position.x, l.position.y, l.position.z});
+    for (const Leaf& l : autumn.leaves) {
+        EXPECT_TRUE(all.count({l.position.x, l.position.y, l.position.z}));
+        EXPECT_GE(l.colour, 4);
+        EXPECT_LE(l.colour, 7);
+    }
+    for (const Leaf& l : summer.leaves) EXPECT_LE(l.colour, 3);
+    for (const Leaf& l : spring.leaves) EXPECT_GE(l.colour, 1);
+    // Branches do not depend on the season.
+    ASSERT_EQ(summer.nodes.size(), winter.nodes.size());
+    for (size_t i = 0; i < summer.nodes.size(); ++i) {
+        EXPECT_EQ(summer.nodes[i].position, winter.nodes[i].position);
+    }
+}
+
+TEST(Grammar, FruitHangsFromItsStemsInItsSeasons) {
+    GrammarOptions o = binaryTree(4);
+    GrammarFruit& f = o.fruit[1];
+    f.enabled = true;
+    f.count = 3;
+    f.colour = 8;
+    f.minLevel = 2;
+    f.seasons = {false, true, false, false};
+    Rng rng(1);
+    GrammarStats stats;
+    Tree t = growGrammar(o, rng, &stats);
+    EXPECT_EQ(stats.fruit, 3 * (4 + 8));  // stems at levels 2 and 3
+    ASSERT_EQ(t.leaves.size(), 36u);
+    for (const Leaf& l : t.leaves) {
+        EXPECT_EQ(l.colour, 8);
+        EXPECT_EQ(l.tangent, Vec3(0, -1, 0));
+        EXPECT_GE(t.nodes[l.node].level, 2);
+        EXPECT_LT(l.position.y, t.nodes[l.node].position.y + 0.1);
+    }
+    o.season = Season::kAutumn;
+    Rng rng2(1);
+    EXPECT_TRUE(growGrammar(o, rng2).leaves.empty());
+}
+
+TEST(Grammar, DeterministicForASeed) {
+    auto bytes = [](uint64_t seed) {
+        Rng rng(seed);
+        Tree t = growGrammar(firLike(8), rng);
+        std::string b;
+        for (const SkeletonNode& n : t.nodes) {
+            b.append(reinterpret_cast<const char*>(&n.position), sizeof n.position);
+            b.append(reinterpret_cast<const char*>(&n.radius), sizeof n.radius);
+            b.append(reinterpret_cast<const char*>(&n.parent), sizeof n.parent);
+        }
+        for (const Leaf& l : t.leaves) {
+            b.append(reinterpret_cast<const char*>(&l.position), sizeof l.position);
+            b.append(reinterpret_cast<const char*>(&l.normal), sizeof l.normal);
+            b.push_back(static_cast<char>(l.colour));
+        }
+        return b;
+    };
+    EXPECT_EQ(bytes(12), bytes(12));
+    EXPECT_NE(bytes(12), bytes(13));
+}
+
+TEST(Grammar, ValueNoiseIsSmoothAndBounded) {
+    double maxStep = 0, lo = 1, hi = -1;
+    for (int i = 0; i < 2000; ++i) {
+        const Vec3 p{0.01 * i, 0.3, 7.2};
+        const double v = valueNoise3(p, 42);
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+        maxStep = std::max(maxStep, std::abs(valueNoise3(p + Vec3{0.01, 0, 0}, 42) - v));
+        EXPECT_EQ(v, valueNoise3(p, 42));
+    }
+    EXPECT_GE(lo, -1.0);
+    EXPECT_LE(hi, 1.0);
+    EXPECT_GT(hi - lo, 0.5);   // it varies
+    EXPECT_LT(maxStep, 0.05);  // continuously (slope ≤ 1.5 × 2 per unit)
+    EXPECT_EQ(valueNoise3({2, 3, 4}, 1), valueNoise3({2, 3, 4}, 1));
+}
+
+// --- species files -------------------------------------------------------------------------
+
+const char* kHeader = "name = \"g\"\nmethod = \"grammar\"\n";
+
+std::string specError(const std::string& body) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("sylva-grammar-" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    const fs::path file = dir / "g.toml";
+    {
+        std::ofstream out(file);
+        out << kHeader << body;
+    }
+    std::string e;
+    try {
+        validateSpecies(loadSpecies(file.string()), nullptr);
+    } catch (const SpecError& err) {
+        e = err.what();
+    }
+    fs::remove_all(dir);
+    return e;
+}
+
+TEST(GrammarSpec, BadGrammarsNameFileLineAndKey) {
+    struct Case {
+        std::string body, where, what;
+    };
+    const std::string ok = "[grammar]\nmax_depth = 4\n";
+    const std::vector<Case> cases = {
+        {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"a\", \"q\"] }]\n",
+         "g.toml:7:", "unknown state \"q\""},
+        {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"a\"], p = 0.5 },\n"
+              "     { out = [\"t\"], p = 0.4 }]\n",
+         "g.toml:7:", "rules.a: the alternatives' probabilities sum to 0.9"},
+        {ok + "[rules]\na = [{ out = [\"a\"] }]\n", "g.toml:5:", "no rule for the start state"},
+        {"[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"a\", \"a\"] }]\n",
+         "g.toml:5:", "rules.a: no path from \"a\" to a stop state"},
+        {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\n[geometry.a]\n"
+              "length = [2, 1]\n",
+         "g.toml:9:", "length: expected lo ≤ hi"},
+        {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\n[geometry.\"a->a\"]\n"
+              "length = [1, 2]\n",
+         "g.toml:8:", "no rule turns \"a\" into \"a\""},
+        {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\n[leaves]\nper_tip = 3\n",
+         "g.toml:8:", "use [particles.<state>]"},
+        {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\n[particles.b]\n"
+              "count = 3\n",
+         "g.toml:8:", "unknown state \"b\""},
+        {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }, { out = [\"a\"] }]\n",
+         "g.toml:7:", "missing \"p\""},
+        {ok + "[rules]\ns = [{ out = [\"a*0\"] }]\na = [{ out = [\"t\"] }]\n",
+         "g.toml:6:", "state*N"},
+        {ok +
+             "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\nt = [{ out = [\"a\"] }]\n",
+         "g.toml:8:", "stop states have no rule"},
+        {ok + "season = \"monsoon\"\n[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\n",
+         "g.toml:5:", "season: expected one of"},
+        {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\n[geometry.a]\n"
+              "tilt_dg = [1, 2]\n",
+         "g.toml:9:", "did you mean \"tilt_deg\""},
+    };
+    for (const Case& c : cases) {
+        const std::string e = specError(c.body);
+        EXPECT_NE(e.find(c.where), std::string::npos) << "got: " << e << "\nfor:\n" << c.body;
+        EXPECT_NE(e.find(c.what), std::string::npos) << "got: " << e << "\nfor:\n" << c.body;
+    }
+    // Unbounded depth with a path to a stop state is fine.
+    EXPECT_EQ(specError("[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"a\", \"t\"], p = 0.5 }, "
+                        "{ out = [\"t\"], p = 0.5 }]\n"),
+              "");
+}
+
+TEST(GrammarSpec, GeometryMergesTransitionStateAndDefault) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("sylva-grammar-m-" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    const fs::path file = dir / "g.toml";
+    {
+        std::ofstream out(file);
+        out << kHeader
+            << "[grammar]\nmax_depth = 3\ntrunk_width = [0.5, 0.5]\n"
+               "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"a\", \"b\"] }]\nb = [{ out = "
+               "[\"t\"] }]\n"
+               "[geometry.default]\nlength = [3, 3]\nreduce_length = 0.5\n"
+               "[geometry.b]\nlength = [2, 2]\ntilt_deg = [90, 90]\n"
+               "[geometry.\"s->a\"]\nlength = [4, 4]\n";
+    }
+    const GrownTree g = growSpecies(loadSpecies(file.string()), 1, nullptr, false);
+    fs::remove_all(dir);
+    // s→a: 4 m; a→a: 3 · 0.5 = 1.5 m; a→b at levels 1 and 2: 2 · 0.5 = 1, 2 · 0.25 = 0.5.
+    EXPECT_EQ(g.methodStats.at("stems"), 5.0);
+    EXPECT_EQ(g.methodStats.at("depth_reached"), 3.0);
+    EXPECT_EQ(g.methodStats.at("stop_states"), 1.0);  // b at level 1 → t
+    EXPECT_EQ(g.methodStats.at("truncated"), 2.0);
+    double top = 0;
+    for (const SkeletonNode& n : g.tree.nodes) top = std::max(top, n.position.y);
+    EXPECT_NEAR(top, 4 + 1.5 + 0.75, 1e-9);
+    EXPECT_DOUBLE_EQ(g.tree.nodes[0].radius, 0.25);
+}
+
+TEST(GrammarSpec, PresetsBuildDeterministicallyAndFast) {
+    const fs::path presets = fs::path(SYLVA_SOURCE_DIR) / "species/presets";
+    int found = 0;
+    for (const char* name : {"grammar-fir", "grammar-guava", "grammar-palm", "grammar-bamboo"}) {
+        const fs::path file = presets / (std::string(name) + ".toml");
+        if (!fs::exists(file)) continue;
+        ++found;
+        const SpeciesFile sp = loadSpecies(file.string());
+        const GrownTree a = growSpecies(sp, 7, nullptr, false);
+        const GrownTree b = growSpecies(sp, 7, nullptr, true);
+        ASSERT_EQ(a.tree.nodes.size(), b.tree.nodes.size()) << name;
+        for (size_t i = 0; i < a.tree.nodes.size(); ++i) {
+            ASSERT_EQ(a.tree.nodes[i].position, b.tree.nodes[i].position) << name;
+        }
+        ASSERT_EQ(a.tree.leaves.size(), b.tree.leaves.size());
+        EXPECT_GT(a.methodStats.at("stems"), 3.0) << name;
+        EXPECT_GT(a.methodStats.at("leaves"), 100.0) << name;
+        for (size_t i = 1; i < a.tree.nodes.size(); ++i) {
+            EXPECT_LT(a.tree.nodes[i].parent, static_cast<int32_t>(i));
+            EXPECT_GE(a.tree.nodes[i].position.y, -0.05) << name << " node below ground";
+        }
+    }
+    EXPECT_GE(found, 1);
+}
+
+}  // namespace
+}  // namespace sylva
