@@ -349,7 +349,12 @@ Tree growGrammar(const GrammarOptions& o, Rng& rng, GrammarStats* statsOut,
                 // First draw decides presence: a sparser season keeps a subset of the leaves.
                 if (lr.uniform() >= season.density) continue;
                 const double a = lr.uniform(pp.alongLo, pp.alongHi);
-                const double psi = lr.uniform(0.0, 2 * kPi);
+                // Around the stem: anywhere ("spiral"), or alternately on the two sides of the
+                // stem's plane (leaflets of a pinnate frond, distichous leaves).
+                const double uPsi = lr.uniform();
+                const double psi =
+                    pp.twoRows ? (k % 2 ? 0.5 : -0.5) * kPi + (uPsi - 0.5) * 0.5 * pp.randomness
+                               : uPsi * 2 * kPi;
                 const double uRot = lr.uniform(), uSize = lr.uniform(), uColour = lr.uniform();
                 Vec3 p, t, n;
                 double w;

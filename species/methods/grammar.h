@@ -72,6 +72,9 @@
 // |              |              |              | 1: uniform in the ranges                       |
 // | along        | [lo, hi]     | [0, 1]       | stretch of the stem (fractions of its length)  |
 // | min_level    | integer ≥ 0  | 0            | only on stems with level c ≥ min_level         |
+// | arrangement  | string       | "spiral"     | "spiral": anywhere around the stem; "two-rows":|
+// |              |              |              | alternately either side of the stem's plane    |
+// |              |              |              | (its reference normal ± 90°: pinnate fronds)   |
 //
 // [fruit.<state>]                             fruit or flower cards on stems of that state
 // | count   | integer ≥ 0 | required      | per stem |
@@ -166,6 +169,7 @@ struct GrammarParticles {
     double randomness = 0.5;
     double alongLo = 0.0, alongHi = 1.0;
     int minLevel = 0;
+    bool twoRows = false;  // arrangement = "two-rows" (else "spiral")
 };
 
 // Fruit / flower cards on the stems of one state.

@@ -387,6 +387,7 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
             pp.randomness = p.number("randomness", 0.5, Range::closed(0, 1));
             std::tie(pp.alongLo, pp.alongHi) = p.interval("along", {0, 1}, Range::closed(0, 1));
             pp.minLevel = static_cast<int>(p.integer("min_level", 0, Range::closed(0, 1000)));
+            pp.twoRows = p.choice("arrangement", "spiral", {"spiral", "two-rows"}) == "two-rows";
             p.finish();
         }
         parts.finish();
