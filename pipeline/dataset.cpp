@@ -48,6 +48,9 @@ SweepAxis parseSweep(Params& p) {
     a.where = p.whereTable();
     a.path = p.string("path");
     a.species = p.stringArray("species");
+    // same_seed: every point of this axis grows from the same instance seeds, so only the
+    // swept parameter differs (e.g. grammar.max_depth → growth stages of one tree).
+    a.sameSeed = p.boolean("same_seed", false);
     if (p.has("values") == p.has("range")) {
         p.failHere("a sweep needs exactly one of `values = [...]` or `range = {from, to, steps}`");
     }
@@ -283,6 +286,9 @@ DatasetSpec loadDataset(const std::string& path) {
                 (*ov)[a->path] = std::move(o);
                 pt.values[a->path] = a->labels[v];
                 pt.key += (pt.key.empty() ? "" : ";") + a->path + "=" + a->labels[v];
+                if (!a->sameSeed) {
+                    pt.seedKey += (pt.seedKey.empty() ? "" : ";") + a->path + "=" + a->labels[v];
+                }
             }
             // Every point must make a valid species, and every swept path must be a key the
             // species actually reads.
@@ -317,7 +323,7 @@ std::vector<InstanceJob> expandJobs(const DatasetSpec& spec) {
                 j.point = &e.points[pi];
                 j.pointIndex = static_cast<int>(pi);
                 j.index = k;
-                j.seed = instanceSeed(spec.seed, e.species.name, e.points[pi].key, k);
+                j.seed = instanceSeed(spec.seed, e.species.name, e.points[pi].seedKey, k);
                 char buf[64];
                 if (swept) {
                     std::snprintf(buf, sizeof buf, "-p%03zu-%05lld", pi, static_cast<long long>(k));

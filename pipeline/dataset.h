@@ -21,10 +21,12 @@ struct SweepAxis {
     std::vector<toml::table> values;   // each value in holder["v"]
     std::vector<std::string> labels;   // value as text, for ids and the manifest
     SourcePos where;
+    bool sameSeed = false;  // same_seed: instance seeds ignore this axis (growth stages)
 };
 
 struct SweepPoint {
-    std::string key;  // "path=value;…" ("" without sweeps)
+    std::string key;      // "path=value;…" ("" without sweeps)
+    std::string seedKey;  // key without the same_seed axes: what instance seeds hash
     std::shared_ptr<const Overrides> overrides;
     std::map<std::string, std::string> values;  // path -> value text
 };

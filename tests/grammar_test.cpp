@@ -11,9 +11,11 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <tuple>
 
+#include "pipeline/dataset.h"
 #include "species/species.h"
 
 namespace sylva {
@@ -529,6 +531,38 @@ TEST(GrammarSpec, PresetsBuildDeterministicallyAndFast) {
         }
     }
     EXPECT_GE(found, 1);
+}
+
+// A dataset sweep over grammar.max_depth with same_seed = true is a growth series: one seed
+// per instance across the points, and each point's tree contains the previous one.
+TEST(GrammarSpec, SameSeedDepthSweepGivesNestedGrowthStages) {
+    const DatasetSpec spec =
+        loadDataset((fs::path(SYLVA_SOURCE_DIR) / "datasets/grammar-growth-stages.toml").string());
+    const std::vector<InstanceJob> jobs = expandJobs(spec);
+    std::map<std::pair<std::string, int64_t>, std::vector<const InstanceJob*>> series;
+    for (const InstanceJob& j : jobs) series[{j.entry->species.name, j.index}].push_back(&j);
+    ASSERT_EQ(series.size(), 8u);
+    for (const auto& [id, points] : series) {
+        ASSERT_GE(points.size(), 5u);
+        Tree prev;
+        for (const InstanceJob* j : points) {
+            EXPECT_EQ(j->seed, points[0]->seed) << id.first;
+            const Tree t =
+                growSpecies(j->entry->species, j->seed, j->point->overrides.get(), false).tree;
+            std::set<std::tuple<double, double, double>> here;
+            for (const SkeletonNode& n : t.nodes) {
+                here.insert({n.position.x, n.position.y, n.position.z});
+            }
+            EXPECT_GT(t.nodes.size(), prev.nodes.size());
+            for (const SkeletonNode& n : prev.nodes) {
+                ASSERT_TRUE(here.count({n.position.x, n.position.y, n.position.z})) << id.first;
+            }
+            prev = t;
+        }
+    }
+    // Without same_seed the points draw different trees (the default, unchanged).
+    EXPECT_NE(instanceSeed(1, "a", "grammar.max_depth=3", 0),
+              instanceSeed(1, "a", "grammar.max_depth=4", 0));
 }
 
 }  // namespace
