@@ -6,14 +6,16 @@ std::unique_ptr<GrowthMethod> makeGrowthMethod(const std::string& name, Params& 
     if (name == "iterated-graph") return makeIteratedGraphMethod(species);
     if (name == "space-colonization") return makeSpaceColonizationMethod(species);
     if (name == "grammar") return makeGrammarMethod(species);
+    if (name == "canopy") return makeCanopyMethod(species);
     std::string hint;
-    if (auto s = closestWord(name, {"iterated-graph", "space-colonization", "grammar"})) {
+    if (auto s = closestWord(name, {"iterated-graph", "space-colonization", "grammar", "canopy"})) {
         hint = "; did you mean \"" + *s + "\"?";
     }
-    species.fail("method", "unknown growth method \"" + name +
-                               "\" (known: \"iterated-graph\", \"space-colonization\", "
-                               "\"grammar\")" +
-                               hint);
+    species.fail("method",
+                 "unknown growth method \"" + name +
+                     "\" (known: \"iterated-graph\", \"space-colonization\", \"grammar\", "
+                     "\"canopy\")" +
+                     hint);
 }
 
 }  // namespace sylva

@@ -23,6 +23,9 @@ class GrowthMethod {
     // The method's named volumes, as parsed for this instance ("crown", ...), for
     // `sylva volume`; a method without volumes returns none.
     virtual std::vector<std::pair<std::string, VolumePtr>> volumes() const { return {}; }
+    // True when the method reads the species' [leaves] table itself (its own keys) and
+    // places its leaves; the shared [leaves] reader (species/leaves.h) is then skipped.
+    virtual bool placesOwnLeaves() const { return false; }
 };
 
 // Reads the method's parameters from the species table (its own keys only) and returns the
@@ -33,5 +36,6 @@ std::unique_ptr<GrowthMethod> makeGrowthMethod(const std::string& name, Params& 
 std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& species);
 std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& species);
 std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& species);
+std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& species);
 
 }  // namespace sylva

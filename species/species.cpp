@@ -80,7 +80,7 @@ std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, Dra
     p.string("description", "");
     std::string method = p.string("method");
     std::unique_ptr<GrowthMethod> m = makeGrowthMethod(method, p);
-    LeafOptions l = parseLeaves(p);
+    LeafOptions l = m->placesOwnLeaves() ? LeafOptions{} : parseLeaves(p);
     if (leaves) *leaves = l;
     p.finish();
     return m;

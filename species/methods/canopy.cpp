@@ -1,0 +1,688 @@
+// The `canopy` method (Shesh et al. §3): leaves on a canopy envelope, and an L-system branch
+// template scaled to outgrow the envelope and clipped against it.
+#include "species/methods/canopy.h"
+
+#include <CGAL/Orthogonal_k_neighbor_search.h>
+#include <CGAL/Search_traits_3.h>
+#include <CGAL/Search_traits_adapter.h>
+#include <CGAL/Simple_cartesian.h>
+#include <CGAL/property_map.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+#include <utility>
+
+namespace sylva {
+
+namespace {
+
+constexpr int kCellsPhi = 256, kCellsTheta = 128;  // surface sampler grid
+constexpr double kBoleSegment = 0.5;  // a straight bole is cut into segments this long, metres
+constexpr double kClusterSpread = 60.0 * kPi / 180.0;  // cluster leaves from their twig's axis
+
+bool isSpace(char c) { return std::isspace(static_cast<unsigned char>(c)) != 0; }
+
+// Rotates the turtle frame; the pair (a, b) turns by `angle` about their common normal
+// `axis` (right-handed), then the frame is re-orthonormalised against drift.
+void turn(Vec3& a, Vec3& b, const Vec3& axis, double angle) {
+    a = rotate(a, axis, angle);
+    b = rotate(b, axis, angle);
+}
+
+}  // namespace
+
+// --- L-system ------------------------------------------------------------------------------
+
+bool isLSystemSymbol(char c) {
+    if (c >= 'A' && c <= 'Z') return true;
+    switch (c) {
+        case '+':
+        case '-':
+        case '&':
+        case '^':
+        case '\\':
+        case '/':
+        case '|':
+        case '[':
+        case ']':
+            return true;
+        default:
+            return false;
+    }
+}
+
+std::string checkLSystemWord(const std::string& word) {
+    int depth = 0;
+    for (size_t i = 0; i < word.size(); ++i) {
+        const char c = word[i];
+        if (isSpace(c)) continue;
+        if (!isLSystemSymbol(c)) {
+            std::string what = c == 'f'   ? " (moving without drawing would disconnect the "
+                                            "skeleton; use F)"
+                               : c == '!' ? " (widths come from Murray's rule)"
+                                          : "";
+            return std::string("unknown L-system symbol '") + c + "' at position " +
+                   std::to_string(i + 1) + " of \"" + word + "\"" + what +
+                   "; known: F (draw), A-Z (variables), + - & ^ \\ / | [ ]";
+        }
+        if (c == '[') ++depth;
+        if (c == ']' && --depth < 0) {
+            return "']' without a matching '[' at position " + std::to_string(i + 1) + " of \"" +
+                   word + "\"";
+        }
+    }
+    if (depth > 0) return "unclosed '[' in \"" + word + "\"";
+    return "";
+}
+
+std::string expandLSystem(const LSystem& system, int iterations, Rng& rng) {
+    std::string word;
+    for (char c : system.axiom)
+        if (!isSpace(c)) word.push_back(c);
+    // Rules by symbol in a flat table (the word can be millions of symbols long).
+    const std::vector<LSystemSuccessor>* rule[256] = {};
+    for (const auto& [symbol, successors] : system.rules) {
+        if (!successors.empty()) rule[static_cast<unsigned char>(symbol)] = &successors;
+    }
+    std::string next;
+    for (int it = 0; it < iterations; ++it) {
+        next.clear();
+        for (char c : word) {
+            const auto* r = rule[static_cast<unsigned char>(c)];
+            if (!r) {
+                next.push_back(c);
+                continue;
+            }
+            const LSystemSuccessor* chosen = &r->front();
+            if (r->size() > 1) {  // stochastic: one draw per occurrence
+                double u = rng.uniform();
+                for (const LSystemSuccessor& s : *r) {
+                    chosen = &s;
+                    if (u < s.probability) break;
+                    u -= s.probability;
+                }
+            }
+            for (char s : chosen->text)
+                if (!isSpace(s)) next.push_back(s);
+        }
+        word.swap(next);
+    }
+    return word;
+}
+
+LSystemSize lsystemSizeBound(const LSystem& system, int iterations) {
+    std::vector<double> count(256, 0.0);
+    for (char c : system.axiom)
+        if (!isSpace(c)) count[static_cast<unsigned char>(c)] += 1.0;
+    // produce[s][t]: the most t's any successor of s holds.
+    std::vector<std::vector<double>> produce(256);
+    for (const auto& [symbol, successors] : system.rules) {
+        std::vector<double> most(256, 0.0);
+        for (const LSystemSuccessor& s : successors) {
+            std::vector<double> n(256, 0.0);
+            for (char c : s.text)
+                if (!isSpace(c)) n[static_cast<unsigned char>(c)] += 1.0;
+            for (int t = 0; t < 256; ++t) most[t] = std::max(most[t], n[t]);
+        }
+        if (!successors.empty()) produce[static_cast<unsigned char>(symbol)] = std::move(most);
+    }
+    for (int it = 0; it < iterations; ++it) {
+        std::vector<double> next(256, 0.0);
+        for (int s = 0; s < 256; ++s) {
+            if (count[s] == 0.0) continue;
+            if (produce[s].empty()) {
+                next[s] += count[s];
+                continue;
+            }
+            for (int t = 0; t < 256; ++t) next[t] += count[s] * produce[s][t];
+        }
+        count.swap(next);
+    }
+    LSystemSize size;
+    for (double c : count) size.length += c;
+    size.segments = count['F'];
+    return size;
+}
+
+// --- turtle and radii --------------------------------------------------------------------------
+
+Tree interpretTurtle(const std::string& word, const BranchTemplate& t, Rng& rng) {
+    struct State {
+        Vec3 pos{0, 0, 0}, h{0, 1, 0}, l{-1, 0, 0}, u{0, 0, 1};  // heading, left, up
+        int32_t node = 0;
+        int32_t depth = 0;
+        double step = 1.0;
+    };
+    Tree tree;
+    tree.nodes.push_back(SkeletonNode{});
+    State s;
+    s.step = t.step;
+    std::vector<State> stack;
+    auto angle = [&](double a) {
+        return t.angleJitter > 0.0 ? a + rng.uniform(-t.angleJitter, t.angleJitter) : a;
+    };
+    for (char c : word) {
+        switch (c) {
+            case 'F': {
+                s.pos = s.pos + s.h * s.step;
+                SkeletonNode n;
+                n.position = s.pos;
+                n.parent = s.node;
+                n.order = n.level = s.depth;
+                tree.nodes.push_back(n);
+                s.node = static_cast<int32_t>(tree.nodes.size() - 1);
+                break;
+            }
+            // Right-handed rotations: about up, h turns toward left (u × h = l); about left,
+            // h turns toward −up (l × h = −u: pitch down); about the heading, l toward up.
+            case '+':
+                turn(s.h, s.l, s.u, angle(t.angle));
+                break;
+            case '-':
+                turn(s.h, s.l, s.u, -angle(t.angle));
+                break;
+            case '&':
+                turn(s.h, s.u, s.l, angle(t.angle));
+                break;
+            case '^':
+                turn(s.h, s.u, s.l, -angle(t.angle));
+                break;
+            case '\\':
+                turn(s.l, s.u, s.h, angle(t.roll));
+                break;
+            case '/':
+                turn(s.l, s.u, s.h, -angle(t.roll));
+                break;
+            case '|':
+                turn(s.h, s.l, s.u, kPi);
+                break;
+            case '[':
+                stack.push_back(s);
+                ++s.depth;
+                s.step *= t.lengthRatio;
+                break;
+            case ']':
+                if (!stack.empty()) {
+                    s = stack.back();
+                    stack.pop_back();
+                }
+                break;
+            default:
+                break;  // variables and whitespace
+        }
+        if (c != 'F' && c != '[' && c != ']') {
+            // Keep the frame orthonormal over long words.
+            s.h = normalize(s.h);
+            s.l = normalize(s.l - s.h * dot(s.l, s.h));
+            s.u = cross(s.h, s.l);
+        }
+    }
+    return tree;
+}
+
+void murrayRadii(Tree& tree, double tipRadius, double exponent) {
+    const size_t n = tree.nodes.size();
+    if (n == 0) return;
+    std::vector<double> sum(n, 0.0);  // Σ r_childⁿ per node
+    std::vector<char> hasChild(n, 0);
+    for (size_t i = n; i-- > 0;) {
+        SkeletonNode& node = tree.nodes[i];
+        node.radius = hasChild[i] ? std::pow(sum[i], 1.0 / exponent) : tipRadius;
+        if (node.parent >= 0) {
+            sum[node.parent] += std::pow(node.radius, exponent);
+            hasChild[node.parent] = 1;
+        }
+    }
+}
+
+// --- envelope test and surface sampling ----------------------------------------------------------
+
+double envelopeRatio(const CanopyEnvelope& e, const Vec3& p) {
+    constexpr double kInf = 1e300;
+    const Vec2 a = e.angles(p);
+    const Vec3 s = e.surfacePoint(a.x, a.y);
+    if (e.domain() == CanopyDomain::kEllipsoid) {
+        const double r = length(p), rs = length(s);
+        if (rs > 0.0) return r / rs;
+        return r > 0.0 ? kInf : 0.0;
+    }
+    const double ky = e.radii().y;
+    const double rho = std::hypot(p.x, p.z), rhoS = std::hypot(s.x, s.z);
+    double ratio = rhoS > 0.0 ? rho / rhoS : (rho > 0.0 ? kInf : 0.0);
+    if (p.y > ky) ratio = std::max(ratio, p.y / ky);
+    if (p.y < 0.0) ratio = std::max(ratio, 1.0 - p.y / ky);
+    return ratio;
+}
+
+CanopySurfaceSampler::CanopySurfaceSampler(const CanopyEnvelope& e) {
+    // Surface points at the cell corners: φ_i = 2πi/U (wrapping), θ_j = πj/V.
+    std::vector<Vec3> p(size_t(kCellsPhi) * (kCellsTheta + 1));
+    for (int j = 0; j <= kCellsTheta; ++j) {
+        for (int i = 0; i < kCellsPhi; ++i) {
+            p[size_t(j) * kCellsPhi + i] =
+                e.surfacePoint(2 * kPi * i / kCellsPhi, kPi * j / kCellsTheta);
+        }
+    }
+    const size_t cells = size_t(kCellsPhi) * kCellsTheta;
+    cdf_.resize(cells);
+    widthTop_.resize(cells);
+    widthBottom_.resize(cells);
+    double running = 0.0;
+    for (int j = 0; j < kCellsTheta; ++j) {
+        for (int i = 0; i < kCellsPhi; ++i) {
+            const int i1 = (i + 1) % kCellsPhi;
+            const Vec3& a = p[size_t(j) * kCellsPhi + i];
+            const Vec3& b = p[size_t(j) * kCellsPhi + i1];
+            const Vec3& c = p[size_t(j + 1) * kCellsPhi + i1];
+            const Vec3& d = p[size_t(j + 1) * kCellsPhi + i];
+            const double area = 0.5 * (length(cross(b - a, c - a)) + length(cross(c - a, d - a)));
+            const size_t k = size_t(j) * kCellsPhi + i;
+            running += area;
+            cdf_[k] = running;
+            widthTop_[k] = distance(a, b);
+            widthBottom_[k] = distance(d, c);
+        }
+    }
+    total_ = running;
+}
+
+Vec2 CanopySurfaceSampler::sample(Rng& rng) const {
+    const double x = rng.uniform() * total_;
+    size_t k = static_cast<size_t>(std::upper_bound(cdf_.begin(), cdf_.end(), x) - cdf_.begin());
+    k = std::min(k, cdf_.size() - 1);
+    const int i = static_cast<int>(k % kCellsPhi), j = static_cast<int>(k / kCellsPhi);
+    const double a = rng.uniform();
+    // Within the cell the width changes linearly from w0 (θ_j) to w1 (θ_{j+1}): draw b with
+    // density ∝ (1 − b)·w0 + b·w1 by inverting its CDF.
+    const double w0 = widthTop_[k], w1 = widthBottom_[k], xi = rng.uniform();
+    double b = xi;
+    if (std::abs(w1 - w0) > 1e-12 * (w0 + w1)) {
+        b = (-w0 + std::sqrt(std::max(0.0, w0 * w0 + (w1 - w0) * (w0 + w1) * xi))) / (w1 - w0);
+        b = std::clamp(b, 0.0, 1.0);
+    }
+    return {2 * kPi * (i + a) / kCellsPhi, kPi * (j + b) / kCellsTheta};
+}
+
+// --- growth -----------------------------------------------------------------------------------
+
+double canopyTrunkHeight(const CanopyOptions& o) {
+    if (o.branches.trunkHeight >= 0.0) return o.branches.trunkHeight;
+    if (o.envelope->domain() == CanopyDomain::kCone) return o.position.y;
+    // 10 % of the way from the lowest point on the axis (θ = π) to the centre.
+    const double bottom = o.envelope->surfacePoint(0.0, kPi).y;  // ≤ 0
+    return o.position.y + 0.9 * bottom;
+}
+
+namespace {
+
+using Kernel = CGAL::Simple_cartesian<double>;
+using KPoint = Kernel::Point_3;
+using IndexedPoint = std::pair<KPoint, int32_t>;
+using SearchTraits =
+    CGAL::Search_traits_adapter<IndexedPoint, CGAL::First_of_pair_property_map<IndexedPoint>,
+                                CGAL::Search_traits_3<Kernel>>;
+using NeighbourSearch = CGAL::Orthogonal_k_neighbor_search<SearchTraits>;
+
+// The template as a tree in the world frame: the bole (the chain below the template's first
+// fork) stretched to reach the trunk top, the crown above it scaled to outgrow the envelope.
+struct FittedTemplate {
+    Tree tree;
+    std::vector<char> bole;  // per node: part of the bole (never clipped)
+    double scaleY = 1.0, scaleXZ = 1.0;
+};
+
+// The envelope's girth: the largest over θ rows of the mean horizontal radius over φ (not the
+// bounds, which a lopsided base layer stretches on one side only).
+double envelopeGirth(const CanopyEnvelope& env) {
+    constexpr int kRows = 32, kCols = 64;
+    double girth = 0.0;
+    for (int j = 0; j <= kRows; ++j) {
+        double sum = 0.0;
+        for (int i = 0; i < kCols; ++i) {
+            const Vec3 p = env.surfacePoint(2 * kPi * (i + 0.5) / kCols, kPi * j / kRows);
+            sum += std::hypot(p.x, p.z);
+        }
+        girth = std::max(girth, sum / kCols);
+    }
+    return girth;
+}
+
+// How far the template reaches out of the envelope at crown scale (sxz, sy, sxz): per
+// direction bin (8 in φ × 4 in θ, the envelope's angles from its centre) the largest
+// envelopeRatio of the given crown points (relative to the trunk top), then the median over
+// the bins the template reaches at all.
+double medianReach(const CanopyEnvelope& env, const Vec3& centre, const Vec3& top,
+                   const std::vector<Vec3>& rel, double sxz, double sy) {
+    constexpr int kBinsPhi = 8, kBinsTheta = 4;
+    std::vector<double> best(kBinsPhi * kBinsTheta, -1.0);
+    for (const Vec3& d : rel) {
+        const Vec3 local = top + Vec3{d.x * sxz, d.y * sy, d.z * sxz} - centre;
+        const Vec2 a = env.angles(local);
+        const int bp = std::min(kBinsPhi - 1, static_cast<int>(a.x / (2 * kPi) * kBinsPhi));
+        const int bt = std::min(kBinsTheta - 1, static_cast<int>(a.y / kPi * kBinsTheta));
+        double& b = best[size_t(bt) * kBinsPhi + bp];
+        b = std::max(b, envelopeRatio(env, local));
+    }
+    std::vector<double> reached;
+    for (double b : best)
+        if (b >= 0.0) reached.push_back(b);
+    if (reached.empty()) return 0.0;
+    const size_t mid = reached.size() / 2;
+    std::nth_element(reached.begin(), reached.begin() + mid, reached.end());
+    return reached[mid];
+}
+
+FittedTemplate fitTemplate(const Tree& t, const CanopyOptions& o, double trunkTop, double yaw) {
+    const CanopyEnvelope& env = *o.envelope;
+    const Vec3 top{o.position.x, trunkTop, o.position.z};
+    const ChildIndex children(t);
+    // The first fork: follow single children from the root. No fork at all: no bole.
+    int32_t fork = 0;
+    while (children.count(fork) == 1) fork = children.child[children.offset[fork]];
+    if (children.count(fork) == 0) fork = 0;
+    const Vec3 forkPos = t.nodes[fork].position;
+
+    FittedTemplate out;
+    Tree& tree = out.tree;
+    tree.nodes.push_back(SkeletonNode{});
+    out.bole.push_back(1);
+    // Bole: nodes 1..fork are a chain (see the header) — or a straight one when the template
+    // has none that rises.
+    std::vector<int32_t> map(t.nodes.size(), 0);
+    if (fork > 0 && forkPos.y > 1e-9 * std::max(1.0, length(forkPos))) {
+        // Scale so the fork reaches the trunk top's height, then shear it over the top.
+        const double s = trunkTop / forkPos.y;
+        const Vec3 shift{top.x - forkPos.x * s, 0.0, top.z - forkPos.z * s};
+        for (int32_t i = 1; i <= fork; ++i) {
+            SkeletonNode n = t.nodes[i];
+            n.position = n.position * s;
+            n.position = n.position + shift * (n.position.y / trunkTop);
+            n.order = n.level = 0;
+            map[i] = static_cast<int32_t>(tree.nodes.size());
+            n.parent = map[t.nodes[i].parent];
+            tree.nodes.push_back(n);
+            out.bole.push_back(1);
+        }
+    } else {
+        const int m = std::max(1, static_cast<int>(std::ceil(length(top) / kBoleSegment)));
+        for (int k = 1; k <= m; ++k) {
+            SkeletonNode n;
+            n.position = top * (double(k) / m);
+            n.parent = static_cast<int32_t>(tree.nodes.size() - 1);
+            tree.nodes.push_back(n);
+            out.bole.push_back(1);
+        }
+        map[fork] = static_cast<int32_t>(tree.nodes.size() - 1);
+    }
+
+    // Crown: every node after the fork, relative to it, turned by `yaw` about +y.
+    const double cy = std::cos(yaw), sy = std::sin(yaw);
+    auto rel = [&](const Vec3& p) {
+        const Vec3 d = p - forkPos;
+        return Vec3{cy * d.x + sy * d.z, d.y, -sy * d.x + cy * d.z};
+    };
+    // Shape of the scale: "uniform" keeps the template's proportions; "stretch" matches its
+    // height above the trunk top and its horizontal reach to the envelope's (top of its bounds,
+    // girth). Its size: bisection (in log scale) for the median reach = outgrow (§3.4: the
+    // template "outgrows" the canopy, in most directions rather than only its widest).
+    if (o.branches.fit != TemplateFit::kNone) {
+        double heightT = 0.0, reachT = 0.0;
+        std::vector<Vec3> probe;  // crown tips, at most ~2000 (strided): where the reach is
+        std::vector<int32_t> tips;
+        for (int32_t i = fork + 1; i < static_cast<int32_t>(t.nodes.size()); ++i) {
+            const Vec3 d = rel(t.nodes[i].position);
+            heightT = std::max(heightT, d.y);
+            reachT = std::max(reachT, std::hypot(d.x, d.z));
+            if (children.count(i) == 0) tips.push_back(i);
+        }
+        const size_t stride = std::max<size_t>(1, tips.size() / 2000);
+        for (size_t k = 0; k < tips.size(); k += stride)
+            probe.push_back(rel(t.nodes[tips[k]].position));
+        double ay = 1.0, axz = 1.0;
+        if (o.branches.fit == TemplateFit::kStretch && heightT > 0.0 && reachT > 0.0) {
+            const double heightC = o.position.y + env.bounds().hi.y - trunkTop;
+            const double reachC = envelopeGirth(env);
+            ay = heightC / heightT;
+            axz = reachC / reachT;
+        }
+        const double target = o.branches.outgrow;
+        auto reach = [&](double m) {
+            return medianReach(env, o.position, top, probe, m * axz, m * ay);
+        };
+        if (!probe.empty()) {
+            double lo = 1.0, hi = 1.0;
+            for (int k = 0; k < 60 && reach(lo) >= target; ++k) lo *= 0.5;
+            for (int k = 0; k < 60 && reach(hi) < target; ++k) hi *= 2.0;
+            for (int k = 0; k < 24; ++k) {
+                const double mid = std::sqrt(lo * hi);
+                (reach(mid) < target ? lo : hi) = mid;
+            }
+            out.scaleY = hi * ay;
+            out.scaleXZ = hi * axz;
+        }
+    }
+    for (size_t i = fork + 1; i < t.nodes.size(); ++i) {
+        SkeletonNode n = t.nodes[i];
+        const Vec3 d = rel(n.position);
+        n.position = top + Vec3{d.x * out.scaleXZ, d.y * out.scaleY, d.z * out.scaleXZ};
+        n.parent = map[n.parent];
+        map[i] = static_cast<int32_t>(tree.nodes.size());
+        tree.nodes.push_back(n);
+        out.bole.push_back(0);
+    }
+    return out;
+}
+
+// Shesh §3.5: a segment whose end lies beyond the envelope (ratio > 1 + threshold) is cut,
+// and so is everything above it. Parents precede children, so one pass suffices.
+Tree clipTemplate(const FittedTemplate& f, const CanopyOptions& o) {
+    const std::vector<SkeletonNode>& nodes = f.tree.nodes;
+    const double limit = 1.0 + o.branches.clipThreshold;
+    std::vector<int32_t> map(nodes.size(), -1);
+    Tree out;
+    for (size_t i = 0; i < nodes.size(); ++i) {
+        const SkeletonNode& n = nodes[i];
+        if (i > 0) {
+            if (map[n.parent] < 0) continue;
+            if (!f.bole[i] && envelopeRatio(*o.envelope, n.position - o.position) > limit) continue;
+        }
+        SkeletonNode kept = n;
+        kept.parent = i > 0 ? map[n.parent] : -1;
+        map[i] = static_cast<int32_t>(out.nodes.size());
+        out.nodes.push_back(kept);
+    }
+    return out;
+}
+
+// A random unit vector perpendicular to the unit vector n.
+Vec3 randomPerpendicular(const Vec3& n, Rng& rng) {
+    Vec3 v = rng.unitVector();
+    v = v - n * dot(v, n);
+    return length(v) > 1e-6 ? normalize(v) : anyPerpendicular(n);
+}
+
+Vec3 leafNormal(const CanopyLeafOptions& o, const Vec3& sun, Rng& rng) {
+    Vec3 n = rng.unitVector();
+    // §3.2: "specify the position of the sun to modulate this random assignment".
+    if (o.orientation == LeafOrientation::kSun) n = sun * o.sunWeight + n * (1.0 - o.sunWeight);
+    return length(n) > 1e-9 ? normalize(n) : sun;
+}
+
+void placeCanopyLeaves(Tree& tree, const CanopyOptions& o, const CanopySurfaceSampler& sampler,
+                       Rng& rng) {
+    const CanopyLeafOptions& lo = o.leaves;
+    const CanopyEnvelope& env = *o.envelope;
+    const Vec3 sun = normalize(lo.sun);
+    Rng positions = rng.derive("positions");
+    std::vector<Vec2> angles(lo.count);
+    tree.leaves.reserve(size_t(lo.count) * lo.cluster);
+    for (int k = 0; k < lo.count; ++k) {
+        const Vec2 a = sampler.sample(positions);
+        angles[k] = a;
+        const Vec3 s = env.surfacePoint(a.x, a.y);
+        // Inward toward the centre (ellipsoid) or the axis at the same height (cone).
+        const Vec3 centre =
+            env.domain() == CanopyDomain::kEllipsoid ? Vec3{0, 0, 0} : Vec3{0, s.y, 0};
+        const double depth = lo.depth > 0.0 ? positions.uniform(0.0, lo.depth) : 0.0;
+        const Vec3 at = o.position + centre + (s - centre) * (1.0 - depth);
+        const Vec3 outward = length(s - centre) > 0.0 ? normalize(s - centre) : Vec3{0, 1, 0};
+        const Vec3 n0 = leafNormal(lo, sun, positions);
+        if (lo.cluster == 1) {
+            Leaf leaf;
+            leaf.position = at;
+            leaf.normal = n0;
+            leaf.tangent = randomPerpendicular(n0, positions);
+            leaf.size = positions.uniform(lo.sizeMin, lo.sizeMax);
+            leaf.aspect = lo.aspect;
+            tree.leaves.push_back(leaf);
+            continue;
+        }
+        // Figure 4(a): a short twig pointing out of the canopy with the leaves fanned around
+        // its end, evenly in angle from a random start.
+        const Vec3 twig = normalize(outward + positions.unitVector() * 0.5);
+        const Vec3 e1 = randomPerpendicular(twig, positions), e2 = cross(twig, e1);
+        const Vec3 end = at + twig * lo.twig;
+        for (int j = 0; j < lo.cluster; ++j) {
+            const double psi = 2 * kPi * j / lo.cluster;
+            const Vec3 side = e1 * std::cos(psi) + e2 * std::sin(psi);
+            Leaf leaf;
+            leaf.size = positions.uniform(lo.sizeMin, lo.sizeMax);
+            leaf.aspect = lo.aspect;
+            leaf.tangent =
+                normalize(twig * std::cos(kClusterSpread) + side * std::sin(kClusterSpread));
+            leaf.position = end + leaf.tangent * (0.5 * leaf.size);
+            Vec3 n = n0 - leaf.tangent * dot(n0, leaf.tangent);
+            leaf.normal = length(n) > 1e-6 ? normalize(n) : anyPerpendicular(leaf.tangent);
+            tree.leaves.push_back(leaf);
+        }
+    }
+
+    // Colour classes (Figure 4(c): two leaf colours for fall, chosen "based on its coordinate
+    // (ϕ, θ) … and a random noise function"): positions ranked by a mix of a smooth noise over
+    // (φ, θ) and white noise, then cut at the cumulative fractions — exact shares, in patches.
+    const size_t classes = lo.colourFractions.size();
+    if (classes > 1 && lo.count > 0) {
+        Rng cr = rng.derive("colours");
+        CanopyGrid patches;
+        patches.width = 8;
+        patches.height = 4;
+        patches.values.resize(32);
+        for (float& v : patches.values) v = static_cast<float>(cr.uniform());
+        std::vector<double> key(lo.count);
+        for (int k = 0; k < lo.count; ++k) {
+            const double u = angles[k].x / (2 * kPi), v = std::clamp(angles[k].y / kPi, 0.0, 1.0);
+            key[k] = lo.colourPatchiness * patches.at(u - std::floor(u), v) +
+                     (1.0 - lo.colourPatchiness) * cr.uniform();
+        }
+        std::vector<int32_t> rank(lo.count);
+        std::iota(rank.begin(), rank.end(), 0);
+        std::stable_sort(rank.begin(), rank.end(),
+                         [&](int32_t a, int32_t b) { return key[a] < key[b]; });
+        double cumulative = 0.0;
+        size_t r = 0;
+        for (size_t c = 0; c < classes; ++c) {
+            cumulative += lo.colourFractions[c];
+            const size_t end =
+                c + 1 == classes
+                    ? size_t(lo.count)
+                    : std::min(size_t(lo.count), size_t(std::llround(cumulative * lo.count)));
+            for (; r < end; ++r) {
+                const size_t first = size_t(rank[r]) * lo.cluster;
+                for (int j = 0; j < lo.cluster; ++j) {
+                    tree.leaves[first + j].colour = static_cast<uint8_t>(c);
+                }
+            }
+        }
+    }
+}
+
+// Leaf.node: the nearest branch node within the support distance (CGAL kd-tree), else −1.
+int64_t attachLeaves(Tree& tree, double supportDistance) {
+    std::vector<IndexedPoint> points;
+    points.reserve(tree.nodes.size());
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+        const Vec3& p = tree.nodes[i].position;
+        points.emplace_back(KPoint(p.x, p.y, p.z), static_cast<int32_t>(i));
+    }
+    NeighbourSearch::Tree kd(points.begin(), points.end());
+    const double limit2 = supportDistance * supportDistance;
+    int64_t unsupported = 0;
+    for (Leaf& leaf : tree.leaves) {
+        const KPoint q(leaf.position.x, leaf.position.y, leaf.position.z);
+        NeighbourSearch search(kd, q, 1);
+        leaf.node = -1;
+        if (search.begin() != search.end() && search.begin()->second <= limit2) {
+            leaf.node = search.begin()->first.second;
+        } else {
+            ++unsupported;
+        }
+    }
+    return unsupported;
+}
+
+}  // namespace
+
+Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
+                const CanopySurfaceSampler* sampler) {
+    if (!o.envelope) throw std::invalid_argument("growCanopy: no envelope");
+    if (o.templates.empty()) throw std::invalid_argument("growCanopy: no branch template");
+    CanopyStats st;
+
+    // One template per instance, by weight.
+    Rng pick = rng.derive("template");
+    double total = 0.0;
+    for (const BranchTemplate& t : o.templates) total += t.weight;
+    double u = pick.uniform() * total;
+    size_t chosen = 0;
+    for (; chosen + 1 < o.templates.size(); ++chosen) {
+        if (u < o.templates[chosen].weight) break;
+        u -= o.templates[chosen].weight;
+    }
+    const BranchTemplate& bt = o.templates[chosen];
+    st.templateIndex = static_cast<int>(chosen);
+
+    Rng lr = rng.derive("lsystem"), tr = rng.derive("turtle");
+    const Tree raw = interpretTurtle(expandLSystem(bt.lsystem, bt.iterations, lr), bt, tr);
+    const double yaw = o.branches.randomYaw ? rng.derive("yaw").uniform(0.0, 2 * kPi) : 0.0;
+    st.trunkHeight = canopyTrunkHeight(o);
+    FittedTemplate fitted = fitTemplate(raw, o, st.trunkHeight, yaw);
+    st.templateSegments = static_cast<int64_t>(fitted.tree.nodes.size()) - 1;
+    st.scaleY = fitted.scaleY;
+    st.scaleXZ = fitted.scaleXZ;
+    if (o.branches.murrayOn == MurrayOn::kTemplate) {
+        murrayRadii(fitted.tree, o.branches.tipRadius, o.branches.murrayExponent);
+    }
+    Tree tree = clipTemplate(fitted, o);
+    if (o.branches.murrayOn == MurrayOn::kClipped) {
+        murrayRadii(tree, o.branches.tipRadius, o.branches.murrayExponent);
+    }
+    st.keptSegments = static_cast<int64_t>(tree.nodes.size()) - 1;
+    {
+        const ChildIndex children(tree);
+        for (int32_t i = 1; i < static_cast<int32_t>(tree.nodes.size()); ++i) {
+            if (children.count(i) == 0) tree.endpoints.push_back(i);
+        }
+    }
+
+    // Leaves: their own stream, so changing them never moves a branch.
+    if (o.leaves.count > 0) {
+        Rng leafRng = rng.derive("leaves");
+        if (sampler) {
+            placeCanopyLeaves(tree, o, *sampler, leafRng);
+        } else {
+            const CanopySurfaceSampler own(*o.envelope);
+            placeCanopyLeaves(tree, o, own, leafRng);
+        }
+        st.unsupportedLeaves = attachLeaves(tree, o.leaves.supportDistance);
+    }
+    st.leaves = static_cast<int64_t>(tree.leaves.size());
+    st.unsupportedLeafFraction =
+        st.leaves > 0 ? static_cast<double>(st.unsupportedLeaves) / st.leaves : 0.0;
+    if (stats) *stats = st;
+    return tree;
+}
+
+}  // namespace sylva

@@ -1,0 +1,181 @@
+// @brief The `canopy` growth method (Shesh et al., "GPU-friendly parameterized canopies", §3):
+// a tree is a canopy C and a branch structure B designed independently (§3.1).
+//
+//   canopy   (§3.2): leaves on the surface of a canopy envelope (volumes/canopy_envelope.h),
+//            spread evenly by area, oriented randomly or turned toward the sun, optionally a
+//            small cluster of leaves per position (Figure 4(a)'s five-leaf branch);
+//   branches (§3.4–3.5): a template from a small bracketed L-system with radii by Murray's
+//            rule, scaled so it "outgrows" the canopy, then clipped: a segment whose end lies
+//            beyond the envelope's radius in its direction (by more than a threshold) is cut,
+//            with everything above it.
+//
+// Frame: +y up, metres, radians. The tree stands at the origin; the envelope's own frame is
+// shifted by `position` (its centre for the ellipsoid, its base centre for the cone).
+//
+// L-system alphabet (turtle after Prusinkiewicz & Lindenmayer 1990, ch. 1.5; the turtle starts
+// at the origin heading +y with left = −x and up = +z):
+//   F          move forward one step, drawing a segment (a skeleton node at its end)
+//   A–Z but F  variables: rewritten by rules, no turtle action
+//   + −        yaw: turn left / right by the angle about the turtle's up vector
+//   & ^        pitch down / up by the angle about the turtle's left vector
+//   \ /        roll left / right by the roll angle about the heading
+//   |          turn around (yaw by 180°)
+//   [ ]        push / pop the turtle state (position, frame, current node, step length)
+// Whitespace is ignored. No `f` (moving without drawing would disconnect the skeleton) and no
+// `!` (widths come from Murray's rule, not from the string).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "species/leaves.h"
+#include "species/tree.h"
+#include "volumes/canopy_envelope.h"
+#include "volumes/rng.h"
+
+namespace sylva {
+
+// --- L-system ------------------------------------------------------------------------------
+
+struct LSystemSuccessor {
+    std::string text;          // the successor word
+    double probability = 1.0;  // stochastic rules: the successors of a symbol sum to 1
+};
+
+// A bracketed (stochastic) 0L-system: every occurrence of a symbol with a rule is rewritten
+// by one of its successors, drawn independently per occurrence.
+struct LSystem {
+    std::string axiom;
+    std::map<char, std::vector<LSystemSuccessor>> rules;  // keys: letters A–Z
+};
+
+// True for every symbol of the alphabet above (whitespace excluded).
+bool isLSystemSymbol(char c);
+// The first problem with a word ("unknown symbol 'x' at 3", unbalanced brackets), or "".
+std::string checkLSystemWord(const std::string& word);
+
+// The word after `iterations` parallel rewrites (rng draws only for stochastic rules).
+std::string expandLSystem(const LSystem& system, int iterations, Rng& rng);
+
+// Upper bounds after `iterations` (exact for deterministic systems): word length and the
+// number of F (segments), per symbol the largest count any successor produces.
+struct LSystemSize {
+    double length = 0.0;
+    double segments = 0.0;
+};
+LSystemSize lsystemSizeBound(const LSystem& system, int iterations);
+
+// --- branch templates ------------------------------------------------------------------------
+
+struct BranchTemplate {
+    LSystem lsystem;
+    int iterations = 4;
+    double angle = 25.0 * kPi / 180.0;  // yaw and pitch angle δ, radians
+    double roll = 25.0 * kPi / 180.0;   // roll angle, radians (default: the same δ)
+    double step = 1.0;                  // segment length at bracket depth 0, metres
+    double lengthRatio = 1.0;           // step multiplied by this per bracket depth
+    double angleJitter = 0.0;           // every turn's angle + uniform(−j, j), radians
+    double weight = 1.0;                // relative chance of being chosen per instance
+};
+
+// Turtle interpretation of a word: node 0 at the origin, one node per F (parent = the node
+// the turtle stands on, order = level = bracket depth), radii 0. Draws only for jitter.
+Tree interpretTurtle(const std::string& word, const BranchTemplate& t, Rng& rng);
+
+// Murray's rule (Murray 1927; Shesh §3.4) from the tips up: every tip gets `tipRadius`,
+// every other node r = (Σ r_childⁿ)^(1/n), n = `exponent` (3: Murray; 2: the pipe model).
+void murrayRadii(Tree& tree, double tipRadius, double exponent = 3.0);
+
+// --- the envelope test (§3.5) ------------------------------------------------------------------
+
+// The paper's clipping test as a ratio: the point's distance from the envelope's centre over
+// the distance of the surface point at the same angles (φ, θ). `local` is in the envelope's
+// frame. Ellipsoid: |p| / |surfacePoint(angles(p))| (= |q| / f). Cone, whose θ is a height:
+// the distance from the axis over the surface's at that height, and at least y/ky above the
+// apex and 1 − y/ky below the base. ≤ 1 inside.
+double envelopeRatio(const CanopyEnvelope& envelope, const Vec3& local);
+
+// Area-uniform points on the envelope's surface (§3.2 leaf positions): a 256 × 128 grid of
+// cells over (φ, θ), each weighted by the area of its quad of surface points; within a cell
+// φ is uniform and θ follows the linear change of the cell's width, so pole cells (triangles)
+// are not crowded at their tip.
+class CanopySurfaceSampler {
+  public:
+    explicit CanopySurfaceSampler(const CanopyEnvelope& envelope);
+    Vec2 sample(Rng& rng) const;            // (φ, θ)
+    double area() const { return total_; }  // m², the sum of the cell quads
+
+  private:
+    std::vector<double> cdf_;                     // per cell, running area
+    std::vector<double> widthTop_, widthBottom_;  // per cell, edge lengths at θ_j, θ_{j+1}
+    double total_ = 0.0;
+};
+
+// --- the method -------------------------------------------------------------------------------
+
+enum class TemplateFit { kUniform, kStretch, kNone };
+enum class MurrayOn { kClipped, kTemplate };
+
+struct CanopyBranchOptions {
+    // Top of the trunk, metres above the ground. < 0: 10 % of the way from the envelope's
+    // lowest point on its axis to its centre (ellipsoid), or the base (cone).
+    double trunkHeight = -1.0;
+    // The crown part of the template (above its first fork) is scaled so its height above
+    // the trunk top and its horizontal reach are this many times the envelope's.
+    double outgrow = 1.25;
+    // kUniform: one scale (the larger of the two), angles kept; kStretch: height and reach
+    // scaled separately; kNone: the template as drawn (step in metres).
+    TemplateFit fit = TemplateFit::kStretch;
+    double clipThreshold = 0.05;  // cut where envelopeRatio > 1 + this (§3.5's threshold)
+    double tipRadius = 0.01;      // metres
+    double murrayExponent = 3.0;
+    MurrayOn murrayOn = MurrayOn::kClipped;  // radii of the clipped tree or of the template
+    bool randomYaw = true;                   // turn the template about the vertical per tree
+};
+
+struct CanopyLeafOptions {
+    int count = 10000;   // leaf positions (§4: "each tree … has 10000 leaves")
+    double depth = 0.0;  // each position pulled inward by uniform [0, depth] of its radius
+    LeafOrientation orientation = LeafOrientation::kRandom;
+    Vec3 sun{0.3, 1.0, 0.2};  // towards the sun (unit after parsing)
+    double sunWeight = 0.7;   // normal = normalise(w·sun + (1 − w)·random)
+    int cluster = 1;          // leaves per position, fanned around a short twig (Fig. 4(a): 5)
+    double twig = 0.06;       // twig length of a cluster, metres
+    double sizeMin = 0.08, sizeMax = 0.14;  // card length, metres
+    double aspect = 0.6;
+    std::vector<double> colourFractions{1.0};  // share of positions per colour class
+    double colourPatchiness = 0.5;             // 0: classes at random; 1: in patches over (φ, θ)
+    double supportDistance = 0.3;  // a leaf is supported by a branch node this close, metres
+};
+
+struct CanopyOptions {
+    std::shared_ptr<const CanopyEnvelope> envelope;
+    Vec3 position{0, 5, 0};  // the envelope's origin in the tree frame, metres
+    std::vector<BranchTemplate> templates;
+    CanopyBranchOptions branches;
+    CanopyLeafOptions leaves;
+};
+
+struct CanopyStats {
+    int templateIndex = 0;
+    int64_t templateSegments = 0;  // F segments of the expanded template (plus a bole if added)
+    int64_t keptSegments = 0;      // after clipping
+    double scaleY = 1.0, scaleXZ = 1.0;  // crown scale of the template
+    double trunkHeight = 0.0;
+    int64_t leaves = 0;
+    int64_t unsupportedLeaves = 0;
+    double unsupportedLeafFraction = 0.0;
+};
+
+// The trunk top actually used (resolves trunkHeight < 0), metres.
+double canopyTrunkHeight(const CanopyOptions& options);
+
+// Grows one tree: the template chosen by weight, expanded, fitted and clipped; then the
+// leaves. The surface sampler may be passed in (built once per envelope); else it is built.
+Tree growCanopy(const CanopyOptions& options, Rng& rng, CanopyStats* stats = nullptr,
+                const CanopySurfaceSampler* sampler = nullptr);
+
+}  // namespace sylva

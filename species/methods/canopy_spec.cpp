@@ -1,0 +1,274 @@
+// Species-file parameters of the `canopy` method (Shesh et al. §3) → CanopyOptions.
+//
+// clang-format off
+// | key                          | type        | default     | meaning |
+// |------------------------------|-------------|-------------|---------|
+// | [canopy]                     | envelope    | required    | canopy-envelope keys (species/canopy_envelope_spec.h) plus `position` |
+// | canopy.position              | [x, y, z]   | required    | the envelope's centre (ellipsoid) or base centre (cone), metres |
+// | branches.trunk_height        | metres      | see below   | top of the trunk; default 10 % up from the envelope's lowest axis point (cone: its base) |
+// | branches.outgrow             | number ≥ 1  | 1.25        | the template's crown spans this × the envelope (height above the trunk top, reach) |
+// | branches.fit                 | string      | "stretch"   | "stretch" (height and reach scaled apart), "uniform" (one scale, the larger), "none" |
+// | branches.clip_threshold      | number ≥ 0  | 0.05        | cut segments ending beyond (1 + t) × the envelope radius at their angles (§3.5) |
+// | branches.tip_radius          | metres      | 0.01        | radius of every tip |
+// | branches.murray_exponent     | [1.5, 4]    | 3           | n in r_parentⁿ = Σ r_childⁿ (3: Murray 1927) |
+// | branches.radii               | string      | "clipped"   | Murray over the clipped tree, or "template": over the whole template (the paper) |
+// | branches.random_yaw          | bool        | true        | turn the template about the vertical per tree |
+// | [[templates]]                | tables      | required    | branch templates, one chosen per tree by `weight` |
+// | templates[i].axiom           | string      | required    | start word (alphabet in species/methods/canopy.h) |
+// | templates[i].rules           | table       | {}          | `X = "word"`, or `X = [ { to = "word", p = 0.5 }, … ]` (stochastic, p sum to 1) |
+// | templates[i].iterations      | 0–12        | required    | rewriting steps; the result must stay ≤ 200,000 segments |
+// | templates[i].angle_deg       | degrees     | 25          | δ for + − & ^ |
+// | templates[i].roll_deg        | degrees     | angle_deg   | angle for \ / |
+// | templates[i].step            | metres      | 1           | F length at bracket depth 0 (only ratios matter unless fit = "none") |
+// | templates[i].length_ratio    | (0, 2]      | 1           | step × this per bracket depth |
+// | templates[i].angle_jitter_deg| degrees     | 0           | every turn + uniform(−j, j), drawn per tree |
+// | templates[i].weight          | number > 0  | 1           | relative chance of the template |
+// | leaves.count                 | integer     | 10000       | leaf positions on the envelope (area-uniform) |
+// | leaves.depth                 | [0, 1]      | 0           | positions pulled inward by uniform [0, depth] of their radius |
+// | leaves.orientation           | string      | "random"    | "random" or "sun" (§3.2) |
+// | leaves.sun_direction         | [x, y, z]   | [0.3,1,0.2] | towards the sun |
+// | leaves.sun_weight            | [0, 1]      | 0.7         | normal = normalise(w·sun + (1 − w)·random) |
+// | leaves.cluster               | 1–20        | 1           | leaves per position, fanned around a twig (Fig. 4(a): 5) |
+// | leaves.twig                  | metres      | 0.06        | twig length of a cluster |
+// | leaves.size                  | [lo, hi]    | [0.08,0.14] | card length, metres |
+// | leaves.aspect                | number      | 0.6         | card width / length |
+// | leaves.colours               | [fractions] | [1]         | share of positions per colour class 0, 1, …; sums to 1 |
+// | leaves.colour_patchiness     | [0, 1]      | 0.5         | 0: classes at random; 1: in smooth patches over the canopy |
+// | leaves.support_distance      | metres      | 0.3         | a leaf with a branch node this close is supported |
+// clang-format on
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <utility>
+
+#include "species/canopy_envelope_spec.h"
+#include "species/growth_method.h"
+#include "species/methods/canopy.h"
+
+namespace sylva {
+
+namespace {
+
+constexpr double kDeg = kPi / 180.0;
+constexpr double kMaxSegments = 200000;  // template budget (F symbols after expansion)
+constexpr double kMaxWord = 4.0e6;       // template word length budget
+
+std::string num(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.4g", v);
+    return buf;
+}
+
+class CanopyMethod : public GrowthMethod {
+  public:
+    explicit CanopyMethod(CanopyOptions o)
+        : o_(std::move(o)), sampler_(std::make_shared<CanopySurfaceSampler>(*o_.envelope)) {}
+
+    Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats) const override {
+        CanopyStats s;
+        Tree t = growCanopy(o_, rng, &s, sampler_.get());
+        stats["template"] = s.templateIndex;
+        stats["template_segments"] = static_cast<double>(s.templateSegments);
+        stats["kept_segments"] = static_cast<double>(s.keptSegments);
+        stats["template_scale_y"] = s.scaleY;
+        stats["template_scale_xz"] = s.scaleXZ;
+        stats["trunk_height"] = s.trunkHeight;
+        stats["unsupported_leaves"] = static_cast<double>(s.unsupportedLeaves);
+        stats["unsupported_leaf_fraction"] = s.unsupportedLeafFraction;
+        return t;
+    }
+
+    bool placesOwnLeaves() const override { return true; }
+
+    std::vector<std::pair<std::string, VolumePtr>> volumes() const override {
+        return {{"canopy", makePlaced(o_.envelope, Placement{o_.position, {0, 1, 0}, {1, 1, 1}})}};
+    }
+
+  private:
+    CanopyOptions o_;
+    std::shared_ptr<const CanopySurfaceSampler> sampler_;
+};
+
+void checkWord(Params& p, std::string_view key, const std::string& word) {
+    const std::string problem = checkLSystemWord(word);
+    if (!problem.empty()) p.fail(key, problem);
+}
+
+LSystem parseLSystem(Params& t) {
+    LSystem ls;
+    ls.axiom = t.string("axiom");
+    checkWord(t, "axiom", ls.axiom);
+    if (ls.axiom.find_first_not_of(" \t\r\n") == std::string::npos) {
+        t.fail("axiom", "expected a non-empty word");
+    }
+    const toml::node* node = t.raw("rules");
+    if (!node) return ls;
+    const toml::table* table = node->as_table();
+    if (!table) t.fail("rules", "expected a table of rules, e.g. { F = \"F[+F]F[-F]F\" }");
+    Params r = t.table("rules");
+    for (const auto& [k, v] : *table) {
+        const std::string key(k.str());
+        if (key.size() != 1 || key[0] < 'A' || key[0] > 'Z') {
+            r.raw(key);
+            r.fail(key, "a rule rewrites one letter A-Z, got \"" + key + "\"");
+        }
+        std::vector<LSystemSuccessor>& successors = ls.rules[key[0]];
+        if (v.is_string()) {
+            successors.push_back({r.string(key), 1.0});
+            checkWord(r, key, successors.back().text);
+        } else if (v.is_array()) {
+            std::vector<Params> options = r.tableArray(key);
+            if (options.empty()) r.fail(key, "expected at least one { to = \"…\", p = … }");
+            double sum = 0.0;
+            for (Params& o : options) {
+                LSystemSuccessor s;
+                s.text = o.string("to");
+                checkWord(o, "to", s.text);
+                s.probability = o.number("p", Range::closed(0, 1));
+                sum += s.probability;
+                o.finish();
+                successors.push_back(s);
+            }
+            if (std::abs(sum - 1.0) > 1e-6) {
+                r.fail(key, "the probabilities p sum to " + num(sum) + ", expected 1");
+            }
+        } else {
+            r.raw(key);
+            r.fail(key, "expected a word, or an array of { to = \"word\", p = probability }");
+        }
+    }
+    r.finish();
+    return ls;
+}
+
+BranchTemplate parseTemplate(Params& t) {
+    BranchTemplate b;
+    b.lsystem = parseLSystem(t);
+    b.iterations = static_cast<int>(t.integer("iterations", Range::closed(0, 12)));
+    const LSystemSize size = lsystemSizeBound(b.lsystem, b.iterations);
+    if (size.segments > kMaxSegments || size.length > kMaxWord) {
+        t.fail("iterations",
+               "after " + std::to_string(b.iterations) + " iterations the template has up to " +
+                   num(size.segments) + " segments and " + num(size.length) + " symbols (at most " +
+                   num(kMaxSegments) + " and " + num(kMaxWord) + "): lower iterations");
+    }
+    if (size.segments < 1) {
+        t.fail("iterations", "the template draws nothing: no F after " +
+                                 std::to_string(b.iterations) + " iterations");
+    }
+    b.angle = t.number("angle_deg", 25.0, Range::closed(0, 180)) * kDeg;
+    b.roll = t.has("roll_deg") ? t.number("roll_deg", Range::closed(0, 360)) * kDeg : b.angle;
+    b.step = t.number("step", 1.0, Range::positive());
+    b.lengthRatio = t.number("length_ratio", 1.0, Range::leftOpen(0, 2));
+    b.angleJitter = t.number("angle_jitter_deg", 0.0, Range::closed(0, 90)) * kDeg;
+    b.weight = t.number("weight", 1.0, Range::positive());
+    t.finish();
+    return b;
+}
+
+// leaves.colours: an array of fractions summing to 1.
+std::vector<double> parseFractions(Params& l, std::string_view key) {
+    const toml::node* n = l.raw(key);
+    if (!n) return {1.0};
+    const toml::array* a = n->as_array();
+    const std::string expected =
+        "expected an array of fractions in [0, 1] summing to 1, e.g. "
+        "[0.6, 0.4]";
+    if (!a || a->empty() || a->size() > 254) l.fail(key, expected);
+    std::vector<double> out;
+    double sum = 0.0;
+    for (size_t i = 0; i < a->size(); ++i) {
+        const auto v = a->get(i)->value<double>();
+        if (!a->get(i)->is_number() || !v || !(*v >= 0.0 && *v <= 1.0)) l.fail(key, expected);
+        out.push_back(*v);
+        sum += *v;
+    }
+    if (std::abs(sum - 1.0) > 1e-6)
+        l.fail(key, "the fractions sum to " + num(sum) + ", expected 1");
+    return out;
+}
+
+}  // namespace
+
+std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
+    CanopyOptions o;
+    {
+        Params c = sp.table("canopy");
+        o.envelope = parseCanopyEnvelope(c);
+        if (!c.has("position")) {
+            c.raw("position");
+            c.fail("position",
+                   "required key missing (expected [x, y, z], metres: the canopy's "
+                   "centre, or its base centre for a cone)");
+        }
+        o.position = c.vec3("position", {0, 0, 0});
+        c.finish();
+    }
+
+    if (auto br = sp.optionalTable("branches")) {
+        CanopyBranchOptions& bo = o.branches;
+        bo.trunkHeight =
+            br->has("trunk_height") ? br->number("trunk_height", Range::positive()) : -1.0;
+        bo.outgrow = br->number("outgrow", 1.25, Range::closed(1, 10));
+        const std::string fit = br->choice("fit", "stretch", {"stretch", "uniform", "none"});
+        bo.fit = fit == "uniform" ? TemplateFit::kUniform
+                 : fit == "none"  ? TemplateFit::kNone
+                                  : TemplateFit::kStretch;
+        bo.clipThreshold = br->number("clip_threshold", 0.05, Range::closed(0, 10));
+        bo.tipRadius = br->number("tip_radius", 0.01, Range::positive());
+        bo.murrayExponent = br->number("murray_exponent", 3.0, Range::closed(1.5, 4));
+        bo.murrayOn = br->choice("radii", "clipped", {"clipped", "template"}) == "template"
+                          ? MurrayOn::kTemplate
+                          : MurrayOn::kClipped;
+        bo.randomYaw = br->boolean("random_yaw", true);
+        // The trunk top must be inside the canopy, or every crown segment would be cut.
+        const double top = canopyTrunkHeight(o);
+        const Vec3 local = Vec3{o.position.x, top, o.position.z} - o.position;
+        if (bo.trunkHeight >= 0.0 && envelopeRatio(*o.envelope, local) > 1.0 + bo.clipThreshold) {
+            br->fail("trunk_height", "the trunk top (" + num(o.position.x) + ", " + num(top) +
+                                         ", " + num(o.position.z) +
+                                         ") lies outside the canopy, so every branch would be "
+                                         "clipped; put it inside the envelope");
+        }
+        br->finish();
+    }
+    if (canopyTrunkHeight(o) <= 0.0) {
+        sp.fail("canopy", "the trunk top (the canopy's lowest point on its axis) is at " +
+                              num(canopyTrunkHeight(o)) +
+                              " m: raise canopy.position above the ground");
+    }
+
+    std::vector<Params> ts = sp.tableArray("templates");
+    if (ts.empty()) sp.fail("templates", "expected at least one [[templates]] table");
+    for (Params& t : ts) o.templates.push_back(parseTemplate(t));
+
+    if (auto l = sp.optionalTable("leaves")) {
+        CanopyLeafOptions& lo = o.leaves;
+        lo.count = static_cast<int>(l->integer("count", 10000, Range::closed(0, 1e6)));
+        lo.depth = l->number("depth", 0.0, Range::closed(0, 1));
+        lo.orientation = l->choice("orientation", "random", {"random", "sun"}) == "sun"
+                             ? LeafOrientation::kSun
+                             : LeafOrientation::kRandom;
+        lo.sun = l->vec3("sun_direction", {0.3, 1.0, 0.2});
+        if (length(lo.sun) < 1e-12) l->fail("sun_direction", "expected a non-zero direction");
+        lo.sunWeight = l->number("sun_weight", 0.7, Range::closed(0, 1));
+        lo.cluster = static_cast<int>(l->integer("cluster", 1, Range::closed(1, 20)));
+        lo.twig = l->number("twig", 0.06, Range::nonNegative());
+        auto [lo0, hi0] = l->interval("size", {0.08, 0.14}, Range::positive());
+        lo.sizeMin = lo0;
+        lo.sizeMax = hi0;
+        lo.aspect = l->number("aspect", 0.6, Range::leftOpen(0, 10));
+        lo.colourFractions = parseFractions(*l, "colours");
+        lo.colourPatchiness = l->number("colour_patchiness", 0.5, Range::closed(0, 1));
+        lo.supportDistance = l->number("support_distance", 0.3, Range::positive());
+        if (double(lo.count) * lo.cluster > 2e6) {
+            l->fail("cluster", "count × cluster = " + num(double(lo.count) * lo.cluster) +
+                                   " leaves; at most 2,000,000");
+        }
+        l->finish();
+    }
+    return std::make_unique<CanopyMethod>(std::move(o));
+}
+
+}  // namespace sylva

@@ -1,0 +1,654 @@
+// The canopy method (Shesh et al. §3): L-system expansion and turtle, Murray radii, the
+// envelope clipping test, area-uniform leaves on the envelope, sun orientation, support,
+// template choice, determinism and the spec reader.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "species/methods/canopy.h"
+#include "species/species.h"
+
+namespace sylva {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kDeg = kPi / 180.0;
+
+// A plain ellipsoid envelope (g0 = 1, no layers, no jitter): f ≡ 1, so the surface is the
+// ellipsoid with radii k exactly.
+std::shared_ptr<const CanopyEnvelope> plainEnvelope(Vec3 radii,
+                                                    CanopyDomain d = CanopyDomain::kEllipsoid) {
+    CanopyEnvelopeOptions o;
+    o.domain = d;
+    o.radii = radii;
+    o.jitter = 0.0;
+    Rng rng(1);
+    return makeCanopyEnvelope(o, rng);
+}
+
+// A lumpy one: blobs and noise, jittered angles.
+std::shared_ptr<const CanopyEnvelope> lumpyEnvelope(CanopyDomain d = CanopyDomain::kEllipsoid) {
+    CanopyEnvelopeOptions o;
+    o.domain = d;
+    o.radii = d == CanopyDomain::kCone ? Vec3{2.0, 6.0, 2.0} : Vec3{2.5, 2.0, 2.5};
+    CanopyLayer blobs;
+    blobs.count = 8;
+    blobs.sigma = 0.1;
+    blobs.amplitude = 0.6;
+    CanopyLayer noise;
+    noise.kind = CanopyLayer::Kind::kNoise;
+    noise.resolution = 8;
+    noise.amplitude = 0.3;
+    o.layers = {blobs, noise};
+    Rng rng(5);
+    return makeCanopyEnvelope(o, rng);
+}
+
+BranchTemplate bushTemplate(int iterations = 5) {
+    BranchTemplate t;
+    t.lsystem.axiom = "FX";
+    t.lsystem.rules['X'] = {{"F[&&X]/////F[&&X]///////F[&X]X", 1.0}};
+    t.angle = 25 * kDeg;
+    t.roll = 22.5 * kDeg;
+    t.lengthRatio = 0.8;
+    t.iterations = iterations;
+    return t;
+}
+
+CanopyOptions baseOptions(std::shared_ptr<const CanopyEnvelope> env, Vec3 position) {
+    CanopyOptions o;
+    o.envelope = std::move(env);
+    o.position = position;
+    o.templates = {bushTemplate()};
+    o.leaves.count = 0;
+    return o;
+}
+
+int count(const std::string& s, char c) {
+    return static_cast<int>(std::count(s.begin(), s.end(), c));
+}
+
+// --- L-system ---------------------------------------------------------------------------------
+
+TEST(CanopyLSystem, AlgaeAndKochExpandToTheKnownWords) {
+    // Lindenmayer's algae: A → AB, B → A; lengths are Fibonacci numbers.
+    LSystem algae;
+    algae.axiom = "A";
+    algae.rules['A'] = {{"AB", 1.0}};
+    algae.rules['B'] = {{"A", 1.0}};
+    Rng rng(1);
+    const char* words[] = {"A", "AB", "ABA", "ABAAB", "ABAABABA", "ABAABABAABAAB"};
+    for (int n = 0; n < 6; ++n) EXPECT_EQ(expandLSystem(algae, n, rng), words[n]) << n;
+    EXPECT_EQ(expandLSystem(algae, 10, rng).size(), 144u);  // F(12)
+    EXPECT_DOUBLE_EQ(lsystemSizeBound(algae, 10).length, 144.0);
+
+    // Quadratic Koch island (ABOP Fig. 1.7b's generator): every F becomes 5 F and 4 turns.
+    LSystem koch;
+    koch.axiom = "F";
+    koch.rules['F'] = {{"F+F-F-F+F", 1.0}};
+    for (int n = 0; n <= 4; ++n) {
+        const std::string w = expandLSystem(koch, n, rng);
+        EXPECT_EQ(count(w, 'F'), static_cast<int>(std::pow(5, n))) << n;
+        EXPECT_EQ(w.size(), static_cast<size_t>(2 * std::pow(5, n) - 1)) << n;
+        EXPECT_DOUBLE_EQ(lsystemSizeBound(koch, n).segments, std::pow(5, n));
+        EXPECT_DOUBLE_EQ(lsystemSizeBound(koch, n).length, 2 * std::pow(5, n) - 1);
+    }
+    // Whitespace is not a symbol.
+    koch.rules['F'] = {{"F + F - F - F + F", 1.0}};
+    EXPECT_EQ(expandLSystem(koch, 1, rng), "F+F-F-F+F");
+}
+
+TEST(CanopyLSystem, StochasticRulesFollowTheirProbabilities) {
+    LSystem s;
+    s.axiom = std::string(8000, 'X');
+    s.rules['X'] = {{"A", 0.25}, {"BB", 0.75}};
+    Rng rng(3);
+    const std::string w = expandLSystem(s, 1, rng);
+    const int a = count(w, 'A'), b = count(w, 'B');
+    EXPECT_EQ(a + b / 2, 8000);
+    // Binomial(8000, 0.25): σ ≈ 38.7; 5σ.
+    EXPECT_NEAR(a, 2000, 194);
+    // The bound takes, per symbol, the most of it any successor makes: 1 A and 2 B per X.
+    EXPECT_DOUBLE_EQ(lsystemSizeBound(s, 1).length, 24000.0);
+    // Another seed, another word; the same seed, the same word.
+    Rng again(3), other(4);
+    EXPECT_EQ(expandLSystem(s, 1, again), w);
+    EXPECT_NE(expandLSystem(s, 1, other), w);
+}
+
+TEST(CanopyLSystem, WordCheckNamesTheBadSymbol) {
+    EXPECT_EQ(checkLSystemWord("F[+F]F[-F]&^\\/|AXYZ"), "");
+    EXPECT_NE(checkLSystemWord("F[+x]").find("unknown L-system symbol 'x' at position 4"),
+              std::string::npos);
+    EXPECT_NE(checkLSystemWord("FfF").find("'f'"), std::string::npos);
+    EXPECT_NE(checkLSystemWord("F!F").find("Murray"), std::string::npos);
+    EXPECT_NE(checkLSystemWord("F]F[").find("']' without"), std::string::npos);
+    EXPECT_NE(checkLSystemWord("F[F").find("unclosed"), std::string::npos);
+}
+
+// --- turtle and Murray -------------------------------------------------------------------------
+
+TEST(CanopyTurtle, TurnsPitchesRollsAndBranches) {
+    BranchTemplate t;
+    t.angle = 90 * kDeg;
+    t.roll = 90 * kDeg;
+    Rng rng(1);
+    auto near = [](const Vec3& a, const Vec3& b) { return distance(a, b) < 1e-12; };
+    // + turns the heading (+y) toward left (−x); − toward +x.
+    Tree a = interpretTurtle("F+F", t, rng);
+    ASSERT_EQ(a.nodes.size(), 3u);
+    EXPECT_TRUE(near(a.nodes[1].position, {0, 1, 0}));
+    EXPECT_TRUE(near(a.nodes[2].position, {-1, 1, 0}));
+    EXPECT_TRUE(near(interpretTurtle("F-F", t, rng).nodes[2].position, {1, 1, 0}));
+    // & pitches down: heading toward −up (−z); ^ toward +z.
+    EXPECT_TRUE(near(interpretTurtle("F&F", t, rng).nodes[2].position, {0, 1, -1}));
+    EXPECT_TRUE(near(interpretTurtle("F^F", t, rng).nodes[2].position, {0, 1, 1}));
+    // \ rolls left toward up: after it, + turns toward the old up (+z).
+    EXPECT_TRUE(near(interpretTurtle("F\\+F", t, rng).nodes[2].position, {0, 1, 1}));
+    EXPECT_TRUE(near(interpretTurtle("F/+F", t, rng).nodes[2].position, {0, 1, -1}));
+    EXPECT_TRUE(near(interpretTurtle("F|F", t, rng).nodes[2].position, {0, 0, 0}));
+    // Brackets: the branch hangs from node 1, the main axis continues from node 1 too.
+    t.step = 2.0;
+    t.lengthRatio = 0.5;
+    Tree b = interpretTurtle("F[+F[-F]]F", t, rng);
+    ASSERT_EQ(b.nodes.size(), 5u);
+    EXPECT_EQ(b.nodes[2].parent, 1);
+    EXPECT_EQ(b.nodes[3].parent, 2);
+    EXPECT_EQ(b.nodes[4].parent, 1);
+    EXPECT_EQ(b.nodes[1].order, 0);
+    EXPECT_EQ(b.nodes[2].order, 1);
+    EXPECT_EQ(b.nodes[3].order, 2);
+    EXPECT_EQ(b.nodes[4].order, 0);
+    EXPECT_TRUE(near(b.nodes[2].position, {-1, 2, 0}));    // step 2 × 0.5
+    EXPECT_TRUE(near(b.nodes[3].position, {-1, 2.5, 0}));  // step 2 × 0.25
+    EXPECT_TRUE(near(b.nodes[4].position, {0, 4, 0}));
+    // Variables draw nothing.
+    EXPECT_EQ(interpretTurtle("AXFBFZ", t, rng).nodes.size(), 3u);
+}
+
+TEST(CanopyTurtle, MurraysRuleHoldsAtEveryTemplateFork) {
+    const BranchTemplate t = bushTemplate(5);
+    Rng rng(2);
+    Tree tree = interpretTurtle(expandLSystem(t.lsystem, t.iterations, rng), t, rng);
+    ASSERT_GT(tree.nodes.size(), 500u);
+    murrayRadii(tree, 0.01, 3.0);
+    const ChildIndex children(tree);
+    int forks = 0;
+    for (int32_t i = 0; i < static_cast<int32_t>(tree.nodes.size()); ++i) {
+        if (children.count(i) == 0) {
+            EXPECT_EQ(tree.nodes[i].radius, 0.01);
+            continue;
+        }
+        double sum = 0.0;
+        for (int k = children.offset[i]; k < children.offset[i + 1]; ++k) {
+            sum += std::pow(tree.nodes[children.child[k]].radius, 3);
+        }
+        EXPECT_NEAR(std::pow(tree.nodes[i].radius, 3), sum, 1e-9 * sum) << i;
+        forks += children.count(i) > 1;
+    }
+    EXPECT_GT(forks, 100);
+    // The root carries every tip: r0³ = tips · r_tip³.
+    int tips = 0;
+    for (int32_t i = 0; i < static_cast<int32_t>(tree.nodes.size()); ++i)
+        tips += children.count(i) == 0;
+    EXPECT_NEAR(std::pow(tree.nodes[0].radius, 3), tips * 1e-6, 1e-9 * tips * 1e-6);
+    // Exponent 2 (pipe model): areas add.
+    murrayRadii(tree, 0.01, 2.0);
+    EXPECT_NEAR(tree.nodes[0].radius * tree.nodes[0].radius, tips * 1e-4, 1e-9 * tips * 1e-4);
+}
+
+// --- clipping ---------------------------------------------------------------------------------
+
+// Bole nodes: the chain of single children from the root up to the trunk top.
+std::vector<char> boleOf(const Tree& tree, double top) {
+    std::vector<char> bole(tree.nodes.size(), 0);
+    const ChildIndex children(tree);
+    int32_t cur = 0;
+    bole[0] = 1;
+    while (tree.nodes[cur].position.y < top - 1e-9 && children.count(cur) == 1) {
+        cur = children.child[children.offset[cur]];
+        bole[cur] = 1;
+    }
+    EXPECT_NEAR(tree.nodes[cur].position.y, top, 1e-9);
+    return bole;
+}
+
+TEST(CanopyClip, NoNodeLeavesASphereBeyondTheThreshold) {
+    const double r = 2.0;
+    CanopyOptions o = baseOptions(plainEnvelope({r, r, r}), {0, 5, 0});
+    o.templates[0].lsystem.axiom = "X";  // no bole in the template: a straight one is added
+    for (double threshold : {0.0, 0.1, 0.3}) {
+        o.branches.clipThreshold = threshold;
+        Rng rng(11);
+        CanopyStats st;
+        const Tree tree = growCanopy(o, rng, &st);
+        const double top = canopyTrunkHeight(o);
+        EXPECT_DOUBLE_EQ(top, 5.0 - 0.9 * r);
+        EXPECT_DOUBLE_EQ(st.trunkHeight, top);
+        // The template outgrew the sphere: something was cut, and much was kept.
+        EXPECT_LT(st.keptSegments, st.templateSegments);
+        EXPECT_GT(st.keptSegments, 200);
+        double far = 0.0;
+        const std::vector<char> bole = boleOf(tree, top);
+        for (size_t i = 0; i < tree.nodes.size(); ++i) {
+            const SkeletonNode& n = tree.nodes[i];
+            if (bole[i]) continue;
+            const double d = distance(n.position, o.position);
+            EXPECT_LE(d, (1 + threshold) * r * (1 + 1e-12));
+            far = std::max(far, d / r);
+        }
+        // The threshold is used, not something stricter.
+        EXPECT_GT(far, threshold > 0 ? 1.0 + 0.5 * threshold : 0.95);
+        // Node 0 at the origin; the bole reaches the trunk top.
+        EXPECT_EQ(tree.nodes[0].position.x, 0.0);
+        EXPECT_EQ(tree.nodes[0].position.y, 0.0);
+        bool reached = false;
+        for (const SkeletonNode& n : tree.nodes)
+            reached |= distance(n.position, {0, top, 0}) < 1e-9;
+        EXPECT_TRUE(reached);
+    }
+}
+
+TEST(CanopyClip, LumpyEnvelopesClipAtTheirSurface) {
+    for (CanopyDomain d : {CanopyDomain::kEllipsoid, CanopyDomain::kCone}) {
+        CanopyOptions o = baseOptions(lumpyEnvelope(d), {0.5, 4, -0.3});
+        o.branches.clipThreshold = 0.05;
+        o.branches.murrayOn = MurrayOn::kClipped;
+        const CanopyEnvelope& env = *o.envelope;
+        Rng rng(4);
+        CanopyStats st;
+        const Tree tree = growCanopy(o, rng, &st);
+        EXPECT_LT(st.keptSegments, st.templateSegments);
+        EXPECT_GT(st.keptSegments, 100);
+        const std::vector<char> bole = boleOf(tree, canopyTrunkHeight(o));
+        for (size_t i = 0; i < tree.nodes.size(); ++i) {
+            const SkeletonNode& n = tree.nodes[i];
+            if (bole[i]) continue;
+            // The paper's test, computed here from surfacePoint alone.
+            const Vec3 p = n.position - o.position;
+            const Vec2 a = env.angles(p);
+            const Vec3 s = env.surfacePoint(a.x, a.y);
+            if (d == CanopyDomain::kEllipsoid) {
+                EXPECT_LE(length(p), 1.05 * length(s) * (1 + 1e-12));
+            } else {
+                // Below the base and above the apex the ratio is a height over ky.
+                EXPECT_GE(p.y, -0.05 * env.radii().y);
+                EXPECT_LE(p.y, 1.05 * env.radii().y);
+                EXPECT_LE(std::hypot(p.x, p.z), 1.05 * std::hypot(s.x, s.z) * (1 + 1e-12));
+            }
+        }
+        // Radii from Murray's rule over the clipped tree: it holds at every fork.
+        const ChildIndex children(tree);
+        for (int32_t i = 0; i < static_cast<int32_t>(tree.nodes.size()); ++i) {
+            if (children.count(i) == 0) continue;
+            double sum = 0.0;
+            for (int k = children.offset[i]; k < children.offset[i + 1]; ++k) {
+                sum += std::pow(tree.nodes[children.child[k]].radius, 3);
+            }
+            EXPECT_NEAR(std::pow(tree.nodes[i].radius, 3), sum, 1e-9 * sum);
+        }
+        // Endpoints are exactly the tips.
+        size_t tips = 0;
+        for (int32_t i = 1; i < static_cast<int32_t>(tree.nodes.size()); ++i)
+            tips += children.count(i) == 0;
+        EXPECT_EQ(tree.endpoints.size(), tips);
+    }
+}
+
+TEST(CanopyClip, TemplateRadiiKeepTheWholeTemplatesThickness) {
+    CanopyOptions o = baseOptions(plainEnvelope({2, 2, 2}), {0, 5, 0});
+    o.branches.randomYaw = false;
+    o.branches.outgrow = 1.6;
+    Rng a(8), b(8);
+    o.branches.murrayOn = MurrayOn::kClipped;
+    const Tree clipped = growCanopy(o, a);
+    o.branches.murrayOn = MurrayOn::kTemplate;
+    const Tree templ = growCanopy(o, b);
+    ASSERT_EQ(clipped.nodes.size(), templ.nodes.size());
+    int tips = 0;
+    const ChildIndex ch(clipped);
+    for (size_t i = 0; i < clipped.nodes.size(); ++i) tips += ch.count(int(i)) == 0;
+    EXPECT_NEAR(std::pow(clipped.nodes[0].radius, 3), tips * 1e-6, 1e-15);
+    // The template has more tips than survive, so its trunk is thicker.
+    EXPECT_GT(templ.nodes[0].radius, clipped.nodes[0].radius * 1.05);
+}
+
+TEST(CanopyClip, OutgrowSetsTheMedianReach) {
+    // A larger outgrow scales the template up, and more of it is cut.
+    CanopyOptions o = baseOptions(plainEnvelope({2, 2, 2}), {0, 5, 0});
+    CanopyStats small, large;
+    Rng a(3), b(3);
+    o.branches.outgrow = 1.05;
+    growCanopy(o, a, &small);
+    o.branches.outgrow = 2.0;
+    growCanopy(o, b, &large);
+    EXPECT_GT(large.scaleY, 1.5 * small.scaleY);
+    EXPECT_LT(large.keptSegments, small.keptSegments);
+    // fit = "none": the template as drawn.
+    o.branches.fit = TemplateFit::kNone;
+    CanopyStats none;
+    Rng c(3);
+    growCanopy(o, c, &none);
+    EXPECT_EQ(none.scaleY, 1.0);
+    EXPECT_EQ(none.scaleXZ, 1.0);
+}
+
+// --- leaves -----------------------------------------------------------------------------------
+
+TEST(CanopyLeaves, LieOnTheEnvelopeSurfaceAndCountCountTimesCluster) {
+    for (CanopyDomain d : {CanopyDomain::kEllipsoid, CanopyDomain::kCone}) {
+        CanopyOptions o = baseOptions(lumpyEnvelope(d), {0, 4, 0});
+        o.leaves.count = 2000;
+        const CanopyEnvelope& env = *o.envelope;
+        Rng rng(6);
+        const Tree tree = growCanopy(o, rng);
+        ASSERT_EQ(tree.leaves.size(), 2000u);
+        for (const Leaf& leaf : tree.leaves) {
+            const Vec3 p = leaf.position - o.position;
+            const Vec2 a = env.angles(p);
+            const Vec3 s = env.surfacePoint(a.x, a.y);
+            if (d == CanopyDomain::kEllipsoid) {
+                EXPECT_NEAR(length(p), length(s), 1e-9 * 2.5);
+            } else {
+                EXPECT_NEAR(std::hypot(p.x, p.z), std::hypot(s.x, s.z), 1e-9 * 6.0);
+            }
+            EXPECT_NEAR(length(leaf.normal), 1.0, 1e-12);
+            EXPECT_NEAR(dot(leaf.normal, leaf.tangent), 0.0, 1e-12);
+        }
+        // Depth pulls each position inward along its ray (the cone: toward the axis).
+        o.leaves.depth = 0.2;
+        Rng deep(6);
+        double lo = 1.0;
+        for (const Leaf& leaf : growCanopy(o, deep).leaves) {
+            const double r = envelopeRatio(env, leaf.position - o.position);
+            EXPECT_LE(r, 1.0 + 1e-9);
+            EXPECT_GE(r, 0.8 - 1e-9);
+            lo = std::min(lo, r);
+        }
+        EXPECT_LT(lo, 0.81);
+        o.leaves.cluster = 5;
+        Rng again(6);
+        EXPECT_EQ(growCanopy(o, again).leaves.size(), 2000u * 5);
+    }
+}
+
+TEST(CanopyLeaves, AreSpreadByAreaNotByAngle) {
+    // Unit sphere: the cap θ < 0.3 holds (1 − cos 0.3)/2 = 2.23 % of the area (uniform angles
+    // would put 9.5 % there), the cap y > 0.5 a quarter.
+    const auto sphere = plainEnvelope({1, 1, 1});
+    const CanopySurfaceSampler s(*sphere);
+    EXPECT_NEAR(s.area(), 4 * kPi, 4 * kPi * 1e-3);
+    Rng rng(9);
+    const int n = 40000;
+    int pole = 0, cap = 0;
+    for (int i = 0; i < n; ++i) {
+        const Vec2 a = s.sample(rng);
+        pole += a.y < 0.3;
+        cap += std::cos(a.y) > 0.5;
+    }
+    const double p = (1 - std::cos(0.3)) / 2;
+    EXPECT_NEAR(pole / double(n), p, 5 * std::sqrt(p * (1 - p) / n));
+    EXPECT_NEAR(cap / double(n), 0.25, 5 * std::sqrt(0.25 * 0.75 / n));
+    // Cone: lateral area within apex distance t grows as t², so θ < π/2 holds a quarter.
+    const auto cone = plainEnvelope({1, 3, 1}, CanopyDomain::kCone);
+    const CanopySurfaceSampler c(*cone);
+    EXPECT_NEAR(c.area(), kPi * std::sqrt(10.0), kPi * std::sqrt(10.0) * 1e-3);  // π r ℓ
+    int upper = 0;
+    for (int i = 0; i < n; ++i) upper += c.sample(rng).y < kPi / 2;
+    EXPECT_NEAR(upper / double(n), 0.25, 5 * std::sqrt(0.25 * 0.75 / n));
+}
+
+TEST(CanopyLeaves, SunOrientationTurnsNormalsTowardTheSun) {
+    CanopyOptions o = baseOptions(plainEnvelope({2, 2, 2}), {0, 5, 0});
+    o.leaves.count = 4000;
+    o.leaves.sun = normalize(Vec3{1, 2, 0});
+    auto meanFacing = [&](LeafOrientation orientation) {
+        o.leaves.orientation = orientation;
+        Rng rng(12);
+        const Tree tree = growCanopy(o, rng);
+        double sum = 0.0;
+        for (const Leaf& leaf : tree.leaves) sum += dot(leaf.normal, o.leaves.sun);
+        return sum / tree.leaves.size();
+    };
+    const double random = meanFacing(LeafOrientation::kRandom);
+    const double sun = meanFacing(LeafOrientation::kSun);
+    EXPECT_NEAR(random, 0.0, 0.05);  // σ of the mean ≈ 0.009
+    EXPECT_GT(sun, 0.8);
+}
+
+TEST(CanopyLeaves, ColourClassesTakeTheirExactShares) {
+    CanopyOptions o = baseOptions(plainEnvelope({2, 2, 2}), {0, 5, 0});
+    o.leaves.count = 1000;
+    o.leaves.cluster = 2;
+    o.leaves.colourFractions = {0.6, 0.3, 0.1};
+    for (double patchiness : {0.0, 1.0}) {
+        o.leaves.colourPatchiness = patchiness;
+        Rng rng(13);
+        const Tree tree = growCanopy(o, rng);
+        int n[3] = {0, 0, 0};
+        for (const Leaf& leaf : tree.leaves) ++n[leaf.colour];
+        EXPECT_EQ(n[0], 1200);
+        EXPECT_EQ(n[1], 600);
+        EXPECT_EQ(n[2], 200);
+    }
+}
+
+TEST(CanopyLeaves, UnsupportedFractionIsReported) {
+    CanopyOptions o = baseOptions(plainEnvelope({2, 2, 2}), {0, 5, 0});
+    o.leaves.count = 1500;
+    CanopyStats st;
+    o.leaves.supportDistance = 1e6;
+    Rng a(14);
+    const Tree all = growCanopy(o, a, &st);
+    EXPECT_EQ(st.unsupportedLeaves, 0);
+    EXPECT_EQ(st.unsupportedLeafFraction, 0.0);
+    // Every leaf hangs from its nearest node (brute force on a sample).
+    for (size_t k = 0; k < all.leaves.size(); k += 97) {
+        const Leaf& leaf = all.leaves[k];
+        ASSERT_GE(leaf.node, 0);
+        double best = 1e300;
+        for (const SkeletonNode& n : all.nodes)
+            best = std::min(best, distance(n.position, leaf.position));
+        EXPECT_NEAR(distance(all.nodes[leaf.node].position, leaf.position), best, 1e-12);
+    }
+    o.leaves.supportDistance = 1e-6;
+    Rng b(14);
+    const Tree none = growCanopy(o, b, &st);
+    EXPECT_EQ(st.unsupportedLeaves, 1500);
+    EXPECT_EQ(st.unsupportedLeafFraction, 1.0);
+    // In between: the fraction is the share of leaves without a node.
+    o.leaves.supportDistance = 0.3;
+    Rng c(14);
+    const Tree some = growCanopy(o, c, &st);
+    int without = 0;
+    for (const Leaf& leaf : some.leaves) {
+        if (leaf.node < 0) {
+            ++without;
+        } else {
+            EXPECT_LE(distance(some.nodes[leaf.node].position, leaf.position), 0.3);
+        }
+    }
+    EXPECT_EQ(st.unsupportedLeaves, without);
+    EXPECT_DOUBLE_EQ(st.unsupportedLeafFraction, without / 1500.0);
+    EXPECT_GT(without, 0);
+    EXPECT_LT(without, 1500);
+}
+
+// --- templates, determinism ------------------------------------------------------------------
+
+TEST(CanopyGrow, TemplateChoiceVariesWithTheSeedByWeight) {
+    CanopyOptions o = baseOptions(plainEnvelope({2, 2, 2}), {0, 5, 0});
+    BranchTemplate small = bushTemplate(2);
+    small.weight = 3.0;
+    o.templates = {bushTemplate(3), small};
+    int second = 0;
+    const int n = 400;
+    for (int seed = 0; seed < n; ++seed) {
+        Rng rng(seed);
+        CanopyStats st;
+        growCanopy(o, rng, &st);
+        second += st.templateIndex == 1;
+    }
+    EXPECT_NEAR(second / double(n), 0.75, 5 * std::sqrt(0.75 * 0.25 / n));
+}
+
+TEST(CanopyGrow, SameSeedSameTreeOtherSeedOtherTree) {
+    CanopyOptions o = baseOptions(lumpyEnvelope(), {0, 4, 0});
+    o.leaves.count = 500;
+    o.leaves.cluster = 3;
+    o.leaves.colourFractions = {0.5, 0.5};
+    o.templates[0].angleJitter = 5 * kDeg;
+    auto grow = [&](uint64_t seed) {
+        Rng rng(seed);
+        return growCanopy(o, rng);
+    };
+    auto differ = [](const Vec3& a, const Vec3& b) {
+        return !(a.x == b.x && a.y == b.y && a.z == b.z);
+    };
+    auto same = [&](const Tree& a, const Tree& b) {
+        if (a.nodes.size() != b.nodes.size() || a.leaves.size() != b.leaves.size()) return false;
+        for (size_t i = 0; i < a.nodes.size(); ++i) {
+            const SkeletonNode &x = a.nodes[i], &y = b.nodes[i];
+            if (differ(x.position, y.position) || x.radius != y.radius || x.parent != y.parent ||
+                x.order != y.order)
+                return false;
+        }
+        for (size_t i = 0; i < a.leaves.size(); ++i) {
+            const Leaf &x = a.leaves[i], &y = b.leaves[i];
+            if (differ(x.position, y.position) || differ(x.normal, y.normal) ||
+                differ(x.tangent, y.tangent) || x.size != y.size || x.colour != y.colour ||
+                x.node != y.node)
+                return false;
+        }
+        return a.endpoints == b.endpoints;
+    };
+    const Tree a = grow(21);
+    EXPECT_TRUE(same(a, grow(21)));
+    EXPECT_FALSE(same(a, grow(22)));
+    // A shared surface sampler gives the same tree as one built per call.
+    const CanopySurfaceSampler sampler(*o.envelope);
+    Rng rng(21);
+    EXPECT_TRUE(same(a, growCanopy(o, rng, nullptr, &sampler)));
+}
+
+// --- spec reader ------------------------------------------------------------------------------
+
+class TempDir {
+  public:
+    TempDir() {
+        static std::atomic<int> counter{0};
+        path_ = fs::temp_directory_path() /
+                ("sylva_canopy_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+        fs::create_directories(path_);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        fs::remove_all(path_, ec);
+    }
+    fs::path operator/(const std::string& name) const { return path_ / name; }
+
+  private:
+    fs::path path_;
+};
+
+const char* kSpec = R"(name = "c"
+method = "canopy"
+
+[canopy]
+radii = [2, 1.5, 2]
+position = [0, 4, 0]
+jitter_deg = 0
+
+[[templates]]
+axiom = "FX"
+rules = { X = "F[&X]/////[&X]///////[&X]" }
+iterations = 4
+)";
+
+// Validates kSpec with `extra` appended; returns the error, or "" when valid.
+std::string specError(const std::string& extra, const std::string& spec = kSpec) {
+    TempDir dir;
+    const fs::path file = dir / "c.toml";
+    {
+        std::ofstream out(file);
+        out << spec << extra;
+    }
+    try {
+        validateSpecies(loadSpecies(file.string()), nullptr);
+    } catch (const SpecError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(CanopySpec, BadParametersNameFileLineAndKey) {
+    struct Case {
+        std::string extra, what;
+    };
+    const std::vector<Case> cases = {
+        {"", ""},
+        {"[[templates]]\naxiom = \"F\"\nrules = { F = \"F[+x]\" }\niterations = 2\n",
+         "c.toml:15:15: templates[1].rules.F: unknown L-system symbol 'x'"},
+        {"[[templates]]\naxiom = \"F[\"\niterations = 2\n", "templates[1].axiom: unclosed '['"},
+        {"[[templates]]\naxiom = \"F\"\nrules = { f = \"FF\" }\niterations = 2\n",
+         "templates[1].rules.f: a rule rewrites one letter A-Z"},
+        {"[[templates]]\naxiom = \"F\"\nrules = { F = \"FFFFFFFFFF\" }\niterations = 6\n",
+         "c.toml:16:14: templates[1].iterations: after 6 iterations the template has up to 1e+06 "
+         "segments"},
+        {"[[templates]]\naxiom = \"X\"\niterations = 2\n", "the template draws nothing"},
+        {"[[templates]]\naxiom = \"F\"\nrules = { F = [ { to = \"F\", p = 0.5 }, { to = \"FF\", "
+         "p = 0.4 } ] }\niterations = 2\n",
+         "templates[1].rules.F: the probabilities p sum to 0.9, expected 1"},
+        {"[leaves]\ncount = -5\n", "c.toml:14:9: leaves.count: expected an integer in [0,"},
+        {"[leaves]\ncolours = [0.5, 0.6]\n", "leaves.colours: the fractions sum to 1.1"},
+        {"[leaves]\nper_tip = 4\n", "leaves.per_tip: unknown key"},
+        {"[branches]\ntrunk_height = 1.0\n", "branches.trunk_height: the trunk top"},
+        {"[branches]\nfit = \"squash\"\n", "branches.fit: expected one of"},
+    };
+    for (const Case& c : cases) {
+        const std::string e = specError(c.extra);
+        if (c.what.empty()) {
+            EXPECT_EQ(e, "") << c.extra;
+        } else {
+            EXPECT_NE(e.find(c.what), std::string::npos) << c.extra << "\n -> " << e;
+        }
+    }
+    // The canopy needs its position; the envelope's keys are checked by its own reader.
+    std::string noPosition = kSpec;
+    noPosition.replace(noPosition.find("position = [0, 4, 0]\n"), 21, "");
+    EXPECT_NE(specError("", noPosition).find("canopy.position: required key missing"),
+              std::string::npos);
+    std::string onGround = kSpec;
+    onGround.replace(onGround.find("position = [0, 4, 0]"), 20, "position = [0, 1, 0]");
+    EXPECT_NE(specError("", onGround).find("raise canopy.position"), std::string::npos);
+}
+
+TEST(CanopySpec, PresetsGrowRootedTreesWithLeaves) {
+    for (const char* name : {"canopy-maple", "canopy-pine"}) {
+        const SpeciesFile species =
+            loadSpecies(std::string(SYLVA_SOURCE_DIR) + "/species/presets/" + name + ".toml");
+        EXPECT_EQ(species.method, "canopy");
+        const GrownTree g = growSpecies(species, 1, nullptr, false);
+        const Tree& t = g.tree;
+        ASSERT_GT(t.nodes.size(), 500u) << name;
+        EXPECT_EQ(t.nodes[0].parent, -1);
+        for (size_t i = 1; i < t.nodes.size(); ++i) EXPECT_LT(t.nodes[i].parent, int32_t(i));
+        EXPECT_GE(t.leaves.size(), 8000u) << name;
+        EXPECT_EQ(g.methodStats.count("unsupported_leaf_fraction"), 1u);
+        EXPECT_LT(g.methodStats.at("unsupported_leaf_fraction"), 0.9) << name;
+        // Two colour classes in both.
+        bool second = false;
+        for (const Leaf& leaf : t.leaves) second |= leaf.colour == 1;
+        EXPECT_TRUE(second) << name;
+    }
+}
+
+}  // namespace
+}  // namespace sylva
