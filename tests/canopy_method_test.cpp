@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -438,6 +439,14 @@ TEST(CanopyLeaves, ColourClassesTakeTheirExactShares) {
         EXPECT_EQ(n[1], 600);
         EXPECT_EQ(n[2], 200);
     }
+    // Entries map to given classes.
+    o.leaves.colourClasses = {6, 1, 5};
+    Rng rng(13);
+    int n[8] = {0};
+    for (const Leaf& leaf : growCanopy(o, rng).leaves) ++n[leaf.colour];
+    EXPECT_EQ(n[6], 1200);
+    EXPECT_EQ(n[1], 600);
+    EXPECT_EQ(n[5], 200);
 }
 
 TEST(CanopyLeaves, UnsupportedFractionIsReported) {
@@ -608,6 +617,9 @@ TEST(CanopySpec, BadParametersNameFileLineAndKey) {
          "templates[1].rules.F: the probabilities p sum to 0.9, expected 1"},
         {"[leaves]\ncount = -5\n", "c.toml:14:9: leaves.count: expected an integer in [0,"},
         {"[leaves]\ncolours = [0.5, 0.6]\n", "leaves.colours: the fractions sum to 1.1"},
+        {"[leaves]\ncolours = [0.5, 0.5]\ncolour_classes = [1]\n",
+         "leaves.colour_classes: expected one class"},
+        {"[leaves]\ncolours = [0.5, 0.5]\ncolour_classes = [1, 6]\n", ""},
         {"[leaves]\nper_tip = 4\n", "leaves.per_tip: unknown key"},
         {"[branches]\ntrunk_height = 1.0\n", "branches.trunk_height: the trunk top"},
         {"[branches]\nfit = \"squash\"\n", "branches.fit: expected one of"},
@@ -644,9 +656,9 @@ TEST(CanopySpec, PresetsGrowRootedTreesWithLeaves) {
         EXPECT_EQ(g.methodStats.count("unsupported_leaf_fraction"), 1u);
         EXPECT_LT(g.methodStats.at("unsupported_leaf_fraction"), 0.9) << name;
         // Two colour classes in both.
-        bool second = false;
-        for (const Leaf& leaf : t.leaves) second |= leaf.colour == 1;
-        EXPECT_TRUE(second) << name;
+        std::set<int> classes;
+        for (const Leaf& leaf : t.leaves) classes.insert(leaf.colour);
+        EXPECT_EQ(classes.size(), 2u) << name;
     }
 }
 

@@ -25,8 +25,7 @@ constexpr double kClusterSpread = 60.0 * kPi / 180.0;  // cluster leaves from th
 
 bool isSpace(char c) { return std::isspace(static_cast<unsigned char>(c)) != 0; }
 
-// Rotates the turtle frame; the pair (a, b) turns by `angle` about their common normal
-// `axis` (right-handed), then the frame is re-orthonormalised against drift.
+// Rotates two vectors of the turtle frame by `angle` about the third, `axis` (right-handed).
 void turn(Vec3& a, Vec3& b, const Vec3& axis, double angle) {
     a = rotate(a, axis, angle);
     b = rotate(b, axis, angle);
@@ -564,7 +563,9 @@ void placeCanopyLeaves(Tree& tree, const CanopyOptions& o, const CanopySurfaceSa
     // (ϕ, θ) … and a random noise function"): positions ranked by a mix of a smooth noise over
     // (φ, θ) and white noise, then cut at the cumulative fractions — exact shares, in patches.
     const size_t classes = lo.colourFractions.size();
-    if (classes > 1 && lo.count > 0) {
+    if (classes == 1 && !lo.colourClasses.empty()) {
+        for (Leaf& leaf : tree.leaves) leaf.colour = lo.colourClasses[0];
+    } else if (classes > 1 && lo.count > 0) {
         Rng cr = rng.derive("colours");
         CanopyGrid patches;
         patches.width = 8;
@@ -592,7 +593,8 @@ void placeCanopyLeaves(Tree& tree, const CanopyOptions& o, const CanopySurfaceSa
             for (; r < end; ++r) {
                 const size_t first = size_t(rank[r]) * lo.cluster;
                 for (int j = 0; j < lo.cluster; ++j) {
-                    tree.leaves[first + j].colour = static_cast<uint8_t>(c);
+                    tree.leaves[first + j].colour =
+                        lo.colourClasses.empty() ? static_cast<uint8_t>(c) : lo.colourClasses[c];
                 }
             }
         }

@@ -146,7 +146,8 @@ struct CanopyLeafOptions {
     double twig = 0.06;       // twig length of a cluster, metres
     double sizeMin = 0.08, sizeMax = 0.14;  // card length, metres
     double aspect = 0.6;
-    std::vector<double> colourFractions{1.0};  // share of positions per colour class
+    std::vector<double> colourFractions{1.0};  // share of positions per colour entry
+    std::vector<uint8_t> colourClasses;        // Leaf::colour per entry (empty: 0, 1, 2, …)
     double colourPatchiness = 0.5;             // 0: classes at random; 1: in patches over (φ, θ)
     double supportDistance = 0.3;  // a leaf is supported by a branch node this close, metres
 };

@@ -32,7 +32,8 @@
 // | leaves.twig                  | metres      | 0.06        | twig length of a cluster |
 // | leaves.size                  | [lo, hi]    | [0.08,0.14] | card length, metres |
 // | leaves.aspect                | number      | 0.6         | card width / length |
-// | leaves.colours               | [fractions] | [1]         | share of positions per colour class 0, 1, …; sums to 1 |
+// | leaves.colours               | [fractions] | [1]         | share of positions per entry; sums to 1 |
+// | leaves.colour_classes        | [integers]  | [0, 1, …]   | Leaf::colour of each entry (e.g. the grammar palette: 0–3 greens, 5 red, 6 orange) |
 // | leaves.colour_patchiness     | [0, 1]      | 0.5         | 0: classes at random; 1: in smooth patches over the canopy |
 // | leaves.support_distance      | metres      | 0.3         | a leaf with a branch node this close is supported |
 // clang-format on
@@ -260,6 +261,21 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
         lo.sizeMax = hi0;
         lo.aspect = l->number("aspect", 0.6, Range::leftOpen(0, 10));
         lo.colourFractions = parseFractions(*l, "colours");
+        if (const toml::node* n = l->raw("colour_classes")) {
+            const toml::array* a = n->as_array();
+            const std::string expected =
+                "expected one class (an integer 0–254) per entry of "
+                "colours (" +
+                std::to_string(lo.colourFractions.size()) + ")";
+            if (!a || a->size() != lo.colourFractions.size()) l->fail("colour_classes", expected);
+            for (size_t i = 0; i < a->size(); ++i) {
+                const auto v = a->get(i)->value<int64_t>();
+                if (!a->get(i)->is_integer() || !v || *v < 0 || *v > 254) {
+                    l->fail("colour_classes", expected);
+                }
+                lo.colourClasses.push_back(static_cast<uint8_t>(*v));
+            }
+        }
         lo.colourPatchiness = l->number("colour_patchiness", 0.5, Range::closed(0, 1));
         lo.supportDistance = l->number("support_distance", 0.3, Range::positive());
         if (double(lo.count) * lo.cluster > 2e6) {
