@@ -14,6 +14,7 @@
 
 #include "species/methods/canopy.h"
 #include "species/species.h"
+#include "tests/test_support.h"
 
 namespace sylva {
 namespace {
@@ -549,23 +550,7 @@ TEST(CanopyGrow, SameSeedSameTreeOtherSeedOtherTree) {
 
 // --- spec reader ------------------------------------------------------------------------------
 
-class TempDir {
-  public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        path_ = fs::temp_directory_path() /
-                ("sylva_canopy_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-        fs::create_directories(path_);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path_, ec);
-    }
-    fs::path operator/(const std::string& name) const { return path_ / name; }
-
-  private:
-    fs::path path_;
-};
+using sylva::test::TempDir;
 
 const char* kSpec = R"(name = "c"
 method = "canopy"

@@ -53,32 +53,7 @@ std::vector<std::string> readLines(const fs::path& p) {
 }
 
 // Fresh per-test scratch directory (unique per process, test and instance), removed afterwards.
-class TempDir {
-  public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        std::string name = std::string(info->test_suite_name()) + "_" + info->name();
-        for (char& c : name) {
-            if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-        }
-        dir_ = fs::temp_directory_path() / ("sylva_cli_test_" + std::to_string(::getpid()) + "_" +
-                                            std::to_string(counter++) + "_" + name);
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(dir_, ec);
-    }
-    TempDir(const TempDir&) = delete;
-    TempDir& operator=(const TempDir&) = delete;
-    const fs::path& path() const { return dir_; }
-    fs::path operator/(const std::string& s) const { return dir_ / s; }
-
-  private:
-    fs::path dir_;
-};
+using sylva::test::TempDir;
 
 // --- running the CLI -------------------------------------------------------------------------
 

@@ -15,6 +15,7 @@
 
 #include "species/params.h"
 #include "species/volume_spec.h"
+#include "tests/test_support.h"
 #include "volumes/mask.h"
 
 namespace sylva {
@@ -22,24 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class TempDir {
-  public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        dir_ = fs::temp_directory_path() /
-               ("sylva_mask_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(dir_, ec);
-    }
-    fs::path operator/(const std::string& s) const { return dir_ / s; }
-
-  private:
-    fs::path dir_;
-};
+using sylva::test::TempDir;
 
 void writeImage(const fs::path& f, int w, int h, int channels, const std::vector<uint8_t>& px) {
     auto out = OIIO::ImageOutput::create(f.string());

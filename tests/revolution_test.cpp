@@ -23,6 +23,7 @@
 
 #include "species/params.h"
 #include "species/volume_spec.h"
+#include "tests/test_support.h"
 #include "volumes/poisson.h"
 
 namespace sylva {
@@ -33,24 +34,7 @@ namespace PMP = CGAL::Polygon_mesh_processing;
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Mesh = CGAL::Surface_mesh<Kernel::Point_3>;
 
-class TempDir {
-  public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        path_ = fs::temp_directory_path() / ("sylva_revolution_" + std::to_string(::getpid()) +
-                                             "_" + std::to_string(counter++));
-        fs::create_directories(path_);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path_, ec);
-    }
-    fs::path operator/(const std::string& name) const { return path_ / name; }
-    const fs::path& path() const { return path_; }
-
-  private:
-    fs::path path_;
-};
+using sylva::test::TempDir;
 
 void spit(const fs::path& p, const std::string& text) {
     std::ofstream out(p, std::ios::binary);

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "species/params.h"
+#include "tests/test_support.h"
 
 namespace sylva {
 namespace {
@@ -343,24 +344,7 @@ TEST(ScGuideSilhouette, DeterministicPerSeed) {
 
 // --- the [guides] reader ---------------------------------------------------------------------
 
-class TempDir {
-  public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        dir_ = fs::temp_directory_path() / ("sylva_guides_test_" + std::to_string(::getpid()) +
-                                            "_" + std::to_string(counter++));
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(dir_, ec);
-    }
-    fs::path operator/(const std::string& s) const { return dir_ / s; }
-
-  private:
-    fs::path dir_;
-};
+using sylva::test::TempDir;
 
 void writeMaskPng(const fs::path& f, const Mask& m) {
     auto out = OIIO::ImageOutput::create(f.string());

@@ -23,6 +23,7 @@
 #include "species/params.h"
 #include "species/species.h"
 #include "species/tree.h"
+#include "tests/test_support.h"
 #include "volumes/rng.h"
 #include "volumes/volume.h"
 
@@ -440,23 +441,7 @@ TEST(SpaceColonizationDeterminism, SameSeedSameTreeForAnyThreadCount) {
 // ------------------------------------------------------------------------------------------
 // The spec reader.
 
-class TempDir {
-  public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        path_ = fs::temp_directory_path() /
-                ("sylva_sc_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-        fs::create_directories(path_);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path_, ec);
-    }
-    fs::path operator/(const std::string& name) const { return path_ / name; }
-
-  private:
-    fs::path path_;
-};
+using sylva::test::TempDir;
 
 const char* kCrown = "[crown]\ntype = \"sphere\"\nradius = 1.5\nposition = [0, 1.5, 0]\n";
 

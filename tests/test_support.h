@@ -1,6 +1,12 @@
-// Small helpers shared by the tests: hand-built skeletons and whole-file reads.
+// Small helpers shared by the tests: hand-built skeletons, whole-file reads and scratch
+// directories.
 #pragma once
 
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cctype>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -30,5 +36,36 @@ inline std::string slurp(const std::filesystem::path& p) {
     s << in.rdbuf();
     return s.str();
 }
+
+// A fresh directory under the system temp directory, named after the process and the running
+// test, removed with everything in it when it goes out of scope.
+class TempDir {
+  public:
+    TempDir() {
+        static std::atomic<int> counter{0};
+        std::string name = "sylva";
+        if (const auto* info = ::testing::UnitTest::GetInstance()->current_test_info()) {
+            name += std::string("_") + info->test_suite_name() + "_" + info->name();
+        }
+        for (char& c : name) {
+            if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+        }
+        dir_ = std::filesystem::temp_directory_path() /
+               (name + "_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+        std::filesystem::remove_all(dir_);
+        std::filesystem::create_directories(dir_);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        std::filesystem::remove_all(dir_, ec);
+    }
+    TempDir(const TempDir&) = delete;
+    TempDir& operator=(const TempDir&) = delete;
+    const std::filesystem::path& path() const { return dir_; }
+    std::filesystem::path operator/(const std::string& s) const { return dir_ / s; }
+
+  private:
+    std::filesystem::path dir_;
+};
 
 }  // namespace sylva::test
