@@ -12,6 +12,7 @@
 #include "pipeline/atomic_file.h"
 #include "pipeline/build.h"
 #include "pipeline/dataset.h"
+#include "pipeline/dataset_stats.h"
 #include "pipeline/preview.h"
 #include "pipeline/skeleton_writers.h"
 #include "pipeline/species_list.h"
@@ -155,6 +156,21 @@ int runSpeciesList(std::string dir) {
     return 0;
 }
 
+// Summaries, species comparison and sweep table of a dataset directory (finished, partial or
+// sharded). Exit 2 when DIR is not a dataset directory or holds no complete record.
+int runStats(const std::string& dir, bool noTiming) {
+    DatasetStatsOptions o;
+    o.timing = !noTiming;
+    try {
+        DatasetStatsResult r = computeDatasetStats(dir, o);
+        std::printf("%s", r.summary.c_str());
+    } catch (const DatasetStatsInputError& e) {
+        std::fprintf(stderr, "sylva: stats: %s\n", e.what());
+        return 2;
+    }
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -200,6 +216,17 @@ int main(int argc, char** argv) {
                      "Voxel size, metres (default: each volume's largest extent / 128)")
         ->check(CLI::PositiveNumber);
 
+    std::string statsDir;
+    bool statsNoTiming = false;
+    auto* stats = app.add_subcommand(
+        "stats",
+        "Per-species metric summaries, species comparison (KS, Wasserstein) and sweep table of a "
+        "dataset -> DIR/stats/");
+    stats->add_option("DIR", statsDir, "Dataset directory (finished, partial or sharded)")
+        ->required();
+    stats->add_flag("--no-timing", statsNoTiming,
+                    "Leave out the timing.* metrics (machine-dependent), for reproducible files");
+
     std::string speciesDir;
     auto* species = app.add_subcommand("species", "The species library");
     species->require_subcommand(1);
@@ -228,6 +255,7 @@ int main(int argc, char** argv) {
         if (*validate) return runValidate(validatePath);
         if (*volume) return runVolume(volumePath, volumeOptions, volumeOut);
         if (*speciesList) return runSpeciesList(speciesDir);
+        if (*stats) return runStats(statsDir, statsNoTiming);
     } catch (const SpecError& e) {
         std::fprintf(stderr, "%s\n", e.what());
         return 2;

@@ -1,0 +1,284 @@
+// `sylva stats`: the statistics against hand-computed answers, and the dataset reader on a
+// finished, a sharded, a torn and a missing dataset.
+#include "pipeline/dataset_stats.h"
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "pipeline/build.h"
+#include "pipeline/dataset.h"
+#include "tests/test_support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace sylva;
+using sylva::test::slurp;
+using sylva::test::TempDir;
+
+const fs::path kData = fs::path(SYLVA_SOURCE_DIR) / "tests" / "data";
+
+void spit(const fs::path& p, const std::string& bytes) {
+    std::ofstream out(p, std::ios::binary);
+    out << bytes;
+}
+
+TEST(DatasetStats, QuantilesType7AndSummary) {
+    // 1..10: h = 9p; q05 → h 0.45 → 1.45, q25 → 2.25 → 3.25, q50 → 5.5, q75 → 6.75 → 7.75,
+    // q95 → 8.55 → 9.55. mean 5.5, sample variance Σ(x−5.5)²/9 = 82.5/9, cv = sd/5.5.
+    MetricSummary s = summarize({10, 3, 1, 2, 4, 5, 6, 7, 8, 9});
+    EXPECT_EQ(s.count, 10u);
+    EXPECT_DOUBLE_EQ(s.mean, 5.5);
+    ASSERT_TRUE(s.sd && s.cv);
+    EXPECT_NEAR(*s.sd, std::sqrt(82.5 / 9), 1e-12);
+    EXPECT_NEAR(*s.cv, std::sqrt(82.5 / 9) / 5.5, 1e-12);
+    EXPECT_NEAR(s.q05, 1.45, 1e-12);
+    EXPECT_NEAR(s.q25, 3.25, 1e-12);
+    EXPECT_NEAR(s.q50, 5.5, 1e-12);
+    EXPECT_NEAR(s.q75, 7.75, 1e-12);
+    EXPECT_NEAR(s.q95, 9.55, 1e-12);
+    // One value: every quantile is it; no sd, no cv.
+    MetricSummary one = summarize({4});
+    EXPECT_FALSE(one.sd);
+    EXPECT_FALSE(one.cv);
+    EXPECT_EQ(one.q05, 4);
+    EXPECT_EQ(one.q95, 4);
+    // Mean 0: no cv.
+    EXPECT_FALSE(summarize({-1, 1}).cv);
+}
+
+TEST(DatasetStats, KsAndWassersteinByHand) {
+    // a = {1,2,3}, b = {2,3,4,5}. F_a − F_b on [1,2): 1/3 − 0; [2,3): 2/3 − 1/4 = 5/12;
+    // [3,4): 1 − 1/2 = 1/2; [4,5): 1 − 3/4 = 1/4; then 0. D = 1/2.
+    // W1 = 1/3 + 5/12 + 1/2 + 1/4 = 18/12 = 1.5 (= mean b − mean a, as F_a ≥ F_b everywhere).
+    // Exact p: of the C(7,3) = 35 equally likely orders of 3 + 4 distinct values, 23 have
+    // D ≥ 1/2 (counted by enumerating all 35), so p = 23/35.
+    const std::vector<double> a{1, 2, 3}, b{2, 3, 4, 5};
+    KsResult ks = ksTwoSample(a, b);
+    EXPECT_DOUBLE_EQ(ks.d, 0.5);
+    EXPECT_NEAR(ks.p, 23.0 / 35.0, 1e-12);
+    EXPECT_DOUBLE_EQ(wasserstein1(a, b), 1.5);
+    EXPECT_DOUBLE_EQ(wasserstein1(b, a), 1.5);
+    KsResult ba = ksTwoSample(b, a);
+    EXPECT_DOUBLE_EQ(ba.d, 0.5);
+    EXPECT_NEAR(ba.p, 23.0 / 35.0, 1e-12);
+
+    // Crossing CDFs: {0,10} vs {5}: |F| = 1/2 on [0,5) and on [5,10): W1 = 2.5 + 2.5 = 5, D = 1/2.
+    // p: of the 3 orders of 2 + 1 values, the single value first or last gives D = 1, the middle
+    // D = 1/2, so P(D ≥ 1/2) = 1.
+    EXPECT_DOUBLE_EQ(wasserstein1({0, 10}, {5}), 5.0);
+    EXPECT_DOUBLE_EQ(ksTwoSample({0, 10}, {5}).d, 0.5);
+    EXPECT_NEAR(ksTwoSample({0, 10}, {5}).p, 1.0, 1e-12);
+    // Disjoint: {1,2} vs {3,4}: D = 1, exact p = 2/C(4,2) = 1/3; W1 = 2.
+    EXPECT_DOUBLE_EQ(ksTwoSample({1, 2}, {3, 4}).d, 1.0);
+    EXPECT_NEAR(ksTwoSample({1, 2}, {3, 4}).p, 1.0 / 3.0, 1e-12);
+    EXPECT_DOUBLE_EQ(wasserstein1({1, 2}, {3, 4}), 2.0);
+    // Identical samples: D = 0, p = 1, W1 = 0.
+    EXPECT_EQ(ksTwoSample({1, 2, 2}, {1, 2, 2}).d, 0.0);
+    EXPECT_EQ(ksTwoSample({1, 2, 2}, {1, 2, 2}).p, 1.0);
+    EXPECT_EQ(wasserstein1({1, 2, 2}, {1, 2, 2}), 0.0);
+
+    // Asymptotic branch (n_a·n_b = 40000 > 10000): a = 0..199, b = 20..219 → D = 20/200 = 0.1,
+    // nₑ = 100, λ = (10 + 0.12 + 0.011)·0.1 = 1.0131, Q(λ) = 2 Σ (−1)^(j−1) e^(−2j²λ²)
+    // = 0.256221185 (summed in Python). W1 = 20 (a shift).
+    std::vector<double> big, shifted;
+    for (int i = 0; i < 200; ++i) {
+        big.push_back(i);
+        shifted.push_back(i + 20);
+    }
+    KsResult as = ksTwoSample(big, shifted);
+    EXPECT_NEAR(as.d, 0.1, 1e-12);
+    EXPECT_NEAR(as.p, 0.25622118507, 1e-9);
+    EXPECT_NEAR(wasserstein1(big, shifted), 20.0, 1e-9);
+}
+
+// A small dataset: the two tiny test species, a 2-point sweep, 4 instances each → 16 trees,
+// skeletons and two 32 × 24 views (so silhouette_coverage is a per-view array).
+std::string writeDatasetSpec(const fs::path& dir) {
+    fs::path spec = dir / "ds.toml";
+    spit(spec,
+         "name = \"stats-test\"\nseed = 11\n"
+         "[[species]]\nfile = \"" +
+             (kData / "tiny.toml").string() +
+             "\"\ncount = 4\n"
+             "[[species]]\nfile = \"" +
+             (kData / "tiny_var.toml").string() +
+             "\"\ncount = 4\n"
+             "[[sweep]]\npath = \"levels[1].endpoints\"\nvalues = [2, 3]\n"
+             "[outputs]\nskeleton = [\"ply\"]\nspecies_sheet = 0\n"
+             "[views]\ncount = 2\nresolution = [32, 24]\ndepth = false\nlabels = false\n"
+             "contact_sheet = false\n");
+    return spec.string();
+}
+
+void build(const std::string& spec, const fs::path& out, int shard = 0, int shards = 1) {
+    BuildOptions o;
+    o.out = out;
+    o.threads = 2;
+    o.shardIndex = shard;
+    o.shardCount = shards;
+    o.progress = false;
+    BuildSummary s = buildDataset(loadDataset(spec), o);
+    ASSERT_EQ(s.failed, 0);
+}
+
+TEST(DatasetStats, ShardsGiveTheSameFilesAsTheWholeBuild) {
+    TempDir t;
+    std::string spec = writeDatasetSpec(t.path());
+    const fs::path whole = t.path() / "whole", sharded = t.path() / "sharded";
+    build(spec, whole);
+    build(spec, sharded, 0, 2);
+    build(spec, sharded, 1, 2);
+    ASSERT_FALSE(fs::exists(sharded / "manifest.jsonl"));
+
+    // Timings differ between two builds, so compare without them: byte for byte.
+    DatasetStatsOptions noTiming;
+    noTiming.timing = false;
+    DatasetStatsResult w = computeDatasetStats(whole, noTiming);
+    fs::path wholeCopy = t.path() / "whole-stats";
+    fs::copy(whole / "stats", wholeCopy);
+    DatasetStatsResult s = computeDatasetStats(sharded, noTiming);
+    EXPECT_EQ(w.instances, 16u);
+    EXPECT_EQ(s.instances, 16u);
+    EXPECT_EQ(s.manifests.size(), 2u);
+    for (const char* f : {"species.csv", "species.json", "compare.csv", "sweep.csv"}) {
+        EXPECT_EQ(slurp(wholeCopy / f), slurp(sharded / "stats" / f)) << f;
+    }
+    // With timings: the shards and their concatenation (a merged manifest) agree byte for byte,
+    // and a directory holding both counts each instance once.
+    computeDatasetStats(sharded);
+    fs::path cat = t.path() / "cat";
+    fs::create_directories(cat);
+    spit(cat / "manifest.jsonl", slurp(sharded / "manifest.shard-0-of-2.jsonl") +
+                                     slurp(sharded / "manifest.shard-1-of-2.jsonl"));
+    computeDatasetStats(cat);
+    fs::copy_file(cat / "manifest.jsonl", sharded / "manifest.jsonl");
+    DatasetStatsResult both = computeDatasetStats(sharded);
+    EXPECT_EQ(both.instances, 16u);
+    for (const char* f : {"species.csv", "species.json", "compare.csv", "sweep.csv"}) {
+        EXPECT_EQ(slurp(cat / "stats" / f), slurp(sharded / "stats" / f)) << f;
+    }
+
+    // Content: both species, per-view elements and their mean, timings, sweep values in order.
+    std::string csv = slurp(cat / "stats" / "species.csv");
+    EXPECT_EQ(csv.rfind("species,metric,count,mean,sd,cv,q05,q25,q50,q75,q95\n", 0), 0u);
+    EXPECT_NE(csv.find("\ntiny,height_m,8,"), std::string::npos);
+    EXPECT_NE(csv.find("\ntiny-var,height_m,8,"), std::string::npos);
+    EXPECT_NE(csv.find("\ntiny,silhouette_coverage[1],8,"), std::string::npos);
+    EXPECT_NE(csv.find("\ntiny,silhouette_coverage_mean,8,"), std::string::npos);
+    EXPECT_NE(csv.find("\ntiny,timing.grow_ms,8,"), std::string::npos);
+    std::string cmp = slurp(cat / "stats" / "compare.csv");
+    EXPECT_EQ(cmp.rfind("species_a,species_b,metric,n_a,n_b,ks_d,ks_p,wasserstein,rank\n", 0), 0u);
+    EXPECT_NE(cmp.find("\ntiny,tiny-var,height_m,8,8,"), std::string::npos);
+    EXPECT_NE(cmp.find(",1\n"), std::string::npos);
+    std::string sweep = slurp(cat / "stats" / "sweep.csv");
+    size_t v2 = sweep.find("\ntiny,levels[1].endpoints,2,height_m,4,");
+    size_t v3 = sweep.find("\ntiny,levels[1].endpoints,3,height_m,4,");
+    EXPECT_NE(v2, std::string::npos);
+    EXPECT_NE(v3, std::string::npos);
+    EXPECT_LT(v2, v3);
+    EXPECT_NE(both.summary.find("tiny vs tiny-var:"), std::string::npos);
+}
+
+TEST(DatasetStats, SpeciesCsvMatchesHandComputedManifest) {
+    // Two species with known values; a torn last line (no '\n') is ignored, not an error, and
+    // the manifest file is left as it is.
+    TempDir t;
+    std::string m =
+        R"({"id":"a-0","index":0,"species":"a","stats":{"h":1,"v":[1,3]},"sweep":{"p":"10"}})"
+        "\n"
+        R"({"id":"a-1","index":1,"species":"a","stats":{"h":2,"v":[2,4]},"sweep":{"p":"9"}})"
+        "\n"
+        R"({"id":"a-2","index":2,"species":"a","stats":{"h":3,"v":[3,5]},"sweep":{"p":"10"}})"
+        "\n"
+        R"({"id":"b-0","index":3,"species":"b","stats":{"h":2,"v":[0,0]}})"
+        "\n"
+        R"({"id":"b-1","index":4,"species":"b","stats":{"h":3,"v":[0,0]}})"
+        "\n"
+        R"({"id":"b-2","index":5,"species":"b","stats":{"h":4,"v":[0,0]}})"
+        "\n"
+        R"({"id":"b-3","index":6,"species":"b","stats":{"h":5)";
+    spit(t.path() / "manifest.jsonl", m);
+    DatasetStatsResult r = computeDatasetStats(t.path());
+    EXPECT_EQ(slurp(t.path() / "manifest.jsonl"), m);
+    EXPECT_EQ(r.ignoredPartialLines, 1u);
+    EXPECT_EQ(r.instances, 6u);
+    EXPECT_EQ(slurp(t.path() / "stats" / "species.csv"),
+              "species,metric,count,mean,sd,cv,q05,q25,q50,q75,q95\n"
+              "a,h,3,2,1,0.5,1.1,1.5,2,2.5,2.9\n"
+              "a,v[0],3,2,1,0.5,1.1,1.5,2,2.5,2.9\n"
+              "a,v[1],3,4,1,0.25,3.1,3.5,4,4.5,4.9\n"
+              "a,v_mean,3,3,1,0.3333333333,2.1,2.5,3,3.5,3.9\n"
+              "b,h,3,3,1,0.3333333333,2.1,2.5,3,3.5,3.9\n"
+              "b,v[0],3,0,0,,0,0,0,0,0\n"
+              "b,v[1],3,0,0,,0,0,0,0,0\n"
+              "b,v_mean,3,0,0,,0,0,0,0,0\n");
+    // h: {1,2,3} vs {2,3,4}: F_a − F_b = 1/3 on [1,4), so D = 1/3 and W1 = 1; p = 1, as every
+    // order of 3 + 3 values already has |F_a − F_b| = 1/3 after its first value.
+    // v[0], v[1], v_mean: every a above every b (or equal): D = 1, p = 2/C(6,3) = 0.1.
+    std::string cmp = slurp(t.path() / "stats" / "compare.csv");
+    EXPECT_NE(cmp.find("a,b,h,3,3,0.3333333333,1,1,4\n"), std::string::npos) << cmp;
+    // Ranking by D, ties by W1 / pooled sd: v[1] (W1 4, sd 0.71) > v_mean (3) > v[0] (2).
+    EXPECT_NE(cmp.find("a,b,v[1],3,3,1,0.1,4,1\n"), std::string::npos) << cmp;
+    EXPECT_NE(cmp.find("a,b,v_mean,3,3,1,0.1,3,2\n"), std::string::npos) << cmp;
+    EXPECT_NE(cmp.find("a,b,v[0],3,3,1,0.1,2,3\n"), std::string::npos) << cmp;
+    // Sweep values in numeric order (9 before 10), only for the species that has the sweep.
+    EXPECT_EQ(slurp(t.path() / "stats" / "sweep.csv"),
+              "species,path,value,metric,count,mean,sd,q25,q75\n"
+              "a,p,9,h,1,2,,2,2\n"
+              "a,p,9,v[0],1,2,,2,2\n"
+              "a,p,9,v[1],1,4,,4,4\n"
+              "a,p,9,v_mean,1,3,,3,3\n"
+              "a,p,10,h,2,2,1.414213562,1.5,2.5\n"
+              "a,p,10,v[0],2,2,1.414213562,1.5,2.5\n"
+              "a,p,10,v[1],2,4,1.414213562,3.5,4.5\n"
+              "a,p,10,v_mean,2,3,1.414213562,2.5,3.5\n");
+}
+
+int runCli(const std::string& args, std::string& err) {
+    TempDir t;
+    fs::path errFile = t.path() / "err";
+    std::string cmd = std::string(SYLVA_EXE) + " " + args + " >/dev/null 2>" + errFile.string();
+    int status = std::system(cmd.c_str());
+    err = slurp(errFile);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(DatasetStats, MissingOrEmptyDirectoryIsBadInput) {
+    TempDir t;
+    std::string err;
+    // Through the CLI: exit 2 and one line.
+    EXPECT_EQ(runCli("stats " + (t.path() / "nope").string(), err), 2);
+    EXPECT_NE(err.find("not a directory"), std::string::npos) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    EXPECT_EQ(runCli("stats " + t.path().string(), err), 2);
+    EXPECT_NE(err.find("no manifest.jsonl"), std::string::npos) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    // The other bad inputs, through the library (the CLI maps this exception to exit 2).
+    auto message = [&] {
+        try {
+            computeDatasetStats(t.path());
+        } catch (const DatasetStatsInputError& e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    // A manifest with only a torn line: no complete record yet.
+    spit(t.path() / "manifest.jsonl", R"({"id":"a-0","ind)");
+    EXPECT_NE(message().find("no complete record"), std::string::npos) << message();
+    // A malformed line that is not the last one.
+    spit(t.path() / "manifest.jsonl", "{oops\n{\"id\":\"a\",\"index\":0,\"species\":\"a\"}\n");
+    EXPECT_NE(message().find("manifest.jsonl:1: not a manifest record"), std::string::npos)
+        << message();
+    EXPECT_FALSE(fs::exists(t.path() / "stats"));
+}
+
+}  // namespace
