@@ -13,6 +13,7 @@
 #include "pipeline/build.h"
 #include "pipeline/dataset.h"
 #include "pipeline/dataset_stats.h"
+#include "pipeline/merge.h"
 #include "pipeline/preview.h"
 #include "pipeline/skeleton_writers.h"
 #include "pipeline/species_list.h"
@@ -49,6 +50,21 @@ int runBuild(const std::string& specPath, std::string out, int threads, const st
                  static_cast<long long>(s.skipped), static_cast<long long>(s.failed),
                  static_cast<long long>(s.total), s.wallSeconds, o.out.string().c_str());
     return s.failed ? 1 : 0;
+}
+
+int runMerge(const MergeOptions& o) {
+    try {
+        MergeSummary s = mergeShards(o);
+        std::fprintf(
+            stderr,
+            "sylva: merged %d shards, %lld instances, %lld species sheets in %.2f s -> %s\n",
+            s.shardCount, static_cast<long long>(s.instances), static_cast<long long>(s.sheets),
+            s.wallSeconds, o.out.string().c_str());
+    } catch (const MergeError& e) {
+        std::fprintf(stderr, "sylva: merge: %s\n", e.what());
+        return 2;
+    }
+    return 0;
 }
 
 int runGrow(const std::string& speciesPath, uint64_t seed, std::string out, int threads) {
@@ -239,6 +255,17 @@ int main(int argc, char** argv) {
         "Directory searched recursively for *.toml (default: the species/ directory above the "
         "executable or the current directory)");
 
+    MergeOptions mergeOptions;
+    auto* merge = app.add_subcommand(
+        "merge", "Merge the --out directories of a sharded build into OUT, as one unsharded build");
+    merge->add_option("OUT", mergeOptions.out, "Output directory (new, or empty)")->required();
+    merge
+        ->add_option("SHARD_DIRS", mergeOptions.shards,
+                     "Directories holding dataset.shard-I-of-N.json and its manifest and trees")
+        ->required();
+    merge->add_flag("--move", mergeOptions.move,
+                    "Move the instance directories out of the shards instead of copying them");
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -253,6 +280,7 @@ int main(int argc, char** argv) {
         if (*build) return runBuild(spec, out, threads, shard);
         if (*grow) return runGrow(speciesPath, seed, growOut, growThreads);
         if (*validate) return runValidate(validatePath);
+        if (*merge) return runMerge(mergeOptions);
         if (*volume) return runVolume(volumePath, volumeOptions, volumeOut);
         if (*speciesList) return runSpeciesList(speciesDir);
         if (*stats) return runStats(statsDir, statsNoTiming);

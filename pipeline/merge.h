@@ -1,0 +1,45 @@
+// `sylva merge OUT SHARD_DIR…`: joins the outputs of `sylva build --shard I/N` (run on several
+// machines, e.g. a Slurm job array or a Kubernetes Indexed Job) into one directory that is the
+// single-machine build: the same trees/ files, manifest.jsonl (the shard manifests' lines,
+// verbatim, in instance order), contact/<species>.png regenerated from the merged instances as
+// buildDataset does, and dataset.json as an unsharded build writes it. Only the timing fields
+// of dataset.json (threads, wall_seconds, trees_per_second) and the per-instance `timing` of
+// the manifest lines differ from another build, as they differ between any two builds.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace sylva {
+
+// Bad input to merge (a shard missing, twice, from another spec, incomplete): nothing written.
+class MergeError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+struct MergeOptions {
+    std::filesystem::path out;                  // must not exist, or be an empty directory
+    std::vector<std::filesystem::path> shards;  // directories holding dataset.shard-I-of-N.json
+    bool move = false;                          // rename instance directories out of the shards
+                                                // instead of copying them (same file system)
+};
+
+struct MergeSummary {
+    int shardCount = 0;
+    int64_t instances = 0;
+    int64_t sheets = 0;  // species contact sheets written
+    double wallSeconds = 0;
+};
+
+// Checks every shard first (same fingerprint, versions and shard count, each shard index once,
+// status complete, every instance index 0…n-1 recorded exactly once and its directory present)
+// and throws MergeError with one line before anything is written. The result is assembled in a
+// temporary sibling of `out` and renamed onto it at the end. Other failures (I/O) throw
+// std::runtime_error.
+MergeSummary mergeShards(const MergeOptions& options);
+
+}  // namespace sylva
