@@ -359,6 +359,7 @@ DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOp
     for (const std::string& sp : res.species) {
         summary << "  " << sp << ": " << res.counts[sp] << " instances\n";
     }
+    size_t pairs = 0;
     for (size_t ia = 0; ia < res.species.size(); ++ia) {
         for (size_t ib = ia + 1; ib < res.species.size(); ++ib) {
             const std::string &sa = res.species[ia], &sb = res.species[ib];
@@ -390,7 +391,9 @@ DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOp
                 if (x.wNorm != y.wNorm) return x.wNorm > y.wNorm;
                 return x.metric < y.metric;
             });
-            summary << "  " << sa << " vs " << sb << ":";
+            const bool listed = pairs++ < options.maxPairsListed;
+            std::ostringstream line;
+            line << "  " << sa << " vs " << sb << ":";
             for (size_t r = 0; r < rows.size(); ++r) {
                 const Row& x = rows[r];
                 compareCsv += csvField(sa) + "," + csvField(sb) + "," + csvField(x.metric) + "," +
@@ -401,12 +404,15 @@ DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOp
                     char buf[160];
                     std::snprintf(buf, sizeof buf, "%s %s (D %.2f, p %.2g)", r ? "," : "",
                                   x.metric.c_str(), x.ks.d, x.ks.p);
-                    summary << buf;
+                    line << buf;
                 }
             }
-            if (rows.empty()) summary << " no metric in common";
-            summary << "\n";
+            if (rows.empty()) line << " no metric in common";
+            if (listed) summary << line.str() << "\n";
         }
+    }
+    if (pairs > options.maxPairsListed) {
+        summary << "  … and " << pairs - options.maxPairsListed << " more pairs in compare.csv\n";
     }
 
     std::string sweepCsv = "species,path,value,metric,count,mean,sd,q25,q75\n";

@@ -57,6 +57,8 @@ struct DatasetStatsOptions {
     bool timing = true;
     // Pairs listed in the printed summary use this many top-ranked metrics.
     int topMetrics = 3;
+    // The printed summary lists at most this many pairs (compare.csv has them all).
+    size_t maxPairsListed = 20;
 };
 
 struct DatasetStatsResult {

@@ -230,6 +230,13 @@ TEST(DatasetStats, SpeciesCsvMatchesHandComputedManifest) {
     EXPECT_NE(cmp.find("a,b,v[1],3,3,1,0.1,4,1\n"), std::string::npos) << cmp;
     EXPECT_NE(cmp.find("a,b,v_mean,3,3,1,0.1,3,2\n"), std::string::npos) << cmp;
     EXPECT_NE(cmp.find("a,b,v[0],3,3,1,0.1,2,3\n"), std::string::npos) << cmp;
+    EXPECT_NE(r.summary.find("  a vs b: v[1] (D 1.00, p 0.1), v_mean"), std::string::npos)
+        << r.summary;
+    DatasetStatsOptions capped;
+    capped.maxPairsListed = 0;
+    std::string s = computeDatasetStats(t.path(), capped).summary;
+    EXPECT_EQ(s.find("a vs b"), std::string::npos) << s;
+    EXPECT_NE(s.find("and 1 more pairs in compare.csv"), std::string::npos) << s;
     // Sweep values in numeric order (9 before 10), only for the species that has the sweep.
     EXPECT_EQ(slurp(t.path() / "stats" / "sweep.csv"),
               "species,path,value,metric,count,mean,sd,q25,q75\n"
