@@ -15,6 +15,7 @@
 #include "pipeline/dataset_stats.h"
 #include "pipeline/merge.h"
 #include "pipeline/preview.h"
+#include "pipeline/report.h"
 #include "pipeline/skeleton_writers.h"
 #include "pipeline/species_list.h"
 #include "pipeline/stats_json.h"
@@ -187,6 +188,21 @@ int runStats(const std::string& dir, bool noTiming) {
     return 0;
 }
 
+// Self-contained HTML report of a dataset directory -> DIR/report/index.html. Exit 2 when DIR
+// is not a dataset directory or its manifest holds no record.
+int runReport(const std::string& dir) {
+    if (!fs::exists(fs::path(dir) / "dataset.json")) {
+        std::fprintf(stderr, "sylva: report: %s: no dataset.json (not a dataset directory)\n",
+                     dir.c_str());
+        return 2;
+    }
+    ReportResult r = writeReport(dir);
+    std::printf("%s: %zu instances, %zu species, %zu metrics, %zu plots (%zu sweep) -> %s\n",
+                dir.c_str(), r.instances, r.species, r.metrics, r.plots, r.sweepPlots,
+                r.index.string().c_str());
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -255,6 +271,11 @@ int main(int argc, char** argv) {
         "Directory searched recursively for *.toml (default: the species/ directory above the "
         "executable or the current directory)");
 
+    std::string reportDir;
+    auto* report = app.add_subcommand(
+        "report", "Self-contained HTML report (plots, tables, contact sheets) -> DIR/report/");
+    report->add_option("DIR", reportDir, "Dataset directory")->required();
+
     MergeOptions mergeOptions;
     auto* merge = app.add_subcommand(
         "merge", "Merge the --out directories of a sharded build into OUT, as one unsharded build");
@@ -283,6 +304,7 @@ int main(int argc, char** argv) {
         if (*merge) return runMerge(mergeOptions);
         if (*volume) return runVolume(volumePath, volumeOptions, volumeOut);
         if (*speciesList) return runSpeciesList(speciesDir);
+        if (*report) return runReport(reportDir);
         if (*stats) return runStats(statsDir, statsNoTiming);
     } catch (const SpecError& e) {
         std::fprintf(stderr, "%s\n", e.what());

@@ -1,0 +1,175 @@
+// `sylva report`: the statistics helpers on known answers, and the HTML of a hand-written
+// dataset (dataset.json + manifest.jsonl + one contact sheet) whose comparison and sweep
+// results are known: structure, plot count, highlighted separating metric, link resolution.
+#include "pipeline/report.h"
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+
+#include "tests/test_support.h"
+
+namespace fs = std::filesystem;
+using namespace sylva;
+using nlohmann::json;
+
+namespace {
+
+size_t countOf(const std::string& s, const std::string& what) {
+    size_t n = 0;
+    for (size_t p = s.find(what); p != std::string::npos; p = s.find(what, p + 1)) ++n;
+    return n;
+}
+
+void writeText(const fs::path& p, const std::string& s) {
+    fs::create_directories(p.parent_path());
+    std::ofstream(p, std::ios::binary) << s;
+}
+
+// Two species of 8 instances. height_m: alpha 1..8, beta 11..18 (fully separated: KS D = 1,
+// W1 = 10 m). crown_width_m: 1..8 in both (D = 0). root_depth_m: 0 everywhere (constant).
+// silhouette_coverage: two views. nodes: 100 + 10·x in both (x = 1, 2 alternating). Sweep (when
+// `sweep`): alpha instances alternate levels[0].x = 1, 2; beta has no sweep key.
+void writeDataset(const fs::path& dir, bool sweep) {
+    json info = {{"name", "synthetic <set>"},
+                 {"seed", 11},
+                 {"description", "report test"},
+                 {"counts", {{"built", 16}, {"failed", 0}}},
+                 {"versions", {{"sylva", "0.1.0"}}},
+                 {"wall_seconds", 2.5},
+                 {"trees_per_second", 6.4},
+                 {"species",
+                  {{{"name", "alpha"}, {"method", "m"}, {"count", 8}},
+                   {{"name", "beta"}, {"method", "m"}, {"count", 8}}}}};
+    writeText(dir / "dataset.json", info.dump(2));
+    std::string lines;
+    for (int i = 0; i < 16; ++i) {
+        bool alpha = i < 8;
+        int k = i % 8 + 1;
+        int x = k % 2 ? 1 : 2;
+        json r = {{"id", (alpha ? "alpha-" : "beta-") + std::to_string(k)},
+                  {"index", i},
+                  {"species", alpha ? "alpha" : "beta"},
+                  {"stats",
+                   {{"height_m", alpha ? k : 10 + k},
+                    {"crown_width_m", k},
+                    {"root_depth_m", 0.0},
+                    {"silhouette_coverage", {0.1 * k, 0.1 * k + 0.2}},
+                    {"nodes", 100 + 10 * x}}},
+                  {"timing", {{"grow_ms", 1.0 + k}}}};
+        if (sweep && alpha) r["sweep"] = {{"levels[0].x", std::to_string(x)}};
+        lines += r.dump() + "\n";
+    }
+    lines += "{\"id\": \"torn";  // a torn last line, as a killed build leaves
+    writeText(dir / "manifest.jsonl", lines);
+    writeText(dir / "contact" / "alpha.png", "not really a png");
+}
+
+std::string slurpFile(const fs::path& p) { return sylva::test::slurp(p); }
+
+}  // namespace
+
+TEST(ReportHelpers, QuantilesKsWassersteinTicksUnits) {
+    EXPECT_DOUBLE_EQ(quantileSorted({1, 2, 3, 4}, 0.25), 1.75);  // numpy's default (type 7)
+    EXPECT_DOUBLE_EQ(quantileSorted({1, 2, 3, 4}, 0.5), 2.5);
+    EXPECT_DOUBLE_EQ(quantileSorted({5}, 0.9), 5.0);
+    EXPECT_DOUBLE_EQ(ksStatistic({1, 2, 3}, {3, 2, 1}), 0.0);
+    EXPECT_DOUBLE_EQ(ksStatistic({1, 2}, {3, 4}), 1.0);
+    EXPECT_DOUBLE_EQ(ksStatistic({1, 2, 3, 4}, {3, 4, 5, 6}), 0.5);
+    EXPECT_DOUBLE_EQ(ksStatistic({1, 1, 2}, {1, 2, 2}), 1.0 / 3.0);  // ties step together
+    EXPECT_NEAR(wasserstein1({1, 2, 3}, {4, 5, 6}), 3.0, 1e-12);     // a shift by 3
+    EXPECT_NEAR(wasserstein1({0, 0, 1, 1}, {0, 1}), 0.0, 1e-12);
+    EXPECT_NEAR(wasserstein1({0}, {0, 2}), 1.0, 1e-12);
+    std::vector<double> t = niceTicks(0.13, 0.87);
+    ASSERT_EQ(t.size(), 6u);
+    for (size_t i = 0; i < t.size(); ++i) EXPECT_NEAR(t[i], 0.2 * static_cast<double>(i), 1e-12);
+    t = niceTicks(12, 12);  // a constant still gets an axis around it
+    EXPECT_LT(t.front(), 12);
+    EXPECT_GT(t.back(), 12);
+    EXPECT_EQ(metricUnit("height_m"), "m");
+    EXPECT_EQ(metricUnit("crown_hull_volume_m3"), "m³");
+    EXPECT_EQ(metricUnit("timing.grow_ms"), "ms");
+    EXPECT_EQ(metricUnit("nodes"), "");
+    EXPECT_EQ(relativeLinks("<a href=\"../x.json\"><img src=\"a/b.png\"><a href=\"#top\">"
+                            "<a href=\"https://e.org/\">"),
+              (std::vector<std::string>{"../x.json", "a/b.png"}));
+}
+
+TEST(Report, HtmlOfAKnownDataset) {
+    sylva::test::TempDir tmp;
+    writeDataset(tmp.path(), true);
+    ReportResult r = writeReport(tmp.path());
+    EXPECT_EQ(r.index, tmp.path() / "report" / "index.html");
+    EXPECT_EQ(r.instances, 16u);  // the torn line is skipped
+    EXPECT_EQ(r.species, 2u);
+    // height_m, crown_width_m, silhouette_coverage, nodes; root_depth_m is constant.
+    EXPECT_EQ(r.metrics, 4u);
+    std::string html = slurpFile(r.index);
+    ASSERT_FALSE(html.empty());
+    EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
+    EXPECT_NE(html.find("</html>"), std::string::npos);
+    EXPECT_NE(html.find("synthetic &lt;set&gt;"), std::string::npos);  // escaped
+    EXPECT_EQ(html.find("<script"), std::string::npos);                // no scripts
+    EXPECT_EQ(countOf(html, "<svg"), r.plots);
+    EXPECT_EQ(countOf(html, "</svg>"), r.plots);
+    // 4 metric plots + 1 timing plot + sweep plots (alpha over levels[0].x: only nodes varies
+    // between the sweep points... and the metrics that differ by chance between 1 and 2).
+    EXPECT_GE(r.sweepPlots, 1u);
+    EXPECT_LE(r.sweepPlots, 4u);
+    EXPECT_EQ(r.plots, 5u + r.sweepPlots);
+    EXPECT_NE(html.find("id=\"sweeps\""), std::string::npos);
+    EXPECT_NE(html.find("alpha · levels[0].x"), std::string::npos);
+    EXPECT_NE(html.find("alpha: nodes"), std::string::npos);  // nodes = 100 + 10 x: all variance
+    EXPECT_NE(html.find("height_m [m]"), std::string::npos);  // axis title with unit
+    EXPECT_NE(html.find("silhouette_coverage (mean over views)"), std::string::npos);
+    EXPECT_NE(html.find("root_depth_m = 0"), std::string::npos);
+    EXPECT_NE(html.find("6.4 trees/s"), std::string::npos);
+    EXPECT_NE(html.find("2.5 s"), std::string::npos);
+    // The strongest separating metric of alpha–beta is height_m (D = 1, W1 = 10 m).
+    EXPECT_NE(html.find("<tr class=\"top\"><td class=\"l\">alpha</td><td class=\"l\">beta</td>"
+                        "<td class=\"l\">height_m</td><td>4.5</td><td>14.5</td><td "
+                        "class=\"strong\">1</td>"),
+              std::string::npos);
+    EXPECT_NE(html.find("<td>10 m</td>"), std::string::npos);
+    // Contact sheets: alpha's linked, beta's (missing) not.
+    EXPECT_NE(html.find("src=\"../contact/alpha.png\""), std::string::npos);
+    EXPECT_EQ(html.find("beta.png"), std::string::npos);
+    // Every relative link resolves from report/.
+    std::vector<std::string> links = relativeLinks(html);
+    EXPECT_GE(links.size(), 3u);  // dataset.json, manifest.jsonl, the contact sheet
+    for (const auto& l : links) EXPECT_TRUE(fs::exists(r.index.parent_path() / l)) << l;
+    // The stats in the SVG titles: alpha height_m median 4.5, q25 2.75.
+    EXPECT_NE(html.find("alpha: n 8, mean 4.5, sd 2.449, q05 1.35, q25 2.75, median 4.5"),
+              std::string::npos);
+}
+
+TEST(Report, NoSweepSectionWithoutSweepsAndErrors) {
+    sylva::test::TempDir tmp;
+    writeDataset(tmp.path(), false);
+    ReportResult r = writeReport(tmp.path());
+    EXPECT_EQ(r.sweepPlots, 0u);
+    EXPECT_EQ(r.plots, 5u);
+    std::string html = slurpFile(r.index);
+    EXPECT_EQ(html.find("id=\"sweeps\""), std::string::npos);
+    fs::remove(tmp.path() / "manifest.jsonl");
+    EXPECT_THROW(writeReport(tmp.path()), std::runtime_error);  // no record
+    EXPECT_THROW(writeReport(tmp.path() / "nowhere"), std::runtime_error);
+}
+
+TEST(Report, CliExitCodes) {
+    sylva::test::TempDir tmp;
+    writeDataset(tmp.path(), true);
+    fs::remove_all(tmp.path() / "report");
+    std::string exe = SYLVA_EXE;
+    std::string ok = exe + " report " + tmp.path().string() + " > /dev/null 2>&1";
+    int rc = std::system(ok.c_str());
+    EXPECT_EQ(WEXITSTATUS(rc), 0);
+    EXPECT_TRUE(fs::exists(tmp.path() / "report" / "index.html"));
+    std::string bad = exe + " report " + (tmp.path() / "nowhere").string() + " > /dev/null 2>&1";
+    rc = std::system(bad.c_str());
+    EXPECT_EQ(WEXITSTATUS(rc), 2);
+}
