@@ -70,7 +70,10 @@ TreeStats computeStats(const Tree& tree) {
     const auto& nodes = tree.nodes;
     const int32_t n = static_cast<int32_t>(nodes.size());
     s.nodes = n;
-    if (n == 0) return s;
+    if (n == 0) {
+        addShapeMetrics(tree, s);
+        return s;
+    }
     ChildIndex children(tree);  // also validates the parent invariant
 
     Aabb shootBox;
@@ -103,6 +106,7 @@ TreeStats computeStats(const Tree& tree) {
     }
     s.rootDepth = anyRoot ? std::max(0.0, -minRootY) : 0.0;
     s.crownHullVolume = convexHullVolume(shootPoints);
+    addShapeMetrics(tree, s);
     return s;
 }
 

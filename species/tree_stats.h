@@ -21,11 +21,51 @@ struct TreeStats {
     // Segment counts indexed by branch order; a segment takes its child node's order.
     // Size highestOrder + 1 (empty for an empty tree).
     std::vector<int64_t> segmentsPerOrder;
+
+    // Shape metrics (species/tree_metrics.cpp; definitions in README "Metrics"). They are taken
+    // over the shoot (part == kShootPart) only. NaN marks a metric that is undefined for this
+    // tree (written as JSON null), e.g. a bifurcation ratio when the Strahler order is < 2.
+    int64_t strahlerOrder = 0;  // Horton–Strahler order of the shoot: max over segments
+    // Index k-1 holds order k (k = 1 .. strahlerOrder): number of Strahler branches (maximal
+    // chains of segments of one order) and their mean length along the skeleton, m.
+    std::vector<int64_t> strahlerBranches;
+    std::vector<double> strahlerBranchLength;
+    // Index k-1 holds R_k = N_k / N_{k+1}, k = 1 .. strahlerOrder-1; the mean is over them.
+    std::vector<double> bifurcationRatios;
+    double bifurcationRatioMean = 0;
+    int64_t forks = 0;                // shoot nodes with >= 2 shoot children
+    double forkAngleMean = 0;         // degrees, over every (fork, child) pair
+    double forkAngleStd = 0;          // degrees, population standard deviation
+    int64_t radiusExponentForks = 0;  // forks with well-defined radii (see README)
+    double radiusExponentMedian = 0;  // n with r_parent^n = sum r_child^n, per fork
+    double radiusExponentIqr = 0;     // Q3 - Q1 (linear interpolation)
+    double tortuosityMean = 0;        // tip-to-root path length / chord, over shoot tips
+    double tortuosityMax = 0;
+    double crownBaseHeight = 0;  // y of the first fork of the trunk, m
+    double crownHeight = 0;      // max y of crown nodes - crown base height, m
+    double crownWidthMajor = 0;  // horizontal extent along the crown's major principal axis, m
+    double crownDepth = 0;       // horizontal extent along the perpendicular (minor) axis, m
+    double crownAsymmetry = 0;   // distance of the crown-node centroid from the trunk axis, m
+    int64_t leaves = 0;
+    double leafArea = 0;  // sum of size² · aspect over the leaf cards, m²
 };
 
 // Uses the orders already stored in the nodes (call assignBranchOrder first if needed).
 // Throws std::invalid_argument on a tree whose parents are not all smaller indices.
 TreeStats computeStats(const Tree& tree);
+
+// Fills the shape metrics of s (strahlerOrder .. leafArea) from the tree; computeStats calls
+// it. Defined in species/tree_metrics.cpp.
+void addShapeMetrics(const Tree& tree, TreeStats& s);
+
+// The n in [0.5, 6] with parentRadius^n = sum childRadii^n, by bisection; NaN unless
+// parentRadius > 0, at least two children and 0 < child < parentRadius for every child. Roots
+// outside the interval are clamped to its ends.
+double radiusExponent(double parentRadius, const std::vector<double>& childRadii);
+
+// Quantile q in [0, 1] of the values with linear interpolation between order statistics
+// (numpy's default); NaN for no values. Sorts a copy.
+double quantile(std::vector<double> values, double q);
 
 // Volume (m³) of the convex hull of the points; 0 for fewer than 4 distinct points or
 // coplanar input. Exposed for tests and for other hull measurements.

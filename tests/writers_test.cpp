@@ -241,7 +241,7 @@ TEST(StatsJson, KeysAndValues) {
     s.crownHullVolume = 0.5;
     s.segmentsPerOrder = {5, 1};
     nlohmann::json j = toJson(s);
-    EXPECT_EQ(j.size(), 10u);
+    EXPECT_EQ(j.size(), 30u);
     EXPECT_EQ(j.at("nodes"), 7);
     EXPECT_EQ(j.at("segments"), 6);
     EXPECT_EQ(j.at("endpoints"), 3);
