@@ -26,7 +26,8 @@
 //   square), 2 px light grey (200) gutters around and between tiles, white letterboxing.
 //   writeContactSheet draws silhouettes black (0) on white (255); writeContactSheetFromFiles
 //   shows its inputs as they are (no inversion), each fitted into tile × tile keeping its
-//   aspect (OIIO resize with an area-averaging box filter).
+//   aspect (shrunk by OIIO resize with an area-averaging box filter, enlarged by nearest
+//   pixel).
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
@@ -332,6 +333,19 @@ void writeContactSheetFromFiles(const fs::path& path, const std::vector<fs::path
         OIIO::ImageBuf fitted;
         if (rw == w && rh == h) {
             fitted.copy(src);
+        } else if (rw >= w && rh >= h) {
+            // Enlarging (views smaller than the tile): nearest source pixel, so silhouettes stay
+            // crisp (a one-pixel box filter would leave gaps between source pixels).
+            fitted.reset(OIIO::ImageSpec(rw, rh, 1, OIIO::TypeDesc::FLOAT));
+            const float* in = static_cast<const float*>(src.localpixels());
+            float* out = static_cast<float*>(fitted.localpixels());
+            for (int y = 0; y < rh; ++y) {
+                const int sy = std::min(h - 1, static_cast<int>((y + 0.5) * h / rh));
+                for (int x = 0; x < rw; ++x) {
+                    const int sx = std::min(w - 1, static_cast<int>((x + 0.5) * w / rw));
+                    out[static_cast<size_t>(y) * rw + x] = in[static_cast<size_t>(sy) * w + sx];
+                }
+            }
         } else if (!OIIO::ImageBufAlgo::resize(fitted, src, "box", 1.0f,
                                                OIIO::ROI(0, rw, 0, rh, 0, 1, 0, 1))) {
             // A box filter one destination pixel wide: plain area averaging, which keeps
