@@ -15,6 +15,7 @@
 #include <stdexcept>
 
 #include "pipeline/atomic_file.h"
+#include "pipeline/dataset_stats.h"
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -23,48 +24,7 @@ namespace sylva {
 
 // --- statistics helpers ------------------------------------------------------------------------
 
-double quantileSorted(const std::vector<double>& s, double q) {
-    if (s.empty()) return std::nan("");
-    double h = (static_cast<double>(s.size()) - 1.0) * std::clamp(q, 0.0, 1.0);
-    size_t lo = static_cast<size_t>(std::floor(h));
-    size_t hi = std::min(lo + 1, s.size() - 1);
-    return s[lo] + (h - static_cast<double>(lo)) * (s[hi] - s[lo]);
-}
-
-double ksStatistic(std::vector<double> a, std::vector<double> b) {
-    if (a.empty() || b.empty()) return std::nan("");
-    std::sort(a.begin(), a.end());
-    std::sort(b.begin(), b.end());
-    size_t i = 0, j = 0;
-    double d = 0.0;
-    const double na = static_cast<double>(a.size()), nb = static_cast<double>(b.size());
-    while (i < a.size() && j < b.size()) {
-        double x = std::min(a[i], b[j]);  // step both CDFs past every value equal to x
-        while (i < a.size() && a[i] <= x) ++i;
-        while (j < b.size() && b[j] <= x) ++j;
-        d = std::max(d, std::fabs(static_cast<double>(i) / na - static_cast<double>(j) / nb));
-    }
-    return d;
-}
-
-double wasserstein1(std::vector<double> a, std::vector<double> b) {
-    if (a.empty() || b.empty()) return std::nan("");
-    std::sort(a.begin(), a.end());
-    std::sort(b.begin(), b.end());
-    std::vector<double> xs(a);
-    xs.insert(xs.end(), b.begin(), b.end());
-    std::sort(xs.begin(), xs.end());
-    double w = 0.0;
-    for (size_t k = 0; k + 1 < xs.size(); ++k) {  // ∫ |F_a − F_b| dx, piecewise constant
-        double x = xs[k];
-        double fa = static_cast<double>(std::upper_bound(a.begin(), a.end(), x) - a.begin()) /
-                    static_cast<double>(a.size());
-        double fb = static_cast<double>(std::upper_bound(b.begin(), b.end(), x) - b.begin()) /
-                    static_cast<double>(b.size());
-        w += std::fabs(fa - fb) * (xs[k + 1] - x);
-    }
-    return w;
-}
+// Quantiles, the KS test and W1 are the ones `sylva stats` uses (pipeline/dataset_stats.h).
 
 std::vector<double> niceTicks(double lo, double hi, int target) {
     if (!std::isfinite(lo) || !std::isfinite(hi)) return {0.0, 1.0};
@@ -297,7 +257,7 @@ struct Summary {
     double mean = 0, sd = 0, q05 = 0, q25 = 0, q50 = 0, q75 = 0, q95 = 0, min = 0, max = 0;
 };
 
-Summary summarize(std::vector<double> v) {
+Summary plotSummary(std::vector<double> v) {
     Summary s;
     s.n = v.size();
     if (v.empty()) return s;
@@ -306,30 +266,14 @@ Summary summarize(std::vector<double> v) {
     double ss = 0;
     for (double x : v) ss += (x - s.mean) * (x - s.mean);
     s.sd = v.size() > 1 ? std::sqrt(ss / static_cast<double>(v.size() - 1)) : 0.0;
-    s.q05 = quantileSorted(v, 0.05);
-    s.q25 = quantileSorted(v, 0.25);
-    s.q50 = quantileSorted(v, 0.5);
-    s.q75 = quantileSorted(v, 0.75);
-    s.q95 = quantileSorted(v, 0.95);
+    s.q05 = quantileType7(v, 0.05);
+    s.q25 = quantileType7(v, 0.25);
+    s.q50 = quantileType7(v, 0.5);
+    s.q75 = quantileType7(v, 0.75);
+    s.q95 = quantileType7(v, 0.95);
     s.min = v.front();
     s.max = v.back();
     return s;
-}
-
-// Asymptotic two-sample KS p-value (Numerical Recipes §14.3, with the small-sample correction).
-double ksPValue(double d, size_t na, size_t nb) {
-    double ne = static_cast<double>(na) * static_cast<double>(nb) / static_cast<double>(na + nb);
-    double sq = std::sqrt(ne);
-    double lambda = (sq + 0.12 + 0.11 / sq) * d;
-    if (lambda < 1e-3) return 1.0;
-    double sum = 0.0, sign = 1.0;
-    for (int k = 1; k <= 100; ++k) {
-        double term = sign * 2.0 * std::exp(-2.0 * k * k * lambda * lambda);
-        sum += term;
-        if (std::fabs(term) < 1e-10) break;
-        sign = -sign;
-    }
-    return std::clamp(sum, 0.0, 1.0);
 }
 
 // Deterministic jitter in [-1, 1] for the strip plot (a hash of the point's rank).
@@ -385,7 +329,7 @@ std::string boxPlotSvg(const std::string& metric, const std::vector<std::string>
           << "\" text-anchor=\"end\" class=\"tick\">" << esc(species[r]) << "</text>\n";
         auto it = values.find(species[r]);
         if (it == values.end() || it->second.empty()) continue;
-        Summary s = summarize(it->second);
+        Summary s = plotSummary(it->second);
         o << "<g><title>" << esc(species[r]) << ": n " << s.n << ", mean " << num(s.mean) << ", sd "
           << num(s.sd) << ", q05 " << num(s.q05) << ", q25 " << num(s.q25) << ", median "
           << num(s.q50) << ", q75 " << num(s.q75) << ", q95 " << num(s.q95) << "</title>\n";
@@ -641,7 +585,7 @@ ReportResult writeReport(const fs::path& dir) {
             for (const auto& t : timing) {
                 auto it = values[t].find(s);
                 h << "<td>"
-                  << (it == values[t].end() ? "–" : num(summarize(it->second).mean, 3) + " ms")
+                  << (it == values[t].end() ? "–" : num(plotSummary(it->second).mean, 3) + " ms")
                   << "</td>";
             }
             h << "</tr>\n";
@@ -694,7 +638,7 @@ ReportResult writeReport(const fs::path& dir) {
                 h << "<td>–</td>";
                 continue;
             }
-            Summary x = summarize(it->second);
+            Summary x = plotSummary(it->second);
             h << "<td>" << num(x.mean) << " ± " << num(x.sd, 3) << " (" << num(x.q50) << ")</td>";
         }
         h << "</tr>\n";
@@ -742,13 +686,16 @@ ReportResult writeReport(const fs::path& dir) {
                 for (const auto& m : metrics) {
                     auto ia = values[m].find(species[a]), ib = values[m].find(species[b]);
                     if (ia == values[m].end() || ib == values[m].end()) continue;
-                    double d = ksStatistic(ia->second, ib->second);
-                    Summary sa = summarize(ia->second), sb = summarize(ib->second);
+                    std::vector<double> xa = ia->second, xb = ib->second;
+                    std::sort(xa.begin(), xa.end());
+                    std::sort(xb.begin(), xb.end());
+                    const KsResult ks = ksTwoSample(xa, xb);
+                    const double d = ks.d;
+                    Summary sa = plotSummary(ia->second), sb = plotSummary(ib->second);
                     double pooled = std::sqrt(0.5 * (sa.sd * sa.sd + sb.sd * sb.sd));
                     double effect = pooled > 0 ? std::fabs(sa.mean - sb.mean) / pooled
                                                : (sa.mean != sb.mean ? INFINITY : 0.0);
-                    rows.push_back({m, d, wasserstein1(ia->second, ib->second), sa.mean, sb.mean,
-                                    ksPValue(d, ia->second.size(), ib->second.size()), effect});
+                    rows.push_back({m, d, wasserstein1(xa, xb), sa.mean, sb.mean, ks.p, effect});
                 }
                 std::stable_sort(rows.begin(), rows.end(), [](const Row& x, const Row& y) {
                     return x.d != y.d ? x.d > y.d : x.effect > y.effect;
@@ -816,7 +763,7 @@ ReportResult writeReport(const fs::path& dir) {
                         }
                         if (v.empty()) continue;
                         all.insert(all.end(), v.begin(), v.end());
-                        pts.push_back({label, x, summarize(v)});
+                        pts.push_back({label, x, plotSummary(v)});
                     }
                     if (pts.size() < 2) continue;
                     double grand = std::accumulate(all.begin(), all.end(), 0.0) /

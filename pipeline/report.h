@@ -32,12 +32,6 @@ ReportResult writeReport(const std::filesystem::path& datasetDir);
 
 // --- helpers, exposed for the tests ---------------------------------------------------------
 
-// Linear-interpolation quantile (type 7, numpy's default) of sorted values; q in [0, 1].
-double quantileSorted(const std::vector<double>& sorted, double q);
-// Two-sample Kolmogorov–Smirnov statistic D = sup |F_a − F_b| (empirical CDFs).
-double ksStatistic(std::vector<double> a, std::vector<double> b);
-// Wasserstein-1 distance between the two empirical distributions (area between the CDFs).
-double wasserstein1(std::vector<double> a, std::vector<double> b);
 // About `target` round tick values covering [lo, hi] (1, 2, 5 × 10^k steps).
 std::vector<double> niceTicks(double lo, double hi, int target = 5);
 // Unit of a metric from its name's suffix: "_m" → "m", "_m2" → "m²", "_m3" → "m³",

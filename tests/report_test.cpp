@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
+#include "pipeline/dataset_stats.h"
 #include "tests/test_support.h"
 
 namespace fs = std::filesystem;
@@ -74,14 +75,15 @@ std::string slurpFile(const fs::path& p) { return sylva::test::slurp(p); }
 }  // namespace
 
 TEST(ReportHelpers, QuantilesKsWassersteinTicksUnits) {
-    EXPECT_DOUBLE_EQ(quantileSorted({1, 2, 3, 4}, 0.25), 1.75);  // numpy's default (type 7)
-    EXPECT_DOUBLE_EQ(quantileSorted({1, 2, 3, 4}, 0.5), 2.5);
-    EXPECT_DOUBLE_EQ(quantileSorted({5}, 0.9), 5.0);
-    EXPECT_DOUBLE_EQ(ksStatistic({1, 2, 3}, {3, 2, 1}), 0.0);
-    EXPECT_DOUBLE_EQ(ksStatistic({1, 2}, {3, 4}), 1.0);
-    EXPECT_DOUBLE_EQ(ksStatistic({1, 2, 3, 4}, {3, 4, 5, 6}), 0.5);
-    EXPECT_DOUBLE_EQ(ksStatistic({1, 1, 2}, {1, 2, 2}), 1.0 / 3.0);  // ties step together
-    EXPECT_NEAR(wasserstein1({1, 2, 3}, {4, 5, 6}), 3.0, 1e-12);     // a shift by 3
+    // The shared statistics (pipeline/dataset_stats.h) as the report uses them.
+    EXPECT_DOUBLE_EQ(quantileType7({1, 2, 3, 4}, 0.25), 1.75);  // numpy's default (type 7)
+    EXPECT_DOUBLE_EQ(quantileType7({1, 2, 3, 4}, 0.5), 2.5);
+    EXPECT_DOUBLE_EQ(quantileType7({5}, 0.9), 5.0);
+    EXPECT_DOUBLE_EQ(ksTwoSample({1, 2, 3}, {1, 2, 3}).d, 0.0);
+    EXPECT_DOUBLE_EQ(ksTwoSample({1, 2}, {3, 4}).d, 1.0);
+    EXPECT_DOUBLE_EQ(ksTwoSample({1, 2, 3, 4}, {3, 4, 5, 6}).d, 0.5);
+    EXPECT_DOUBLE_EQ(ksTwoSample({1, 1, 2}, {1, 2, 2}).d, 1.0 / 3.0);  // ties step together
+    EXPECT_NEAR(wasserstein1({1, 2, 3}, {4, 5, 6}), 3.0, 1e-12);       // a shift by 3
     EXPECT_NEAR(wasserstein1({0, 0, 1, 1}, {0, 1}), 0.0, 1e-12);
     EXPECT_NEAR(wasserstein1({0}, {0, 2}), 1.0, 1e-12);
     std::vector<double> t = niceTicks(0.13, 0.87);
