@@ -25,26 +25,10 @@ anywhere:
 """
 import math
 import os
-import struct
-import zlib
+
+from png import write_png
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def write_png(path, width, height, channels, pixels):
-    """8-bit PNG, grey (1 channel) or RGB (3): signature, IHDR, one IDAT, IEND."""
-    def chunk(kind, data):
-        body = kind + data
-        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
-
-    colour_type = {1: 0, 3: 2}[channels]
-    stride = width * channels
-    raw = b"".join(b"\x00" + bytes(pixels[y * stride:(y + 1) * stride]) for y in range(height))
-    png = (b"\x89PNG\r\n\x1a\n" +
-           chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, colour_type, 0, 0, 0)) +
-           chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
-    with open(path, "wb") as f:
-        f.write(png)
 
 
 class Lcg:
@@ -135,9 +119,9 @@ def pine_tiers(width=64, height=128, tiers=6):
 
 
 def main():
-    write_png(os.path.join(HERE, "canopy-maple-base.png"), 128, 64, 1, base_layer())
-    write_png(os.path.join(HERE, "canopy-maple-blobs.png"), 128, 128, 3, blob_layers())
-    write_png(os.path.join(HERE, "canopy-pine-tiers.png"), 64, 128, 1, pine_tiers())
+    write_png(os.path.join(HERE, "canopy-maple-base.png"), 128, 64, base_layer())
+    write_png(os.path.join(HERE, "canopy-maple-blobs.png"), 128, 128, blob_layers(), channels=3)
+    write_png(os.path.join(HERE, "canopy-pine-tiers.png"), 64, 128, pine_tiers())
 
 
 if __name__ == "__main__":

@@ -14,24 +14,10 @@ Standard library only; deterministic. Run from anywhere:
 """
 import math
 import os
-import struct
-import zlib
+
+from png import write_png
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def write_png(path, width, height, pixels):
-    """8-bit greyscale PNG: signature, IHDR, one IDAT (filter 0 on every row), IEND."""
-    def chunk(kind, data):
-        body = kind + data
-        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
-
-    raw = b"".join(b"\x00" + bytes(pixels[y * width:(y + 1) * width]) for y in range(height))
-    png = (b"\x89PNG\r\n\x1a\n" +
-           chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)) +
-           chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
-    with open(path, "wb") as f:
-        f.write(png)
 
 
 def rasterise(width, height, inside, on=255, off=0):

@@ -7,8 +7,8 @@ grey dashes, which the tracer ignores (luminance above 0.5). Run from anywhere:
     python3 species/sketches/make_twotier_png.py
 """
 import os
-import struct
-import zlib
+
+from png import write_png
 
 W, H = 320, 480          # pixels
 AXIS = 60                # axis column (the preset's axis_x)
@@ -65,18 +65,8 @@ def main():
         for s in range(n + 1):
             disc(x0 + (x1 - x0) * s / n, y0 + (y1 - y0) * s / n, THICK, 0)
 
-    raw = b"".join(b"\x00" + bytes(img[y * W:(y + 1) * W]) for y in range(H))
-
-    def chunk(kind, data):
-        body = kind + data
-        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
-
-    png = (b"\x89PNG\r\n\x1a\n" +
-           chunk(b"IHDR", struct.pack(">IIBBBBB", W, H, 8, 0, 0, 0, 0)) +
-           chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
     out = os.path.join(os.path.dirname(os.path.abspath(__file__)), "twotier.png")
-    with open(out, "wb") as f:
-        f.write(png)
+    write_png(out, W, H, img)
     print(out)
 
 
