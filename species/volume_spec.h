@@ -9,6 +9,7 @@
 #pragma once
 
 #include "species/params.h"
+#include "volumes/mask.h"
 #include "volumes/volume.h"
 
 namespace sylva {
@@ -19,6 +20,18 @@ VolumePtr parseVolume(Params& p, bool topLevel = true);
 // The sketched and envelope kinds, one file each (species/volume_spec_<kind>.cpp). Each
 // reads the keys of its own type (not `type`, placement or `voxel_size`, which parseVolume
 // handles) and reports bad values at their key with file:line.
+// The pixel size of mask images: `height` (metres an image's full height represents) or
+// `metres_per_pixel`, exactly one; `images` names them in the error ("the mask's", "each
+// mask's"). Shared by the mask volumes and the space-colonization silhouette guide.
+struct PixelScale {
+    bool byHeight = false;
+    double value = 0.0;  // metres of the full image height, or metres per pixel
+    double metresPerPixel(int imageHeight) const { return byHeight ? value / imageHeight : value; }
+};
+PixelScale readPixelScale(Params& p, const std::string& images);
+// Liu 2020's fall-off of samples at a mask's border: soft_edge, falloff_radius, falloff_k.
+MaskFalloff readMaskFalloff(Params& p);
+
 VolumePtr parseRevolutionVolume(Params& p);       // type = "revolution"
 VolumePtr parseMaskRevolutionVolume(Params& p);   // type = "mask-revolution"
 VolumePtr parseVisualHullVolume(Params& p);       // type = "visual-hull"

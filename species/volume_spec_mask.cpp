@@ -26,24 +26,7 @@
 
 namespace sylva {
 
-namespace {
-
-// `height` (metres the image's full height represents) or `metres_per_pixel`, exactly one.
-double readMetresPerPixel(Params& p, int imageHeight) {
-    const bool byHeight = p.has("height"), bySize = p.has("metres_per_pixel");
-    if (byHeight && bySize) {
-        p.fail("metres_per_pixel", "give either height or metres_per_pixel, not both");
-    }
-    if (!byHeight && !bySize) {
-        p.failHere(
-            "expected height (metres the mask's full image height represents) or "
-            "metres_per_pixel");
-    }
-    if (byHeight) return p.number("height", Range::positive()) / imageHeight;
-    return p.number("metres_per_pixel", Range::positive());
-}
-
-MaskFalloff readFalloff(Params& p) {
+MaskFalloff readMaskFalloff(Params& p) {
     MaskFalloff f;
     f.enabled = p.boolean("soft_edge", true);
     f.radius = p.number("falloff_radius", f.radius, Range::nonNegative());
@@ -51,7 +34,18 @@ MaskFalloff readFalloff(Params& p) {
     return f;
 }
 
-}  // namespace
+PixelScale readPixelScale(Params& p, const std::string& images) {
+    const bool byHeight = p.has("height"), bySize = p.has("metres_per_pixel");
+    if (byHeight && bySize) {
+        p.fail("metres_per_pixel", "give either height or metres_per_pixel, not both");
+    }
+    if (!byHeight && !bySize) {
+        p.failHere("expected height (metres " + images +
+                   " full image height represents) or metres_per_pixel");
+    }
+    return byHeight ? PixelScale{true, p.number("height", Range::positive())}
+                    : PixelScale{false, p.number("metres_per_pixel", Range::positive())};
+}
 
 VolumePtr parseMaskRevolutionVolume(Params& p) {
     const std::string file = p.filePath("mask");
@@ -68,12 +62,12 @@ VolumePtr parseMaskRevolutionVolume(Params& p) {
              : side == "left" ? ProfileSide::kLeft
                               : ProfileSide::kMax;
     o.axisColumn = p.number("axis_column", mask.width / 2.0, Range::closed(0, mask.width));
-    o.metresPerPixel = readMetresPerPixel(p, mask.height);
+    o.metresPerPixel = readPixelScale(p, "the mask's").metresPerPixel(mask.height);
     // Same ranges as type "revolution".
     o.cleaning.samples = static_cast<int>(p.integer("samples", 96, Range::closed(8, 100000)));
     o.cleaning.smoothing = static_cast<int>(p.integer("smoothing", 2, Range::closed(0, 10000)));
     o.segments = static_cast<int>(p.integer("segments", 64, Range::closed(8, 4096)));
-    o.falloff = readFalloff(p);
+    o.falloff = readMaskFalloff(p);
     if (p.has("level_set_voxel")) {
         o.voxelSize = p.number("level_set_voxel", Range::positive());
         std::vector<Vec2> stroke;

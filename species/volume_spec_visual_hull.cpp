@@ -36,17 +36,7 @@ VolumePtr parseVisualHullVolume(Params& p) {
                "{ mask = \"side.png\", azimuth_deg = 90 }), got " +
                    std::to_string(viewTables.size()));
     }
-    const bool byHeight = p.has("height"), bySize = p.has("metres_per_pixel");
-    if (byHeight && bySize) {
-        p.fail("metres_per_pixel", "give either height or metres_per_pixel, not both");
-    }
-    if (!byHeight && !bySize) {
-        p.failHere(
-            "expected height (metres each mask's full image height represents) or "
-            "metres_per_pixel");
-    }
-    const double height = byHeight ? p.number("height", Range::positive()) : 0.0;
-    const double size = bySize ? p.number("metres_per_pixel", Range::positive()) : 0.0;
+    const PixelScale scale = readPixelScale(p, "each mask's");
 
     std::vector<MaskView> views;
     for (Params& v : viewTables) {
@@ -61,15 +51,12 @@ VolumePtr parseVisualHullVolume(Params& p) {
         view.azimuthDeg = v.number("azimuth_deg", Range::closed(-360, 360));
         view.axisColumn =
             v.number("axis_column", view.mask.width / 2.0, Range::closed(0, view.mask.width));
-        view.metresPerPixel = byHeight ? height / view.mask.height : size;
+        view.metresPerPixel = scale.metresPerPixel(view.mask.height);
         v.finish();
         views.push_back(std::move(view));
     }
 
-    MaskFalloff falloff;
-    falloff.enabled = p.boolean("soft_edge", true);
-    falloff.radius = p.number("falloff_radius", falloff.radius, Range::nonNegative());
-    falloff.k = p.number("falloff_k", falloff.k, Range::positive());
+    const MaskFalloff falloff = readMaskFalloff(p);
 
     VolumePtr hull;
     try {

@@ -82,56 +82,27 @@ class HashGrid {
     // actual distance.
     template <class F>
     void forEachNear(const Vec3& p, double radius, F&& f) const {
-        const int64_t x0 = coord(p.x - radius), x1 = coord(p.x + radius);
-        const int64_t y0 = coord(p.y - radius), y1 = coord(p.y + radius);
-        const int64_t z0 = coord(p.z - radius), z1 = coord(p.z + radius);
-        for (int64_t x = x0; x <= x1; ++x) {
-            for (int64_t y = y0; y <= y1; ++y) {
-                for (int64_t z = z0; z <= z1; ++z) {
-                    auto it = cells_.find(key(x, y, z));
-                    if (it == cells_.end()) continue;
-                    for (int32_t i : it->second) f(i);
-                }
-            }
-        }
+        visitCells(*this, p, radius, [&](const std::vector<int32_t>& cell) {
+            for (int32_t i : cell) f(i);
+            return false;
+        });
     }
 
     // True as soon as hit(index) is true for a point in a cell the ball touches.
     template <class F>
     bool anyNear(const Vec3& p, double radius, F&& hit) const {
-        const int64_t x0 = coord(p.x - radius), x1 = coord(p.x + radius);
-        const int64_t y0 = coord(p.y - radius), y1 = coord(p.y + radius);
-        const int64_t z0 = coord(p.z - radius), z1 = coord(p.z + radius);
-        for (int64_t x = x0; x <= x1; ++x) {
-            for (int64_t y = y0; y <= y1; ++y) {
-                for (int64_t z = z0; z <= z1; ++z) {
-                    auto it = cells_.find(key(x, y, z));
-                    if (it == cells_.end()) continue;
-                    for (int32_t i : it->second) {
-                        if (hit(i)) return true;
-                    }
-                }
-            }
-        }
-        return false;
+        return visitCells(*this, p, radius, [&](const std::vector<int32_t>& cell) {
+            return std::any_of(cell.begin(), cell.end(), hit);
+        });
     }
 
     // Drops every index for which drop(index) is true from the cells the ball touches.
     template <class P>
     void eraseNear(const Vec3& p, double radius, P&& drop) {
-        const int64_t x0 = coord(p.x - radius), x1 = coord(p.x + radius);
-        const int64_t y0 = coord(p.y - radius), y1 = coord(p.y + radius);
-        const int64_t z0 = coord(p.z - radius), z1 = coord(p.z + radius);
-        for (int64_t x = x0; x <= x1; ++x) {
-            for (int64_t y = y0; y <= y1; ++y) {
-                for (int64_t z = z0; z <= z1; ++z) {
-                    auto it = cells_.find(key(x, y, z));
-                    if (it == cells_.end()) continue;
-                    std::vector<int32_t>& v = it->second;
-                    v.erase(std::remove_if(v.begin(), v.end(), drop), v.end());
-                }
-            }
-        }
+        visitCells(*this, p, radius, [&](std::vector<int32_t>& cell) {
+            cell.erase(std::remove_if(cell.begin(), cell.end(), drop), cell.end());
+            return false;
+        });
     }
 
   private:
@@ -142,6 +113,24 @@ class HashGrid {
     }
     static uint64_t key(int64_t x, int64_t y, int64_t z) {
         return uint64_t(x + kHalf) | uint64_t(y + kHalf) << 21 | uint64_t(z + kHalf) << 42;
+    }
+
+    // visit(cell) for every non-empty cell the ball touches, x then y then z ascending, until
+    // visit returns true (then true). Self is HashGrid or const HashGrid.
+    template <class Self, class V>
+    static bool visitCells(Self& self, const Vec3& p, double radius, V&& visit) {
+        const int64_t x0 = self.coord(p.x - radius), x1 = self.coord(p.x + radius);
+        const int64_t y0 = self.coord(p.y - radius), y1 = self.coord(p.y + radius);
+        const int64_t z0 = self.coord(p.z - radius), z1 = self.coord(p.z + radius);
+        for (int64_t x = x0; x <= x1; ++x) {
+            for (int64_t y = y0; y <= y1; ++y) {
+                for (int64_t z = z0; z <= z1; ++z) {
+                    auto it = self.cells_.find(key(x, y, z));
+                    if (it != self.cells_.end() && visit(it->second)) return true;
+                }
+            }
+        }
+        return false;
     }
 
     double inv_;

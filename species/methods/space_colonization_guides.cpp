@@ -7,6 +7,8 @@
 #include <cmath>
 #include <string>
 
+#include "species/volume_spec.h"
+
 namespace sylva {
 
 namespace {
@@ -220,17 +222,7 @@ SilhouetteGuide readSilhouette(Params& p) {
     } catch (const MaskError& e) {
         p.fail("mask", e.what());
     }
-    const bool byHeight = p.has("height"), bySize = p.has("metres_per_pixel");
-    if (byHeight && bySize) {
-        p.fail("metres_per_pixel", "give either height or metres_per_pixel, not both");
-    }
-    if (!byHeight && !bySize) {
-        p.failHere(
-            "expected height (metres the mask's full image height represents) or "
-            "metres_per_pixel");
-    }
-    g.metresPerPixel = byHeight ? p.number("height", Range::positive()) / g.mask.height
-                                : p.number("metres_per_pixel", Range::positive());
+    g.metresPerPixel = readPixelScale(p, "the mask's").metresPerPixel(g.mask.height);
     g.azimuthDeg = p.number("azimuth_deg", 0.0, Range::closed(-360, 360));
     g.axisColumn = p.number("axis_column", g.mask.width / 2.0, Range::closed(0, g.mask.width));
     g.falloff.radius = p.number("falloff_radius", g.falloff.radius, Range::nonNegative());
