@@ -1,6 +1,5 @@
 #include "pipeline/preview.h"
 
-#include <OpenImageIO/imageio.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -10,6 +9,7 @@
 #include <string>
 
 #include "pipeline/atomic_file.h"
+#include "pipeline/image_codecs.h"
 
 namespace sylva {
 
@@ -145,34 +145,8 @@ std::vector<uint8_t> renderPreview(const Tree& tree, int sizePixels) {
 }
 
 void writePreviewPng(const Tree& tree, const std::filesystem::path& path, int sizePixels) {
-    std::vector<uint8_t> pixels = renderPreview(tree, sizePixels);
-    if (path.has_parent_path()) {
-        std::error_code ec;
-        std::filesystem::create_directories(path.parent_path(), ec);
-        if (ec) {
-            throw std::runtime_error("cannot create directory '" + path.parent_path().string() +
-                                     "': " + ec.message());
-        }
-    }
-    // OIIO opens the file itself and picks the format from the extension, so the temp name
-    // must end in ".png".
-    const std::filesystem::path tmp = uniqueTempPath(path, ".png");
-    auto fail = [&](const std::string& why) {
-        std::error_code ignored;
-        std::filesystem::remove(tmp, ignored);
-        throw std::runtime_error("cannot write preview '" + path.string() + "': " + why);
-    };
-    auto out = OIIO::ImageOutput::create(tmp.string());
-    if (!out) fail(OIIO::geterror());
-    OIIO::ImageSpec spec(sizePixels, sizePixels, 1, OIIO::TypeDesc::UINT8);
-    if (!out->open(tmp.string(), spec)) fail(out->geterror());
-    if (!out->write_image(OIIO::TypeDesc::UINT8, pixels.data())) {
-        std::string err = out->geterror();
-        out->close();
-        fail(err);
-    }
-    if (!out->close()) fail(out->geterror());
-    commitTempFile(tmp, path);
+    const std::vector<uint8_t> pixels = renderPreview(tree, sizePixels);
+    writeFileAtomic(path, encodeGreyPng(sizePixels, sizePixels, pixels.data()));
 }
 
 }  // namespace sylva

@@ -1,6 +1,5 @@
 // Per-view outputs: transforms.json, grey PNGs, depth EXRs, the labelled point cloud and
-// contact sheets. Every file is written atomically (a unique temp sibling with the right
-// extension, so OIIO picks the format, then a rename).
+// contact sheets. Every file is written atomically (a unique temp sibling, then a rename).
 //
 // transforms.json (nerfstudio "OPENCV" model without distortion, also read by instant-ngp):
 //   top level: camera_model "OPENCV", fl_x, fl_y, cx, cy (pixels; pixel centres at i + 0.5,
@@ -15,10 +14,9 @@
 //   Depth EXRs hold metres along the view axis (z-depth, not ray length), 0 = background:
 //   with nerfstudio pass `nerfstudio-data --depth-unit-scale-factor 1.0` (its default 1e-3
 //   expects millimetres).
-// Depth EXR: one FLOAT channel "Z", RLE compression (lossless; measured 2.7× faster than zip
-//   for 256² depth maps at ~20% more bytes); identical pixels give identical bytes.
-// PNGs use zlib level 1 and no row filter: for flat silhouette and label images this encodes
-//   about 6× faster than OIIO's defaults (0.26 vs 1.75 ms for 256²) at about the same size.
+// Depth EXR: one FLOAT channel "Z", RLE compression (lossless); PNGs: 8-bit grey. Both are
+//   encoded in memory (pipeline/image_codecs.h, which gives the formats and the measured
+//   reasons) and written with writeFileAtomic; identical pixels give identical bytes.
 // Point cloud PLY: binary little-endian, vertex = float x, y, z (world metres), uchar label
 //   (1 + branch order wood, 255 leaf; 1 when the view has no label image), uchar view
 //   (camera index); views in order, then rows top to bottom, then columns.
@@ -39,6 +37,7 @@
 #include <string>
 
 #include "pipeline/atomic_file.h"
+#include "pipeline/image_codecs.h"
 #include "pipeline/little_endian.h"
 #include "pipeline/views.h"
 
@@ -50,48 +49,6 @@ namespace {
 
 constexpr int kGutter = 2;            // contact sheet gutter, pixels
 constexpr uint8_t kGutterGrey = 200;  // light grey
-
-void createParent(const fs::path& path) {
-    if (!path.has_parent_path()) return;
-    std::error_code ec;
-    fs::create_directories(path.parent_path(), ec);
-    if (ec) {
-        throw std::runtime_error("cannot create directory '" + path.parent_path().string() +
-                                 "': " + ec.message());
-    }
-}
-
-// One image through OIIO to a temp file ending in the target's extension, then renamed.
-void writeImageAtomic(const fs::path& path, const OIIO::ImageSpec& spec, OIIO::TypeDesc format,
-                      const void* pixels, const char* what) {
-    createParent(path);
-    const fs::path tmp = uniqueTempPath(path, path.extension().string());
-    auto fail = [&](const std::string& why) {
-        std::error_code ignored;
-        fs::remove(tmp, ignored);
-        throw std::runtime_error(std::string("cannot write ") + what + " '" + path.string() +
-                                 "': " + why);
-    };
-    // sylva parallelises across images itself: OpenEXR's per-file worker threads only add
-    // start-up cost (measured 3.1 → 0.9 ms per 256² depth map), so turn them off once.
-    static std::once_flag noExrThreads;
-    std::call_once(noExrThreads, [] { OIIO::attribute("exr_threads", -1); });
-    OIIO::ImageSpec fileSpec = spec;
-    if (path.extension() == ".png") {
-        fileSpec.attribute("png:compressionLevel", 1);
-        fileSpec.attribute("png:filter", 8);  // PNG_FILTER_NONE: flat images need no predictor
-    }
-    auto out = OIIO::ImageOutput::create(tmp.string());
-    if (!out) fail(OIIO::geterror());
-    if (!out->open(tmp.string(), fileSpec)) fail(out->geterror());
-    if (!out->write_image(format, pixels)) {
-        std::string err = out->geterror();
-        out->close();
-        fail(err);
-    }
-    if (!out->close()) fail(out->geterror());
-    commitTempFile(tmp, path);
-}
 
 void checkSize(int width, int height, size_t have, const char* what) {
     if (width <= 0 || height <= 0 || have != static_cast<size_t>(width) * height) {
@@ -232,19 +189,12 @@ nlohmann::json transformsJson(const std::vector<Camera>& cameras,
 
 void writeGreyPng(const fs::path& path, int width, int height, const std::vector<uint8_t>& pixels) {
     checkSize(width, height, pixels.size(), "writeGreyPng");
-    OIIO::ImageSpec spec(width, height, 1, OIIO::TypeDesc::UINT8);
-    writeImageAtomic(path, spec, OIIO::TypeDesc::UINT8, pixels.data(), "PNG");
+    writeFileAtomic(path, encodeGreyPng(width, height, pixels.data()));
 }
 
 void writeDepthExr(const fs::path& path, int width, int height, const std::vector<float>& depth) {
     checkSize(width, height, depth.size(), "writeDepthExr");
-    OIIO::ImageSpec spec(width, height, 1, OIIO::TypeDesc::FLOAT);
-    spec.channelnames = {"Z"};
-    spec.attribute("compression", "rle");  // lossless
-    // OpenEXR otherwise stamps the wall-clock time into the header (capDate), and two builds
-    // of the same spec would differ.
-    spec.attribute("DateTime", "");
-    writeImageAtomic(path, spec, OIIO::TypeDesc::FLOAT, depth.data(), "depth EXR");
+    writeFileAtomic(path, encodeFloatExr(width, height, depth.data(), "Z"));
 }
 
 std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<ViewImage>& views) {
