@@ -62,10 +62,6 @@ bool pngEncode(int width, int height, const uint8_t* pixels, std::string& out, s
 
 // ---- EXR ----------------------------------------------------------------------------------
 
-// Stores v little-endian at out[at .. at + bytes).
-void storeLittleEndian(char* at, uint64_t v, int bytes) {
-    for (int i = 0; i < bytes; ++i) at[i] = static_cast<char>((v >> (8 * i)) & 0xff);
-}
 void putAttribute(std::string& out, const char* name, const char* type, uint32_t size) {
     out.append(name).push_back('\0');
     out.append(type).push_back('\0');
@@ -183,7 +179,7 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
             uint32_t bits;
             std::memcpy(&bits, &row[x], 4);
             const size_t k = 4 * static_cast<size_t>(x), e = 2 * static_cast<size_t>(x);
-            storeLittleEndian(reinterpret_cast<char*>(raw.data()) + k, bits, 4);
+            storeU32(reinterpret_cast<char*>(raw.data()) + k, bits);
             split[e] = static_cast<uint8_t>(bits);
             split[e + 1] = static_cast<uint8_t>(bits >> 16);
             split[half + e] = static_cast<uint8_t>(bits >> 8);
@@ -194,7 +190,7 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
             delta[k] = static_cast<uint8_t>(split[k] - split[k - 1] + 128);
         }
         const size_t size = rleEncode(delta.data(), lineBytes, packed);
-        storeLittleEndian(&out[tableAt + 8 * static_cast<size_t>(y)], out.size(), 8);
+        storeU64(&out[tableAt + 8 * static_cast<size_t>(y)], out.size());
         putU32(out, static_cast<uint32_t>(y));
         if (size < lineBytes) {
             putU32(out, static_cast<uint32_t>(size));

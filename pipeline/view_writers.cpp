@@ -107,9 +107,10 @@ struct Sheet {
         height = rows * (tileH + kGutter) + kGutter;
         pixels.assign(static_cast<size_t>(width) * height, kGutterGrey);
     }
-    // Writes tile i (row-major grid) from a w×h image centred in its cell (white letterbox).
-    template <typename PixelFn>
-    void put(size_t i, int w, int h, PixelFn pixel) {
+    // Writes tile i (row-major grid) from a w×h image centred in its cell (white letterbox);
+    // row(y, dst) fills the w pixels of image row y.
+    template <typename RowFn>
+    void put(size_t i, int w, int h, RowFn row) {
         const int cx0 = kGutter + static_cast<int>(i % cols) * (tileW + kGutter);
         const int cy0 = kGutter + static_cast<int>(i / cols) * (tileH + kGutter);
         for (int y = 0; y < tileH; ++y) {
@@ -117,11 +118,8 @@ struct Sheet {
                         uint8_t{255});
         }
         const int ox = cx0 + (tileW - w) / 2, oy = cy0 + (tileH - h) / 2;
-        for (int y = 0; y < h; ++y) {
-            for (int x = 0; x < w; ++x) {
-                pixels[static_cast<size_t>(oy + y) * width + ox + x] = pixel(x, y);
-            }
-        }
+        for (int y = 0; y < h; ++y)
+            row(y, pixels.data() + static_cast<size_t>(oy + y) * width + ox);
     }
 };
 
@@ -259,9 +257,9 @@ void writeContactSheet(const fs::path& path, const std::vector<ViewImage>& views
     Sheet sheet(views.size(), columns, tw, th);
     for (size_t i = 0; i < views.size(); ++i) {
         const ViewImage& v = views[i];
-        sheet.put(i, v.width, v.height, [&](int x, int y) {
-            return static_cast<uint8_t>(v.silhouette[static_cast<size_t>(y) * v.width + x] ? 0
-                                                                                           : 255);
+        sheet.put(i, v.width, v.height, [&](int y, uint8_t* dst) {
+            const uint8_t* src = v.silhouette.data() + static_cast<size_t>(y) * v.width;
+            for (int x = 0; x < v.width; ++x) dst[x] = src[x] ? 0 : 255;
         });
     }
     writeGreyPng(path, sheet.width, sheet.height, sheet.pixels);
@@ -305,9 +303,11 @@ void writeContactSheetFromFiles(const fs::path& path, const std::vector<fs::path
         }
         std::vector<float> px(static_cast<size_t>(rw) * rh);
         fitted.get_pixels(OIIO::ROI(0, rw, 0, rh, 0, 1, 0, 1), OIIO::TypeDesc::FLOAT, px.data());
-        sheet.put(i, rw, rh, [&](int x, int y) {
-            const float v = px[static_cast<size_t>(y) * rw + x];
-            return static_cast<uint8_t>(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f)));
+        sheet.put(i, rw, rh, [&](int y, uint8_t* dst) {
+            const float* src = px.data() + static_cast<size_t>(y) * rw;
+            for (int x = 0; x < rw; ++x) {
+                dst[x] = static_cast<uint8_t>(std::lround(255.0f * std::clamp(src[x], 0.0f, 1.0f)));
+            }
         });
     }
     writeGreyPng(path, sheet.width, sheet.height, sheet.pixels);
