@@ -4,6 +4,8 @@
 #include <png.h>
 #include <zlib.h>
 
+#include <algorithm>
+#include <cmath>
 #include <csetjmp>
 #include <cstring>
 #include <stdexcept>
@@ -171,8 +173,17 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
     std::vector<uint8_t> raw(lineBytes), split(lineBytes), delta(lineBytes), packed;
     packed.reserve(lineBytes + lineBytes / 64 + 8);
     const size_t half = lineBytes / 2;  // lineBytes is a multiple of 4
+    std::string background;             // the chunk data of an all-zero row, encoded once
     for (int y = 0; y < height; ++y) {
         const float* row = pixels + static_cast<size_t>(y) * width;
+        storeU64(&out[tableAt + 8 * static_cast<size_t>(y)], out.size());
+        putU32(out, static_cast<uint32_t>(y));
+        // Most rows of a depth map are background (+0.0): their data never changes.
+        if (!background.empty() &&
+            std::all_of(row, row + width, [](float v) { return std::signbit(v) == 0 && v == 0; })) {
+            out += background;
+            continue;
+        }
         // Little-endian bytes b0 b1 b2 b3 per pixel; the even ones (b0, b2) go to the first
         // half, the odd ones (b1, b3) to the second. Separate buffers let the loops vectorise.
         for (int x = 0; x < width; ++x) {
@@ -190,14 +201,17 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
             delta[k] = static_cast<uint8_t>(split[k] - split[k - 1] + 128);
         }
         const size_t size = rleEncode(delta.data(), lineBytes, packed);
-        storeU64(&out[tableAt + 8 * static_cast<size_t>(y)], out.size());
-        putU32(out, static_cast<uint32_t>(y));
+        const size_t dataAt = out.size();
         if (size < lineBytes) {
             putU32(out, static_cast<uint32_t>(size));
             out.append(reinterpret_cast<const char*>(packed.data()), size);
         } else {  // would not shrink: stored raw, as OpenEXR does
             putU32(out, static_cast<uint32_t>(lineBytes));
             out.append(reinterpret_cast<const char*>(raw.data()), lineBytes);
+        }
+        if (background.empty() &&
+            std::all_of(row, row + width, [](float v) { return std::signbit(v) == 0 && v == 0; })) {
+            background = out.substr(dataAt);
         }
     }
     return out;

@@ -487,10 +487,12 @@ ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, boo
     // One pass: the silhouette from the drawn pixels, background depth ∞ → 0.
     out.silhouette.resize(n);
     constexpr float kInf = std::numeric_limits<float>::infinity();
+    uint8_t* sil = out.silhouette.data();  // plain pointers: the loop vectorises
+    float* z = zbuf.data();
     for (size_t k = 0; k < n; ++k) {
-        const bool drawn = zbuf[k] != kInf;
-        out.silhouette[k] = drawn ? 255 : 0;
-        zbuf[k] = drawn ? zbuf[k] : 0.0f;
+        const bool drawn = z[k] != kInf;
+        sil[k] = drawn ? 255 : 0;
+        z[k] = drawn ? z[k] : 0.0f;
     }
     if (wantDepth) out.depth = std::move(zbuf);
     if (wantLabels) out.labels = std::move(lbuf);
