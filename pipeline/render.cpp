@@ -96,11 +96,18 @@ struct Box {
 
 // Index of the first / last pixel whose centre i + 0.5 is ≥ v / ≤ v, clamped to [−1, n]
 // (n pixels) before converting, so far-off coordinates cannot overflow an int.
+// Clamping before rounding gives the same integer (the bounds are integers) and lets the
+// rounding be a truncation plus a step: std::ceil / std::floor are library calls on baseline
+// x86-64 and were 3% of a build's time.
 int firstCentreAtOrAfter(double v, int n) {
-    return static_cast<int>(std::clamp(std::ceil(v - 0.5), -1.0, static_cast<double>(n)));
+    const double c = std::clamp(v - 0.5, -1.0, static_cast<double>(n));
+    const int i = static_cast<int>(c);  // rounds toward zero
+    return i < c ? i + 1 : i;
 }
 int lastCentreAtOrBefore(double v, int n) {
-    return static_cast<int>(std::clamp(std::floor(v - 0.5), -1.0, static_cast<double>(n)));
+    const double c = std::clamp(v - 0.5, -1.0, static_cast<double>(n));
+    const int i = static_cast<int>(c);
+    return i > c ? i - 1 : i;
 }
 
 // Pixels whose centres fall in the continuous box, clipped to the image.
