@@ -1,4 +1,4 @@
-// Uniform hash grid over a box for fixed-radius neighbour queries in O(1) expected time.
+// Uniform grids over a box for fixed-radius neighbour queries in O(1) expected time.
 // Used by Poisson sampling and by graph linking (not O(K²)).
 #pragma once
 
@@ -9,56 +9,126 @@
 
 namespace sylva {
 
+// The cells both grids use: edge `cellSize` metres, covering `bounds` (points outside are
+// clamped to the border cells, so queries stay correct, only slower).
+class GridCells {
+  public:
+    GridCells() = default;
+    GridCells(const Aabb& bounds, double cellSize);
+
+    size_t count() const { return static_cast<size_t>(dims_[0]) * dims_[1] * dims_[2]; }
+    int coord(double v, int axis) const {
+        // Clamp before the cast: far-away (or NaN) coordinates must not overflow int. Within
+        // the clamps t ≥ 1, where truncation is floor (and cheaper than std::floor).
+        const double t = (v - origin_[axis]) * inv_;
+        if (!(t >= 1.0)) return 0;
+        return t >= dims_[axis] - 1 ? dims_[axis] - 1 : static_cast<int>(t);
+    }
+    size_t index(int x, int y, int z) const {
+        return (static_cast<size_t>(z) * dims_[1] + y) * dims_[0] + x;
+    }
+    size_t indexOf(const Vec3& p) const {
+        return index(coord(p.x, 0), coord(p.y, 1), coord(p.z, 2));
+    }
+    // The cells (inclusive) the box q ± radius touches, per axis.
+    void range(const Vec3& q, double radius, int lo[3], int hi[3]) const {
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = coord(q[a] - radius, a);
+            hi[a] = coord(q[a] + radius, a);
+        }
+    }
+    // Calls f(cell index) for every cell the box q ± radius touches, z slowest, x fastest.
+    template <class F>
+    void forEachCell(const Vec3& q, double radius, F&& f) const {
+        int lo[3], hi[3];
+        range(q, radius, lo, hi);
+        const size_t sy = static_cast<size_t>(dims_[0]), sz = sy * dims_[1];
+        for (int z = lo[2]; z <= hi[2]; ++z)
+            for (int y = lo[1]; y <= hi[1]; ++y) {
+                const size_t row = z * sz + y * sy;
+                for (int x = lo[0]; x <= hi[0]; ++x) f(row + x);
+            }
+    }
+
+  private:
+    Vec3 origin_;
+    double inv_ = 1.0;
+    int dims_[3] = {1, 1, 1};
+};
+
+// Points added one at a time (dart throwing): one singly linked list per cell.
 class PointGrid {
   public:
-    // Cells of edge `cellSize` metres covering `bounds` (points outside are clamped to the
-    // border cells, so queries stay correct, only slower).
     PointGrid(const Aabb& bounds, double cellSize);
 
     // Adds point p with caller-chosen index `id` (ids need not be dense).
     void insert(int32_t id, const Vec3& p);
     // Pre-allocates room for n points (avoids regrowth when the count is known).
     void reserve(size_t n);
-    size_t size() const { return ids_.size(); }
+    size_t size() const { return slots_.size(); }
 
-    // Calls f(id, position) for every stored point with |q - p| < radius.
+    // Calls f(id, position) for every stored point with |q - p| < radius, cell by cell (z
+    // slowest), the latest insertion first within a cell.
     template <class F>
     void forEachWithin(const Vec3& q, double radius, F&& f) const {
         const double r2 = radius * radius;
-        int lo[3], hi[3];
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = cellCoord(q[a] - radius, a);
-            hi[a] = cellCoord(q[a] + radius, a);
-        }
-        for (int z = lo[2]; z <= hi[2]; ++z)
-            for (int y = lo[1]; y <= hi[1]; ++y)
-                for (int x = lo[0]; x <= hi[0]; ++x) {
-                    for (int32_t s = head_[cellIndex(x, y, z)]; s >= 0; s = next_[s]) {
-                        if (distance2(pos_[s], q) < r2) f(ids_[s], pos_[s]);
-                    }
-                }
+        cells_.forEachCell(q, radius, [&](size_t cell) {
+            for (int32_t s = head_[cell]; s >= 0; s = slots_[s].next) {
+                if (distance2(slots_[s].pos, q) < r2) f(slots_[s].id, slots_[s].pos);
+            }
+        });
     }
     // True if any stored point lies within `radius` of q (early exit).
     bool anyWithin(const Vec3& q, double radius) const;
 
   private:
-    int cellCoord(double v, int axis) const {
-        // Clamp before the cast: far-away (or NaN) coordinates must not overflow int.
-        double c = std::floor((v - origin_[axis]) * inv_);
-        if (!(c > 0.0)) return 0;
-        return c >= dims_[axis] - 1 ? dims_[axis] - 1 : static_cast<int>(c);
+    struct Slot {
+        Vec3 pos;
+        int32_t id;
+        int32_t next;  // next slot in the same cell, -1 at the end
+    };
+    GridCells cells_;
+    std::vector<int32_t> head_;  // first slot per cell, -1 if empty
+    std::vector<Slot> slots_;
+};
+
+// A fixed point set (a graph's nodes), indexed 0..n-1, sorted by cell so that each cell's
+// points lie together. Visits points in the order a PointGrid with the same cells would had
+// they been inserted in index order: cell by cell, each cell's points by descending index.
+// `assign` reuses the storage of the previous set.
+class PackedPointGrid {
+  public:
+    // Cells of edge `cellSize` metres over the bounding box of `points`.
+    void assign(const std::vector<Vec3>& points, double cellSize);
+    size_t size() const { return ids_.size(); }
+
+    // Calls f(id, position) for every point with |q - p| < radius.
+    template <class F>
+    void forEachWithin(const Vec3& q, double radius, F&& f) const {
+        const double r2 = radius * radius;
+        cells_.forEachCell(q, radius, [&](size_t cell) {
+            for (int32_t s = start_[cell]; s < start_[cell + 1]; ++s) {
+                if (distance2(pos_[s], q) < r2) f(ids_[s], pos_[s]);
+            }
+        });
     }
-    size_t cellIndex(int x, int y, int z) const {
-        return (static_cast<size_t>(z) * dims_[1] + y) * dims_[0] + x;
+    // Calls f(ids, positions, count) for every non-empty cell the box q ± radius touches,
+    // in the same order; ids descend within a cell, so a caller after higher ids can stop
+    // at the first lower one.
+    template <class F>
+    void forEachCellNear(const Vec3& q, double radius, F&& f) const {
+        cells_.forEachCell(q, radius, [&](size_t cell) {
+            const int32_t s = start_[cell], count = start_[cell + 1] - s;
+            if (count > 0) f(&ids_[s], &pos_[s], count);
+        });
     }
 
-    Vec3 origin_;
-    double inv_ = 1.0;
-    int dims_[3] = {1, 1, 1};
-    std::vector<int32_t> head_;  // first slot per cell, -1 if empty
-    std::vector<int32_t> next_;  // next slot in the same cell
-    std::vector<Vec3> pos_;      // per slot
-    std::vector<int32_t> ids_;   // per slot
+  private:
+    GridCells cells_;
+    std::vector<int32_t> start_;   // first slot per cell; size cells + 1
+    std::vector<int32_t> ids_;     // per slot
+    std::vector<Vec3> pos_;        // per slot
+    std::vector<int32_t> cellOf_;  // per point, while assigning
 };
 
 }  // namespace sylva

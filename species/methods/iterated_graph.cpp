@@ -8,18 +8,21 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
-#include <queue>
 #include <stdexcept>
+#include <utility>
 
 #include "volumes/point_grid.h"
 #include "volumes/poisson.h"
 
 namespace sylva {
 
-WeightedGraph makeGraph(int n, const std::vector<std::pair<int32_t, int32_t>>& edges,
-                        const std::vector<double>& costs) {
-    WeightedGraph g;
+namespace {
+
+// CSR of the edges into g, reusing its storage; `fill` is scratch.
+void fillGraph(int n, const std::vector<std::pair<int32_t, int32_t>>& edges,
+               const std::vector<double>& costs, WeightedGraph& g, std::vector<int32_t>& fill) {
     g.offset.assign(n + 1, 0);
     for (const auto& [a, b] : edges) {
         ++g.offset[a + 1];
@@ -28,7 +31,7 @@ WeightedGraph makeGraph(int n, const std::vector<std::pair<int32_t, int32_t>>& e
     for (int i = 0; i < n; ++i) g.offset[i + 1] += g.offset[i];
     g.target.resize(g.offset[n]);
     g.cost.resize(g.offset[n]);
-    std::vector<int32_t> fill(g.offset.begin(), g.offset.end() - 1);
+    fill.assign(g.offset.begin(), g.offset.end() - 1);
     for (size_t e = 0; e < edges.size(); ++e) {
         auto [a, b] = edges[e];
         g.target[fill[a]] = b;
@@ -36,21 +39,88 @@ WeightedGraph makeGraph(int n, const std::vector<std::pair<int32_t, int32_t>>& e
         g.target[fill[b]] = a;
         g.cost[fill[b]++] = costs[e];
     }
+}
+
+}  // namespace
+
+WeightedGraph makeGraph(int n, const std::vector<std::pair<int32_t, int32_t>>& edges,
+                        const std::vector<double>& costs) {
+    WeightedGraph g;
+    std::vector<int32_t> fill;
+    fillGraph(n, edges, costs, g, fill);
     return g;
 }
+
+namespace {
+
+// Min-heap of (cost, node) entries, ordered by cost and then node index, with four children
+// per entry (shallower than binary, so fewer cache lines per pop).
+class CostHeap {
+  public:
+    struct Entry {
+        double cost;
+        int32_t node;
+    };
+    bool empty() const { return items_.empty(); }
+    void clear() { items_.clear(); }
+    void push(double cost, int32_t node) {
+        size_t k = items_.size();
+        items_.push_back({cost, node});
+        const Entry e{cost, node};
+        while (k > 0) {
+            const size_t parent = (k - 1) / kArity;
+            if (!before(e, items_[parent])) break;
+            items_[k] = items_[parent];
+            k = parent;
+        }
+        items_[k] = e;
+    }
+    Entry pop() {
+        const Entry top = items_[0];
+        const Entry last = items_.back();
+        items_.pop_back();
+        const size_t n = items_.size();
+        if (n == 0) return top;
+        size_t k = 0;
+        for (;;) {
+            const size_t first = k * kArity + 1;
+            if (first >= n) break;
+            size_t best = first;
+            const size_t end = std::min(first + kArity, n);
+            for (size_t c = first + 1; c < end; ++c)
+                if (before(items_[c], items_[best])) best = c;
+            if (!before(items_[best], last)) break;
+            items_[k] = items_[best];
+            k = best;
+        }
+        items_[k] = last;
+        return top;
+    }
+
+  private:
+    static constexpr size_t kArity = 4;
+    static bool before(const Entry& a, const Entry& b) {
+        return a.cost < b.cost || (a.cost == b.cost && a.node < b.node);
+    }
+    std::vector<Entry> items_;
+};
+
+}  // namespace
 
 void leastCostTree(const WeightedGraph& g, int source, std::vector<double>& dist,
                    std::vector<int32_t>& pred) {
     const int n = g.size();
     dist.assign(n, std::numeric_limits<double>::infinity());
     pred.assign(n, -1);
-    using Item = std::pair<double, int32_t>;  // (cost, node); ties broken by node index
-    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> heap;
+    // Stale entries are skipped rather than decreased. Nodes settle in (cost, node) order
+    // whatever the heap's layout, so the result is that order's. The heap is kept per
+    // thread: a tree searches hundreds of small graphs.
+    thread_local CostHeap heap;
+    heap.clear();
     dist[source] = 0.0;
-    heap.push({0.0, source});
+    heap.push(0.0, source);
     while (!heap.empty()) {
-        auto [d, u] = heap.top();
-        heap.pop();
+        const auto [d, u] = heap.pop();
         if (d > dist[u]) continue;  // stale entry
         for (int32_t k = g.offset[u]; k < g.offset[u + 1]; ++k) {
             int32_t v = g.target[k];
@@ -58,7 +128,7 @@ void leastCostTree(const WeightedGraph& g, int source, std::vector<double>& dist
             if (nd < dist[v]) {
                 dist[v] = nd;
                 pred[v] = u;
-                heap.push({nd, v});
+                heap.push(nd, v);
             }
         }
     }
@@ -129,7 +199,7 @@ double levelSpacing(const IteratedGraphOptions& o, const IteratedGraphLevel& lev
 
 // Nearest point index among pos[first, last) satisfying keep(i), by expanding grid search.
 template <class Keep>
-int32_t nearestIn(const PointGrid& grid, const Vec3& q, double start, Keep&& keep) {
+int32_t nearestIn(const PackedPointGrid& grid, const Vec3& q, double start, Keep&& keep) {
     for (double r = start; r < 1e6; r *= 2) {
         int32_t best = -1;
         double bestD = std::numeric_limits<double>::infinity();
@@ -147,6 +217,22 @@ int32_t nearestIn(const PointGrid& grid, const Vec3& q, double start, Keep&& kee
     return -1;
 }
 
+// solveGraph's buffers, kept per thread: a tree builds hundreds of small graphs, and
+// allocating them afresh each time cost more than filling them.
+struct SolveScratch {
+    PackedPointGrid grid;
+    std::vector<std::pair<int32_t, int32_t>> edges;
+    std::vector<int32_t> comp, compSize;
+    std::vector<double> costs;
+    WeightedGraph graph;
+    std::vector<int32_t> fill;
+};
+
+SolveScratch& threadScratch() {
+    thread_local SolveScratch scratch;
+    return scratch;
+}
+
 // Builds the graph over pos (node 0 = root R; [1, firstEndpoint) Poisson nodes; the rest
 // endpoints, which link only to nodes, as in maketree step 2B), draws edge costs, and runs one
 // least-cost search from R.
@@ -155,22 +241,32 @@ void solveGraph(const IteratedGraphOptions& o, const std::vector<Vec3>& pos, int
                 GraphResult& out) {
     const int n = static_cast<int>(pos.size());
     const double link = o.linkFactor * spacing;
-    Aabb box;
-    for (const auto& p : pos) box.extend(p);
-    PointGrid grid(box, link);
-    for (int i = 0; i < n; ++i) grid.insert(i, pos[i]);
+    SolveScratch& scratch = threadScratch();
+    PackedPointGrid& grid = scratch.grid;
+    grid.assign(pos, link);
     auto isEndpoint = [&](int i) { return i >= firstEndpoint; };
 
-    std::vector<std::pair<int32_t, int32_t>> edges;
-    edges.reserve(static_cast<size_t>(n) * 8);
+    std::vector<std::pair<int32_t, int32_t>>& edges = scratch.edges;
+    edges.clear();
     if (o.linking == Linking::kDistance) {
-        // maketree 1G/2B: an edge between every pair closer than the linking distance.
-        for (int i = 0; i < n; ++i) {
-            grid.forEachWithin(pos[i], link, [&](int32_t j, const Vec3&) {
-                if (j <= i || (isEndpoint(i) && isEndpoint(j))) return;
-                edges.push_back({i, j});
+        // maketree 1G/2B: an edge between every pair closer than the linking distance, listed
+        // from the lower index. Endpoints link only to nodes, so an endpoint i (all higher
+        // indices being endpoints too) lists none.
+        // Every candidate is written and kept only if close enough: no branch to mispredict.
+        const double link2 = link * link;
+        size_t m = 0;
+        for (int i = 0; i < firstEndpoint; ++i) {
+            const Vec3 q = pos[i];
+            grid.forEachCellNear(q, link, [&](const int32_t* id, const Vec3* p, int count) {
+                if (m + count > edges.size()) edges.resize(2 * (m + count));
+                std::pair<int32_t, int32_t>* out = edges.data();
+                for (int k = 0; k < count && id[k] > i; ++k) {
+                    out[m] = {i, id[k]};
+                    m += distance2(p[k], q) < link2;
+                }
             });
         }
+        edges.resize(m);
     } else {
         // Yao graph (Xu & Mould, journal version; Wolff §3): the space around each node is
         // cut by planes into sectors and the node links to its nearest neighbour in each.
@@ -207,7 +303,10 @@ void solveGraph(const IteratedGraphOptions& o, const std::vector<Vec3>& pos, int
     // trunk cylinder, a sector's apex) can split the graph; join each component holding an
     // endpoint to the rest by its closest node pair — a short edge across the gap, rather
     // than a long straight one from the endpoint.
-    std::vector<int32_t> comp(n), compSize(n, 1);
+    std::vector<int32_t>& comp = scratch.comp;
+    std::vector<int32_t>& compSize = scratch.compSize;
+    comp.resize(n);
+    compSize.assign(n, 1);
     for (int i = 0; i < n; ++i) comp[i] = i;
     auto find = [&](int32_t x) {
         while (comp[x] != x) x = comp[x] = comp[comp[x]];
@@ -246,7 +345,8 @@ void solveGraph(const IteratedGraphOptions& o, const std::vector<Vec3>& pos, int
         }
     }
     // maketree 1H: random weights, drawn in edge order so the draw is reproducible.
-    std::vector<double> costs(edges.size());
+    std::vector<double>& costs = scratch.costs;
+    costs.resize(edges.size());
     for (size_t e = 0; e < edges.size(); ++e) {
         double w;
         if (o.edgeWeightKind == EdgeWeightKind::kUniform) {
@@ -257,8 +357,8 @@ void solveGraph(const IteratedGraphOptions& o, const std::vector<Vec3>& pos, int
         double len = distance(pos[edges[e].first], pos[edges[e].second]);
         costs[e] = w * (o.lengthExponent == 1.0 ? len : std::pow(len, o.lengthExponent));
     }
-    WeightedGraph g = makeGraph(n, edges, costs);
-    leastCostTree(g, 0, dist, pred);
+    fillGraph(n, edges, costs, scratch.graph, scratch.fill);
+    leastCostTree(scratch.graph, 0, dist, pred);
 }
 
 // Endpoint positions: uniform in the volume, optionally only in the shell of depth d_e on its
