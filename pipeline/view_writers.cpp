@@ -24,10 +24,7 @@
 //   square), 2 px light grey (200) gutters around and between tiles, white letterboxing.
 //   writeContactSheet draws silhouettes black (0) on white (255); writeContactSheetFromFiles
 //   shows its inputs as they are (no inversion), each fitted into tile × tile keeping its
-//   aspect (shrunk by OIIO resize with an area-averaging box filter, enlarged by nearest
-//   pixel).
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
+//   aspect (shrunk by area averaging, enlarged by nearest pixel; see fitGrey).
 #include <OpenImageIO/imageio.h>
 
 #include <cmath>
@@ -126,7 +123,12 @@ struct Sheet {
 // A grey PNG (or any OIIO-readable image) as float grey: 1 channel as is, 3+ channels by
 // Rec. 709 luminance of the first three, 2 channels (grey + alpha) by the first. Read
 // directly (no ImageCache), so a file rewritten during the run is never seen stale.
-OIIO::ImageBuf readGrey(const fs::path& path) {
+struct GreyImage {
+    int width = 0, height = 0;
+    std::vector<float> pixels;  // row-major
+};
+
+GreyImage readGrey(const fs::path& path) {
     auto in = OIIO::ImageInput::open(path.string());
     if (!in) {
         throw std::runtime_error("cannot read image '" + path.string() + "': " + OIIO::geterror());
@@ -140,13 +142,73 @@ OIIO::ImageBuf readGrey(const fs::path& path) {
         throw std::runtime_error("cannot read image '" + path.string() + "': " + err);
     }
     in->close();
-    OIIO::ImageBuf grey(OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT));
-    float* out = static_cast<float*>(grey.localpixels());
-    for (size_t k = 0; k < static_cast<size_t>(w) * h; ++k) {
+    if (nc == 1) return {w, h, std::move(data)};
+    GreyImage grey{w, h, std::vector<float>(static_cast<size_t>(w) * h)};
+    for (size_t k = 0; k < grey.pixels.size(); ++k) {
         const float* p = data.data() + k * nc;
-        out[k] = nc >= 3 ? 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2] : p[0];
+        grey.pixels[k] = nc >= 3 ? 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2] : p[0];
     }
     return grey;
+}
+
+// A grey image fitted to rw × rh. Enlarging in both directions (views smaller than the tile):
+// nearest source pixel, so silhouettes stay crisp (a box filter would leave gaps between
+// source pixels). Otherwise area averaging: each output pixel is the mean of the source
+// area it covers (partly covered source pixels weighted by the covered fraction), which keeps
+// thin twigs as grey lines. Separable: rows first, then columns. (OIIO's resize with a box
+// filter gives the same kind of result but took 14 ms per 776² sheet through its iterators.)
+std::vector<float> fitGrey(const float* in, int w, int h, int rw, int rh) {
+    std::vector<float> out(static_cast<size_t>(rw) * rh);
+    if (rw >= w && rh >= h) {
+        for (int y = 0; y < rh; ++y) {
+            const int sy = std::min(h - 1, static_cast<int>((y + 0.5) * h / rh));
+            for (int x = 0; x < rw; ++x) {
+                const int sx = std::min(w - 1, static_cast<int>((x + 0.5) * w / rw));
+                out[static_cast<size_t>(y) * rw + x] = in[static_cast<size_t>(sy) * w + sx];
+            }
+        }
+        return out;
+    }
+    // Per output index: the source indices it covers and their weights (summing to 1).
+    struct Tap {
+        int first = 0;
+        std::vector<double> weights;
+    };
+    auto taps = [](int n, int rn) {
+        std::vector<Tap> t(rn);
+        const double scale = static_cast<double>(n) / rn;
+        for (int o = 0; o < rn; ++o) {
+            const double lo = o * scale, hi = (o + 1) * scale;
+            t[o].first = static_cast<int>(lo);
+            for (int i = t[o].first; i < n && i < hi; ++i) {
+                t[o].weights.push_back(
+                    (std::min(hi, i + 1.0) - std::max(lo, static_cast<double>(i))) / scale);
+            }
+        }
+        return t;
+    };
+    const std::vector<Tap> tx = taps(w, rw), ty = taps(h, rh);
+    std::vector<double> rows(static_cast<size_t>(rw) * h);  // rows resampled, full height
+    for (int y = 0; y < h; ++y) {
+        const float* src = in + static_cast<size_t>(y) * w;
+        for (int x = 0; x < rw; ++x) {
+            double v = 0.0;
+            for (size_t k = 0; k < tx[x].weights.size(); ++k) {
+                v += tx[x].weights[k] * src[tx[x].first + k];
+            }
+            rows[static_cast<size_t>(y) * rw + x] = v;
+        }
+    }
+    for (int y = 0; y < rh; ++y) {
+        for (int x = 0; x < rw; ++x) {
+            double v = 0.0;
+            for (size_t k = 0; k < ty[y].weights.size(); ++k) {
+                v += ty[y].weights[k] * rows[(ty[y].first + k) * rw + x];
+            }
+            out[static_cast<size_t>(y) * rw + x] = static_cast<float>(v);
+        }
+    }
+    return out;
 }
 
 }  // namespace
@@ -273,36 +335,12 @@ void writeContactSheetFromFiles(const fs::path& path, const std::vector<fs::path
     }
     Sheet sheet(images.size(), columns, tile, tile);
     for (size_t i = 0; i < images.size(); ++i) {
-        const OIIO::ImageBuf src = readGrey(images[i]);
-        const int w = src.spec().width, h = src.spec().height;
+        const GreyImage src = readGrey(images[i]);
+        const int w = src.width, h = src.height;
         const double s = static_cast<double>(tile) / std::max(w, h);
         const int rw = std::clamp(static_cast<int>(std::lround(w * s)), 1, tile);
         const int rh = std::clamp(static_cast<int>(std::lround(h * s)), 1, tile);
-        OIIO::ImageBuf fitted;
-        if (rw == w && rh == h) {
-            fitted.copy(src);
-        } else if (rw >= w && rh >= h) {
-            // Enlarging (views smaller than the tile): nearest source pixel, so silhouettes stay
-            // crisp (a one-pixel box filter would leave gaps between source pixels).
-            fitted.reset(OIIO::ImageSpec(rw, rh, 1, OIIO::TypeDesc::FLOAT));
-            const float* in = static_cast<const float*>(src.localpixels());
-            float* out = static_cast<float*>(fitted.localpixels());
-            for (int y = 0; y < rh; ++y) {
-                const int sy = std::min(h - 1, static_cast<int>((y + 0.5) * h / rh));
-                for (int x = 0; x < rw; ++x) {
-                    const int sx = std::min(w - 1, static_cast<int>((x + 0.5) * w / rw));
-                    out[static_cast<size_t>(y) * rw + x] = in[static_cast<size_t>(sy) * w + sx];
-                }
-            }
-        } else if (!OIIO::ImageBufAlgo::resize(fitted, src, "box", 1.0f,
-                                               OIIO::ROI(0, rw, 0, rh, 0, 1, 0, 1))) {
-            // A box filter one destination pixel wide: plain area averaging, which keeps
-            // thin twigs as grey lines and costs a fraction of the default wide filter.
-            throw std::runtime_error("cannot resize '" + images[i].string() +
-                                     "': " + fitted.geterror());
-        }
-        std::vector<float> px(static_cast<size_t>(rw) * rh);
-        fitted.get_pixels(OIIO::ROI(0, rw, 0, rh, 0, 1, 0, 1), OIIO::TypeDesc::FLOAT, px.data());
+        const std::vector<float> px = fitGrey(src.pixels.data(), w, h, rw, rh);
         sheet.put(i, rw, rh, [&](int y, uint8_t* dst) {
             const float* src = px.data() + static_cast<size_t>(y) * rw;
             for (int x = 0; x < rw; ++x) {

@@ -799,6 +799,33 @@ TEST(ViewContactSheet, FromFilesFitsEachImageInItsTile) {
                  std::runtime_error);
 }
 
+TEST(ViewContactSheet, ShrinkingAveragesTheCoveredArea) {
+    // A white 3×3 image with one black centre pixel, fitted into a 2×2 tile: each output
+    // pixel covers 1.5 × 1.5 source pixels, a third by a third of the centre one, so it is
+    // 1 − 1/9 grey: 255 · 8/9 = 226.7 → 227.
+    TempDir dir;
+    std::vector<uint8_t> px(9, 255);
+    px[4] = 0;
+    const fs::path in = dir.path / "in.png", sheet = dir.path / "sheet.png";
+    writeGreyPng(in, 3, 3, px);
+    writeContactSheetFromFiles(sheet, {in}, 1, 2);
+    int w = 0, h = 0;
+    const auto out = readGreyFile(sheet, w, h);
+    ASSERT_EQ(w, 2 + 2 + 2);
+    for (int y = 2; y < 4; ++y) {
+        for (int x = 2; x < 4; ++x) EXPECT_EQ(out.at(static_cast<size_t>(y) * w + x), 227);
+    }
+    // 4×4 → 2×2: exact 2×2 means (a checkerboard of 0/255 gives 127.5 → 128).
+    std::vector<uint8_t> board(16);
+    for (int k = 0; k < 16; ++k) board[k] = ((k % 4) + (k / 4)) % 2 ? 255 : 0;
+    writeGreyPng(in, 4, 4, board);
+    writeContactSheetFromFiles(sheet, {in}, 1, 2);
+    const auto out2 = readGreyFile(sheet, w, h);
+    for (int y = 2; y < 4; ++y) {
+        for (int x = 2; x < 4; ++x) EXPECT_EQ(out2.at(static_cast<size_t>(y) * w + x), 128);
+    }
+}
+
 // Timing report (not part of the default run):
 //   ./sylva_tests --gtest_also_run_disabled_tests --gtest_filter='ViewBench.*'
 TEST(ViewBench, DISABLED_RenderTimes) {
