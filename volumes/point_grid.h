@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "volumes/math.h"
@@ -17,6 +18,7 @@ class GridCells {
     GridCells(const Aabb& bounds, double cellSize);
 
     size_t count() const { return static_cast<size_t>(dims_[0]) * dims_[1] * dims_[2]; }
+    int dim(int axis) const { return dims_[axis]; }
     int coord(double v, int axis) const {
         // Clamp before the cast: far-away (or NaN) coordinates must not overflow int. Within
         // the clamps t ≥ 1, where truncation is floor (and cheaper than std::floor).
@@ -112,23 +114,23 @@ class PackedPointGrid {
             }
         });
     }
-    // Calls f(ids, positions, count) for every non-empty cell the box q ± radius touches,
-    // in the same order; ids descend within a cell, so a caller after higher ids can stop
-    // at the first lower one.
-    template <class F>
-    void forEachCellNear(const Vec3& q, double radius, F&& f) const {
-        cells_.forEachCell(q, radius, [&](size_t cell) {
-            const int32_t s = start_[cell], count = start_[cell + 1] - s;
-            if (count > 0) f(&ids_[s], &pos_[s], count);
-        });
-    }
+    // Every pair (i, j) with i < j, i < iEnd and |p_i − p_j| < radius, as (i, j) in `out`:
+    // by i ascending and, for each i, in the order forEachWithin(p_i, radius) visits the j —
+    // what calling it for each i would list, found with one pass over pairs of neighbouring
+    // cells (each pair measured once) when radius is the cell size.
+    void pairsWithin(double radius, int32_t iEnd, std::vector<std::pair<int32_t, int32_t>>& out);
 
   private:
     GridCells cells_;
     std::vector<int32_t> start_;   // first slot per cell; size cells + 1
     std::vector<int32_t> ids_;     // per slot
     std::vector<Vec3> pos_;        // per slot
-    std::vector<int32_t> cellOf_;  // per point, while assigning
+    std::vector<int32_t> cellOf_;  // per point
+    std::vector<int32_t> slotOf_;  // per point
+    // pairsWithin's buffers
+    std::vector<uint8_t> regular_;
+    std::vector<std::pair<int32_t, int32_t>> found_;  // (i, slot of j)
+    std::vector<int32_t> bucket_;
 };
 
 }  // namespace sylva

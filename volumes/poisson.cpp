@@ -2,6 +2,7 @@
 // candidates from the volume's own sampler, rejected when closer than d to an accepted point.
 #include "volumes/poisson.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -32,16 +33,24 @@ namespace {
 
 std::vector<Vec3> poissonSample(const Volume& volume, const PoissonOptions& options, Rng& rng) {
     std::vector<Vec3> points;
+    poissonSample(volume, options, rng, points);
+    return points;
+}
+
+void poissonSample(const Volume& volume, const PoissonOptions& options, Rng& rng,
+                   std::vector<Vec3>& out) {
     const int count = options.count;
-    if (count <= 0) return points;
+    if (count <= 0) return;
     const double d = options.minDistance;
     if (!std::isfinite(d)) throw std::invalid_argument("poissonSample: minDistance is not finite");
-    points.reserve(static_cast<size_t>(count));
+    const size_t first = out.size();
+    out.reserve(first + static_cast<size_t>(count));
+    auto placed = [&]() { return static_cast<int>(out.size() - first); };
 
     auto draw = [&]() {
         auto p = volume.sample(rng);
         if (!p) {
-            throw PoissonSaturated("placed " + std::to_string(points.size()) + " of " +
+            throw PoissonSaturated("placed " + std::to_string(placed()) + " of " +
                                    std::to_string(count) + " points: no point could be drawn in " +
                                    volume.describe() + " (empty or too thin a volume?)");
         }
@@ -49,8 +58,8 @@ std::vector<Vec3> poissonSample(const Volume& volume, const PoissonOptions& opti
     };
 
     if (!(d > 0.0)) {  // no spacing constraint: plain uniform samples
-        while (static_cast<int>(points.size()) < count) points.push_back(draw());
-        return points;
+        while (placed() < count) out.push_back(draw());
+        return;
     }
 
     // Cell = d: a query touches at most 3×3×3 cells, each holding about one point even at
@@ -59,17 +68,16 @@ std::vector<Vec3> poissonSample(const Volume& volume, const PoissonOptions& opti
     grid.reserve(static_cast<size_t>(count));
     const int maxRejections = std::max(1, options.maxConsecutiveRejections);
     int rejections = 0;
-    while (static_cast<int>(points.size()) < count) {
+    while (placed() < count) {
         const Vec3 p = draw();
         if (grid.anyWithin(p, d)) {
-            if (++rejections >= maxRejections) throwSaturated(volume, points.size(), count, d);
+            if (++rejections >= maxRejections) throwSaturated(volume, placed(), count, d);
             continue;
         }
         rejections = 0;
-        grid.insert(static_cast<int32_t>(points.size()), p);
-        points.push_back(p);
+        grid.insert(placed(), p);
+        out.push_back(p);
     }
-    return points;
 }
 
 }  // namespace sylva

@@ -29,6 +29,10 @@ struct PoissonOptions {
 // K points, pairwise at least d apart, uniformly distributed inside `volume`. Runs in about
 // O(K) expected time. Throws PoissonSaturated when K points cannot be placed.
 std::vector<Vec3> poissonSample(const Volume& volume, const PoissonOptions& options, Rng& rng);
+// The same points appended to `out` (which may already hold others; they are not spaced
+// against).
+void poissonSample(const Volume& volume, const PoissonOptions& options, Rng& rng,
+                   std::vector<Vec3>& out);
 
 // Largest count that random sequential packing typically reaches at spacing d in a volume of
 // `cubicMetres` (≈ 0.7·V/d³ in 3-D) — for error messages and for choosing d from K.

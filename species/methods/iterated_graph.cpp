@@ -252,21 +252,7 @@ void solveGraph(const IteratedGraphOptions& o, const std::vector<Vec3>& pos, int
         // maketree 1G/2B: an edge between every pair closer than the linking distance, listed
         // from the lower index. Endpoints link only to nodes, so an endpoint i (all higher
         // indices being endpoints too) lists none.
-        // Every candidate is written and kept only if close enough: no branch to mispredict.
-        const double link2 = link * link;
-        size_t m = 0;
-        for (int i = 0; i < firstEndpoint; ++i) {
-            const Vec3 q = pos[i];
-            grid.forEachCellNear(q, link, [&](const int32_t* id, const Vec3* p, int count) {
-                if (m + count > edges.size()) edges.resize(2 * (m + count));
-                std::pair<int32_t, int32_t>* out = edges.data();
-                for (int k = 0; k < count && id[k] > i; ++k) {
-                    out[m] = {i, id[k]};
-                    m += distance2(p[k], q) < link2;
-                }
-            });
-        }
-        edges.resize(m);
+        grid.pairsWithin(link, firstEndpoint, edges);
     } else {
         // Yao graph (Xu & Mould, journal version; Wolff §3): the space around each node is
         // cut by planes into sectors and the node links to its nearest neighbour in each.
@@ -431,7 +417,7 @@ GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
     std::vector<Vec3> pos;
     pos.reserve(level.nodes + job.endpoints + 2);
     pos.push_back(job.rootPos);
-    for (const Vec3& p : poissonSample(*job.volume, po, nodeRng)) pos.push_back(p);
+    poissonSample(*job.volume, po, nodeRng, pos);
     const int firstEndpoint = static_cast<int>(pos.size());
     out.graphNodes = level.nodes;
 
