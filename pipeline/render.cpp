@@ -260,6 +260,40 @@ Scene buildScene(const Tree& tree, const View& view) {
     // Leaf triangles get ids after every segment; their bin entries are appended after the
     // segments', so each bin stays in index order.
     const int32_t firstTri = static_cast<int32_t>(scene.segments.size());
+    // A projected triangle corner: screen position, depth and the interpolated depth term.
+    struct Corner {
+        double x, y, depth, z;
+    };
+    auto project = [&](const Vec3& c) {
+        Corner k;
+        view.toPixel(c, k.x, k.y);
+        k.depth = -c.z;
+        k.z = view.ortho ? k.depth : 1.0 / k.depth;
+        return k;
+    };
+    auto addTriangle = [&](const Corner& a, const Corner& b, const Corner& c) {
+        Triangle t;
+        const Corner* v[3] = {&a, &b, &c};
+        double lox = 1e300, hix = -1e300, loy = 1e300, hiy = -1e300, zmin = 1e300;
+        for (int j = 0; j < 3; ++j) {
+            t.x[j] = v[j]->x;
+            t.y[j] = v[j]->y;
+            t.z[j] = v[j]->z;
+            zmin = std::min(zmin, v[j]->depth);
+            lox = std::min(lox, t.x[j]);
+            hix = std::max(hix, t.x[j]);
+            loy = std::min(loy, t.y[j]);
+            hiy = std::max(hiy, t.y[j]);
+        }
+        t.area = (t.x[1] - t.x[0]) * (t.y[2] - t.y[0]) - (t.y[1] - t.y[0]) * (t.x[2] - t.x[0]);
+        t.zmin = static_cast<float>(zmin);
+        if (!(t.area != 0.0) || !pixelBox(lox, hix, loy, hiy, view.width, view.height, t.box)) {
+            return;
+        }
+        const int32_t id = firstTri + static_cast<int32_t>(scene.triangles.size());
+        scene.triangles.push_back(t);
+        addToBins(scene, t.box, id);
+    };
     for (const Leaf& leaf : tree.leaves) {
         const Vec3 along = leaf.tangent * (0.5 * leaf.size);
         const Vec3 across = cross(leaf.normal, leaf.tangent) * (0.5 * leaf.size * leaf.aspect);
@@ -269,34 +303,21 @@ Scene buildScene(const Tree& tree, const View& view) {
             view.toCamera(leaf.position + along + across),
             view.toCamera(leaf.position - along + across),
         };
+        bool inFront = true;
+        for (const Vec3& q : quad) inFront = inFront && -q.z - kNear >= 0;
+        if (inFront) {  // the usual case: no clipping, each corner projected once
+            const Corner c[4] = {project(quad[0]), project(quad[1]), project(quad[2]),
+                                 project(quad[3])};
+            addTriangle(c[0], c[1], c[2]);
+            addTriangle(c[0], c[2], c[3]);
+            continue;
+        }
         for (int half = 0; half < 2; ++half) {
             const Vec3 tri[3] = {quad[0], quad[1 + half], quad[2 + half]};
             Vec3 poly[4];
             const int n = clipNear(tri, 3, poly);
             for (int k = 1; k + 1 < n; ++k) {  // fan
-                Triangle t;
-                const Vec3* v[3] = {&poly[0], &poly[k], &poly[k + 1]};
-                double lox = 1e300, hix = -1e300, loy = 1e300, hiy = -1e300, zmin = 1e300;
-                for (int j = 0; j < 3; ++j) {
-                    view.toPixel(*v[j], t.x[j], t.y[j]);
-                    const double depth = -v[j]->z;
-                    t.z[j] = view.ortho ? depth : 1.0 / depth;
-                    zmin = std::min(zmin, depth);
-                    lox = std::min(lox, t.x[j]);
-                    hix = std::max(hix, t.x[j]);
-                    loy = std::min(loy, t.y[j]);
-                    hiy = std::max(hiy, t.y[j]);
-                }
-                t.area =
-                    (t.x[1] - t.x[0]) * (t.y[2] - t.y[0]) - (t.y[1] - t.y[0]) * (t.x[2] - t.x[0]);
-                t.zmin = static_cast<float>(zmin);
-                if (!(t.area != 0.0) ||
-                    !pixelBox(lox, hix, loy, hiy, view.width, view.height, t.box)) {
-                    continue;
-                }
-                const int32_t id = firstTri + static_cast<int32_t>(scene.triangles.size());
-                scene.triangles.push_back(t);
-                addToBins(scene, t.box, id);
+                addTriangle(project(poly[0]), project(poly[k]), project(poly[k + 1]));
             }
         }
     }
@@ -528,7 +549,11 @@ double boxCountingDimension(const ViewImage& view) {
     for (int y = 0; y < h; ++y) {
         const uint8_t* row = view.silhouette.data() + static_cast<size_t>(y) * w;
         uint8_t* hrow = hit.data() + static_cast<size_t>(y / 2) * bw;
-        for (int x = 0; x < w; ++x) hrow[x >> 1] |= row[x] != 0;
+        const int pairs = w / 2;  // pixel pairs, so the loop vectorises
+        for (int i = 0; i < pairs; ++i) {
+            hrow[i] |= static_cast<uint8_t>((row[2 * i] | row[2 * i + 1]) != 0);
+        }
+        if (w & 1) hrow[pairs] |= static_cast<uint8_t>(row[w - 1] != 0);
     }
     for (size_t level = 0; level < sizes.size(); ++level) {
         if (level > 0) {
@@ -537,7 +562,8 @@ double boxCountingDimension(const ViewImage& view) {
             for (int y = 0; y < bh; ++y) {
                 const uint8_t* row = hit.data() + static_cast<size_t>(y) * bw;
                 uint8_t* nrow = next.data() + static_cast<size_t>(y / 2) * nw;
-                for (int x = 0; x < bw; ++x) nrow[x >> 1] |= row[x];
+                for (int i = 0; i < bw / 2; ++i) nrow[i] |= row[2 * i] | row[2 * i + 1];
+                if (bw & 1) nrow[bw / 2] |= row[bw - 1];
             }
             hit.swap(next);
             bw = nw;
