@@ -1,13 +1,13 @@
 #include "pipeline/build.h"
 
 #include <OpenImageIO/oiioversion.h>
+#include <malloc.h>
 #include <openvdb/version.h>
 #include <tbb/flow_graph.h>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 #include <tbb/version.h>
 #include <toml++/toml.h>
-#include <malloc.h>
 #include <unistd.h>
 
 #include <atomic>

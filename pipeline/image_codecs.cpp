@@ -116,7 +116,6 @@ size_t rleEncode(const uint8_t* in, size_t n, std::vector<uint8_t>& out) {
                !(j + 2 < n && in[j] == in[j + 1] && in[j + 1] == in[j + 2])) {
             ++j;
         }
-        j = std::min(j, i + kMaxRun);
         out.push_back(static_cast<uint8_t>(-static_cast<int>(j - i)));
         out.insert(out.end(), in + i, in + j);
         i = j;
@@ -173,7 +172,7 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
     const size_t tableAt = out.size();
     out.append(static_cast<size_t>(height) * 8, '\0');
 
-    std::vector<uint8_t> raw(lineBytes), split(lineBytes), delta(lineBytes), packed;
+    std::vector<uint8_t> split(lineBytes), delta(lineBytes), packed;
     packed.reserve(lineBytes + lineBytes / 64 + 8);
     const size_t half = lineBytes / 2;  // lineBytes is a multiple of 4
     std::string background;             // the chunk data of an all-zero row, encoded once
@@ -182,8 +181,9 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
         storeU64(&out[tableAt + 8 * static_cast<size_t>(y)], out.size());
         putU32(out, static_cast<uint32_t>(y));
         // Most rows of a depth map are background (+0.0): their data never changes.
-        if (!background.empty() &&
-            std::all_of(row, row + width, [](float v) { return std::signbit(v) == 0 && v == 0; })) {
+        const bool isBackground =
+            std::all_of(row, row + width, [](float v) { return std::signbit(v) == 0 && v == 0; });
+        if (isBackground && !background.empty()) {
             out += background;
             continue;
         }
@@ -192,8 +192,7 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
         for (int x = 0; x < width; ++x) {
             uint32_t bits;
             std::memcpy(&bits, &row[x], 4);
-            const size_t k = 4 * static_cast<size_t>(x), e = 2 * static_cast<size_t>(x);
-            storeU32(reinterpret_cast<char*>(raw.data()) + k, bits);
+            const size_t e = 2 * static_cast<size_t>(x);
             split[e] = static_cast<uint8_t>(bits);
             split[e + 1] = static_cast<uint8_t>(bits >> 16);
             split[half + e] = static_cast<uint8_t>(bits >> 8);
@@ -208,14 +207,15 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
         if (size < lineBytes) {
             putU32(out, static_cast<uint32_t>(size));
             out.append(reinterpret_cast<const char*>(packed.data()), size);
-        } else {  // would not shrink: stored raw, as OpenEXR does
+        } else {  // would not shrink: stored raw (the pixels' own bytes), as OpenEXR does
             putU32(out, static_cast<uint32_t>(lineBytes));
-            out.append(reinterpret_cast<const char*>(raw.data()), lineBytes);
+            for (int x = 0; x < width; ++x) {
+                uint32_t bits;  // bit for bit: a float → double round trip could quiet a NaN
+                std::memcpy(&bits, &row[x], 4);
+                putU32(out, bits);
+            }
         }
-        if (background.empty() &&
-            std::all_of(row, row + width, [](float v) { return std::signbit(v) == 0 && v == 0; })) {
-            background = out.substr(dataAt);
-        }
+        if (isBackground) background = out.substr(dataAt);
     }
     return out;
 }

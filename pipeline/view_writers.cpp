@@ -115,8 +115,9 @@ struct Sheet {
                         uint8_t{255});
         }
         const int ox = cx0 + (tileW - w) / 2, oy = cy0 + (tileH - h) / 2;
-        for (int y = 0; y < h; ++y)
+        for (int y = 0; y < h; ++y) {
             row(y, pixels.data() + static_cast<size_t>(oy + y) * width + ox);
+        }
     }
 };
 
