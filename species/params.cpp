@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -26,20 +27,20 @@ bool Range::contains(double v) const {
     return true;
 }
 
-static std::string fmt(double v) {
-    std::ostringstream s;
-    s.precision(12);
-    s << v;
-    return s.str();
+std::string formatNumber(double v, int significantDigits) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.*g", significantDigits, v);
+    return buf;
 }
 
 std::string Range::describe(bool integer) const {
     std::string noun = integer ? "an integer" : "a number";
     bool noLo = lo <= -1e299, noHi = hi >= 1e299;
     if (noLo && noHi) return integer ? noun : "a finite number";
-    if (noHi) return noun + (loOpen ? " > " : " ≥ ") + fmt(lo);
-    if (noLo) return noun + (hiOpen ? " < " : " ≤ ") + fmt(hi);
-    return noun + " in " + (loOpen ? "(" : "[") + fmt(lo) + ", " + fmt(hi) + (hiOpen ? ")" : "]");
+    if (noHi) return noun + (loOpen ? " > " : " ≥ ") + formatNumber(lo);
+    if (noLo) return noun + (hiOpen ? " < " : " ≤ ") + formatNumber(hi);
+    return noun + " in " + (loOpen ? "(" : "[") + formatNumber(lo) + ", " + formatNumber(hi) +
+           (hiOpen ? ")" : "]");
 }
 
 static const char* typeName(const toml::node& n) {
@@ -171,14 +172,16 @@ double Params::readNumber(const toml::node& node, const SourcePos& where, const 
                           const Range& range, bool wantInteger) {
     auto check = [&](double v, const char* what) {
         if (!std::isfinite(v)) {
-            throw SpecError(where, path, std::string("expected a finite number, got ") + fmt(v));
+            throw SpecError(where, path,
+                            std::string("expected a finite number, got ") + formatNumber(v));
         }
         if (!range.contains(v)) {
-            throw SpecError(where, path,
-                            "expected " + range.describe(wantInteger) + ", got " + what + fmt(v));
+            throw SpecError(
+                where, path,
+                "expected " + range.describe(wantInteger) + ", got " + what + formatNumber(v));
         }
         if (wantInteger && std::floor(v) != v) {
-            throw SpecError(where, path, "expected an integer, got " + fmt(v));
+            throw SpecError(where, path, "expected an integer, got " + formatNumber(v));
         }
     };
     if (auto i = node.as_integer()) {
@@ -189,7 +192,7 @@ double Params::readNumber(const toml::node& node, const SourcePos& where, const 
     if (auto f = node.as_floating_point()) {
         double v = f->get();
         if (wantInteger && std::isfinite(v) && std::floor(v) != v) {
-            throw SpecError(where, path, "expected an integer, got " + fmt(v));
+            throw SpecError(where, path, "expected an integer, got " + formatNumber(v));
         }
         check(v, "");
         return v;

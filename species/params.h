@@ -35,6 +35,9 @@ class SpecError : public std::runtime_error {
     SpecError(const SourcePos& where, const std::string& keyPath, const std::string& message);
 };
 
+// A number for an error message: printf "%.*g" with `significantDigits` digits.
+std::string formatNumber(double v, int significantDigits = 12);
+
 // Closed/open numeric interval for validation, with a readable description.
 struct Range {
     double lo = -1e300, hi = 1e300;

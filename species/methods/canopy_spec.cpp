@@ -38,7 +38,6 @@
 // | leaves.support_distance      | metres      | 0.3         | a leaf with a branch node this close is supported |
 // clang-format on
 #include <cmath>
-#include <cstdio>
 #include <memory>
 #include <string>
 #include <utility>
@@ -55,11 +54,7 @@ constexpr double kDeg = kPi / 180.0;
 constexpr double kMaxSegments = 200000;  // template budget (F symbols after expansion)
 constexpr double kMaxWord = 4.0e6;       // template word length budget
 
-std::string num(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.4g", v);
-    return buf;
-}
+std::string num(double v) { return formatNumber(v, 4); }
 
 class CanopyMethod : public GrowthMethod {
   public:

@@ -14,11 +14,7 @@ namespace {
 
 constexpr double kDeg = kPi / 180.0;
 
-std::string fmt(double v) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.9g", v);
-    return buf;
-}
+std::string fmt(double v) { return formatNumber(v, 9); }
 
 // The key names of a table, in file order (toml++ keeps them sorted; good enough: we only
 // need them for iteration, every check reports its own key's position).

@@ -55,11 +55,7 @@ constexpr double kDeg = kPi / 180.0;
 
 Range open(double a, double b) { return {a, b, true, true}; }
 
-std::string num(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%g", v);
-    return buf;
-}
+std::string num(double v) { return formatNumber(v, 6); }
 
 class SpaceColonizationMethod : public GrowthMethod {
   public:
