@@ -29,6 +29,9 @@ struct PixelScale {
     double metresPerPixel(int imageHeight) const { return byHeight ? value / imageHeight : value; }
 };
 PixelScale readPixelScale(Params& p, const std::string& images);
+// The image at `mask` (relative to the species file), inverted when `invert = true`; a file
+// that cannot be read as a mask fails at `mask`. Shared like readPixelScale.
+Mask readMaskKeys(Params& p);
 // Liu 2020's fall-off of samples at a mask's border: soft_edge, falloff_radius, falloff_k.
 MaskFalloff readMaskFalloff(Params& p);
 

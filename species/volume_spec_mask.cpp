@@ -47,15 +47,18 @@ PixelScale readPixelScale(Params& p, const std::string& images) {
                     : PixelScale{false, p.number("metres_per_pixel", Range::positive())};
 }
 
-VolumePtr parseMaskRevolutionVolume(Params& p) {
+Mask readMaskKeys(Params& p) {
     const std::string file = p.filePath("mask");
     const bool invert = p.boolean("invert", false);
-    Mask mask;
     try {
-        mask = readMask(file, invert);
+        return readMask(file, invert);
     } catch (const MaskError& e) {
         p.fail("mask", e.what());
     }
+}
+
+VolumePtr parseMaskRevolutionVolume(Params& p) {
+    const Mask mask = readMaskKeys(p);
     MaskRevolutionOptions o;
     const std::string side = p.choice("side", "max", {"right", "left", "max"});
     o.side = side == "right"  ? ProfileSide::kRight

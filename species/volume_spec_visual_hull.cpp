@@ -41,13 +41,7 @@ VolumePtr parseVisualHullVolume(Params& p) {
     std::vector<MaskView> views;
     for (Params& v : viewTables) {
         MaskView view;
-        const std::string file = v.filePath("mask");
-        const bool invert = v.boolean("invert", false);
-        try {
-            view.mask = readMask(file, invert);
-        } catch (const MaskError& e) {
-            v.fail("mask", e.what());
-        }
+        view.mask = readMaskKeys(v);
         view.azimuthDeg = v.number("azimuth_deg", Range::closed(-360, 360));
         view.axisColumn =
             v.number("axis_column", view.mask.width / 2.0, Range::closed(0, view.mask.width));

@@ -215,13 +215,7 @@ BrushStroke readStroke(Params& s) {
 
 SilhouetteGuide readSilhouette(Params& p) {
     SilhouetteGuide g;
-    const std::string file = p.filePath("mask");
-    const bool invert = p.boolean("invert", false);
-    try {
-        g.mask = readMask(file, invert);
-    } catch (const MaskError& e) {
-        p.fail("mask", e.what());
-    }
+    g.mask = readMaskKeys(p);
     g.metresPerPixel = readPixelScale(p, "the mask's").metresPerPixel(g.mask.height);
     g.azimuthDeg = p.number("azimuth_deg", 0.0, Range::closed(-360, 360));
     g.axisColumn = p.number("axis_column", g.mask.width / 2.0, Range::closed(0, g.mask.width));
