@@ -161,7 +161,9 @@ TEST(Grammar, GrowthStagesAreNested) {
                 ASSERT_TRUE(here.count({n.position.x, n.position.y, n.position.z, n.radius}))
                     << "node of D = " << d - 1 << " missing at D = " << d << ", seed " << seed;
             }
-            if (d > 1) EXPECT_GT(t.nodes.size(), prev.nodes.size());
+            if (d > 1) {
+                EXPECT_GT(t.nodes.size(), prev.nodes.size());
+            }
             prev = std::move(t);
         }
     }
