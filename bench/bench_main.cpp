@@ -26,15 +26,19 @@
 #include <optional>
 #include <vector>
 
-#include "pipeline/build.h"
-#include "pipeline/dataset.h"
-#include "pipeline/instance.h"
-#include "pipeline/mesh_writers.h"
-#include "pipeline/views.h"
-#include "species/mesh.h"
+#include "pipeline/build/build.h"
+#include "pipeline/build/dataset.h"
+#include "pipeline/build/instance.h"
+#include "pipeline/formats/mesh_writers.h"
+#include "pipeline/formats/view_writers.h"
+#include "pipeline/render/camera.h"
+#include "pipeline/render/render.h"
+#include "species/geometry/leaf_mesh.h"
+#include "species/geometry/tube_mesh.h"
+#include "species/geometry/watertight.h"
 #include "species/methods/space_colonization.h"
-#include "species/species.h"
-#include "species/volume_spec.h"
+#include "species/spec/species.h"
+#include "species/spec/volume_spec.h"
 
 namespace fs = std::filesystem;
 using namespace sylva;
@@ -434,7 +438,7 @@ BENCHMARK_CAPTURE(Colonization, improved, ColonizationVariant::kImproved)
 // --- the species library (issue 6) -------------------------------------------------------------
 
 // What one gallery tree costs: grow + mesh (tubes + leaf cards) + 8 views at 256² with depth
-// and labels, the stages of `sylva build` (pipeline/instance.h) with the outputs of
+// and labels, the stages of `sylva build` (pipeline/build/instance.h) with the outputs of
 // datasets/species-gallery.toml, but no file writes (they cost the same for every species and
 // are measured by WriteViewFile and GalleryBuild). One thread, so the figure is per core; a
 // new instance seed every iteration, as a build draws them. Registered per preset by main().

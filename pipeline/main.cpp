@@ -9,19 +9,19 @@
 #include <filesystem>
 #include <iostream>
 
-#include "pipeline/atomic_file.h"
-#include "pipeline/build.h"
-#include "pipeline/dataset.h"
-#include "pipeline/dataset_stats.h"
-#include "pipeline/merge.h"
-#include "pipeline/preview.h"
-#include "pipeline/report.h"
-#include "pipeline/skeleton_writers.h"
-#include "pipeline/species_list.h"
-#include "pipeline/stats_json.h"
-#include "pipeline/volume_output.h"
-#include "species/species.h"
-#include "species/tree_stats.h"
+#include "pipeline/analysis/dataset_stats.h"
+#include "pipeline/analysis/merge.h"
+#include "pipeline/analysis/report.h"
+#include "pipeline/analysis/species_list.h"
+#include "pipeline/analysis/volume_output.h"
+#include "pipeline/build/build.h"
+#include "pipeline/build/dataset.h"
+#include "pipeline/formats/atomic_file.h"
+#include "pipeline/formats/skeleton_writers.h"
+#include "pipeline/formats/stats_json.h"
+#include "pipeline/formats/view_writers.h"
+#include "species/model/tree_stats.h"
+#include "species/spec/species.h"
 
 namespace fs = std::filesystem;
 using namespace sylva;

@@ -11,9 +11,9 @@
 #include <fstream>
 #include <vector>
 
-#include "species/canopy_envelope_spec.h"
-#include "species/params.h"
-#include "species/volume_spec.h"
+#include "core/params.h"
+#include "species/spec/canopy_envelope_spec.h"
+#include "species/spec/volume_spec.h"
 #include "volumes/poisson.h"
 #include "volumes/volume.h"
 

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "species/methods/canopy.h"
-#include "species/species.h"
+#include "species/spec/species.h"
 #include "tests/test_support.h"
 
 namespace sylva {

@@ -7,8 +7,8 @@
 
 #include <filesystem>
 
-#include "species/params.h"
-#include "species/volume_spec.h"
+#include "core/params.h"
+#include "species/spec/volume_spec.h"
 #include "volumes/poisson.h"
 #include "volumes/volume.h"
 

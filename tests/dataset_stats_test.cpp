@@ -1,6 +1,6 @@
 // `sylva stats`: the statistics against hand-computed answers, and the dataset reader on a
 // finished, a sharded, a torn and a missing dataset.
-#include "pipeline/dataset_stats.h"
+#include "pipeline/analysis/dataset_stats.h"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/build.h"
-#include "pipeline/dataset.h"
+#include "pipeline/build/build.h"
+#include "pipeline/build/dataset.h"
 #include "tests/test_support.h"
 
 namespace {

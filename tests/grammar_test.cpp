@@ -15,8 +15,8 @@
 #include <set>
 #include <tuple>
 
-#include "pipeline/dataset.h"
-#include "species/species.h"
+#include "pipeline/build/dataset.h"
+#include "species/spec/species.h"
 
 namespace sylva {
 namespace {

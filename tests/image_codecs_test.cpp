@@ -1,6 +1,6 @@
 // sylva's own EXR encoder and the libpng encoder, checked against the reference readers
 // (OpenEXR and libpng through OIIO): every pixel must come back bit for bit.
-#include "pipeline/image_codecs.h"
+#include "pipeline/formats/image_codecs.h"
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>

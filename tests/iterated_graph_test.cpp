@@ -21,10 +21,10 @@
 #include <utility>
 #include <vector>
 
-#include "species/species.h"
-#include "species/tree.h"
+#include "core/rng.h"
+#include "species/model/tree.h"
+#include "species/spec/species.h"
 #include "volumes/poisson.h"
-#include "volumes/rng.h"
 #include "volumes/volume.h"
 
 namespace sylva {

@@ -1,7 +1,5 @@
 // Branch tubes and leaf cards against closed forms (frustum volume and area), topology
 // (closed per chain), frames (no twist), level of detail, and a large mesh through every writer.
-#include "species/mesh.h"
-
 #include <gtest/gtest.h>
 #include <tiny_gltf.h>
 
@@ -14,7 +12,9 @@
 #include <numeric>
 #include <sstream>
 
-#include "pipeline/mesh_writers.h"
+#include "pipeline/formats/mesh_writers.h"
+#include "species/geometry/leaf_mesh.h"
+#include "species/geometry/tube_mesh.h"
 #include "tests/test_support.h"
 
 namespace sylva {

@@ -1,6 +1,6 @@
 // Mesh PLY/OBJ/GLB writers: headers, decoded bodies equal to the mesh, GLB read back with
 // tinygltf, and byte-identical output.
-#include "pipeline/mesh_writers.h"
+#include "pipeline/formats/mesh_writers.h"
 
 #include <gtest/gtest.h>
 #include <tiny_gltf.h>
@@ -10,7 +10,8 @@
 #include <cstring>
 #include <sstream>
 
-#include "species/mesh.h"
+#include "species/geometry/leaf_mesh.h"
+#include "species/geometry/tube_mesh.h"
 #include "tests/test_support.h"
 
 namespace sylva {

@@ -15,8 +15,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "pipeline/build.h"
-#include "pipeline/dataset.h"
+#include "pipeline/build/build.h"
+#include "pipeline/build/dataset.h"
 
 namespace fs = std::filesystem;
 using namespace sylva;

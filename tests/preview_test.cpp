@@ -1,5 +1,5 @@
 // Preview raster: framing, thickness, sub-pixel twigs, determinism and the PNG round trip.
-#include "pipeline/preview.h"
+#include "pipeline/render/preview.h"
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <filesystem>
 
+#include "pipeline/formats/view_writers.h"
 #include "tests/test_support.h"
 
 namespace sylva {

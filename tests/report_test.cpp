@@ -1,7 +1,7 @@
 // `sylva report`: the statistics helpers on known answers, and the HTML of a hand-written
 // dataset (dataset.json + manifest.jsonl + one contact sheet) whose comparison and sweep
 // results are known: structure, plot count, highlighted separating metric, link resolution.
-#include "pipeline/report.h"
+#include "pipeline/analysis/report.h"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
-#include "pipeline/dataset_stats.h"
+#include "pipeline/analysis/dataset_stats.h"
 #include "tests/test_support.h"
 
 namespace fs = std::filesystem;
@@ -75,7 +75,7 @@ std::string slurpFile(const fs::path& p) { return sylva::test::slurp(p); }
 }  // namespace
 
 TEST(ReportHelpers, QuantilesKsWassersteinTicksUnits) {
-    // The shared statistics (pipeline/dataset_stats.h) as the report uses them.
+    // The shared statistics (pipeline/analysis/dataset_stats.h) as the report uses them.
     EXPECT_DOUBLE_EQ(quantileType7({1, 2, 3, 4}, 0.25), 1.75);  // numpy's default (type 7)
     EXPECT_DOUBLE_EQ(quantileType7({1, 2, 3, 4}, 0.5), 2.5);
     EXPECT_DOUBLE_EQ(quantileType7({5}, 0.9), 5.0);

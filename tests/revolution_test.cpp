@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "species/params.h"
-#include "species/volume_spec.h"
+#include "core/params.h"
+#include "species/spec/volume_spec.h"
 #include "tests/test_support.h"
 #include "volumes/poisson.h"
 

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "species/params.h"
+#include "core/params.h"
 #include "tests/test_support.h"
 
 namespace sylva {

@@ -19,12 +19,12 @@
 #include <string>
 #include <vector>
 
+#include "core/params.h"
+#include "core/rng.h"
 #include "species/methods/space_colonization_detail.h"
-#include "species/params.h"
-#include "species/species.h"
-#include "species/tree.h"
+#include "species/model/tree.h"
+#include "species/spec/species.h"
 #include "tests/test_support.h"
-#include "volumes/rng.h"
 #include "volumes/volume.h"
 
 namespace sylva {

@@ -2,7 +2,7 @@
 // a tree must not depend on whether its method came from that cache.
 #include <gtest/gtest.h>
 
-#include "species/species.h"
+#include "species/spec/species.h"
 
 using namespace sylva;
 

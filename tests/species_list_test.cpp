@@ -2,7 +2,7 @@
 // description, path), sorted by name; dataset files skipped; a file that fails to load listed
 // with its error and exit code 2; by default the repository's species/ directory. Runs the real
 // binary (SYLVA_EXE) on species files written into a temp directory.
-#include "pipeline/species_list.h"
+#include "pipeline/analysis/species_list.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

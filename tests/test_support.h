@@ -13,7 +13,7 @@
 #include <sstream>
 #include <string>
 
-#include "species/tree.h"
+#include "species/model/tree.h"
 
 namespace sylva::test {
 

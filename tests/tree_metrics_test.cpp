@@ -1,12 +1,14 @@
-// Shape metrics (species/tree_metrics.cpp) on hand-built skeletons with known answers.
+// Shape metrics (species/model/tree_metrics.cpp) on hand-built skeletons with known answers.
+#include "species/model/tree_metrics.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
 
-#include "pipeline/stats_json.h"
-#include "species/tree_stats.h"
-#include "test_support.h"
+#include "pipeline/formats/stats_json.h"
+#include "species/model/tree_stats.h"
+#include "tests/test_support.h"
 
 namespace sylva {
 namespace {

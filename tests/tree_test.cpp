@@ -1,11 +1,11 @@
 // ChildIndex, assignBranchOrder and computeStats on small hand-built trees.
-#include "species/tree.h"
+#include "species/model/tree.h"
 
 #include <gtest/gtest.h>
 
 #include <stdexcept>
 
-#include "species/tree_stats.h"
+#include "species/model/tree_stats.h"
 #include "tests/test_support.h"
 
 namespace sylva {

@@ -1,7 +1,5 @@
 // Views: cameras, the capsule / leaf-card renderer, silhouette statistics, transforms.json,
 // image writers, the labelled point cloud and contact sheets.
-#include "pipeline/views.h"
-
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -14,7 +12,10 @@
 #include <fstream>
 #include <sstream>
 
-#include "species/species.h"
+#include "pipeline/formats/view_writers.h"
+#include "pipeline/render/camera.h"
+#include "pipeline/render/render.h"
+#include "species/spec/species.h"
 #include "tests/test_support.h"
 
 namespace sylva {

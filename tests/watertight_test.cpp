@@ -1,6 +1,8 @@
 // The watertight wood mesh: closed, manifold, free of self-intersections and outward-wound
 // (checked with CGAL), capsule volumes, every preset tree contains its skeleton, identical
 // output for any thread count, and the .vdb level set written and read back.
+#include "species/geometry/watertight.h"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/connected_components.h>
 #include <CGAL/Polygon_mesh_processing/manifoldness.h>
@@ -23,9 +25,8 @@
 #include <string>
 #include <vector>
 
-#include "species/mesh.h"
-#include "species/species.h"
-#include "species/tree.h"
+#include "species/model/tree.h"
+#include "species/spec/species.h"
 
 namespace sylva {
 namespace {

@@ -8,9 +8,9 @@
 #include <sstream>
 #include <thread>
 
-#include "pipeline/atomic_file.h"
-#include "pipeline/skeleton_writers.h"
-#include "pipeline/stats_json.h"
+#include "pipeline/formats/atomic_file.h"
+#include "pipeline/formats/skeleton_writers.h"
+#include "pipeline/formats/stats_json.h"
 #include "tests/test_support.h"
 
 namespace sylva {

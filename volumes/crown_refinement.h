@@ -8,8 +8,8 @@
 
 #include <vector>
 
-#include "volumes/math.h"
-#include "volumes/rng.h"
+#include "core/math.h"
+#include "core/rng.h"
 #include "volumes/volume.h"
 
 namespace sylva {

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "volumes/math.h"
+#include "core/math.h"
 #include "volumes/revolution.h"
 #include "volumes/volume.h"
 

@@ -6,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-#include "volumes/math.h"
+#include "core/math.h"
 
 namespace sylva {
 

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "volumes/math.h"
+#include "core/math.h"
 #include "volumes/volume.h"
 
 namespace sylva {

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "volumes/math.h"
-#include "volumes/rng.h"
+#include "core/math.h"
+#include "core/rng.h"
 
 namespace sylva {
 

@@ -31,10 +31,10 @@
 #include <string>
 #include <vector>
 
-#include "species/leaves.h"
-#include "species/tree.h"
+#include "core/rng.h"
+#include "species/geometry/leaves.h"
+#include "species/model/tree.h"
 #include "volumes/canopy_envelope.h"
-#include "volumes/rng.h"
 
 namespace sylva {
 

@@ -3,7 +3,7 @@
 // clang-format off
 // | key                          | type        | default     | meaning |
 // |------------------------------|-------------|-------------|---------|
-// | [canopy]                     | envelope    | required    | canopy-envelope keys (species/canopy_envelope_spec.h) plus `position` |
+// | [canopy]                     | envelope    | required    | canopy-envelope keys (species/spec/canopy_envelope_spec.h) plus `position` |
 // | canopy.position              | [x, y, z]   | required    | the envelope's centre (ellipsoid) or base centre (cone), metres |
 // | branches.trunk_height        | metres      | see below   | top of the trunk; default 10 % up from the envelope's lowest axis point (cone: its base) |
 // | branches.outgrow             | number ≥ 1  | 1.25        | the template's crown spans this × the envelope (height above the trunk top, reach) |
@@ -42,9 +42,9 @@
 #include <string>
 #include <utility>
 
-#include "species/canopy_envelope_spec.h"
-#include "species/growth_method.h"
 #include "species/methods/canopy.h"
+#include "species/spec/canopy_envelope_spec.h"
+#include "species/spec/growth_method.h"
 
 namespace sylva {
 

@@ -130,8 +130,8 @@
 #include <utility>
 #include <vector>
 
-#include "species/tree.h"
-#include "volumes/rng.h"
+#include "core/rng.h"
+#include "species/model/tree.h"
 
 namespace sylva {
 

@@ -5,8 +5,8 @@
 #include <optional>
 #include <set>
 
-#include "species/growth_method.h"
 #include "species/methods/grammar.h"
+#include "species/spec/growth_method.h"
 
 namespace sylva {
 

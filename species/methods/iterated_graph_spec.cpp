@@ -41,9 +41,9 @@
 #include <cmath>
 #include <cstdio>
 
-#include "species/growth_method.h"
 #include "species/methods/iterated_graph.h"
-#include "species/volume_spec.h"
+#include "species/spec/growth_method.h"
+#include "species/spec/volume_spec.h"
 #include "volumes/poisson.h"
 
 namespace sylva {

@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "species/tree.h"
-#include "volumes/rng.h"
+#include "core/rng.h"
+#include "species/model/tree.h"
 #include "volumes/volume.h"
 
 namespace sylva {

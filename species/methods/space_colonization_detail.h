@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "volumes/math.h"
-#include "volumes/rng.h"
+#include "core/math.h"
+#include "core/rng.h"
 
 namespace sylva::detail {
 

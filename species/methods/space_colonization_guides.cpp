@@ -7,7 +7,7 @@
 #include <cmath>
 #include <string>
 
-#include "species/volume_spec.h"
+#include "species/spec/volume_spec.h"
 
 namespace sylva {
 

@@ -38,10 +38,10 @@
 
 #include <vector>
 
+#include "core/params.h"
+#include "core/rng.h"
 #include "species/methods/space_colonization.h"
-#include "species/params.h"
 #include "volumes/mask.h"
-#include "volumes/rng.h"
 
 namespace sylva {
 

@@ -42,10 +42,10 @@
 #include <utility>
 #include <vector>
 
-#include "species/growth_method.h"
 #include "species/methods/space_colonization.h"
 #include "species/methods/space_colonization_guides.h"
-#include "species/volume_spec.h"
+#include "species/spec/growth_method.h"
+#include "species/spec/volume_spec.h"
 
 namespace sylva {
 

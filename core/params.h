@@ -1,0 +1,149 @@
+// Typed, position-aware parameter reading from TOML (after pbrt-v4's ParameterDictionary).
+// Every read names its key; values remember file:line:col; unknown keys are errors with a
+// "did you mean" suggestion; any number may be a distribution ({uniform = [a, b]} or
+// {normal = [mu, sigma]}) drawn once per instance from a stream keyed by the parameter's
+// path, so adding or removing one parameter never changes another's draw.
+#pragma once
+
+#include <toml++/toml.h>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/math.h"
+#include "core/rng.h"
+
+namespace sylva {
+
+struct SourcePos {
+    std::string file;
+    int line = 0;
+    int column = 0;
+    std::string str() const;
+};
+
+// A bad spec: the message is one line, "file:line:col: key.path: what was expected".
+class SpecError : public std::runtime_error {
+  public:
+    SpecError(const SourcePos& where, const std::string& keyPath, const std::string& message);
+};
+
+// A number for an error message: printf "%.*g" with `significantDigits` digits.
+std::string formatNumber(double v, int significantDigits = 12);
+
+// Closed/open numeric interval for validation, with a readable description.
+struct Range {
+    double lo = -1e300, hi = 1e300;
+    bool loOpen = false, hiOpen = false;
+    static Range any() { return {}; }
+    static Range positive() { return {0, 1e300, true, false}; }
+    static Range nonNegative() { return {0, 1e300, false, false}; }
+    static Range closed(double a, double b) { return {a, b, false, false}; }
+    static Range leftOpen(double a, double b) { return {a, b, true, false}; }
+    static Range atLeast(double a) { return {a, 1e300, false, false}; }
+    bool contains(double v) const;
+    std::string describe(bool integer = false) const;
+};
+
+// A value forced onto a parameter path by a dataset sweep, with the sweep's location.
+struct Override {
+    toml::table holder;  // the value is holder["v"]
+    SourcePos where;
+    mutable bool used = false;
+};
+using Overrides = std::map<std::string, Override>;  // full key path -> value
+
+// Per-instance draw state: the instance seed, and the values drawn (for the manifest).
+struct DrawContext {
+    uint64_t seed = 0;
+    bool draw = true;  // false: validation — use the distribution's centre, check its bounds
+    std::map<std::string, double> sampled;  // key path -> drawn value
+    // Set when a random stream was handed out (a volume drawn per instance, e.g. canopy blobs
+    // or refinement spheres): such a species is not cached across instances.
+    bool perInstance = false;
+};
+
+class Params {
+  public:
+    Params(const toml::table& table, std::string file, std::string prefix, DrawContext* draw,
+           const Overrides* overrides = nullptr);
+
+    bool has(std::string_view key) const;
+
+    // Numbers (floats or integers in TOML; distributions allowed).
+    double number(std::string_view key, const Range& range);
+    double number(std::string_view key, double fallback, const Range& range);
+    int64_t integer(std::string_view key, const Range& range);
+    int64_t integer(std::string_view key, int64_t fallback, const Range& range);
+    bool boolean(std::string_view key, bool fallback);
+    std::string string(std::string_view key);
+    std::string string(std::string_view key, std::string fallback);
+    // One of the listed words; the error lists them.
+    std::string choice(std::string_view key, std::string fallback,
+                       const std::vector<std::string>& allowed);
+    // [x, y, z]; each component may be a distribution.
+    Vec3 vec3(std::string_view key, const Vec3& fallback, const Range& range = Range::any());
+    // [lo, hi] pair with lo ≤ hi (plain numbers).
+    std::pair<double, double> interval(std::string_view key, std::pair<double, double> fallback,
+                                       const Range& range);
+
+    Params table(std::string_view key);
+    std::optional<Params> optionalTable(std::string_view key);
+    std::vector<Params> tableArray(std::string_view key);  // empty when absent
+    // Array of plain strings.
+    std::vector<std::string> stringArray(std::string_view key);
+    // Array of [a, b] number pairs (plain numbers), e.g. a sketched stroke; at least `minCount`.
+    std::vector<Vec2> pairArray(std::string_view key, size_t minCount = 1);
+    // A file named by a string key, resolved relative to the spec file's directory; it must
+    // exist ("file not found" otherwise).
+    std::string filePath(std::string_view key);
+    // A random stream for what `key` builds per instance (keyed by the key path and the
+    // instance seed; fixed when validating). Marks the draw context per-instance.
+    Rng randomStream(std::string_view key);
+
+    // The raw node (marks the key used); nullptr when absent.
+    const toml::node* raw(std::string_view key);
+
+    // Errors at this table, or at a key of it.
+    [[noreturn]] void fail(std::string_view key, const std::string& message) const;
+    [[noreturn]] void failHere(const std::string& message) const;
+    SourcePos where(std::string_view key) const;
+    SourcePos whereTable() const;
+    std::string path(std::string_view key) const;
+    const std::string& file() const { return file_; }
+    const std::string& prefix() const { return prefix_; }
+
+    // Every key of this table that no read asked for is an error (with a suggestion).
+    void finish() const;
+
+  private:
+    const toml::node* lookup(std::string_view key, SourcePos* where) const;
+    double readNumber(const toml::node& node, const SourcePos& where, const std::string& path,
+                      const Range& range, bool wantInteger);
+
+    const toml::table* table_;
+    std::string file_;
+    std::string prefix_;
+    DrawContext* draw_;
+    const Overrides* overrides_;
+    std::set<std::string> asked_;
+};
+
+SourcePos sourceOf(const toml::node& node, const std::string& file);
+// Closest word by edit distance, if close enough to be a plausible misspelling.
+std::optional<std::string> closestWord(std::string_view word, const std::set<std::string>& words);
+
+// A name that is also used as a file or directory name: 1–64 letters, digits, '-' or '_'.
+bool isFileSafeName(const std::string& name);
+
+// Parses a TOML file; parse errors and missing files become SpecError.
+toml::table parseTomlFile(const std::string& file);
+
+}  // namespace sylva

@@ -1,0 +1,446 @@
+#include "pipeline/analysis/dataset_stats.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <numeric>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <unordered_set>
+
+#include "pipeline/formats/atomic_file.h"
+
+namespace fs = std::filesystem;
+
+namespace sylva {
+
+double quantileType7(const std::vector<double>& sorted, double q) {
+    const size_t n = sorted.size();
+    if (n == 1) return sorted[0];
+    double h = static_cast<double>(n - 1) * q;
+    size_t lo = static_cast<size_t>(std::floor(h));
+    if (lo >= n - 1) return sorted[n - 1];
+    return sorted[lo] + (h - static_cast<double>(lo)) * (sorted[lo + 1] - sorted[lo]);
+}
+
+namespace {
+
+// P(D < d) for sample sizes m, n without ties: Hodges' lattice-path count, normalised as it goes
+// (the recursion of R's psmirnov / Marsaglia, Tsang & Wang style). A path is excluded as soon as
+// |i/m − j/n| ≥ d.
+double ksExactBelow(double d, int m, int n) {
+    if (m > n) std::swap(m, n);
+    const double md = m, nd = n;
+    // m·n·D is an integer; q sits half-way below it so rounding cannot flip the comparison.
+    const double q = (0.5 + std::floor(d * md * nd - 1e-7)) / (md * nd);
+    std::vector<double> u(static_cast<size_t>(n) + 1);
+    for (int j = 0; j <= n; ++j) u[j] = (j / nd > q) ? 0.0 : 1.0;
+    for (int i = 1; i <= m; ++i) {
+        const double w = static_cast<double>(i) / static_cast<double>(i + n);
+        u[0] = (i / md > q) ? 0.0 : w * u[0];
+        for (int j = 1; j <= n; ++j) {
+            u[j] = (std::fabs(i / md - j / nd) > q) ? 0.0 : w * u[j] + u[j - 1];
+        }
+    }
+    return u[n];
+}
+
+// Kolmogorov's survival function Q(λ) = 2 Σ_{j≥1} (−1)^(j−1) e^(−2 j² λ²).
+double kolmogorovQ(double lambda) {
+    if (lambda < 1e-3) return 1.0;
+    double sum = 0, sign = 1;
+    for (int j = 1; j <= 100; ++j) {
+        double term = sign * std::exp(-2.0 * j * j * lambda * lambda);
+        sum += term;
+        if (std::fabs(term) < 1e-12 * std::fabs(sum)) break;
+        sign = -sign;
+    }
+    return std::clamp(2.0 * sum, 0.0, 1.0);
+}
+
+}  // namespace
+
+KsResult ksTwoSample(const std::vector<double>& a, const std::vector<double>& b) {
+    const size_t na = a.size(), nb = b.size();
+    size_t i = 0, j = 0;
+    double d = 0;
+    // Walk the merged order statistics; evaluate after all copies of a value are consumed.
+    while (i < na && j < nb) {
+        double x = std::min(a[i], b[j]);
+        while (i < na && a[i] == x) ++i;
+        while (j < nb && b[j] == x) ++j;
+        d = std::max(d, std::fabs(static_cast<double>(i) / static_cast<double>(na) -
+                                  static_cast<double>(j) / static_cast<double>(nb)));
+    }
+    KsResult r;
+    r.d = d;
+    if (d <= 0) {
+        r.p = 1.0;
+    } else if (static_cast<double>(na) * static_cast<double>(nb) <= 10000.0) {
+        r.p =
+            std::clamp(1.0 - ksExactBelow(d, static_cast<int>(na), static_cast<int>(nb)), 0.0, 1.0);
+    } else {
+        double ne =
+            static_cast<double>(na) * static_cast<double>(nb) / static_cast<double>(na + nb);
+        double s = std::sqrt(ne);
+        r.p = kolmogorovQ((s + 0.12 + 0.11 / s) * d);
+    }
+    return r;
+}
+
+double wasserstein1(const std::vector<double>& a, const std::vector<double>& b) {
+    const size_t na = a.size(), nb = b.size();
+    size_t i = 0, j = 0;
+    double w = 0, prev = std::min(a[0], b[0]);
+    // Between consecutive merged values x_k < x_{k+1}, both CDFs are constant.
+    while (i < na || j < nb) {
+        double x = (j >= nb || (i < na && a[i] <= b[j])) ? a[i] : b[j];
+        w += std::fabs(static_cast<double>(i) / static_cast<double>(na) -
+                       static_cast<double>(j) / static_cast<double>(nb)) *
+             (x - prev);
+        prev = x;
+        while (i < na && a[i] == x) ++i;
+        while (j < nb && b[j] == x) ++j;
+    }
+    return w;
+}
+
+MetricSummary summarize(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    MetricSummary s;
+    s.count = v.size();
+    if (v.empty()) return s;
+    s.mean = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+    if (v.size() >= 2) {
+        double ss = 0;
+        for (double x : v) ss += (x - s.mean) * (x - s.mean);
+        s.sd = std::sqrt(ss / static_cast<double>(v.size() - 1));
+        if (s.mean != 0) s.cv = *s.sd / std::fabs(s.mean);
+    }
+    s.q05 = quantileType7(v, 0.05);
+    s.q25 = quantileType7(v, 0.25);
+    s.q50 = quantileType7(v, 0.50);
+    s.q75 = quantileType7(v, 0.75);
+    s.q95 = quantileType7(v, 0.95);
+    return s;
+}
+
+namespace {
+
+using MetricValues = std::map<std::string, std::vector<double>>;
+
+struct Record {
+    int64_t index = 0;
+    std::string id, species;
+    std::map<std::string, double> metrics;
+    std::vector<std::pair<std::string, std::string>> sweep;  // path → value (as text)
+};
+
+// Flattens a stats object: numbers as themselves; arrays element-wise as key[i] plus, when every
+// element is a number, their mean as key_mean; nested objects as key.sub.
+void flatten(const nlohmann::json& j, const std::string& key, std::map<std::string, double>& out) {
+    if (j.is_number()) {
+        double x = j.get<double>();
+        if (std::isfinite(x)) out[key] = x;
+    } else if (j.is_array()) {
+        double sum = 0;
+        bool allNumbers = !j.empty();
+        for (size_t i = 0; i < j.size(); ++i) {
+            flatten(j[i], key + "[" + std::to_string(i) + "]", out);
+            if (j[i].is_number() && std::isfinite(j[i].get<double>())) {
+                sum += j[i].get<double>();
+            } else {
+                allNumbers = false;
+            }
+        }
+        if (allNumbers) out[key + "_mean"] = sum / static_cast<double>(j.size());
+    } else if (j.is_object()) {
+        for (const auto& [k, v] : j.items()) flatten(v, key.empty() ? k : key + "." + k, out);
+    }
+}
+
+std::string sweepText(const nlohmann::json& v) {
+    return v.is_string() ? v.get<std::string>() : v.dump();
+}
+
+// Reads complete lines of one manifest without touching the file (a builder may be appending).
+// A last line without '\n' is a torn write: ignored and counted. Any other line that is not a
+// JSON object with id, index and species is bad input.
+void readManifest(const fs::path& path, const std::string& name, std::vector<Record>& records,
+                  std::unordered_set<std::string>& seen, const DatasetStatsOptions& options,
+                  size_t& partial) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error(path.string() + ": cannot open");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const std::string text = ss.str();
+    size_t pos = 0, lineNo = 0;
+    while (pos < text.size()) {
+        size_t nl = text.find('\n', pos);
+        ++lineNo;
+        if (nl == std::string::npos) {
+            ++partial;
+            break;
+        }
+        std::string line = text.substr(pos, nl - pos);
+        pos = nl + 1;
+        if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+        nlohmann::json j = nlohmann::json::parse(line, nullptr, false);
+        if (j.is_discarded() || !j.is_object() || !j.contains("id") || !j["id"].is_string() ||
+            !j.contains("species") || !j["species"].is_string() || !j.contains("index") ||
+            !j["index"].is_number_integer()) {
+            throw DatasetStatsInputError(name + ":" + std::to_string(lineNo) +
+                                         ": not a manifest record (a JSON object with id, index "
+                                         "and species)");
+        }
+        Record r;
+        r.id = j["id"].get<std::string>();
+        if (!seen.insert(r.id).second) continue;  // the same instance in two files
+        r.index = j["index"].get<int64_t>();
+        r.species = j["species"].get<std::string>();
+        if (j.contains("stats")) flatten(j["stats"], "", r.metrics);
+        if (options.timing && j.contains("timing") && j["timing"].is_object()) {
+            flatten(j["timing"], "timing", r.metrics);
+        }
+        if (j.contains("sweep") && j["sweep"].is_object()) {
+            for (const auto& [k, v] : j["sweep"].items()) r.sweep.emplace_back(k, sweepText(v));
+        }
+        records.push_back(std::move(r));
+    }
+}
+
+// Numeric order when every value parses as a number, else text order.
+bool parseNumber(const std::string& s, double& x) {
+    if (s.empty()) return false;
+    char* end = nullptr;
+    x = std::strtod(s.c_str(), &end);
+    return end == s.c_str() + s.size();
+}
+std::vector<std::string> orderedValues(const std::set<std::string>& values) {
+    std::vector<std::string> v(values.begin(), values.end());
+    bool numeric = true;
+    double x;
+    for (const auto& s : v) numeric = numeric && parseNumber(s, x);
+    if (numeric) {
+        std::stable_sort(v.begin(), v.end(), [](const std::string& a, const std::string& b) {
+            return std::strtod(a.c_str(), nullptr) < std::strtod(b.c_str(), nullptr);
+        });
+    }
+    return v;
+}
+
+std::string num(double x) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.10g", x);
+    return buf;
+}
+std::string num(const std::optional<double>& x) { return x ? num(*x) : std::string(); }
+
+std::string csvField(const std::string& s) {
+    if (s.find_first_of(",\"\n") == std::string::npos) return s;
+    std::string q = "\"";
+    for (char c : s) {
+        if (c == '"') q += '"';
+        q += c;
+    }
+    return q + "\"";
+}
+
+nlohmann::json optJson(const std::optional<double>& x) {
+    return x ? nlohmann::json(*x) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOptions& options) {
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) {
+        throw DatasetStatsInputError(dir.string() + ": not a directory");
+    }
+    // manifest.jsonl first, then the shards in index order.
+    std::vector<std::pair<std::pair<int, int>, fs::path>> shards;
+    static const std::regex shardName(R"(manifest\.shard-(\d+)-of-(\d+)\.jsonl)");
+    for (const auto& e : fs::directory_iterator(dir)) {
+        std::smatch m;
+        std::string name = e.path().filename().string();
+        if (e.is_regular_file() && std::regex_match(name, m, shardName)) {
+            shards.push_back({{std::stoi(m[2]), std::stoi(m[1])}, e.path()});
+        }
+    }
+    std::sort(shards.begin(), shards.end());
+    std::vector<fs::path> files;
+    if (fs::is_regular_file(dir / "manifest.jsonl")) files.push_back(dir / "manifest.jsonl");
+    for (const auto& s : shards) files.push_back(s.second);
+    if (files.empty()) {
+        throw DatasetStatsInputError(dir.string() +
+                                     ": no manifest.jsonl or manifest.shard-*.jsonl (not a "
+                                     "dataset directory)");
+    }
+
+    DatasetStatsResult res;
+    res.outDir = dir / "stats";
+    std::vector<Record> records;
+    std::unordered_set<std::string> seen;
+    for (const auto& f : files) {
+        res.manifests.push_back(f.filename().string());
+        readManifest(f, f.filename().string(), records, seen, options, res.ignoredPartialLines);
+    }
+    if (records.empty()) {
+        throw DatasetStatsInputError(dir.string() + ": the manifest has no complete record yet");
+    }
+    // Instance order, so sums (and so the files) do not depend on which file held a record.
+    std::stable_sort(records.begin(), records.end(), [](const Record& a, const Record& b) {
+        return a.index != b.index ? a.index < b.index : a.id < b.id;
+    });
+
+    std::map<std::string, MetricValues> bySpecies;
+    // species → path → value → metric → values
+    std::map<std::string, std::map<std::string, std::map<std::string, MetricValues>>> bySweep;
+    std::set<std::string> allMetrics;
+    for (const Record& r : records) {
+        if (!res.counts.count(r.species)) res.species.push_back(r.species);
+        ++res.counts[r.species];
+        MetricValues& mv = bySpecies[r.species];
+        for (const auto& [k, x] : r.metrics) {
+            mv[k].push_back(x);
+            allMetrics.insert(k);
+        }
+        for (const auto& [path, value] : r.sweep) {
+            MetricValues& sv = bySweep[r.species][path][value];
+            for (const auto& [k, x] : r.metrics) sv[k].push_back(x);
+        }
+    }
+    res.instances = records.size();
+    res.metrics = allMetrics.size();
+
+    // Sorted copies once; summaries per species.
+    std::map<std::string, std::map<std::string, MetricSummary>> summaries;
+    for (auto& [sp, mv] : bySpecies) {
+        for (auto& [k, v] : mv) {
+            std::sort(v.begin(), v.end());
+            summaries[sp][k] = summarize(v);
+        }
+    }
+
+    std::string speciesCsv = "species,metric,count,mean,sd,cv,q05,q25,q50,q75,q95\n";
+    nlohmann::json sj;
+    sj["instances"] = res.instances;
+    sj["quantiles"] = "type 7: linear interpolation between order statistics, h = (n-1)p";
+    sj["sd"] = "sample standard deviation (n-1); null when count < 2";
+    sj["cv"] = "sd / |mean|; null when sd is null or mean is 0";
+    sj["species"] = nlohmann::json::object();
+    for (const std::string& sp : res.species) {
+        nlohmann::json mj = nlohmann::json::object();
+        for (const auto& [k, s] : summaries[sp]) {
+            speciesCsv += csvField(sp) + "," + csvField(k) + "," + std::to_string(s.count) + "," +
+                          num(s.mean) + "," + num(s.sd) + "," + num(s.cv) + "," + num(s.q05) + "," +
+                          num(s.q25) + "," + num(s.q50) + "," + num(s.q75) + "," + num(s.q95) +
+                          "\n";
+            mj[k] = {{"count", s.count},    {"mean", s.mean}, {"sd", optJson(s.sd)},
+                     {"cv", optJson(s.cv)}, {"q05", s.q05},   {"q25", s.q25},
+                     {"q50", s.q50},        {"q75", s.q75},   {"q95", s.q95}};
+        }
+        sj["species"][sp] = {{"instances", res.counts[sp]}, {"metrics", mj}};
+    }
+
+    // Pairs in species order; within a pair, metrics ranked by D, then by W1 / pooled sd.
+    std::string compareCsv = "species_a,species_b,metric,n_a,n_b,ks_d,ks_p,wasserstein,rank\n";
+    std::ostringstream summary;
+    summary << res.species.size() << " species, " << res.instances << " instances, " << res.metrics
+            << " metrics";
+    if (res.ignoredPartialLines) {
+        summary << " (" << res.ignoredPartialLines << " torn manifest line(s) ignored)";
+    }
+    summary << "\n";
+    for (const std::string& sp : res.species) {
+        summary << "  " << sp << ": " << res.counts[sp] << " instances\n";
+    }
+    size_t pairs = 0;
+    for (size_t ia = 0; ia < res.species.size(); ++ia) {
+        for (size_t ib = ia + 1; ib < res.species.size(); ++ib) {
+            const std::string &sa = res.species[ia], &sb = res.species[ib];
+            struct Row {
+                std::string metric;
+                size_t na, nb;
+                KsResult ks;
+                double w, wNorm;
+            };
+            std::vector<Row> rows;
+            for (const auto& [k, va] : bySpecies[sa]) {
+                auto it = bySpecies[sb].find(k);
+                if (it == bySpecies[sb].end()) continue;
+                const std::vector<double>& vb = it->second;
+                Row r{k, va.size(), vb.size(), ksTwoSample(va, vb), wasserstein1(va, vb), 0};
+                double pooled = 0;
+                if (r.na + r.nb > 2) {
+                    const auto &a = summaries[sa][k], &b = summaries[sb][k];
+                    double sa2 = a.sd ? *a.sd * *a.sd : 0, sb2 = b.sd ? *b.sd * *b.sd : 0;
+                    pooled = std::sqrt(((r.na - 1) * sa2 + (r.nb - 1) * sb2) /
+                                       static_cast<double>(r.na + r.nb - 2));
+                }
+                r.wNorm = pooled > 0 ? r.w / pooled
+                                     : (r.w > 0 ? std::numeric_limits<double>::infinity() : 0.0);
+                rows.push_back(r);
+            }
+            std::stable_sort(rows.begin(), rows.end(), [](const Row& x, const Row& y) {
+                if (x.ks.d != y.ks.d) return x.ks.d > y.ks.d;
+                if (x.wNorm != y.wNorm) return x.wNorm > y.wNorm;
+                return x.metric < y.metric;
+            });
+            const bool listed = pairs++ < options.maxPairsListed;
+            std::ostringstream line;
+            line << "  " << sa << " vs " << sb << ":";
+            for (size_t r = 0; r < rows.size(); ++r) {
+                const Row& x = rows[r];
+                compareCsv += csvField(sa) + "," + csvField(sb) + "," + csvField(x.metric) + "," +
+                              std::to_string(x.na) + "," + std::to_string(x.nb) + "," +
+                              num(x.ks.d) + "," + num(x.ks.p) + "," + num(x.w) + "," +
+                              std::to_string(r + 1) + "\n";
+                if (static_cast<int>(r) < options.topMetrics) {
+                    char buf[160];
+                    std::snprintf(buf, sizeof buf, "%s %s (D %.2f, p %.2g)", r ? "," : "",
+                                  x.metric.c_str(), x.ks.d, x.ks.p);
+                    line << buf;
+                }
+            }
+            if (rows.empty()) line << " no metric in common";
+            if (listed) summary << line.str() << "\n";
+        }
+    }
+    if (pairs > options.maxPairsListed) {
+        summary << "  … and " << pairs - options.maxPairsListed << " more pairs in compare.csv\n";
+    }
+
+    std::string sweepCsv = "species,path,value,metric,count,mean,sd,q25,q75\n";
+    for (const std::string& sp : res.species) {
+        auto its = bySweep.find(sp);
+        if (its == bySweep.end()) continue;
+        for (const auto& [path, byValue] : its->second) {
+            std::set<std::string> values;
+            for (const auto& kv : byValue) values.insert(kv.first);
+            for (const std::string& value : orderedValues(values)) {
+                for (const auto& [k, v] : byValue.at(value)) {
+                    MetricSummary s = summarize(v);
+                    sweepCsv += csvField(sp) + "," + csvField(path) + "," + csvField(value) + "," +
+                                csvField(k) + "," + std::to_string(s.count) + "," + num(s.mean) +
+                                "," + num(s.sd) + "," + num(s.q25) + "," + num(s.q75) + "\n";
+                }
+            }
+        }
+    }
+
+    writeFileAtomic(res.outDir / "species.csv", speciesCsv);
+    writeFileAtomic(res.outDir / "species.json", sj.dump(2) + "\n");
+    writeFileAtomic(res.outDir / "compare.csv", compareCsv);
+    writeFileAtomic(res.outDir / "sweep.csv", sweepCsv);
+    summary << "-> " << res.outDir.string()
+            << "/{species.csv,species.json,compare.csv,sweep.csv}\n";
+    res.summary = summary.str();
+    return res;
+}
+
+}  // namespace sylva

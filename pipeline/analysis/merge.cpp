@@ -1,0 +1,260 @@
+#include "pipeline/analysis/merge.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <regex>
+
+#include "pipeline/build/build.h"
+#include "pipeline/formats/atomic_file.h"
+#include "pipeline/formats/view_writers.h"
+
+namespace sylva {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Shard {
+    fs::path dir;
+    int index = 0;
+    int count = 1;
+    nlohmann::json dataset;  // its dataset.shard-I-of-N.json
+};
+
+struct Record {
+    std::string line;  // verbatim manifest line
+    std::string id, species;
+    const Shard* shard = nullptr;
+};
+
+[[noreturn]] void fail(const std::string& what) { throw MergeError(what); }
+
+nlohmann::json readJson(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    auto j = nlohmann::json::parse(in, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) fail(p.string() + ": not a JSON object");
+    return j;
+}
+
+// The shards a directory holds: every dataset.shard-I-of-N.json in it (several shards may share
+// one --out), or its dataset.json as shard 0 of 1.
+std::vector<Shard> findShards(const fs::path& dir) {
+    if (!fs::is_directory(dir)) fail(dir.string() + ": not a directory");
+    static const std::regex name(R"(dataset\.shard-(\d+)-of-(\d+)\.json)");
+    std::vector<Shard> found;
+    for (const auto& e : fs::directory_iterator(dir)) {
+        std::smatch m;
+        const std::string f = e.path().filename().string();
+        if (f == "dataset.json") {
+            found.push_back({dir, 0, 1, readJson(e.path())});
+        } else if (std::regex_match(f, m, name)) {
+            found.push_back({dir, std::stoi(m[1]), std::stoi(m[2]), readJson(e.path())});
+        }
+    }
+    if (found.empty()) {
+        fail(dir.string() + ": no dataset.shard-I-of-N.json (not the --out of a sharded build)");
+    }
+    return found;
+}
+
+int64_t countOf(const Shard& s, const char* key) {
+    return s.dataset.value("counts", nlohmann::json::object()).value(key, int64_t{0});
+}
+
+std::string shardName(const Shard& s) {
+    return (s.dir / datasetJsonName(s.index, s.count)).string();
+}
+
+// Moves (rename, or copy + remove across file systems) or copies a directory tree.
+void transfer(const fs::path& from, const fs::path& to, bool move) {
+    fs::create_directories(to.parent_path());
+    if (move) {
+        std::error_code ec;
+        fs::rename(from, to, ec);
+        if (!ec) return;
+    }
+    fs::copy(from, to, fs::copy_options::recursive);
+    if (move) fs::remove_all(from);
+}
+
+}  // namespace
+
+MergeSummary mergeShards(const MergeOptions& o) {
+    const auto start = std::chrono::steady_clock::now();
+    if (o.shards.empty()) fail("no shard directories given");
+
+    // --- Check everything before writing anything ----------------------------------------
+    std::vector<Shard> shards;
+    for (const fs::path& d : o.shards) {
+        for (Shard& s : findShards(d)) shards.push_back(std::move(s));
+    }
+    const Shard& first = shards.front();
+    const std::string fingerprint = first.dataset.value("fingerprint", "");
+    const int n = first.count;
+    const int64_t total = countOf(first, "instances_in_dataset");
+    std::vector<const Shard*> byIndex(static_cast<size_t>(n), nullptr);
+    for (const Shard& s : shards) {
+        if (s.dataset.value("fingerprint", "") != fingerprint) {
+            fail(shardName(s) + ": dataset fingerprint " + s.dataset.value("fingerprint", "?") +
+                 " ≠ " + fingerprint + " of " + shardName(first) + " (a build of another spec)");
+        }
+        if (s.count != n) {
+            fail(shardName(s) + ": shard of " + std::to_string(s.count) + ", but " +
+                 shardName(first) + " is a shard of " + std::to_string(n));
+        }
+        if (s.dataset.value("versions", nlohmann::json()) != first.dataset["versions"]) {
+            fail(shardName(s) + ": built by other library versions than " + shardName(first));
+        }
+        if (s.dataset.value("status", "") != "complete") {
+            fail(shardName(s) + ": status \"" + s.dataset.value("status", "?") +
+                 "\" (rerun its build to complete it)");
+        }
+        if (s.index < 0 || s.index >= n) fail(shardName(s) + ": shard index out of range");
+        if (byIndex[static_cast<size_t>(s.index)]) {
+            fail("shard " + std::to_string(s.index) + " of " + std::to_string(n) +
+                 " given twice: " + shardName(*byIndex[static_cast<size_t>(s.index)]) + " and " +
+                 shardName(s));
+        }
+        byIndex[static_cast<size_t>(s.index)] = &s;
+    }
+    for (int i = 0; i < n; ++i) {
+        if (!byIndex[static_cast<size_t>(i)]) {
+            fail("shard " + std::to_string(i) + " of " + std::to_string(n) + " missing (no " +
+                 datasetJsonName(i, n) + " in the directories given)");
+        }
+    }
+
+    // Manifest lines. Shard manifests concatenated in shard order are the unsharded manifest
+    // (contiguous blocks, see shardRange), so that is the merged order; each shard must record
+    // exactly its block's hi - lo instances, and no id may appear twice.
+    std::vector<Record> records;
+    records.reserve(static_cast<size_t>(total));
+    std::map<std::string, std::string> seen;  // id → where first recorded
+    for (const Shard* s : byIndex) {
+        const fs::path mpath = s->dir / manifestName(s->index, s->count);
+        if (!fs::exists(mpath)) fail(mpath.string() + ": missing");
+        auto [lo, hi] = shardRange(static_cast<size_t>(total), s->index, s->count);
+        std::ifstream in(mpath, std::ios::binary);
+        size_t lineNo = 0;
+        for (std::string line; std::getline(in, line);) {
+            ++lineNo;
+            const std::string where = mpath.string() + ":" + std::to_string(lineNo);
+            if (in.eof()) fail(where + ": torn last line (rerun the shard's build)");
+            auto j = nlohmann::json::parse(line, nullptr, false);
+            if (j.is_discarded() || !j.is_object() || !j.contains("id") || !j.contains("species")) {
+                fail(where + ": not a manifest record");
+            }
+            Record r;
+            r.id = j["id"].get<std::string>();
+            r.species = j["species"].get<std::string>();
+            r.shard = s;
+            if (auto [it, fresh] = seen.emplace(r.id, where); !fresh) {
+                fail(where + ": instance " + r.id + " already recorded at " + it->second);
+            }
+            if (!fs::is_directory(s->dir / "trees" / r.species / r.id)) {
+                fail(where + ": " + (s->dir / "trees" / r.species / r.id).string() + " missing");
+            }
+            r.line = std::move(line);
+            records.push_back(std::move(r));
+        }
+        if (lineNo != hi - lo) {
+            fail(mpath.string() + ": " + std::to_string(lineNo) + " of the shard's " +
+                 std::to_string(hi - lo) +
+                 " instances recorded (failed trees: rerun that shard's build)");
+        }
+    }
+    std::error_code ec;
+    if (fs::exists(o.out) && !(fs::is_directory(o.out) && fs::is_empty(o.out, ec))) {
+        fail(o.out.string() + ": exists and is not an empty directory");
+    }
+
+    // --- Assemble in a temporary sibling, then rename onto `out` ---------------------------
+    const fs::path out = fs::absolute(o.out).lexically_normal();
+    const fs::path stage =
+        out.parent_path() / ("." + out.filename().string() + ".merge." + std::to_string(getpid()));
+    fs::remove_all(stage);
+    fs::create_directories(stage);
+    try {
+        std::string manifest;
+        for (const Record& r : records) {
+            const fs::path rel = fs::path("trees") / r.species / r.id;
+            transfer(r.shard->dir / rel, stage / rel, o.move);
+            manifest += r.line;
+            manifest += '\n';
+        }
+        writeFileAtomic(stage / manifestName(0, 1), manifest);
+
+        // Species sheets as buildDataset's writeSpeciesSheets: per species in spec order, its
+        // first K instances' contact.png (views/000.png when contact_sheet = false).
+        MergeSummary summary;
+        const nlohmann::json& spec = first.dataset.value("spec", nlohmann::json::object());
+        const int64_t k = spec.value("outputs", nlohmann::json::object())
+                              .value("species_sheet", int64_t{16});  // dataset.cpp's default
+        for (const auto& e : first.dataset.value("species", nlohmann::json::array())) {
+            const std::string name = e.value("name", "");
+            std::vector<fs::path> images;
+            for (const Record& r : records) {
+                if (k <= 0 || static_cast<int64_t>(images.size()) >= k) break;
+                if (r.species != name) continue;
+                const fs::path dir = stage / "trees" / r.species / r.id;
+                if (fs::exists(dir / "contact.png")) {
+                    images.push_back(dir / "contact.png");
+                } else if (fs::exists(dir / "views" / "000.png")) {
+                    images.push_back(dir / "views" / "000.png");
+                }
+            }
+            if (images.empty()) continue;
+            int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(images.size()))));
+            writeContactSheetFromFiles(stage / "contact" / (name + ".png"), images, cols, 256);
+            ++summary.sheets;
+        }
+
+        // dataset.json as an unsharded build writes it: counts summed; of the timing fields,
+        // threads and wall_seconds are the largest shard's (the slowest machine), and
+        // trees_per_second = built / wall_seconds.
+        nlohmann::json d = first.dataset;
+        int64_t built = 0, skipped = 0;
+        int threads = 0;
+        double wall = 0;
+        for (const Shard* s : byIndex) {
+            built += countOf(*s, "built");
+            skipped += countOf(*s, "skipped_already_built");
+            threads = std::max(threads, s->dataset.value("threads", 0));
+            wall = std::max(wall, s->dataset.value("wall_seconds", 0.0));
+        }
+        d["shard"] = {{"index", 0}, {"count", 1}};
+        d["status"] = "complete";
+        d["counts"] = {{"instances_in_dataset", total},
+                       {"instances_in_shard", total},
+                       {"skipped_already_built", skipped},
+                       {"built", built},
+                       {"failed", 0}};
+        d["threads"] = threads;
+        d["wall_seconds"] = wall;
+        d["trees_per_second"] = wall > 0 ? static_cast<double>(built) / wall : 0.0;
+        writeFileAtomic(stage / datasetJsonName(0, 1), d.dump(2) + "\n");
+
+        if (fs::exists(out)) fs::remove(out);  // the empty directory checked above
+        fs::rename(stage, out);
+        summary.shardCount = n;
+        summary.instances = total;
+        summary.wallSeconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        return summary;
+    } catch (const std::exception& e) {
+        if (!o.move) {
+            fs::remove_all(stage, ec);
+            throw;
+        }
+        // Moved instance directories are only in the stage now: keep it.
+        throw std::runtime_error(std::string(e.what()) + " (moved instances kept in " +
+                                 stage.string() + ")");
+    }
+}
+
+}  // namespace sylva

@@ -1,0 +1,809 @@
+// `sylva report`: see report.h. The page is plain HTML + inline SVG (no JavaScript), so it
+// opens offline in any browser and can be archived with the dataset.
+#include "pipeline/analysis/report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <numeric>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "pipeline/analysis/dataset_stats.h"
+#include "pipeline/formats/atomic_file.h"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace sylva {
+
+// --- statistics helpers ------------------------------------------------------------------------
+
+// Quantiles, the KS test and W1 are the ones `sylva stats` uses
+// (pipeline/analysis/dataset_stats.h).
+
+std::vector<double> niceTicks(double lo, double hi, int target) {
+    if (!std::isfinite(lo) || !std::isfinite(hi)) return {0.0, 1.0};
+    if (hi < lo) std::swap(lo, hi);
+    if (hi - lo < 1e-12 * std::max(1.0, std::fabs(hi))) {  // a constant: a unit span around it
+        double pad = lo == 0.0 ? 1.0 : std::fabs(lo) * 0.1;
+        lo -= pad;
+        hi += pad;
+    }
+    double raw = (hi - lo) / std::max(1, target);
+    double mag = std::pow(10.0, std::floor(std::log10(raw)));
+    double step = mag;
+    for (double m : {1.0, 2.0, 5.0, 10.0}) {
+        step = m * mag;
+        if (step >= raw) break;
+    }
+    double first = std::floor(lo / step + 1e-9) * step;
+    double last = std::ceil(hi / step - 1e-9) * step;
+    std::vector<double> t;
+    for (double v = first; v <= last + step * 1e-6; v += step) {
+        t.push_back(std::fabs(v) < step * 1e-9 ? 0.0 : v);
+    }
+    return t;
+}
+
+std::string metricUnit(const std::string& m) {
+    auto ends = [&](const char* s) {
+        std::string x(s);
+        return m.size() > x.size() && m.compare(m.size() - x.size(), x.size(), x) == 0;
+    };
+    if (ends("_m3")) return "m³";
+    if (ends("_m2")) return "m²";
+    if (ends("_ms")) return "ms";
+    if (ends("_m")) return "m";
+    if (ends("_deg")) return "°";
+    return "";
+}
+
+std::vector<std::string> relativeLinks(const std::string& html) {
+    static const std::regex re(R"re((?:src|href)\s*=\s*"([^"]*)")re");
+    std::vector<std::string> out;
+    for (auto it = std::sregex_iterator(html.begin(), html.end(), re); it != std::sregex_iterator();
+         ++it) {
+        std::string v = (*it)[1].str();
+        if (v.empty() || v[0] == '#') continue;
+        if (v.find("://") != std::string::npos || v.rfind("data:", 0) == 0 ||
+            v.rfind("mailto:", 0) == 0)
+            continue;
+        out.push_back(v);
+    }
+    return out;
+}
+
+namespace {
+
+// --- input -----------------------------------------------------------------------------------
+
+struct Record {
+    std::string id, species;
+    std::map<std::string, double> metrics;
+    std::map<std::string, std::string> sweep;
+};
+
+std::string slurpFile(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    if (!in) throw std::runtime_error("cannot read " + p.string());
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+std::vector<fs::path> manifestFiles(const fs::path& dir) {
+    if (fs::exists(dir / "manifest.jsonl")) return {dir / "manifest.jsonl"};
+    std::vector<std::pair<int, fs::path>> shards;
+    static const std::regex re(R"(manifest\.shard-(\d+)-of-(\d+)\.jsonl)");
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir, ec)) {
+        std::smatch m;
+        std::string name = e.path().filename().string();
+        if (std::regex_match(name, m, re)) shards.emplace_back(std::stoi(m[1].str()), e.path());
+    }
+    std::sort(shards.begin(), shards.end());
+    std::vector<fs::path> out;
+    for (auto& s : shards) out.push_back(s.second);
+    return out;
+}
+
+std::string sweepValueString(const json& v) {
+    if (v.is_string()) return v.get<std::string>();
+    return v.dump();
+}
+
+// Reads every complete, parseable manifest line. Numeric `stats` keys become metrics; an array
+// stat of the same length in every record (one value per view) becomes its mean; timing keys
+// become "timing.<key>".
+std::vector<Record> readManifest(const fs::path& dir, size_t& skipped,
+                                 std::set<std::string>& perView) {
+    std::vector<Record> recs;
+    std::map<std::string, std::set<size_t>> arrayLengths;
+    std::vector<json> raw;
+    for (const fs::path& f : manifestFiles(dir)) {
+        std::ifstream in(f);
+        std::string line;
+        while (std::getline(in, line)) {
+            if (line.empty()) continue;
+            json j = json::parse(line, nullptr, false);
+            if (j.is_discarded() || !j.is_object() || !j.contains("species")) {
+                ++skipped;  // a torn last line of a killed build
+                continue;
+            }
+            if (j.contains("stats") && j["stats"].is_object()) {
+                for (const auto& [k, v] : j["stats"].items()) {
+                    if (!v.is_array()) continue;
+                    bool numeric = std::all_of(v.begin(), v.end(),
+                                               [](const json& x) { return x.is_number(); });
+                    arrayLengths[k].insert(numeric ? v.size() : 0);
+                }
+            }
+            raw.push_back(std::move(j));
+        }
+    }
+    for (const auto& [k, lengths] : arrayLengths) {
+        if (lengths.size() == 1 && *lengths.begin() > 0) perView.insert(k);
+    }
+    for (const json& j : raw) {
+        Record r;
+        r.species =
+            j["species"].is_string() ? j["species"].get<std::string>() : j["species"].dump();
+        r.id = j.value("id", std::string());
+        if (j.contains("stats") && j["stats"].is_object()) {
+            for (const auto& [k, v] : j["stats"].items()) {
+                if (v.is_number()) {
+                    r.metrics[k] = v.get<double>();
+                } else if (v.is_array() && perView.count(k) && !v.empty()) {
+                    double s = 0.0;
+                    for (const auto& x : v) s += x.get<double>();
+                    r.metrics[k] = s / static_cast<double>(v.size());
+                }
+            }
+        }
+        if (j.contains("timing") && j["timing"].is_object()) {
+            for (const auto& [k, v] : j["timing"].items()) {
+                if (v.is_number()) r.metrics["timing." + k] = v.get<double>();
+            }
+        }
+        if (j.contains("sweep") && j["sweep"].is_object()) {
+            for (const auto& [k, v] : j["sweep"].items()) r.sweep[k] = sweepValueString(v);
+        }
+        recs.push_back(std::move(r));
+    }
+    return recs;
+}
+
+// --- formatting ------------------------------------------------------------------------------
+
+std::string esc(const std::string& s) {
+    std::string o;
+    for (char c : s) {
+        switch (c) {
+            case '&':
+                o += "&amp;";
+                break;
+            case '<':
+                o += "&lt;";
+                break;
+            case '>':
+                o += "&gt;";
+                break;
+            case '"':
+                o += "&quot;";
+                break;
+            default:
+                o += c;
+        }
+    }
+    return o;
+}
+
+// Percent-encodes a path segment (species names are usually [a-z0-9-] and pass unchanged).
+std::string urlSegment(const std::string& s) {
+    std::string o;
+    for (unsigned char c : s) {
+        if (std::isalnum(c) || c == '-' || c == '_' || c == '.' || c == '~') {
+            o += static_cast<char>(c);
+        } else {
+            char b[4];
+            std::snprintf(b, sizeof b, "%%%02X", c);
+            o += b;
+        }
+    }
+    return o;
+}
+
+std::string urlDecode(const std::string& s) {
+    std::string o;
+    for (size_t i = 0; i < s.size(); ++i) {
+        if (s[i] == '%' && i + 2 < s.size()) {
+            o += static_cast<char>(std::strtol(s.substr(i + 1, 2).c_str(), nullptr, 16));
+            i += 2;
+        } else {
+            o += s[i];
+        }
+    }
+    return o;
+}
+
+std::string num(double v, int digits = 4) {
+    if (!std::isfinite(v)) return "–";
+    char b[64];
+    std::snprintf(b, sizeof b, "%.*g", digits, v);
+    return b;
+}
+
+std::string px(double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.1f", v);
+    return b;
+}
+
+std::string axisTitle(const std::string& metric, const std::set<std::string>& perView) {
+    std::string t = metric;
+    if (perView.count(metric)) t += " (mean over views)";
+    std::string u = metricUnit(metric);
+    if (!u.empty()) t += " [" + u + "]";
+    return t;
+}
+
+struct Summary {
+    size_t n = 0;
+    double mean = 0, sd = 0, q05 = 0, q25 = 0, q50 = 0, q75 = 0, q95 = 0, min = 0, max = 0;
+};
+
+Summary plotSummary(std::vector<double> v) {
+    Summary s;
+    s.n = v.size();
+    if (v.empty()) return s;
+    std::sort(v.begin(), v.end());
+    s.mean = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+    double ss = 0;
+    for (double x : v) ss += (x - s.mean) * (x - s.mean);
+    s.sd = v.size() > 1 ? std::sqrt(ss / static_cast<double>(v.size() - 1)) : 0.0;
+    s.q05 = quantileType7(v, 0.05);
+    s.q25 = quantileType7(v, 0.25);
+    s.q50 = quantileType7(v, 0.5);
+    s.q75 = quantileType7(v, 0.75);
+    s.q95 = quantileType7(v, 0.95);
+    s.min = v.front();
+    s.max = v.back();
+    return s;
+}
+
+// Deterministic jitter in [-1, 1] for the strip plot (a hash of the point's rank).
+double jitter(size_t i) {
+    uint64_t z = (i + 1) * 0x9E3779B97F4A7C15ull;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return static_cast<double>(z >> 11) / static_cast<double>(1ull << 53) * 2.0 - 1.0;
+}
+
+const char* kPalette[] = {"#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e",
+                          "#e6ab02", "#a6761d", "#666666", "#1f78b4", "#b2df8a"};
+
+// Horizontal box plot, one row per species: whiskers q05–q95, box q25–q75, median line, mean
+// diamond, and the individual instances as a jittered strip.
+std::string boxPlotSvg(const std::string& metric, const std::vector<std::string>& species,
+                       const std::map<std::string, std::vector<double>>& values,
+                       const std::set<std::string>& perView) {
+    double lo = INFINITY, hi = -INFINITY;
+    for (const auto& s : species) {
+        auto it = values.find(s);
+        if (it == values.end()) continue;
+        for (double v : it->second) lo = std::min(lo, v), hi = std::max(hi, v);
+    }
+    std::vector<double> ticks = niceTicks(lo, hi, 6);
+    const double x0 = 170, x1 = 700, top = 12, row = 28;
+    const double height = top + row * static_cast<double>(species.size()) + 46;
+    double d0 = ticks.front(), d1 = ticks.back();
+    auto X = [&](double v) { return x0 + (v - d0) / (d1 - d0) * (x1 - x0); };
+    std::ostringstream o;
+    o << "<svg class=\"plot\" xmlns=\"http://www.w3.org/2000/svg\" width=\"720\" height=\""
+      << px(height) << "\" viewBox=\"0 0 720 " << px(height) << "\" role=\"img\" aria-label=\""
+      << esc(metric) << "\">\n";
+    double yAxis = top + row * static_cast<double>(species.size()) + 4;
+    for (double t : ticks) {
+        o << "<line x1=\"" << px(X(t)) << "\" x2=\"" << px(X(t)) << "\" y1=\"" << px(top - 4)
+          << "\" y2=\"" << px(yAxis) << "\" class=\"grid\"/>"
+          << "<line x1=\"" << px(X(t)) << "\" x2=\"" << px(X(t)) << "\" y1=\"" << px(yAxis)
+          << "\" y2=\"" << px(yAxis + 5) << "\" class=\"axis\"/>"
+          << "<text x=\"" << px(X(t)) << "\" y=\"" << px(yAxis + 17)
+          << "\" text-anchor=\"middle\" class=\"tick\">" << num(t, 6) << "</text>\n";
+    }
+    o << "<line x1=\"" << px(x0) << "\" x2=\"" << px(x1) << "\" y1=\"" << px(yAxis) << "\" y2=\""
+      << px(yAxis) << "\" class=\"axis\"/>\n";
+    o << "<text x=\"" << px((x0 + x1) / 2) << "\" y=\"" << px(yAxis + 36)
+      << "\" text-anchor=\"middle\" class=\"label\">" << esc(axisTitle(metric, perView))
+      << "</text>\n";
+    for (size_t r = 0; r < species.size(); ++r) {
+        const std::string colour = kPalette[r % (sizeof kPalette / sizeof *kPalette)];
+        double yc = top + row * (static_cast<double>(r) + 0.5);
+        o << "<text x=\"" << px(x0 - 8) << "\" y=\"" << px(yc + 4)
+          << "\" text-anchor=\"end\" class=\"tick\">" << esc(species[r]) << "</text>\n";
+        auto it = values.find(species[r]);
+        if (it == values.end() || it->second.empty()) continue;
+        Summary s = plotSummary(it->second);
+        o << "<g><title>" << esc(species[r]) << ": n " << s.n << ", mean " << num(s.mean) << ", sd "
+          << num(s.sd) << ", q05 " << num(s.q05) << ", q25 " << num(s.q25) << ", median "
+          << num(s.q50) << ", q75 " << num(s.q75) << ", q95 " << num(s.q95) << "</title>\n";
+        o << "<line x1=\"" << px(X(s.q05)) << "\" x2=\"" << px(X(s.q95)) << "\" y1=\"" << px(yc)
+          << "\" y2=\"" << px(yc) << "\" stroke=\"" << colour << "\"/>";
+        for (double w : {s.q05, s.q95}) {
+            o << "<line x1=\"" << px(X(w)) << "\" x2=\"" << px(X(w)) << "\" y1=\"" << px(yc - 5)
+              << "\" y2=\"" << px(yc + 5) << "\" stroke=\"" << colour << "\"/>";
+        }
+        o << "<rect x=\"" << px(X(s.q25)) << "\" y=\"" << px(yc - 9) << "\" width=\""
+          << px(std::max(1.0, X(s.q75) - X(s.q25))) << "\" height=\"18\" fill=\"" << colour
+          << "\" fill-opacity=\"0.25\" stroke=\"" << colour << "\"/>";
+        o << "<line x1=\"" << px(X(s.q50)) << "\" x2=\"" << px(X(s.q50)) << "\" y1=\"" << px(yc - 9)
+          << "\" y2=\"" << px(yc + 9) << "\" stroke=\"" << colour << "\" stroke-width=\"2.5\"/>\n";
+        // The strip: every instance when there are few, else only those past the whiskers.
+        const auto& v = it->second;
+        for (size_t i = 0; i < v.size(); ++i) {
+            if (v.size() > 300 && v[i] >= s.q05 && v[i] <= s.q95) continue;
+            o << "<circle cx=\"" << px(X(v[i])) << "\" cy=\"" << px(yc + 6.0 * jitter(i))
+              << "\" r=\"1.6\" fill=\"" << colour << "\" fill-opacity=\"0.55\"/>";
+        }
+        double xm = X(s.mean);
+        o << "\n<path d=\"M" << px(xm) << " " << px(yc - 5) << " L" << px(xm + 4) << " " << px(yc)
+          << " L" << px(xm) << " " << px(yc + 5) << " L" << px(xm - 4) << " " << px(yc)
+          << " Z\" fill=\"#fff\" stroke=\"#000\"/></g>\n";
+    }
+    o << "</svg>\n";
+    return o.str();
+}
+
+struct SweepPoint {
+    std::string label;
+    double x = 0;
+    Summary s;
+};
+
+// Mean of `metric` against the swept value, with a ±1 sd band and the point means marked.
+std::string sweepSvg(const std::string& species, const std::string& path, const std::string& metric,
+                     const std::vector<SweepPoint>& pts, bool numericX,
+                     const std::set<std::string>& perView) {
+    const double W = 360, H = 250, x0 = 70, x1 = W - 14, y0 = 30, y1 = H - 52;
+    double lo = INFINITY, hi = -INFINITY;
+    for (const auto& p : pts) {
+        lo = std::min(lo, p.s.mean - p.s.sd);
+        hi = std::max(hi, p.s.mean + p.s.sd);
+    }
+    std::vector<double> yt = niceTicks(lo, hi, 5);
+    std::vector<double> xt;
+    if (numericX && pts.size() <= 8) {  // few sweep points: a tick at each value
+        for (const auto& p : pts) xt.push_back(p.x);
+        double pad = 0.06 * (pts.back().x - pts.front().x);
+        xt.insert(xt.begin(), pts.front().x - pad);
+        xt.push_back(pts.back().x + pad);
+    } else if (numericX) {
+        xt = niceTicks(pts.front().x, pts.back().x, 5);
+    } else {
+        xt = {-0.5, static_cast<double>(pts.size()) - 0.5};
+    }
+    double xd0 = xt.front(), xd1 = xt.back();
+    auto X = [&](double v) { return x0 + (v - xd0) / (xd1 - xd0) * (x1 - x0); };
+    auto Y = [&](double v) { return y1 - (v - yt.front()) / (yt.back() - yt.front()) * (y1 - y0); };
+    std::ostringstream o;
+    o << "<svg class=\"plot sweep\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W
+      << "\" height=\"" << H << "\" viewBox=\"0 0 " << W << " " << H << "\">\n";
+    o << "<text x=\"" << px(x0) << "\" y=\"16\" class=\"label\">" << esc(species) << ": "
+      << esc(metric) << "</text>\n";
+    for (double t : yt) {
+        o << "<line x1=\"" << px(x0) << "\" x2=\"" << px(x1) << "\" y1=\"" << px(Y(t)) << "\" y2=\""
+          << px(Y(t)) << "\" class=\"grid\"/><text x=\"" << px(x0 - 6) << "\" y=\"" << px(Y(t) + 4)
+          << "\" text-anchor=\"end\" class=\"tick\">" << num(t, 6) << "</text>\n";
+    }
+    if (numericX) {
+        for (size_t k = 0; k < xt.size(); ++k) {
+            if (pts.size() <= 8 && (k == 0 || k + 1 == xt.size())) continue;  // the padding
+            double t = xt[k];
+            o << "<line x1=\"" << px(X(t)) << "\" x2=\"" << px(X(t)) << "\" y1=\"" << px(y1)
+              << "\" y2=\"" << px(y1 + 5) << "\" class=\"axis\"/><text x=\"" << px(X(t))
+              << "\" y=\"" << px(y1 + 18) << "\" text-anchor=\"middle\" class=\"tick\">"
+              << num(t, 6) << "</text>\n";
+        }
+    } else {
+        for (size_t i = 0; i < pts.size(); ++i) {
+            o << "<text x=\"" << px(X(static_cast<double>(i))) << "\" y=\"" << px(y1 + 18)
+              << "\" text-anchor=\"middle\" class=\"tick\">" << esc(pts[i].label) << "</text>\n";
+        }
+    }
+    o << "<line x1=\"" << px(x0) << "\" x2=\"" << px(x1) << "\" y1=\"" << px(y1) << "\" y2=\""
+      << px(y1) << "\" class=\"axis\"/><line x1=\"" << px(x0) << "\" x2=\"" << px(x0) << "\" y1=\""
+      << px(y0) << "\" y2=\"" << px(y1) << "\" class=\"axis\"/>\n";
+    o << "<text x=\"" << px((x0 + x1) / 2) << "\" y=\"" << px(H - 14)
+      << "\" text-anchor=\"middle\" class=\"label\">" << esc(path) << "</text>\n";
+    std::string u = metricUnit(metric);
+    o << "<text x=\"11\" y=\"" << px((y0 + y1) / 2) << "\" transform=\"rotate(-90 11 "
+      << px((y0 + y1) / 2) << ")\" text-anchor=\"middle\" class=\"tick\">"
+      << (u.empty() ? std::string(perView.count(metric) ? "view mean" : "value") : esc(u))
+      << "</text>\n";
+    auto xOf = [&](size_t i) { return numericX ? pts[i].x : static_cast<double>(i); };
+    std::ostringstream band, line;
+    for (size_t i = 0; i < pts.size(); ++i)
+        band << (i ? " L" : "M") << px(X(xOf(i))) << " " << px(Y(pts[i].s.mean + pts[i].s.sd));
+    for (size_t i = pts.size(); i-- > 0;)
+        band << " L" << px(X(xOf(i))) << " " << px(Y(pts[i].s.mean - pts[i].s.sd));
+    for (size_t i = 0; i < pts.size(); ++i)
+        line << (i ? " L" : "M") << px(X(xOf(i))) << " " << px(Y(pts[i].s.mean));
+    o << "<path d=\"" << band.str() << " Z\" fill=\"#1b9e77\" fill-opacity=\"0.2\"/>\n";
+    o << "<path d=\"" << line.str() << "\" fill=\"none\" stroke=\"#1b9e77\" stroke-width=\"2\"/>\n";
+    for (size_t i = 0; i < pts.size(); ++i) {
+        o << "<circle cx=\"" << px(X(xOf(i))) << "\" cy=\"" << px(Y(pts[i].s.mean))
+          << "\" r=\"3\" fill=\"#1b9e77\"><title>" << esc(path) << " = " << esc(pts[i].label)
+          << ": n " << pts[i].s.n << ", mean " << num(pts[i].s.mean) << ", sd " << num(pts[i].s.sd)
+          << "</title></circle>\n";
+    }
+    o << "</svg>\n";
+    return o.str();
+}
+
+const char* kCss = R"css(
+body { font: 14px/1.45 system-ui, sans-serif; margin: 24px auto; max-width: 1180px; color: #222; }
+h1 { margin-bottom: 0.2em; } h2 { border-bottom: 1px solid #ccc; margin-top: 1.8em; }
+table { border-collapse: collapse; margin: 0.6em 0; }
+td, th { border: 1px solid #ddd; padding: 3px 8px; text-align: right; }
+th { background: #f3f3f3; } td.l, th.l { text-align: left; }
+tr.top td { font-weight: bold; } td.strong { background: #ffe08a; }
+.facts td:first-child { text-align: left; color: #555; }
+.sheets { display: flex; flex-wrap: wrap; gap: 16px; }
+.sheets figure { margin: 0; } .sheets img { max-width: 560px; border: 1px solid #ccc; image-rendering: pixelated; }
+.plots { display: flex; flex-wrap: wrap; gap: 8px; }
+svg.plot { background: #fff; border: 1px solid #eee; }
+svg .grid { stroke: #eee; } svg .axis { stroke: #444; }
+svg text { font: 11px system-ui, sans-serif; fill: #333; } svg text.label { font-size: 12px; }
+.note { color: #666; }
+)css";
+
+}  // namespace
+
+ReportResult writeReport(const fs::path& dir) {
+    if (!fs::exists(dir / "dataset.json")) {
+        throw std::runtime_error(dir.string() + ": no dataset.json (not a dataset directory)");
+    }
+    json info = json::parse(slurpFile(dir / "dataset.json"), nullptr, false);
+    if (info.is_discarded() || !info.is_object()) {
+        throw std::runtime_error((dir / "dataset.json").string() + ": not valid JSON");
+    }
+    size_t skipped = 0;
+    std::set<std::string> perView;
+    std::vector<Record> recs = readManifest(dir, skipped, perView);
+    if (recs.empty()) throw std::runtime_error(dir.string() + ": the manifest has no record");
+
+    // Species in dataset.json order, then any others in manifest order.
+    std::vector<std::string> species;
+    if (info.contains("species") && info["species"].is_array()) {
+        for (const auto& s : info["species"]) {
+            if (s.is_object() && s.contains("name") && s["name"].is_string())
+                species.push_back(s["name"].get<std::string>());
+        }
+    }
+    for (const Record& r : recs) {
+        if (std::find(species.begin(), species.end(), r.species) == species.end())
+            species.push_back(r.species);
+    }
+    std::map<std::string, size_t> perSpeciesCount;
+    for (const Record& r : recs) ++perSpeciesCount[r.species];
+    species.erase(std::remove_if(species.begin(), species.end(),
+                                 [&](const std::string& s) { return !perSpeciesCount.count(s); }),
+                  species.end());
+
+    // metric -> species -> values; constant metrics are listed, not plotted.
+    std::map<std::string, std::map<std::string, std::vector<double>>> values;
+    for (const Record& r : recs) {
+        for (const auto& [k, v] : r.metrics) {
+            if (std::isfinite(v)) values[k][r.species].push_back(v);
+        }
+    }
+    std::vector<std::string> metrics, constant, timing;
+    for (const auto& [m, bySpecies] : values) {
+        double lo = INFINITY, hi = -INFINITY;
+        for (const auto& [s, v] : bySpecies)
+            for (double x : v) lo = std::min(lo, x), hi = std::max(hi, x);
+        if (m.rfind("timing.", 0) == 0) {
+            timing.push_back(m);
+        } else if (hi > lo) {
+            metrics.push_back(m);
+        } else {
+            constant.push_back(m + " = " + num(lo));
+        }
+    }
+
+    ReportResult result;
+    result.instances = recs.size();
+    result.species = species.size();
+    result.metrics = metrics.size();
+
+    std::ostringstream h;
+    std::string name = info.value("name", dir.filename().string());
+    h << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>sylva "
+         "report: "
+      << esc(name) << "</title>\n<style>" << kCss << "</style>\n</head>\n<body>\n";
+    h << "<h1>" << esc(name) << "</h1>\n";
+    if (info.contains("description") && info["description"].is_string())
+        h << "<p>" << esc(info["description"].get<std::string>()) << "</p>\n";
+    h << "<p class=\"note\">Written by <code>sylva report</code> from <a "
+         "href=\"../dataset.json\">dataset.json</a>";
+    if (fs::exists(dir / "manifest.jsonl"))
+        h << " and <a href=\"../manifest.jsonl\">manifest.jsonl</a>";
+    h << ". Sections: <a href=\"#facts\">facts</a> · <a href=\"#sheets\">contact sheets</a> · <a "
+         "href=\"#summary\">summary</a> · <a href=\"#distributions\">distributions</a> · <a "
+         "href=\"#compare\">comparison</a>";
+    bool anySweep =
+        std::any_of(recs.begin(), recs.end(), [](const Record& r) { return !r.sweep.empty(); });
+    if (anySweep) h << " · <a href=\"#sweeps\">sweeps</a>";
+    h << "</p>\n";
+
+    // --- facts
+    h << "<h2 id=\"facts\">Dataset</h2>\n<table class=\"facts\">\n";
+    auto fact = [&](const std::string& k, const std::string& v) {
+        h << "<tr><td>" << esc(k) << "</td><td class=\"l\">" << esc(v) << "</td></tr>\n";
+    };
+    auto scalar = [](const json& v) {
+        if (v.is_string()) return v.get<std::string>();
+        if (v.is_number_float()) return num(v.get<double>(), 6);
+        return v.dump();
+    };
+    for (const char* k : {"name", "seed", "fingerprint", "status", "threads"}) {
+        if (info.contains(k)) fact(k, scalar(info[k]));
+    }
+    if (info.contains("wall_seconds") && info["wall_seconds"].is_number())
+        fact("build time", num(info["wall_seconds"].get<double>(), 4) + " s");
+    if (info.contains("trees_per_second") && info["trees_per_second"].is_number())
+        fact("throughput", num(info["trees_per_second"].get<double>(), 4) + " trees/s");
+    if (info.contains("shard") && info["shard"].is_object())
+        fact("shard", std::to_string(info["shard"].value("index", 0)) + " of " +
+                          std::to_string(info["shard"].value("count", 1)));
+    if (info.contains("counts") && info["counts"].is_object()) {
+        for (const auto& [k, v] : info["counts"].items()) fact("count: " + k, scalar(v));
+    }
+    fact("manifest records read",
+         std::to_string(recs.size()) +
+             (skipped ? " (" + std::to_string(skipped) + " unreadable lines skipped)"
+                      : std::string()));
+    if (info.contains("versions") && info["versions"].is_object()) {
+        std::string v;
+        for (const auto& [k, x] : info["versions"].items())
+            v += (v.empty() ? "" : ", ") + k + " " + scalar(x);
+        fact("versions", v);
+    }
+    h << "</table>\n";
+    if (!timing.empty()) {
+        h << "<table><tr><th class=\"l\">species</th>";
+        for (const auto& t : timing) h << "<th>mean " << esc(t.substr(7)) << "</th>";
+        h << "</tr>\n";
+        for (const auto& s : species) {
+            h << "<tr><td class=\"l\">" << esc(s) << "</td>";
+            for (const auto& t : timing) {
+                auto it = values[t].find(s);
+                h << "<td>"
+                  << (it == values[t].end() ? "–" : num(plotSummary(it->second).mean, 3) + " ms")
+                  << "</td>";
+            }
+            h << "</tr>\n";
+        }
+        h << "</table>\n";
+    }
+    if (info.contains("species") && info["species"].is_array()) {
+        h << "<table><tr><th class=\"l\">species</th><th class=\"l\">method</th><th>count</th>"
+             "<th>sweep points</th><th class=\"l\">file</th><th "
+             "class=\"l\">description</th></tr>\n";
+        for (const auto& s : info["species"]) {
+            if (!s.is_object()) continue;
+            h << "<tr><td class=\"l\">" << esc(s.contains("name") ? scalar(s["name"]) : "")
+              << "</td><td class=\"l\">" << esc(s.contains("method") ? scalar(s["method"]) : "")
+              << "</td><td>" << esc(s.contains("count") ? scalar(s["count"]) : "") << "</td><td>"
+              << esc(s.contains("sweep_points") ? scalar(s["sweep_points"]) : "")
+              << "</td><td class=\"l\">" << esc(s.contains("file") ? scalar(s["file"]) : "")
+              << "</td><td class=\"l\">"
+              << esc(s.contains("description") ? scalar(s["description"]) : "") << "</td></tr>\n";
+        }
+        h << "</table>\n";
+    }
+
+    // --- contact sheets
+    h << "<h2 id=\"sheets\">Contact sheets</h2>\n<div class=\"sheets\">\n";
+    for (const auto& s : species) {
+        if (fs::exists(dir / "contact" / (s + ".png"))) {
+            std::string src = "../contact/" + urlSegment(s) + ".png";
+            h << "<figure><a href=\"" << src << "\"><img src=\"" << src << "\" alt=\"" << esc(s)
+              << " contact sheet\"></a><figcaption>" << esc(s) << " (" << perSpeciesCount[s]
+              << " instances)</figcaption></figure>\n";
+        } else {
+            h << "<p class=\"note\">" << esc(s) << ": no contact sheet (the dataset has no "
+              << "views).</p>\n";
+        }
+    }
+    h << "</div>\n";
+
+    // --- summary table
+    h << "<h2 id=\"summary\">Per-species summary</h2>\n<p class=\"note\">mean ± sd (median) of "
+         "each metric; array metrics (one value per view) are averaged over the views first.</p>\n"
+         "<table><tr><th class=\"l\">metric</th>";
+    for (const auto& s : species) h << "<th>" << esc(s) << " (n " << perSpeciesCount[s] << ")</th>";
+    h << "</tr>\n";
+    for (const auto& m : metrics) {
+        h << "<tr><td class=\"l\">" << esc(axisTitle(m, perView)) << "</td>";
+        for (const auto& s : species) {
+            auto it = values[m].find(s);
+            if (it == values[m].end()) {
+                h << "<td>–</td>";
+                continue;
+            }
+            Summary x = plotSummary(it->second);
+            h << "<td>" << num(x.mean) << " ± " << num(x.sd, 3) << " (" << num(x.q50) << ")</td>";
+        }
+        h << "</tr>\n";
+    }
+    h << "</table>\n";
+    if (!constant.empty()) {
+        h << "<p class=\"note\">Constant over the whole dataset (not plotted): ";
+        for (size_t i = 0; i < constant.size(); ++i) h << (i ? ", " : "") << esc(constant[i]);
+        h << ".</p>\n";
+    }
+
+    // --- distributions
+    h << "<h2 id=\"distributions\">Distributions</h2>\n<p class=\"note\">Box: q25–q75; thick "
+         "line: median; whiskers: q05–q95; diamond: mean; dots: instances (only those past the "
+         "whiskers above 300 per species).</p>\n<div class=\"plots\">\n";
+    for (const auto& m : metrics) {
+        h << boxPlotSvg(m, species, values[m], perView);
+        ++result.plots;
+    }
+    for (const auto& m : timing) {
+        h << boxPlotSvg(m, species, values[m], perView);
+        ++result.plots;
+    }
+    h << "</div>\n";
+
+    // --- comparison
+    h << "<h2 id=\"compare\">Species comparison</h2>\n";
+    if (species.size() < 2) {
+        h << "<p class=\"note\">One species: nothing to compare.</p>\n";
+    } else {
+        h << "<p class=\"note\">For every pair of species, the five metrics that separate them "
+             "best (two-sample Kolmogorov–Smirnov D, largest first, ties broken by |mean "
+             "difference| / pooled sd; p asymptotic). Bold: the "
+             "strongest; highlighted: D ≥ 0.5. W1: Wasserstein-1 distance, in the metric's "
+             "unit.</p>\n<table><tr><th class=\"l\">species a</th><th class=\"l\">species "
+             "b</th><th class=\"l\">metric</th><th>mean a</th><th>mean b</th><th>KS D</th>"
+             "<th>p</th><th>W1</th></tr>\n";
+        for (size_t a = 0; a < species.size(); ++a) {
+            for (size_t b = a + 1; b < species.size(); ++b) {
+                struct Row {
+                    std::string m;
+                    double d, w, ma, mb, p, effect;
+                };
+                std::vector<Row> rows;
+                for (const auto& m : metrics) {
+                    auto ia = values[m].find(species[a]), ib = values[m].find(species[b]);
+                    if (ia == values[m].end() || ib == values[m].end()) continue;
+                    std::vector<double> xa = ia->second, xb = ib->second;
+                    std::sort(xa.begin(), xa.end());
+                    std::sort(xb.begin(), xb.end());
+                    const KsResult ks = ksTwoSample(xa, xb);
+                    const double d = ks.d;
+                    Summary sa = plotSummary(ia->second), sb = plotSummary(ib->second);
+                    double pooled = std::sqrt(0.5 * (sa.sd * sa.sd + sb.sd * sb.sd));
+                    double effect = pooled > 0 ? std::fabs(sa.mean - sb.mean) / pooled
+                                               : (sa.mean != sb.mean ? INFINITY : 0.0);
+                    rows.push_back({m, d, wasserstein1(xa, xb), sa.mean, sb.mean, ks.p, effect});
+                }
+                std::stable_sort(rows.begin(), rows.end(), [](const Row& x, const Row& y) {
+                    return x.d != y.d ? x.d > y.d : x.effect > y.effect;
+                });
+                if (rows.size() > 5) rows.resize(5);
+                for (size_t i = 0; i < rows.size(); ++i) {
+                    const Row& r = rows[i];
+                    std::string u = metricUnit(r.m);
+                    h << "<tr" << (i == 0 ? " class=\"top\"" : "") << "><td class=\"l\">"
+                      << esc(species[a]) << "</td><td class=\"l\">" << esc(species[b])
+                      << "</td><td class=\"l\">" << esc(r.m) << "</td><td>" << num(r.ma)
+                      << "</td><td>" << num(r.mb) << "</td><td"
+                      << (r.d >= 0.5 ? " class=\"strong\"" : "") << ">" << num(r.d, 3)
+                      << "</td><td>" << num(r.p, 2) << "</td><td>" << num(r.w)
+                      << (u.empty() ? "" : " " + esc(u)) << "</td></tr>\n";
+                }
+            }
+        }
+        h << "</table>\n";
+    }
+
+    // --- sweeps
+    if (anySweep) {
+        h << "<h2 id=\"sweeps\">Sweeps</h2>\n<p class=\"note\">Per species and swept path: the "
+             "mean of each metric against the swept value (line), ±1 sd (band); the four "
+             "metrics whose means vary most with the value (largest share of variance between "
+             "sweep points) are shown.</p>\n";
+        for (const auto& s : species) {
+            std::set<std::string> paths;
+            for (const Record& r : recs)
+                if (r.species == s)
+                    for (const auto& kv : r.sweep) paths.insert(kv.first);
+            for (const auto& path : paths) {
+                std::map<std::string, std::vector<const Record*>> groups;
+                for (const Record& r : recs) {
+                    auto it = r.sweep.find(path);
+                    if (r.species == s && it != r.sweep.end()) groups[it->second].push_back(&r);
+                }
+                if (groups.size() < 2) continue;
+                bool numericX = true;
+                std::vector<std::pair<double, std::string>> order;
+                for (const auto& g : groups) {
+                    char* end = nullptr;
+                    double x = std::strtod(g.first.c_str(), &end);
+                    if (end == g.first.c_str() || *end != '\0' || !std::isfinite(x))
+                        numericX = false;
+                    order.emplace_back(x, g.first);
+                }
+                if (numericX) std::sort(order.begin(), order.end());
+                struct Scored {
+                    double eta2;
+                    std::string m;
+                    std::vector<SweepPoint> pts;
+                };
+                std::vector<Scored> scored;
+                for (const auto& m : metrics) {
+                    std::vector<SweepPoint> pts;
+                    std::vector<double> all;
+                    for (const auto& [x, label] : order) {
+                        std::vector<double> v;
+                        for (const Record* r : groups[label]) {
+                            auto it = r->metrics.find(m);
+                            if (it != r->metrics.end() && std::isfinite(it->second))
+                                v.push_back(it->second);
+                        }
+                        if (v.empty()) continue;
+                        all.insert(all.end(), v.begin(), v.end());
+                        pts.push_back({label, x, plotSummary(v)});
+                    }
+                    if (pts.size() < 2) continue;
+                    double grand = std::accumulate(all.begin(), all.end(), 0.0) /
+                                   static_cast<double>(all.size());
+                    double total = 0, between = 0;
+                    for (double v : all) total += (v - grand) * (v - grand);
+                    for (const auto& p : pts)
+                        between +=
+                            static_cast<double>(p.s.n) * (p.s.mean - grand) * (p.s.mean - grand);
+                    if (total <= 0) continue;
+                    scored.push_back({between / total, m, std::move(pts)});
+                }
+                std::stable_sort(scored.begin(), scored.end(),
+                                 [](const Scored& x, const Scored& y) { return x.eta2 > y.eta2; });
+                if (scored.size() > 4) scored.resize(4);
+                h << "<h3>" << esc(s) << " · " << esc(path) << "</h3>\n<div class=\"plots\">\n";
+                for (const auto& sc : scored) {
+                    h << sweepSvg(s, path, sc.m, sc.pts, numericX, perView);
+                    ++result.plots;
+                    ++result.sweepPlots;
+                }
+                h << "</div>\n";
+            }
+        }
+    }
+    h << "</body>\n</html>\n";
+
+    std::string html = h.str();
+    const fs::path reportDir = dir / "report";
+    fs::create_directories(reportDir);  // so "../x" resolves through it
+    for (const std::string& link : relativeLinks(html)) {
+        std::string file = urlDecode(link.substr(0, link.find_first_of("#?")));
+        if (!fs::exists(reportDir / file)) {
+            throw std::runtime_error("report: the link \"" + link + "\" does not resolve");
+        }
+    }
+    result.index = reportDir / "index.html";
+    writeFileAtomic(result.index, html);
+    return result;
+}
+
+}  // namespace sylva

@@ -1,0 +1,47 @@
+// The batch builder: instance jobs through a oneTBB flow graph
+//   source → limiter → grow → write files → sequencer → record (manifest, progress)
+// with a bounded number of trees in flight, files written atomically, manifest lines
+// appended in job order only after an instance's files exist, and resume by skipping ids
+// already in the manifest.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "pipeline/build/dataset.h"
+
+namespace sylva {
+
+struct BuildOptions {
+    std::filesystem::path out;  // output directory
+    int threads = 0;            // 0: all cores
+    int shardIndex = 0;         // --shard I/N
+    int shardCount = 1;
+    int maxInFlight = 0;   // 0: 4 × threads
+    bool progress = true;  // progress on stderr
+};
+
+struct BuildSummary {
+    int64_t total = 0;    // jobs in this shard
+    int64_t skipped = 0;  // already in the manifest
+    int64_t built = 0;
+    int64_t failed = 0;
+    double wallSeconds = 0;
+};
+
+// Jobs of shard i of n: a contiguous block, so shard manifests concatenate, in shard
+// order, to exactly the unsharded manifest.
+std::pair<size_t, size_t> shardRange(size_t jobs, int index, int count);
+
+// Manifest and dataset file names for a shard ("manifest.jsonl" when unsharded).
+std::string manifestName(int index, int count);
+std::string datasetJsonName(int index, int count);
+
+BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& options);
+
+// Library versions, for dataset.json.
+nlohmann::json versionInfo();
+
+}  // namespace sylva

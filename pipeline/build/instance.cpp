@@ -1,0 +1,191 @@
+#include "pipeline/build/instance.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include "pipeline/formats/atomic_file.h"
+#include "pipeline/formats/mesh_writers.h"
+#include "pipeline/formats/skeleton_writers.h"
+#include "pipeline/formats/stats_json.h"
+#include "pipeline/formats/view_writers.h"
+#include "species/geometry/leaf_mesh.h"
+#include "species/geometry/tube_mesh.h"
+#include "species/geometry/watertight.h"
+#include "species/model/tree_stats.h"
+
+namespace sylva {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+std::string hex64(uint64_t v) {
+    char buf[20];
+    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+    return buf;
+}
+
+std::string meshBytes(const TreeMesh& m, const std::string& format) {
+    if (format == "glb") return meshGlb(m);
+    if (format == "obj") return meshObj(m);
+    return meshPly(m);
+}
+
+}  // namespace
+
+fs::path instanceDir(const InstanceJob& job) {
+    return fs::path("trees") / job.entry->species.name / job.id;
+}
+
+void growStage(InstanceWork& w) {
+    auto t0 = Clock::now();
+    const InstanceJob& job = *w.job;
+    w.grown = growSpecies(job.entry->species, job.seed, job.point->overrides.get(), true);
+    w.growMs = msSince(t0);
+}
+
+void meshStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
+    auto t0 = Clock::now();
+    if (!o.meshFormats.empty()) {
+        w.mesh.wood = tubeMesh(w.grown.tree, o.tubes);
+        w.mesh.leaves = leafMesh(w.grown.tree);
+    }
+    if (o.watertight) {
+        std::string vdb = o.vdb ? (out / instanceDir(*w.job) / "watertight.vdb").string() : "";
+        if (o.vdb) fs::create_directories(out / instanceDir(*w.job));
+        w.watertight = watertightMesh(w.grown.tree, o.watertightOptions, vdb);
+    }
+    w.meshMs = msSince(t0);
+}
+
+void renderStage(InstanceWork& w, const OutputOptions& o) {
+    if (o.views.count <= 0) return;
+    auto t0 = Clock::now();
+    Rng camRng = Rng(w.job->seed).derive("cameras");
+    w.cameras = makeCameras(w.grown.tree, o.views, camRng);
+    w.views.reserve(w.cameras.size());
+    for (const Camera& c : w.cameras) {
+        w.views.push_back(renderView(w.grown.tree, c, o.views.depth || o.views.pointCloud,
+                                     o.views.labels || o.views.pointCloud));
+    }
+    w.renderMs = msSince(t0);
+}
+
+void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
+    auto t0 = Clock::now();
+    const InstanceJob& job = *w.job;
+    const SpeciesFile& species = job.entry->species;
+    const fs::path rel = instanceDir(job);
+    nlohmann::json files = nlohmann::json::object();
+    uint64_t bytes = 0;
+    auto put = [&](const std::string& key, const std::string& name, const std::string& data) {
+        writeFileAtomic(out / rel / name, data);
+        files[key] = (rel / name).generic_string();
+        bytes += data.size();
+    };
+    auto count = [&](const fs::path& relPath) {  // files written by OIIO / OpenVDB
+        std::error_code ec;
+        auto size = fs::file_size(out / relPath, ec);
+        if (!ec) bytes += size;
+    };
+    auto noteFile = [&](const std::string& key, const fs::path& relPath) {
+        files[key] = relPath.generic_string();
+        count(relPath);
+    };
+
+    if (o.ply) put("skeleton_ply", "skeleton.ply", skeletonPly(w.grown.tree));
+    if (o.swc) put("skeleton_swc", "skeleton.swc", skeletonSwc(w.grown.tree));
+    for (const std::string& f : o.meshFormats) put("mesh_" + f, "mesh." + f, meshBytes(w.mesh, f));
+    if (o.watertight) {
+        TreeMesh wt;
+        wt.wood = w.watertight;
+        for (const std::string& f : o.meshFormats) {
+            put("watertight_" + f, "watertight." + f, meshBytes(wt, f));
+        }
+        if (o.vdb) noteFile("watertight_vdb", rel / "watertight.vdb");
+    }
+    if (o.preview) {
+        writePreviewPng(w.grown.tree, out / rel / "preview.png", o.previewSize);
+        noteFile("preview_png", rel / "preview.png");
+    }
+
+    nlohmann::json coverage = nlohmann::json::array(), fractal = nlohmann::json::array();
+    if (!w.views.empty()) {
+        std::vector<std::string> images, depths, labels;
+        for (size_t k = 0; k < w.views.size(); ++k) {
+            const ViewImage& v = w.views[k];
+            char stem[32];
+            std::snprintf(stem, sizeof stem, "views/%03zu", k);
+            images.push_back(std::string(stem) + ".png");
+            writeGreyPng(out / rel / images.back(), v.width, v.height, v.silhouette);
+            count(rel / images.back());
+            if (o.views.depth) {
+                depths.push_back(std::string(stem) + "_depth.exr");
+                writeDepthExr(out / rel / depths.back(), v.width, v.height, v.depth);
+                count(rel / depths.back());
+            }
+            if (o.views.labels) {
+                labels.push_back(std::string(stem) + "_label.png");
+                writeGreyPng(out / rel / labels.back(), v.width, v.height, v.labels);
+                count(rel / labels.back());
+            }
+            coverage.push_back(silhouetteCoverage(v));
+            fractal.push_back(boxCountingDimension(v));
+        }
+        files["views"] = (rel / "views").generic_string();
+        put("transforms", "transforms.json",
+            transformsJson(w.cameras, images, depths, labels).dump(2) + "\n");
+        if (o.views.pointCloud) put("points_ply", "points.ply", pointCloudPly(w.cameras, w.views));
+        if (o.views.contactSheet) {
+            int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(w.views.size()))));
+            writeContactSheet(out / rel / "contact.png", w.views, cols);
+            noteFile("contact_png", rel / "contact.png");
+        }
+    }
+
+    TreeStats stats = computeStats(w.grown.tree);
+    nlohmann::json st = toJson(stats);
+    for (const auto& [k, v] : w.grown.methodStats) st[k] = v;
+    st["leaves"] = w.grown.tree.leaves.size();
+    if (!o.meshFormats.empty()) {
+        st["mesh_vertices"] = w.mesh.wood.vertexCount() + w.mesh.leaves.vertexCount();
+        st["mesh_triangles"] = w.mesh.wood.triangleCount() + w.mesh.leaves.triangleCount();
+        st["wood_triangles"] = w.mesh.wood.triangleCount();
+        st["leaf_triangles"] = w.mesh.leaves.triangleCount();
+    }
+    if (o.watertight) {
+        st["watertight_vertices"] = w.watertight.vertexCount();
+        st["watertight_triangles"] = w.watertight.triangleCount();
+    }
+    if (!w.views.empty()) {
+        st["silhouette_coverage"] = coverage;
+        st["fractal_dimension"] = fractal;
+    }
+
+    nlohmann::json& rec = w.record;
+    rec["id"] = job.id;
+    rec["species"] = species.name;
+    rec["method"] = species.method;
+    rec["index"] = job.index;
+    rec["seed"] = hex64(job.seed);
+    rec["sweep"] = job.point->values;
+    rec["params"] = w.grown.sampled;
+    rec["files"] = files;
+    rec["bytes_written"] = bytes;
+    rec["stats"] = st;
+    w.writeMs = msSince(t0);
+    // The only fields that differ between identical builds.
+    rec["timing"] = {{"grow_ms", w.growMs},
+                     {"mesh_ms", w.meshMs},
+                     {"render_ms", w.renderMs},
+                     {"write_ms", w.writeMs}};
+}
+
+}  // namespace sylva

@@ -1,0 +1,38 @@
+// One instance through the stages of the flow graph: grow → mesh → render → write.
+// Each stage is a function of the work item; only write() touches the disk (besides the
+// optional watertight .vdb, which the mesh stage writes atomically as it is made).
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "pipeline/build/dataset.h"
+#include "pipeline/render/render.h"
+#include "species/geometry/mesh.h"
+#include "species/spec/species.h"
+
+namespace sylva {
+
+struct InstanceWork {
+    const InstanceJob* job = nullptr;
+    GrownTree grown;
+    TreeMesh mesh;    // tubes + leaf cards (when a mesh format is asked for)
+    Mesh watertight;  // when asked for
+    std::vector<Camera> cameras;
+    std::vector<ViewImage> views;
+    double growMs = 0, meshMs = 0, renderMs = 0, writeMs = 0;
+    nlohmann::json record;  // the manifest line, made by write()
+    std::string error;      // set by the first stage that fails; later stages skip
+};
+
+void growStage(InstanceWork& w);
+void meshStage(InstanceWork& w, const OutputOptions& outputs, const std::filesystem::path& out);
+void renderStage(InstanceWork& w, const OutputOptions& outputs);
+void writeStage(InstanceWork& w, const OutputOptions& outputs, const std::filesystem::path& out);
+
+// Relative directory of an instance's files: trees/<species>/<id>.
+std::filesystem::path instanceDir(const InstanceJob& job);
+
+}  // namespace sylva

@@ -1,0 +1,362 @@
+// Per-view outputs: transforms.json, grey PNGs, depth EXRs, the labelled point cloud and
+// contact sheets. Every file is written atomically (a unique temp sibling, then a rename).
+//
+// transforms.json (nerfstudio "OPENCV" model without distortion, also read by instant-ngp):
+//   top level: camera_model "OPENCV", fl_x, fl_y, cx, cy (pixels; pixel centres at i + 0.5,
+//   cx = w/2), w, h, k1 = k2 = p1 = p2 = 0; perspective: camera_angle_x / camera_angle_y
+//   (radians, instant-ngp); orthographic: "orthographic": true, ortho_height_m, ortho_width_m
+//   and fl_x = fl_y = pixels per metre (nerfstudio has no orthographic model: such files
+//   need a reader that honours the flag). Intrinsics go into every frame as well when the
+//   cameras do not share them.
+//   frames[]: file_path, transform_matrix (4 rows, camera-to-world, OpenGL convention:
+//   columns right, up, back = −forward, eye; world +y up, metres), depth_file_path and
+//   label_file_path when given, azimuth_deg, elevation_deg. Keys sorted (nlohmann default).
+//   Depth EXRs hold metres along the view axis (z-depth, not ray length), 0 = background:
+//   with nerfstudio pass `nerfstudio-data --depth-unit-scale-factor 1.0` (its default 1e-3
+//   expects millimetres).
+// Depth EXR: one FLOAT channel "Z", RLE compression (lossless); PNGs: 8-bit grey. Both are
+//   encoded in memory (pipeline/formats/image_codecs.h, which gives the formats and the measured
+//   reasons) and written with writeFileAtomic; identical pixels give identical bytes.
+// Point cloud PLY: binary little-endian, vertex = float x, y, z (world metres), uchar label
+//   (1 + branch order wood, 255 leaf; 1 when the view has no label image), uchar view
+//   (camera index); views in order, then rows top to bottom, then columns.
+// Contact sheets: 8-bit grey PNG, tiles in row-major order, `columns` per row (≤ 0: about
+//   square), 2 px light grey (200) gutters around and between tiles, white letterboxing.
+//   writeContactSheet draws silhouettes black (0) on white (255); writeContactSheetFromFiles
+//   shows its inputs as they are (no inversion), each fitted into tile × tile keeping its
+//   aspect (shrunk by area averaging, enlarged by nearest pixel; see fitGrey).
+#include "pipeline/formats/view_writers.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <cmath>
+#include <cstring>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+
+#include "pipeline/formats/atomic_file.h"
+#include "pipeline/formats/image_codecs.h"
+#include "pipeline/formats/little_endian.h"
+#include "pipeline/render/preview.h"
+
+namespace sylva {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kGutter = 2;            // contact sheet gutter, pixels
+constexpr uint8_t kGutterGrey = 200;  // light grey
+
+void checkSize(int width, int height, size_t have, const char* what) {
+    if (width <= 0 || height <= 0 || have != static_cast<size_t>(width) * height) {
+        throw std::invalid_argument(std::string(what) + ": " + std::to_string(have) +
+                                    " pixels for a " + std::to_string(width) + "x" +
+                                    std::to_string(height) + " image");
+    }
+}
+
+nlohmann::json matrixRows(const Camera& c) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (int i = 0; i < 4; ++i) {
+        nlohmann::json row = nlohmann::json::array();
+        for (int j = 0; j < 4; ++j) row.push_back(c.cameraToWorld[i][j] + 0.0 /* no -0 */);
+        rows.push_back(row);
+    }
+    return rows;
+}
+
+// Intrinsics shared by nerfstudio (OPENCV model, no distortion) and instant-ngp.
+void putIntrinsics(nlohmann::json& j, const Camera& c) {
+    j["fl_x"] = c.fx();
+    j["fl_y"] = c.fy();
+    j["cx"] = c.cx();
+    j["cy"] = c.cy();
+    j["w"] = c.width;
+    j["h"] = c.height;
+    if (c.orthographic) {
+        j["orthographic"] = true;
+        j["ortho_height_m"] = c.orthoHeight;
+        j["ortho_width_m"] = c.orthoHeight * c.width / c.height;
+    } else {
+        j["camera_angle_x"] = 2.0 * std::atan(0.5 * c.width / c.fx());
+        j["camera_angle_y"] = 2.0 * std::atan(0.5 * c.height / c.fy());
+    }
+}
+
+bool sameIntrinsics(const Camera& a, const Camera& b) {
+    return a.width == b.width && a.height == b.height && a.orthographic == b.orthographic &&
+           a.fx() == b.fx() && a.fy() == b.fy() &&
+           (!a.orthographic || a.orthoHeight == b.orthoHeight);
+}
+
+// Tiles equally sized grey tiles into a sheet: `columns` columns (≤ 0: about square), a
+// kGutter-pixel light grey gutter around and between the tiles.
+struct Sheet {
+    int cols = 0, rows = 0, tileW = 0, tileH = 0, width = 0, height = 0;
+    std::vector<uint8_t> pixels;
+
+    Sheet(size_t count, int columns, int tw, int th) : tileW(tw), tileH(th) {
+        const int n = static_cast<int>(count);
+        cols = columns > 0 ? std::min(columns, n)
+                           : static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
+        rows = (n + cols - 1) / cols;
+        width = cols * (tileW + kGutter) + kGutter;
+        height = rows * (tileH + kGutter) + kGutter;
+        pixels.assign(static_cast<size_t>(width) * height, kGutterGrey);
+    }
+    // Writes tile i (row-major grid) from a w×h image centred in its cell (white letterbox);
+    // row(y, dst) fills the w pixels of image row y.
+    template <typename RowFn>
+    void put(size_t i, int w, int h, RowFn row) {
+        const int cx0 = kGutter + static_cast<int>(i % cols) * (tileW + kGutter);
+        const int cy0 = kGutter + static_cast<int>(i / cols) * (tileH + kGutter);
+        for (int y = 0; y < tileH; ++y) {
+            std::fill_n(pixels.begin() + static_cast<size_t>(cy0 + y) * width + cx0, tileW,
+                        uint8_t{255});
+        }
+        const int ox = cx0 + (tileW - w) / 2, oy = cy0 + (tileH - h) / 2;
+        for (int y = 0; y < h; ++y) {
+            row(y, pixels.data() + static_cast<size_t>(oy + y) * width + ox);
+        }
+    }
+};
+
+// A grey PNG (or any OIIO-readable image) as float grey: 1 channel as is, 3+ channels by
+// Rec. 709 luminance of the first three, 2 channels (grey + alpha) by the first. Read
+// directly (no ImageCache), so a file rewritten during the run is never seen stale.
+struct GreyImage {
+    int width = 0, height = 0;
+    std::vector<float> pixels;  // row-major
+};
+
+GreyImage readGrey(const fs::path& path) {
+    auto in = OIIO::ImageInput::open(path.string());
+    if (!in) {
+        throw std::runtime_error("cannot read image '" + path.string() + "': " + OIIO::geterror());
+    }
+    const OIIO::ImageSpec& spec = in->spec();
+    const int w = spec.width, h = spec.height, nc = spec.nchannels;
+    std::vector<float> data(static_cast<size_t>(w) * h * nc);
+    if (w <= 0 || h <= 0 || nc <= 0 ||
+        !in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, data.data())) {
+        std::string err = in->geterror();
+        throw std::runtime_error("cannot read image '" + path.string() + "': " + err);
+    }
+    in->close();
+    if (nc == 1) return {w, h, std::move(data)};
+    GreyImage grey{w, h, std::vector<float>(static_cast<size_t>(w) * h)};
+    for (size_t k = 0; k < grey.pixels.size(); ++k) {
+        const float* p = data.data() + k * nc;
+        grey.pixels[k] = nc >= 3 ? 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2] : p[0];
+    }
+    return grey;
+}
+
+// A grey image fitted to rw × rh. Enlarging in both directions (views smaller than the tile):
+// nearest source pixel, so silhouettes stay crisp (a box filter would leave gaps between
+// source pixels). Otherwise area averaging: each output pixel is the mean of the source
+// area it covers (partly covered source pixels weighted by the covered fraction), which keeps
+// thin twigs as grey lines. Separable: rows first, then columns. (OIIO's resize with a box
+// filter gives the same kind of result but took 14 ms per 776² sheet through its iterators.)
+std::vector<float> fitGrey(const float* in, int w, int h, int rw, int rh) {
+    std::vector<float> out(static_cast<size_t>(rw) * rh);
+    if (rw >= w && rh >= h) {
+        for (int y = 0; y < rh; ++y) {
+            const int sy = std::min(h - 1, static_cast<int>((y + 0.5) * h / rh));
+            for (int x = 0; x < rw; ++x) {
+                const int sx = std::min(w - 1, static_cast<int>((x + 0.5) * w / rw));
+                out[static_cast<size_t>(y) * rw + x] = in[static_cast<size_t>(sy) * w + sx];
+            }
+        }
+        return out;
+    }
+    // Per output index: the source indices it covers and their weights (summing to 1).
+    struct Tap {
+        int first = 0;
+        std::vector<double> weights;
+    };
+    auto taps = [](int n, int rn) {
+        std::vector<Tap> t(rn);
+        const double scale = static_cast<double>(n) / rn;
+        for (int o = 0; o < rn; ++o) {
+            const double lo = o * scale, hi = (o + 1) * scale;
+            t[o].first = static_cast<int>(lo);
+            for (int i = t[o].first; i < n && i < hi; ++i) {
+                t[o].weights.push_back(
+                    (std::min(hi, i + 1.0) - std::max(lo, static_cast<double>(i))) / scale);
+            }
+        }
+        return t;
+    };
+    const std::vector<Tap> tx = taps(w, rw), ty = taps(h, rh);
+    std::vector<double> rows(static_cast<size_t>(rw) * h);  // rows resampled, full height
+    for (int y = 0; y < h; ++y) {
+        const float* src = in + static_cast<size_t>(y) * w;
+        for (int x = 0; x < rw; ++x) {
+            double v = 0.0;
+            for (size_t k = 0; k < tx[x].weights.size(); ++k) {
+                v += tx[x].weights[k] * src[tx[x].first + k];
+            }
+            rows[static_cast<size_t>(y) * rw + x] = v;
+        }
+    }
+    for (int y = 0; y < rh; ++y) {
+        for (int x = 0; x < rw; ++x) {
+            double v = 0.0;
+            for (size_t k = 0; k < ty[y].weights.size(); ++k) {
+                v += ty[y].weights[k] * rows[(ty[y].first + k) * rw + x];
+            }
+            out[static_cast<size_t>(y) * rw + x] = static_cast<float>(v);
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
+nlohmann::json transformsJson(const std::vector<Camera>& cameras,
+                              const std::vector<std::string>& imagePaths,
+                              const std::vector<std::string>& depthPaths,
+                              const std::vector<std::string>& labelPaths) {
+    const size_t n = cameras.size();
+    if (imagePaths.size() != n || (!depthPaths.empty() && depthPaths.size() != n) ||
+        (!labelPaths.empty() && labelPaths.size() != n)) {
+        throw std::invalid_argument("transformsJson: " + std::to_string(n) + " cameras but " +
+                                    std::to_string(imagePaths.size()) + " images, " +
+                                    std::to_string(depthPaths.size()) + " depth maps, " +
+                                    std::to_string(labelPaths.size()) + " label images");
+    }
+    nlohmann::json j;
+    j["camera_model"] = "OPENCV";
+    for (const char* k : {"k1", "k2", "p1", "p2"}) j[k] = 0.0;
+    bool shared = true;
+    for (const Camera& c : cameras) shared = shared && sameIntrinsics(c, cameras.front());
+    if (n > 0) putIntrinsics(j, cameras.front());
+    nlohmann::json frames = nlohmann::json::array();
+    for (size_t i = 0; i < n; ++i) {
+        nlohmann::json f;
+        f["file_path"] = imagePaths[i];
+        f["transform_matrix"] = matrixRows(cameras[i]);
+        if (!depthPaths.empty()) f["depth_file_path"] = depthPaths[i];
+        if (!labelPaths.empty()) f["label_file_path"] = labelPaths[i];
+        f["azimuth_deg"] = cameras[i].azimuthDeg;
+        f["elevation_deg"] = cameras[i].elevationDeg;
+        if (!shared) putIntrinsics(f, cameras[i]);
+        frames.push_back(std::move(f));
+    }
+    j["frames"] = std::move(frames);
+    return j;
+}
+
+void writeGreyPng(const fs::path& path, int width, int height, const std::vector<uint8_t>& pixels) {
+    checkSize(width, height, pixels.size(), "writeGreyPng");
+    writeFileAtomic(path, encodeGreyPng(width, height, pixels.data()));
+}
+
+void writeDepthExr(const fs::path& path, int width, int height, const std::vector<float>& depth) {
+    checkSize(width, height, depth.size(), "writeDepthExr");
+    writeFileAtomic(path, encodeFloatExr(width, height, depth.data(), "Z"));
+}
+
+std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<ViewImage>& views) {
+    if (cameras.size() != views.size()) {
+        throw std::invalid_argument("pointCloudPly: " + std::to_string(cameras.size()) +
+                                    " cameras but " + std::to_string(views.size()) + " views");
+    }
+    if (views.size() > 256) {
+        throw std::invalid_argument("pointCloudPly: at most 256 views fit the uchar view index");
+    }
+    size_t count = 0;
+    for (size_t v = 0; v < views.size(); ++v) {
+        const ViewImage& view = views[v];
+        const size_t n = static_cast<size_t>(view.width) * view.height;
+        if (view.depth.size() != n || view.width != cameras[v].width ||
+            view.height != cameras[v].height || (!view.labels.empty() && view.labels.size() != n)) {
+            throw std::invalid_argument("pointCloudPly: view " + std::to_string(v) +
+                                        " has no depth map or does not match its camera");
+        }
+        for (float z : view.depth) count += z > 0;
+    }
+    std::string out;
+    out.reserve(400 + count * 14);
+    out += "ply\n";
+    out += "format binary_little_endian 1.0\n";
+    out += "comment generated by sylva: depth maps back-projected to world points (metres)\n";
+    out += "comment label: 1 + branch order for wood, 255 for leaves; view: camera index\n";
+    out += "element vertex " + std::to_string(count) + "\n";
+    out += "property float x\n";
+    out += "property float y\n";
+    out += "property float z\n";
+    out += "property uchar label\n";
+    out += "property uchar view\n";
+    out += "end_header\n";
+    for (size_t v = 0; v < views.size(); ++v) {
+        const ViewImage& view = views[v];
+        for (int y = 0; y < view.height; ++y) {
+            for (int x = 0; x < view.width; ++x) {
+                const size_t k = static_cast<size_t>(y) * view.width + x;
+                const float z = view.depth[k];
+                if (!(z > 0)) continue;
+                const Vec3 p = cameras[v].unproject(x + 0.5, y + 0.5, z);
+                putFloat(out, p.x);
+                putFloat(out, p.y);
+                putFloat(out, p.z);
+                out.push_back(static_cast<char>(view.labels.empty() ? 1 : view.labels[k]));
+                out.push_back(static_cast<char>(v));
+            }
+        }
+    }
+    return out;
+}
+
+void writeContactSheet(const fs::path& path, const std::vector<ViewImage>& views, int columns) {
+    if (views.empty()) throw std::invalid_argument("writeContactSheet: no views");
+    int tw = 0, th = 0;
+    for (const ViewImage& v : views) {
+        checkSize(v.width, v.height, v.silhouette.size(), "writeContactSheet");
+        tw = std::max(tw, v.width);
+        th = std::max(th, v.height);
+    }
+    Sheet sheet(views.size(), columns, tw, th);
+    for (size_t i = 0; i < views.size(); ++i) {
+        const ViewImage& v = views[i];
+        sheet.put(i, v.width, v.height, [&](int y, uint8_t* dst) {
+            const uint8_t* src = v.silhouette.data() + static_cast<size_t>(y) * v.width;
+            for (int x = 0; x < v.width; ++x) dst[x] = src[x] ? 0 : 255;
+        });
+    }
+    writeGreyPng(path, sheet.width, sheet.height, sheet.pixels);
+}
+
+void writeContactSheetFromFiles(const fs::path& path, const std::vector<fs::path>& images,
+                                int columns, int tile) {
+    if (images.empty()) throw std::invalid_argument("writeContactSheetFromFiles: no images");
+    if (tile <= 0) {
+        throw std::invalid_argument("writeContactSheetFromFiles: tile size must be positive");
+    }
+    Sheet sheet(images.size(), columns, tile, tile);
+    for (size_t i = 0; i < images.size(); ++i) {
+        const GreyImage src = readGrey(images[i]);
+        const int w = src.width, h = src.height;
+        const double s = static_cast<double>(tile) / std::max(w, h);
+        const int rw = std::clamp(static_cast<int>(std::lround(w * s)), 1, tile);
+        const int rh = std::clamp(static_cast<int>(std::lround(h * s)), 1, tile);
+        const std::vector<float> px = fitGrey(src.pixels.data(), w, h, rw, rh);
+        sheet.put(i, rw, rh, [&](int y, uint8_t* dst) {
+            const float* src = px.data() + static_cast<size_t>(y) * rw;
+            for (int x = 0; x < rw; ++x) {
+                dst[x] = static_cast<uint8_t>(std::lround(255.0f * std::clamp(src[x], 0.0f, 1.0f)));
+            }
+        });
+    }
+    writeGreyPng(path, sheet.width, sheet.height, sheet.pixels);
+}
+
+void writePreviewPng(const Tree& tree, const fs::path& path, int sizePixels) {
+    const std::vector<uint8_t> pixels = renderPreview(tree, sizePixels);
+    writeFileAtomic(path, encodeGreyPng(sizePixels, sizePixels, pixels.data()));
+}
+
+}  // namespace sylva

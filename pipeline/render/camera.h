@@ -1,0 +1,56 @@
+// Cameras around a tree for its views: the [views] options, the camera model and its framing
+// of the tree's bounding sphere.
+// Frame: world +y up, metres. Cameras follow the OpenGL / nerfstudio convention: in camera
+// space the camera looks along −z with +y up; transform_matrix is camera-to-world.
+#pragma once
+
+#include <vector>
+
+#include "core/math.h"
+#include "core/rng.h"
+#include "species/model/tree.h"
+
+namespace sylva {
+
+struct ViewOptions {
+    int count = 0;                          // cameras per instance; 0 = no views
+    std::vector<double> elevationsDeg{20};  // cycled over the cameras, or …
+    bool elevationRange = false;            // … spread evenly from elevationsDeg[0] to [1]
+    bool randomAzimuth = true;              // azimuth offset drawn per instance …
+    double azimuthOffsetDeg = 0.0;          // … or this fixed offset; cameras 360°/count apart
+    bool orthographic = false;
+    double fovDeg = 40.0;           // vertical field of view (perspective)
+    int width = 256, height = 256;  // pixels
+    double margin = 1.05;           // bounding sphere radius × margin fills the frame
+    bool depth = false;             // depth EXR per view
+    bool labels = false;            // label PNG per view
+    bool pointCloud = false;        // labelled point cloud PLY per instance (needs depth)
+    bool contactSheet = true;       // all views tiled, per instance
+};
+
+struct Camera {
+    int width = 0, height = 0;
+    bool orthographic = false;
+    double fovY = 0.0;                // radians (perspective)
+    double orthoHeight = 0.0;         // metres spanned vertically (orthographic)
+    double cameraToWorld[4][4] = {};  // OpenGL convention (looks along −z)
+    double azimuthDeg = 0.0, elevationDeg = 0.0;
+    // Pixel focal lengths and principal point (perspective; for orthographic fx = fy =
+    // pixels per metre).
+    double fx() const;
+    double fy() const;
+    double cx() const { return width * 0.5; }
+    double cy() const { return height * 0.5; }
+    // World point → pixel (x right, y down, continuous; pixel centres at +0.5) and depth
+    // along the view axis in metres (positive in front). False if behind the camera.
+    bool project(const Vec3& world, double& px, double& py, double& depth) const;
+    // Pixel + depth along the view axis → world point.
+    Vec3 unproject(double px, double py, double depth) const;
+};
+
+// Cameras around the tree: evenly spaced azimuths (+ offset), elevations per options, all
+// looking at the centre of the bounding sphere of skeleton (with radii) and leaves, at a
+// distance that frames that sphere. rng is used only for a random azimuth offset.
+std::vector<Camera> makeCameras(const Tree& tree, const ViewOptions& options, Rng& rng);
+
+}  // namespace sylva

@@ -1,0 +1,35 @@
+// A CPU renderer of one view: the skeleton's tapered capsules and the leaf cards, z-buffered
+// into a silhouette, a depth map and a label image; plus silhouette statistics.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+#include "pipeline/render/camera.h"
+#include "species/model/tree.h"
+
+namespace sylva {
+
+// Label values in label PNGs.
+constexpr uint8_t kLabelBackground = 0;
+constexpr uint8_t kLabelLeaf = 255;
+inline uint8_t woodLabel(int order) { return static_cast<uint8_t>(std::min(order + 1, 254)); }
+
+struct ViewImage {
+    int width = 0, height = 0;
+    std::vector<uint8_t> silhouette;  // 0 background, 255 tree; row-major, row 0 at the top
+    std::vector<float> depth;         // metres along the view axis; 0 = background
+    std::vector<uint8_t> labels;      // 0 background, 1 + branch order for wood, 255 leaves
+};
+
+// Renders one view: every skeleton segment as a tapered capsule (its screen radius at least
+// √½ px, so sub-pixel twigs still appear as unbroken lines) and every leaf card as two triangles,
+// z-buffered. Deterministic whatever the thread count.
+ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, bool wantLabels);
+
+// Silhouette statistics.
+double silhouetteCoverage(const ViewImage& view);    // fraction of tree pixels
+double boxCountingDimension(const ViewImage& view);  // slope of log N(s) vs log 1/s
+
+}  // namespace sylva

@@ -1,0 +1,71 @@
+#include "species/geometry/leaves.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sylva {
+
+void placeLeaves(Tree& tree, const LeafOptions& o, Rng& rng) {
+    if (!o.enabled || tree.nodes.size() < 2) return;
+    const ChildIndex children(tree);
+    double yLo = 1e300, yHi = -1e300;
+    for (const SkeletonNode& n : tree.nodes) {
+        if (n.part != kShootPart) continue;
+        yLo = std::min(yLo, n.position.y);
+        yHi = std::max(yHi, n.position.y);
+    }
+    const double ySpan = std::max(1e-9, yHi - yLo);
+    const Vec3 sun = normalize(o.sun);
+    std::vector<int32_t> path;
+    std::vector<double> along;  // path length from the tip at each path node
+    for (int32_t tip = 1; tip < static_cast<int32_t>(tree.nodes.size()); ++tip) {
+        const SkeletonNode& t = tree.nodes[tip];
+        if (t.part != kShootPart || children.count(tip) > 0) continue;
+        // The twig: from the tip back towards the root until alongTwig metres are covered.
+        path.assign(1, tip);
+        along.assign(1, 0.0);
+        while (along.back() < o.alongTwig && tree.nodes[path.back()].parent >= 0) {
+            int32_t p = tree.nodes[path.back()].parent;
+            along.push_back(along.back() +
+                            distance(tree.nodes[p].position, tree.nodes[path.back()].position));
+            path.push_back(p);
+        }
+        const double span = std::min(o.alongTwig, along.back());
+        for (int k = 0; k < o.perTip; ++k) {
+            // A point on the twig, uniformly by path length.
+            const double s = span * rng.uniform();
+            size_t seg = 1;
+            while (seg + 1 < along.size() && along[seg] < s) ++seg;
+            Vec3 a = tree.nodes[path[seg - 1]].position, b = tree.nodes[path[seg]].position;
+            double segLen = along[seg] - along[seg - 1];
+            double t01 = segLen > 0 ? (s - along[seg - 1]) / segLen : 0.0;
+            Vec3 onTwig = a + (b - a) * t01;
+            Vec3 twigDir = segLen > 0 ? normalize(a - b) : Vec3{0, 1, 0};
+
+            Leaf leaf;
+            leaf.size = rng.uniform(o.sizeMin, o.sizeMax);
+            leaf.aspect = o.aspect;
+            // The blade points away from the twig, half a leaf off its axis.
+            Vec3 side = rng.unitVector();
+            side = side - twigDir * dot(side, twigDir);
+            if (length(side) < 1e-6) side = anyPerpendicular(twigDir);
+            side = normalize(side);
+            leaf.tangent = normalize(side + twigDir * 0.5);
+            leaf.position = onTwig + leaf.tangent * (0.5 * leaf.size);
+            Vec3 n = rng.unitVector();
+            if (o.orientation == LeafOrientation::kSun) {
+                n = sun * o.sunWeight + n * (1.0 - o.sunWeight);
+            }
+            n = n - leaf.tangent * dot(n, leaf.tangent);
+            if (length(n) < 1e-6) n = anyPerpendicular(leaf.tangent);
+            leaf.normal = normalize(n);
+            double frac = (leaf.position.y - yLo) / ySpan + o.colourJitter * rng.uniform(-1, 1);
+            leaf.colour = static_cast<uint8_t>(
+                std::clamp(static_cast<int>(frac * o.colourClasses), 0, o.colourClasses - 1));
+            leaf.node = tip;
+            tree.leaves.push_back(leaf);
+        }
+    }
+}
+
+}  // namespace sylva

@@ -1,0 +1,30 @@
+// Leaves at the terminal twigs, for methods that do not place their own (the iterated-graph
+// method): count per tip, size distribution, random orientation or turned toward a sun
+// direction (as the canopy paper orients its leaves), and a colour class by height.
+#pragma once
+
+#include "core/rng.h"
+#include "species/model/tree.h"
+
+namespace sylva {
+
+enum class LeafOrientation { kRandom, kSun };
+
+struct LeafOptions {
+    bool enabled = false;
+    int perTip = 5;          // leaves per terminal twig
+    double alongTwig = 0.4;  // spread over the last this-many metres of each twig
+    double sizeMin = 0.08;   // card length, uniform in [sizeMin, sizeMax], metres
+    double sizeMax = 0.14;
+    double aspect = 0.6;  // card width / length
+    LeafOrientation orientation = LeafOrientation::kRandom;
+    Vec3 sun{0.3, 1.0, 0.2};    // towards the sun (unit after parsing)
+    double sunWeight = 0.7;     // normal = normalise(w·sun + (1 − w)·random)
+    int colourClasses = 1;      // classes by relative height, 0 lowest (lighter higher)
+    double colourJitter = 0.1;  // random shift of the height fraction before classing
+};
+
+// Appends leaves to tree.leaves at every tip (shoot nodes without children).
+void placeLeaves(Tree& tree, const LeafOptions& options, Rng& rng);
+
+}  // namespace sylva

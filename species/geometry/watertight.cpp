@@ -1,0 +1,562 @@
+// The watertight wood mesh: the union of every branch segment's round cone (the convex hull
+// of the spheres at its two nodes) as an OpenVDB narrow-band level set, meshed with
+// volumeToMesh into one closed, manifold triangle mesh.
+//
+// Rasterisation is exact and deterministic: each segment is tested only against the 8³ leaf
+// blocks near it; every block then takes, per voxel, the minimum of the exact signed
+// distances of its segments (the union). A block depends only on its own voxels and its
+// segments, so the grid (and hence the mesh and the .vdb) is identical for any thread count.
+// Then: flood fill of the interior, enclosed cavities filled (fillCavities), values kept
+// 0.001 voxel off zero (kZeroNudgeVoxels), volumeToMesh at isovalue 0 with adaptivity 0.
+//
+// Mesh conventions: triangles counter-clockwise seen from outside; per-vertex normals are
+// area-weighted face normals (unit); order per vertex is the child node's order of the
+// segment with the smallest signed distance at the vertex; colour 0; no uvs.
+#include "species/geometry/watertight.h"
+
+#include <openvdb/io/File.h>
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/SignedFloodFill.h>
+#include <openvdb/tools/VolumeToMesh.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+
+#include "species/geometry/level_set_mesh.h"
+
+namespace sylva {
+namespace {
+
+using LeafT = openvdb::FloatTree::LeafNodeType;
+constexpr int kLeafDim = static_cast<int>(LeafT::DIM);  // 8 voxels per leaf edge
+constexpr int kLeafLog2 = static_cast<int>(LeafT::LOG2DIM);
+
+// Twigs are thickened to this many voxels of radius so that they survive sampling at voxel
+// centres: √3/2, the covering radius of the voxel lattice, so every point of a segment's axis
+// has a voxel centre inside the capsule. At 0.75 about one thin diagonal twig in six broke
+// into separate beads; at √3/2 none of 2000 random ones did.
+constexpr double kMinRadiusVoxels = 0.8660254037844386;
+
+// Distances closer to zero than this many voxels are pushed to ± it: a surface through a
+// voxel centre makes volumeToMesh emit coincident vertices and degenerate triangles (a
+// sphere of radius 20 voxels centred on a voxel had 42 of them, all flagged as
+// self-intersections). Moves the surface by at most 0.001 voxel.
+constexpr double kZeroNudgeVoxels = 1e-3;
+
+void initializeOpenVdbOnce() {
+    static std::once_flag once;
+    std::call_once(once, [] { openvdb::initialize(); });
+}
+
+int floorDiv(int v, int d) { return static_cast<int>(std::floor(v / double(d))); }
+
+// Exact signed distance to a round cone (Inigo Quilez's sdRoundCone for arbitrary
+// endpoints): the convex hull of the spheres (a, r1) and (b, r2). When one sphere contains
+// the other the hull is that sphere.
+struct RoundCone {
+    Vec3 a, ba;
+    double r1 = 0, r2 = 0;
+    double l2 = 0, rr = 0, a2 = 0, il2 = 0;
+    bool sphere = false;
+    int32_t node = 0;  // the segment's child node
+    Vec3 lo, hi;       // bounds of the shape, metres
+
+    RoundCone(const Vec3& pa, double ra, const Vec3& pb, double rb, int32_t child)
+        : a(pa), ba(pb - pa), r1(ra), r2(rb), node(child) {
+        l2 = length2(ba);
+        rr = r1 - r2;
+        a2 = l2 - rr * rr;
+        // One sphere inside the other (or a zero-length segment): the bigger sphere.
+        if (!(a2 > 1e-12 * std::max(l2, 1e-30)) || l2 < 1e-24) {
+            sphere = true;
+            if (r2 > r1) {
+                a = pb;
+                r1 = r2;
+            }
+            ba = Vec3{};
+            il2 = 0;
+        } else {
+            il2 = 1.0 / l2;
+        }
+        if (sphere) {
+            lo = a - Vec3{r1, r1, r1};
+            hi = a + Vec3{r1, r1, r1};
+        } else {
+            lo = vmin(pa - Vec3{ra, ra, ra}, pb - Vec3{rb, rb, rb});
+            hi = vmax(pa + Vec3{ra, ra, ra}, pb + Vec3{rb, rb, rb});
+        }
+    }
+
+    double distance(const Vec3& p) const {
+        const Vec3 pa = p - a;
+        if (sphere) return length(pa) - r1;
+        const double y = dot(pa, ba);
+        const double z = y - l2;
+        const double x2 = length2(pa * l2 - ba * y);
+        const double y2 = y * y * l2;
+        const double z2 = z * z * l2;
+        const double k = (rr > 0 ? 1.0 : (rr < 0 ? -1.0 : 0.0)) * rr * rr * x2;
+        const double sz = z > 0 ? 1.0 : (z < 0 ? -1.0 : 0.0);
+        const double sy = y > 0 ? 1.0 : (y < 0 ? -1.0 : 0.0);
+        if (sz * a2 * z2 > k) return std::sqrt(x2 + z2) * il2 - r2;
+        if (sy * a2 * y2 < k) return std::sqrt(x2 + y2) * il2 - r1;
+        return (std::sqrt(x2 * a2 * il2) + y * rr) * il2 - r1;
+    }
+};
+
+// Index-space box of voxels whose centres can lie within `band` of the segment.
+struct IndexBox {
+    int lo[3], hi[3];
+};
+
+IndexBox voxelBox(const RoundCone& s, double inv, double band) {
+    IndexBox b;
+    for (int a = 0; a < 3; ++a) {
+        b.lo[a] = static_cast<int>(std::ceil((s.lo[a] - band) * inv));
+        b.hi[a] = static_cast<int>(std::floor((s.hi[a] + band) * inv));
+    }
+    return b;
+}
+
+// One (leaf block, segment) pair. Blocks are keyed by their block coordinates.
+struct BlockRef {
+    int32_t bx, by, bz;
+    int32_t segment;
+    bool interior;  // every voxel of the block is at least `band` inside this segment
+
+    bool sameBlock(const BlockRef& o) const { return bx == o.bx && by == o.by && bz == o.bz; }
+    bool operator<(const BlockRef& o) const {
+        if (bx != o.bx) return bx < o.bx;
+        if (by != o.by) return by < o.by;
+        if (bz != o.bz) return bz < o.bz;
+        return segment < o.segment;
+    }
+};
+
+openvdb::FloatGrid::Ptr rasterise(const std::vector<RoundCone>& segments, double voxel,
+                                  double band) {
+    const float background = static_cast<float>(band);
+    const float nudge = static_cast<float>(kZeroNudgeVoxels * voxel);
+    auto grid = openvdb::FloatGrid::create(background);
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel));
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    grid->setName("tree_sdf");
+    grid->insertMeta("voxel_size", openvdb::DoubleMetadata(voxel));
+    if (segments.empty()) return grid;
+
+    const double inv = 1.0 / voxel;
+    // Block centre to its farthest voxel centre: 3.5 voxels along each axis.
+    const double halfDiagonal = std::sqrt(3.0) * 0.5 * (kLeafDim - 1) * voxel;
+    const double c = 0.5 * (kLeafDim - 1);
+
+    // 1. Blocks near each segment (parallel per segment; concatenated in segment order).
+    std::vector<std::vector<BlockRef>> perSegment(segments.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, segments.size()), [&](const auto& range) {
+        for (size_t s = range.begin(); s != range.end(); ++s) {
+            const RoundCone& seg = segments[s];
+            const IndexBox box = voxelBox(seg, inv, band);
+            int blo[3], bhi[3];
+            for (int a = 0; a < 3; ++a) {
+                blo[a] = floorDiv(box.lo[a], kLeafDim);
+                bhi[a] = floorDiv(box.hi[a], kLeafDim);
+            }
+            auto& out = perSegment[s];
+            for (int bx = blo[0]; bx <= bhi[0]; ++bx)
+                for (int by = blo[1]; by <= bhi[1]; ++by)
+                    for (int bz = blo[2]; bz <= bhi[2]; ++bz) {
+                        const Vec3 centre{(bx * kLeafDim + c) * voxel, (by * kLeafDim + c) * voxel,
+                                          (bz * kLeafDim + c) * voxel};
+                        // The distance is exact, hence 1-Lipschitz: no voxel of a block whose
+                        // centre is this far out can be within the band.
+                        const double d = seg.distance(centre);
+                        if (d >= halfDiagonal + band) continue;
+                        out.push_back(
+                            {bx, by, bz, static_cast<int32_t>(s), d <= -(halfDiagonal + band)});
+                    }
+        }
+    });
+    size_t total = 0;
+    for (const auto& v : perSegment) total += v.size();
+    std::vector<BlockRef> refs;
+    refs.reserve(total);
+    for (auto& v : perSegment) {
+        refs.insert(refs.end(), v.begin(), v.end());
+        std::vector<BlockRef>().swap(v);
+    }
+    std::sort(refs.begin(), refs.end());
+    std::vector<size_t> starts;
+    for (size_t i = 0; i < refs.size(); ++i)
+        if (i == 0 || !refs[i].sameBlock(refs[i - 1])) starts.push_back(i);
+    starts.push_back(refs.size());
+    const size_t blocks = starts.size() - 1;
+
+    // 2. Every block: the minimum over its segments, clamped to the band (parallel per block;
+    // a block depends only on its own inputs).
+    std::vector<std::unique_ptr<LeafT>> leaves(blocks);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const auto& range) {
+        float values[LeafT::SIZE];
+        for (size_t b = range.begin(); b != range.end(); ++b) {
+            const size_t first = starts[b], last = starts[b + 1];
+            bool interior = false;
+            for (size_t r = first; r < last && !interior; ++r) interior = refs[r].interior;
+            if (interior) continue;  // no active voxel: flood fill makes it inside
+            const openvdb::Coord origin(refs[first].bx * kLeafDim, refs[first].by * kLeafDim,
+                                        refs[first].bz * kLeafDim);
+            std::fill(values, values + LeafT::SIZE, background);
+            for (size_t r = first; r < last; ++r) {
+                const RoundCone& seg = segments[refs[r].segment];
+                const IndexBox box = voxelBox(seg, inv, band);
+                int lo[3], hi[3];
+                for (int a = 0; a < 3; ++a) {
+                    lo[a] = std::max(box.lo[a], origin[a]) - origin[a];
+                    hi[a] = std::min(box.hi[a], origin[a] + kLeafDim - 1) - origin[a];
+                }
+                for (int i = lo[0]; i <= hi[0]; ++i)
+                    for (int j = lo[1]; j <= hi[1]; ++j)
+                        for (int k = lo[2]; k <= hi[2]; ++k) {
+                            const Vec3 p{(origin.x() + i) * voxel, (origin.y() + j) * voxel,
+                                         (origin.z() + k) * voxel};
+                            const float d = static_cast<float>(
+                                std::max(seg.distance(p), -band));  // union: keep the min
+                            float& v = values[(i << (2 * kLeafLog2)) | (j << kLeafLog2) | k];
+                            if (d < v) v = d;
+                        }
+            }
+            auto leaf = std::make_unique<LeafT>(origin, background, false);
+            bool any = false;
+            for (openvdb::Index n = 0; n < LeafT::SIZE; ++n) {
+                float v = values[n];
+                // Keep values off zero (kZeroNudgeVoxels).
+                if (std::abs(v) < nudge) v = v < 0 ? -nudge : nudge;
+                if (v > -background && v < background) {
+                    leaf->setValueOn(n, v);
+                    any = true;
+                } else {
+                    leaf->setValueOff(n, v < 0 ? -background : background);
+                }
+            }
+            if (any) leaves[b] = std::move(leaf);
+        }
+    });
+    openvdb::FloatTree& tree = grid->tree();
+    for (auto& leaf : leaves)
+        if (leaf) tree.addLeaf(leaf.release());  // the tree takes ownership
+    // Tiles and inactive voxels enclosed by the band become −background.
+    openvdb::tools::signedFloodFill(tree);
+    return grid;
+}
+
+// Fills enclosed cavities: pockets of outside (>= 0) voxels that merging capsules cap off
+// from the exterior. They would become extra inward-facing shells (often tiny, degenerate
+// ones around a single voxel). A flood fill over the leaf voxels, 6-connected through
+// outside values, starts from every outside voxel next to an outside tile (the exterior);
+// outside voxels it does not reach become inside (−background, inactive). Outside voxels
+// reached only through a diagonal count as cavities, which only closes hairline pockets.
+// Cavities wide enough to hold outside tiles (more than about 2·halfWidth + 8 voxels across)
+// are left as they are. The visited set does not depend on visiting order: deterministic.
+size_t fillCavities(openvdb::FloatGrid& grid) {
+    openvdb::FloatTree& tree = grid.tree();
+    const float background = tree.background();
+    std::vector<LeafT*> leaves;
+    tree.getNodes(leaves);
+    if (leaves.empty()) return 0;
+    constexpr int32_t kOutsideTile = -1, kInsideTile = -2;
+    auto outside = [](float v) { return v >= 0.0f; };
+
+    // Face neighbours of every leaf: another leaf (its index) or a tile (a whole 8³ block
+    // lies in one tile, so one probe per face tells its side).
+    std::vector<std::array<int32_t, 6>> neighbour(leaves.size());
+    {
+        std::unordered_map<const LeafT*, int32_t> leafIndex;
+        leafIndex.reserve(leaves.size());
+        for (size_t i = 0; i < leaves.size(); ++i) leafIndex.emplace(leaves[i], int32_t(i));
+        openvdb::tree::ValueAccessor<const openvdb::FloatTree> acc(tree);
+        for (size_t l = 0; l < leaves.size(); ++l)
+            for (int f = 0; f < 6; ++f) {
+                openvdb::Coord ijk = leaves[l]->origin();
+                ijk[f / 2] += (f % 2 == 0) ? kLeafDim : -kLeafDim;
+                if (const LeafT* other = acc.probeConstLeaf(ijk))
+                    neighbour[l][f] = leafIndex.at(other);
+                else
+                    neighbour[l][f] = outside(acc.getValue(ijk)) ? kOutsideTile : kInsideTile;
+            }
+    }
+
+    // Bit masks per leaf: word x holds the 8×8 (y, z) slab, bit y·8 + z (OpenVDB's voxel
+    // offset is x·64 + y·8 + z). `open`: outside voxels; `reach`: those reached so far.
+    using Slabs = std::array<uint64_t, kLeafDim>;
+    std::vector<Slabs> open(leaves.size()), reach(leaves.size());
+    for (size_t l = 0; l < leaves.size(); ++l)
+        for (int x = 0; x < kLeafDim; ++x) {
+            uint64_t bits = 0;
+            for (int b = 0; b < 64; ++b)
+                if (outside(leaves[l]->getValue(uint32_t(x * 64 + b)))) bits |= uint64_t(1) << b;
+            open[l][x] = bits;
+            reach[l][x] = 0;
+        }
+    constexpr uint64_t kZ0 = 0x0101010101010101ull, kZ7 = kZ0 << 7;  // z = 0, z = 7 rows
+    constexpr uint64_t kY0 = 0xFFull, kY7 = kY0 << 56;               // y = 0, y = 7 rows
+    const Slabs full = [] {
+        Slabs f;
+        f.fill(~uint64_t(0));
+        return f;
+    }();
+    // Face f of a leaf as the bits that enter the neighbour across it (in the neighbour's
+    // layout): 0 +x, 1 −x, 2 +y, 3 −y, 4 +z, 5 −z.
+    auto across = [&](const Slabs& r, int f) {
+        Slabs out{};
+        switch (f) {
+            case 0:
+                out[0] = r[kLeafDim - 1];
+                break;
+            case 1:
+                out[kLeafDim - 1] = r[0];
+                break;
+            case 2:
+                for (int x = 0; x < kLeafDim; ++x) out[x] = (r[x] & kY7) >> 56;
+                break;
+            case 3:
+                for (int x = 0; x < kLeafDim; ++x) out[x] = (r[x] & kY0) << 56;
+                break;
+            case 4:
+                for (int x = 0; x < kLeafDim; ++x) out[x] = (r[x] & kZ7) >> 7;
+                break;
+            default:
+                for (int x = 0; x < kLeafDim; ++x) out[x] = (r[x] & kZ0) << 7;
+                break;
+        }
+        return out;
+    };
+
+    std::vector<int32_t> work;
+    std::vector<uint8_t> queued(leaves.size(), 0);
+    // Adds bits to a leaf's reached set (within its open voxels); queues it if any are new.
+    auto add = [&](int32_t l, const Slabs& bits) {
+        bool grew = false;
+        for (int x = 0; x < kLeafDim; ++x) {
+            const uint64_t more = bits[x] & open[l][x] & ~reach[l][x];
+            if (more) {
+                reach[l][x] |= more;
+                grew = true;
+            }
+        }
+        if (grew && !queued[l]) {
+            queued[l] = 1;
+            work.push_back(l);
+        }
+    };
+    // Seeds: open voxels on a face next to an outside tile (the tile's face, seen from the
+    // leaf, is the leaf's own face layer: the opposite face of a full neighbour).
+    for (size_t l = 0; l < leaves.size(); ++l)
+        for (int f = 0; f < 6; ++f)
+            if (neighbour[l][f] == kOutsideTile) add(int32_t(l), across(full, f ^ 1));
+    while (!work.empty()) {
+        const int32_t l = work.back();
+        work.pop_back();
+        queued[l] = 0;
+        // Grow inside the leaf to a fixed point (6-connected, through open voxels).
+        Slabs& r = reach[l];
+        for (bool grew = true; grew;) {
+            grew = false;
+            Slabs next;
+            for (int x = 0; x < kLeafDim; ++x) {
+                uint64_t g =
+                    r[x] | ((r[x] << 1) & ~kZ0) | ((r[x] >> 1) & ~kZ7) | (r[x] << 8) | (r[x] >> 8);
+                if (x > 0) g |= r[x - 1];
+                if (x < kLeafDim - 1) g |= r[x + 1];
+                next[x] = g & open[l][x];
+                grew |= next[x] != r[x];
+            }
+            r = next;
+        }
+        for (int f = 0; f < 6; ++f)
+            if (neighbour[l][f] >= 0) add(neighbour[l][f], across(r, f));
+    }
+    size_t filled = 0;
+    for (size_t l = 0; l < leaves.size(); ++l)
+        for (int x = 0; x < kLeafDim; ++x) {
+            const uint64_t cavity = open[l][x] & ~reach[l][x];
+            if (!cavity) continue;
+            for (int b = 0; b < 64; ++b)
+                if (cavity >> b & 1) {
+                    leaves[l]->setValueOff(uint32_t(x * 64 + b), -background);
+                    ++filled;
+                }
+        }
+    return filled;
+}
+
+// Segments bucketed on a coarse grid (cells of 8 voxels, larger if there would be more than
+// about 2 million) for nearest-segment look-ups. Each segment is listed in every cell its
+// bounds (+1 voxel) overlap.
+struct SegmentBuckets {
+    double cell = 1, inv = 1;
+    int lo[3] = {0, 0, 0}, n[3] = {0, 0, 0};
+    std::vector<uint32_t> offset;
+    std::vector<int32_t> items;
+
+    SegmentBuckets(const std::vector<RoundCone>& segments, double voxel) {
+        if (segments.empty()) return;
+        Aabb all;
+        for (const auto& s : segments) {
+            all.extend(s.lo);
+            all.extend(s.hi);
+        }
+        const double pad = voxel;
+        const Vec3 size = all.size() + Vec3{2 * pad, 2 * pad, 2 * pad};
+        cell = std::max(8 * voxel, std::cbrt(size.x * size.y * size.z / 2e6));
+        inv = 1.0 / cell;
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = static_cast<int>(std::floor((all.lo[a] - pad) * inv));
+            n[a] = static_cast<int>(std::floor((all.hi[a] + pad) * inv)) - lo[a] + 1;
+        }
+        const size_t cells = size_t(n[0]) * n[1] * n[2];
+        offset.assign(cells + 1, 0);
+        auto forCells = [&](const RoundCone& s, auto fn) {
+            int clo[3], chi[3];
+            for (int a = 0; a < 3; ++a) {
+                clo[a] = static_cast<int>(std::floor((s.lo[a] - pad) * inv)) - lo[a];
+                chi[a] = static_cast<int>(std::floor((s.hi[a] + pad) * inv)) - lo[a];
+            }
+            for (int x = clo[0]; x <= chi[0]; ++x)
+                for (int y = clo[1]; y <= chi[1]; ++y)
+                    for (int z = clo[2]; z <= chi[2]; ++z) fn(index(x, y, z));
+        };
+        for (const auto& s : segments) forCells(s, [&](size_t c) { ++offset[c + 1]; });
+        for (size_t c = 0; c < cells; ++c) offset[c + 1] += offset[c];
+        items.resize(offset[cells]);
+        std::vector<uint32_t> fill(offset.begin(), offset.end() - 1);
+        for (size_t i = 0; i < segments.size(); ++i)
+            forCells(segments[i], [&](size_t c) { items[fill[c]++] = static_cast<int32_t>(i); });
+    }
+
+    size_t index(int x, int y, int z) const { return (size_t(z) * n[1] + y) * n[0] + x; }
+
+    // The segment with the smallest signed distance at p among those listed in p's cell (ties
+    // to the lower index), or the smallest over all segments if the cell is empty or outside.
+    int32_t nearest(const std::vector<RoundCone>& segments, const Vec3& p) const {
+        int c[3];
+        bool inside = !offset.empty();
+        for (int a = 0; a < 3 && inside; ++a) {
+            c[a] = static_cast<int>(std::floor(p[a] * inv)) - lo[a];
+            inside = c[a] >= 0 && c[a] < n[a];
+        }
+        int32_t best = -1;
+        double bestD = std::numeric_limits<double>::infinity();
+        if (inside) {
+            const size_t cellIndex = index(c[0], c[1], c[2]);
+            for (uint32_t k = offset[cellIndex]; k < offset[cellIndex + 1]; ++k) {
+                const double d = segments[items[k]].distance(p);
+                if (d < bestD || (d == bestD && items[k] < best)) {
+                    bestD = d;
+                    best = items[k];
+                }
+            }
+        }
+        if (best >= 0) return best;
+        for (size_t i = 0; i < segments.size(); ++i) {
+            const double d = segments[i].distance(p);
+            if (d < bestD) {
+                bestD = d;
+                best = static_cast<int32_t>(i);
+            }
+        }
+        return best;
+    }
+};
+
+void writeVdbAtomically(const openvdb::FloatGrid::Ptr& grid, const std::string& path) {
+    // A temporary name in the same directory (so rename is atomic), unique per process.
+    const std::string tmp = path + ".tmp" + std::to_string(::getpid());
+    try {
+        openvdb::io::File file(tmp);
+        file.write({grid});
+        file.close();
+    } catch (const std::exception& e) {
+        std::remove(tmp.c_str());
+        throw std::runtime_error("watertightMesh: cannot write " + path + ": " + e.what());
+    }
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+        std::remove(tmp.c_str());
+        throw std::runtime_error("watertightMesh: cannot rename " + tmp + " to " + path);
+    }
+}
+
+}  // namespace
+
+Mesh watertightMesh(const Tree& tree, const WatertightOptions& options,
+                    const std::string& vdbPath) {
+    const double voxel = options.voxelSize;
+    if (!(voxel > 0.0) || !std::isfinite(voxel))
+        throw std::invalid_argument("watertightMesh: voxelSize must be finite and > 0");
+    if (!(options.halfWidth >= 1.0) || !std::isfinite(options.halfWidth))
+        throw std::invalid_argument("watertightMesh: halfWidth must be finite and >= 1 voxel");
+    initializeOpenVdbOnce();
+    const double band = options.halfWidth * voxel;
+    const double minRadius = kMinRadiusVoxels * voxel;
+
+    // One round cone per segment (parent -> child), thin radii raised to minRadius.
+    std::vector<RoundCone> segments;
+    segments.reserve(tree.nodes.empty() ? 0 : tree.nodes.size() - 1);
+    Aabb bounds;
+    for (size_t i = 1; i < tree.nodes.size(); ++i) {
+        const SkeletonNode& node = tree.nodes[i];
+        if (node.parent < 0 || node.parent >= static_cast<int32_t>(i))
+            throw std::invalid_argument("watertightMesh: node " + std::to_string(i) +
+                                        " has invalid parent " + std::to_string(node.parent));
+        const SkeletonNode& parent = tree.nodes[node.parent];
+        for (const SkeletonNode* n : {&node, &parent})
+            if (!std::isfinite(n->position.x) || !std::isfinite(n->position.y) ||
+                !std::isfinite(n->position.z) || !std::isfinite(n->radius))
+                throw std::invalid_argument("watertightMesh: node " + std::to_string(i) +
+                                            " or its parent is not finite");
+        segments.emplace_back(parent.position, std::max(parent.radius, minRadius), node.position,
+                              std::max(node.radius, minRadius), static_cast<int32_t>(i));
+        bounds.extend(segments.back().lo);
+        bounds.extend(segments.back().hi);
+    }
+    if (!bounds.empty()) {
+        const Vec3 extent = bounds.size() / voxel;
+        const Vec3 far = vmax(vabs(bounds.lo), vabs(bounds.hi)) / voxel;
+        if (!(std::max({extent.x, extent.y, extent.z}) < 1e7) ||
+            !(std::max({far.x, far.y, far.z}) < 1e8))
+            throw std::invalid_argument("watertightMesh: grid would be too large");
+    }
+
+    openvdb::FloatGrid::Ptr grid = rasterise(segments, voxel, band);
+    fillCavities(*grid);
+    if (!vdbPath.empty()) writeVdbAtomically(grid, vdbPath);
+
+    Mesh mesh;
+    if (segments.empty()) return mesh;
+
+    mesh = levelSetMesh(*grid);
+    const size_t nv = mesh.vertexCount();
+
+    // Branch order of the segment whose surface the vertex lies on (smallest distance).
+    const SegmentBuckets buckets(segments, voxel);
+    mesh.order.resize(nv);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nv), [&](const auto& range) {
+        for (size_t v = range.begin(); v != range.end(); ++v) {
+            const Vec3 p{mesh.positions[3 * v], mesh.positions[3 * v + 1],
+                         mesh.positions[3 * v + 2]};
+            const int32_t s = buckets.nearest(segments, p);
+            mesh.order[v] = tree.nodes[segments[s].node].order;
+        }
+    });
+    mesh.colour.assign(nv, 0);
+    return mesh;
+}
+
+}  // namespace sylva

@@ -1,0 +1,41 @@
+// Growth methods, created by name from a species file (after pbrt-v4's Create functions).
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/params.h"
+#include "core/rng.h"
+#include "species/model/tree.h"
+#include "volumes/volume.h"
+
+namespace sylva {
+
+class GrowthMethod {
+  public:
+    virtual ~GrowthMethod() = default;
+    // Grows one tree from rng. `threaded`: the method may split its own work across TBB
+    // workers; results never depend on it. Method-specific counters go into `stats`.
+    virtual Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats) const = 0;
+    // The method's named volumes, as parsed for this instance ("crown", ...), for
+    // `sylva volume`; a method without volumes returns none.
+    virtual std::vector<std::pair<std::string, VolumePtr>> volumes() const { return {}; }
+    // True when the method reads the species' [leaves] table itself (its own keys) and
+    // places its leaves; the shared [leaves] reader (species/geometry/leaves.h) is then skipped.
+    virtual bool placesOwnLeaves() const { return false; }
+};
+
+// Reads the method's parameters from the species table (its own keys only) and returns the
+// method; an unknown name is an error naming the file and line of `method`.
+std::unique_ptr<GrowthMethod> makeGrowthMethod(const std::string& name, Params& species);
+
+// Each method's factory, one per file in species/methods/.
+std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& species);
+std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& species);
+std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& species);
+std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& species);
+
+}  // namespace sylva

@@ -1,0 +1,129 @@
+#include "species/spec/species.h"
+
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <sstream>
+
+#include "species/geometry/leaves.h"
+
+namespace sylva {
+
+struct SpeciesCache {
+    struct Entry {
+        std::shared_ptr<const GrowthMethod> method;
+        LeafOptions leaves;
+    };
+    std::mutex mutex;
+    std::map<std::string, Entry> entries;  // keyed by the sweep point's overrides, as text
+};
+
+namespace {
+std::string overridesKey(const Overrides* overrides) {
+    std::ostringstream key;
+    if (overrides) {
+        for (const auto& [path, o] : *overrides) key << path << '=' << o.holder << ';';
+    }
+    return key.str();
+}
+}  // namespace
+
+SpeciesFile loadSpecies(const std::string& path) {
+    SpeciesFile s;
+    s.path = path;
+    s.cache = std::make_shared<SpeciesCache>();
+    s.table = std::make_shared<const toml::table>(parseTomlFile(path));
+    DrawContext draw;
+    draw.draw = false;
+    Params p(*s.table, path, "", &draw);
+    s.name = p.string("name", std::filesystem::path(path).stem().string());
+    if (!isFileSafeName(s.name)) {
+        p.fail("name", "expected 1–64 letters, digits, '-' or '_' (it names files), got \"" +
+                           s.name + "\"");
+    }
+    s.method = p.string("method");
+    s.description = p.string("description", "");
+    return s;
+}
+
+namespace {
+
+// The species' [leaves] table (shared by methods that do not place their own leaves).
+LeafOptions parseLeaves(Params& sp) {
+    LeafOptions o;
+    auto l = sp.optionalTable("leaves");
+    if (!l) return o;
+    o.enabled = true;
+    o.perTip = static_cast<int>(l->integer("per_tip", 5, Range::closed(0, 1000)));
+    o.alongTwig = l->number("along_twig", 0.4, Range::nonNegative());
+    auto [lo, hi] = l->interval("size", {0.08, 0.14}, Range::positive());
+    o.sizeMin = lo;
+    o.sizeMax = hi;
+    o.aspect = l->number("aspect", 0.6, Range::leftOpen(0, 10));
+    std::string orient = l->choice("orientation", "random", {"random", "sun"});
+    o.orientation = orient == "sun" ? LeafOrientation::kSun : LeafOrientation::kRandom;
+    o.sun = l->vec3("sun_direction", {0.3, 1.0, 0.2});
+    if (length(o.sun) < 1e-12) l->fail("sun_direction", "expected a non-zero direction");
+    o.sunWeight = l->number("sun_weight", 0.7, Range::closed(0, 1));
+    o.colourClasses = static_cast<int>(l->integer("colour_classes", 1, Range::closed(1, 254)));
+    o.colourJitter = l->number("colour_jitter", 0.1, Range::closed(0, 1));
+    l->finish();
+    return o;
+}
+
+}  // namespace
+
+std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
+                                                 const Overrides* overrides, LeafOptions* leaves) {
+    Params p(*species.table, species.path, "", &draw, overrides);
+    p.string("name", "");
+    p.string("description", "");
+    std::string method = p.string("method");
+    std::unique_ptr<GrowthMethod> m = makeGrowthMethod(method, p);
+    LeafOptions l = m->placesOwnLeaves() ? LeafOptions{} : parseLeaves(p);
+    if (leaves) *leaves = l;
+    p.finish();
+    return m;
+}
+
+GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
+                      bool threaded) {
+    std::shared_ptr<const GrowthMethod> method;
+    LeafOptions leaves;
+    GrownTree out;
+    if (species.cache) {
+        std::lock_guard<std::mutex> lock(species.cache->mutex);
+        auto it = species.cache->entries.find(overridesKey(overrides));
+        if (it != species.cache->entries.end()) {
+            method = it->second.method;
+            leaves = it->second.leaves;
+        }
+    }
+    if (!method) {
+        DrawContext draw;
+        draw.seed = hashCombine(seed, 0x9a7a);  // parameter draws: their own stream
+        method = instantiateSpecies(species, draw, overrides, &leaves);
+        out.sampled = std::move(draw.sampled);
+        // Nothing drawn: every instance of this sweep point parses to the same method.
+        if (out.sampled.empty() && !draw.perInstance && species.cache) {
+            std::lock_guard<std::mutex> lock(species.cache->mutex);
+            species.cache->entries.emplace(overridesKey(overrides),
+                                           SpeciesCache::Entry{method, leaves});
+        }
+    }
+    Rng rng(seed);
+    out.tree = method->grow(rng, threaded, out.methodStats);
+    if (out.tree.leaves.empty()) {
+        Rng leafRng = Rng(seed).derive("leaves");  // its own stream: leaves never move branches
+        placeLeaves(out.tree, leaves, leafRng);
+    }
+    return out;
+}
+
+void validateSpecies(const SpeciesFile& species, const Overrides* overrides) {
+    DrawContext draw;
+    draw.draw = false;
+    instantiateSpecies(species, draw, overrides);
+}
+
+}  // namespace sylva

@@ -1,0 +1,52 @@
+// A species file: name, method, crown volume and the method's parameters. It is parsed once
+// into a TOML table; per instance the table is read again with that instance's draw state
+// (distributions drawn, sweep overrides applied) into the method's plain options.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+
+#include "core/params.h"
+#include "species/model/tree.h"
+#include "species/spec/growth_method.h"
+
+namespace sylva {
+
+struct SpeciesCache;
+
+struct SpeciesFile {
+    std::string path;         // as given (used in error messages)
+    std::string name;         // `name`, or the file stem
+    std::string method;       // `method`
+    std::string description;  // `description`
+    std::shared_ptr<const toml::table> table;
+    // Parsed methods of species without distributions, per sweep point: the same for every
+    // instance, so a crown level set or a CSG measure is built once, not once per tree.
+    std::shared_ptr<SpeciesCache> cache;
+};
+
+// Reads and checks the file's top-level keys. Throws SpecError.
+SpeciesFile loadSpecies(const std::string& path);
+
+struct GrownTree {
+    Tree tree;
+    std::map<std::string, double> methodStats;  // method-specific counters
+    std::map<std::string, double> sampled;      // parameter path -> value drawn for this tree
+};
+
+// The method for one instance: distributions drawn from `seed` (or, with draw = false, their
+// centres, for validation), `overrides` applied. Every key is checked. Throws SpecError.
+struct LeafOptions;
+std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
+                                                 const Overrides* overrides,
+                                                 LeafOptions* leaves = nullptr);
+
+// Grows one tree of the species with the given instance seed.
+GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
+                      bool threaded);
+
+// Checks every key and value of the species (with overrides) without growing.
+void validateSpecies(const SpeciesFile& species, const Overrides* overrides);
+
+}  // namespace sylva

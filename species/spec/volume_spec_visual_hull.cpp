@@ -1,0 +1,69 @@
+// Species-file reader for type = "visual-hull" (Liu et al. 2020 §4.3): the intersection of
+// the extrusions of two or more silhouette masks seen horizontally from known azimuths
+// (volumes/mask.h). A view at azimuth_deg = 0 looks along −z (image right = +x); 90 looks
+// along −x (image right = −z).
+//
+//   [crown]
+//   type = "visual-hull"
+//   views = [ { mask = "../sketches/acacia-front.png", azimuth_deg = 0 },
+//             { mask = "../sketches/acacia-side.png", azimuth_deg = 90 } ]
+//   height = 9
+//
+// clang-format off
+// | key                    | type    | default        | meaning                                 |
+// |------------------------|---------|----------------|-----------------------------------------|
+// | views                  | tables  | required, ≥ 2  | one per mask                            |
+// | views[i].mask          | file    | required       | PNG (any OpenImageIO image), relative to the species file |
+// | views[i].azimuth_deg   | degrees | required       | direction of the view about +y          |
+// | views[i].invert        | bool    | false          | inside = grey < 0.5 (black on white)    |
+// | views[i].axis_column   | pixels  | width / 2      | image column on the world y axis        |
+// | height                 | metres  | one of the two | what each image's full height represents |
+// | metres_per_pixel       | metres  | one of the two | size of one pixel, every view           |
+// | soft_edge              | bool    | true           | Liu 2020 fall-off of samples at the border |
+// | falloff_radius         | pixels  | 10             | R: r_m = R·(1/(1+e^(−k·n_x)) − 0.5)     |
+// | falloff_k              | number  | 0.4            | k, steepness of the logistic in n_x     |
+// clang-format on
+#include "species/spec/volume_spec.h"
+#include "volumes/mask.h"
+
+namespace sylva {
+
+VolumePtr parseVisualHullVolume(Params& p) {
+    std::vector<Params> viewTables = p.tableArray("views");
+    if (viewTables.size() < 2) {
+        p.fail("views",
+               "expected at least two views ({ mask = \"front.png\", azimuth_deg = 0 }, "
+               "{ mask = \"side.png\", azimuth_deg = 90 }), got " +
+                   std::to_string(viewTables.size()));
+    }
+    const PixelScale scale = readPixelScale(p, "each mask's");
+
+    std::vector<MaskView> views;
+    for (Params& v : viewTables) {
+        MaskView view;
+        view.mask = readMaskKeys(v);
+        view.azimuthDeg = v.number("azimuth_deg", Range::closed(-360, 360));
+        view.axisColumn =
+            v.number("axis_column", view.mask.width / 2.0, Range::closed(0, view.mask.width));
+        view.metresPerPixel = scale.metresPerPixel(view.mask.height);
+        v.finish();
+        views.push_back(std::move(view));
+    }
+
+    const MaskFalloff falloff = readMaskFalloff(p);
+
+    VolumePtr hull;
+    try {
+        hull = makeVisualHull(std::move(views), falloff);
+    } catch (const MaskError& e) {
+        p.fail("views", e.what());
+    }
+    if (!(hull->measure() > 0.0)) {
+        p.fail("views",
+               "the masks' extrusions do not intersect: the volume is empty (check the "
+               "axis columns and the heights)");
+    }
+    return hull;
+}
+
+}  // namespace sylva
