@@ -161,10 +161,31 @@ const toml::node* Params::lookup(std::string_view key, SourcePos* where) const {
     return n;
 }
 
+void Params::ask(std::string_view key) {
+    asked_.insert(std::string(key));
+    if (draw_ && draw_->keyLog) draw_->keyLog->insert(docPath(key));
+}
+
+std::string Params::docPath(std::string_view key) const {
+    const std::string k = userNames_ ? std::string("*") : std::string(key);
+    return docPath_.empty() ? k : docPath_ + "." + k;
+}
+
+std::string Params::documentAs(std::string docPath) {
+    std::swap(docPath_, docPath);
+    return docPath;
+}
+
+Params Params::child(const toml::table& table, std::string path, std::string docPath) const {
+    Params c(table, file_, std::move(path), draw_, overrides_);
+    c.docPath_ = std::move(docPath);
+    return c;
+}
+
 bool Params::has(std::string_view key) const { return lookup(key, nullptr) != nullptr; }
 
 const toml::node* Params::raw(std::string_view key) {
-    asked_.insert(std::string(key));
+    ask(key);
     return lookup(key, nullptr);
 }
 
@@ -275,7 +296,7 @@ double Params::readNumber(const toml::node& node, const SourcePos& where, const 
 }
 
 double Params::number(std::string_view key, const Range& range) {
-    asked_.insert(std::string(key));
+    ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     if (!n) fail(key, "required key missing (expected " + range.describe(false) + ")");
@@ -283,7 +304,7 @@ double Params::number(std::string_view key, const Range& range) {
 }
 
 double Params::number(std::string_view key, double fallback, const Range& range) {
-    asked_.insert(std::string(key));
+    ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     if (!n) return fallback;
@@ -291,7 +312,7 @@ double Params::number(std::string_view key, double fallback, const Range& range)
 }
 
 int64_t Params::integer(std::string_view key, const Range& range) {
-    asked_.insert(std::string(key));
+    ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     if (!n) fail(key, "required key missing (expected " + range.describe(true) + ")");
@@ -299,7 +320,7 @@ int64_t Params::integer(std::string_view key, const Range& range) {
 }
 
 int64_t Params::integer(std::string_view key, int64_t fallback, const Range& range) {
-    asked_.insert(std::string(key));
+    ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     if (!n) return fallback;
@@ -307,7 +328,7 @@ int64_t Params::integer(std::string_view key, int64_t fallback, const Range& ran
 }
 
 bool Params::boolean(std::string_view key, bool fallback) {
-    asked_.insert(std::string(key));
+    ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     if (!n) return fallback;
@@ -316,7 +337,7 @@ bool Params::boolean(std::string_view key, bool fallback) {
 }
 
 std::string Params::string(std::string_view key) {
-    asked_.insert(std::string(key));
+    ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     if (!n) fail(key, "required string missing");
@@ -326,7 +347,7 @@ std::string Params::string(std::string_view key) {
 
 std::string Params::string(std::string_view key, std::string fallback) {
     if (!has(key)) {
-        asked_.insert(std::string(key));
+        ask(key);
         return fallback;
     }
     return string(key);
@@ -348,7 +369,7 @@ std::string Params::choice(std::string_view key, std::string fallback,
 }
 
 Vec3 Params::vec3(std::string_view key, const Vec3& fallback, const Range& range) {
-    asked_.insert(std::string(key));
+    ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     if (!n) return fallback;
@@ -363,7 +384,7 @@ Vec3 Params::vec3(std::string_view key, const Vec3& fallback, const Range& range
 
 std::pair<double, double> Params::interval(std::string_view key, std::pair<double, double> fallback,
                                            const Range& range) {
-    asked_.insert(std::string(key));
+    ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     if (!n) return fallback;
@@ -382,7 +403,7 @@ Params Params::table(std::string_view key) {
 }
 
 std::optional<Params> Params::optionalTable(std::string_view key) {
-    asked_.insert(std::string(key));
+    ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     if (!n) {
@@ -392,18 +413,18 @@ std::optional<Params> Params::optionalTable(std::string_view key) {
         if (overrides_) {
             auto it = overrides_->lower_bound(inside);
             if (it != overrides_->end() && it->first.compare(0, inside.size(), inside) == 0) {
-                return Params(kEmpty, file_, path(key), draw_, overrides_);
+                return child(kEmpty, path(key), docPath(key));
             }
         }
         return std::nullopt;
     }
     const toml::table* t = n->as_table();
     if (!t) throw SpecError(w, path(key), "expected a table");
-    return Params(*t, file_, path(key), draw_, overrides_);
+    return child(*t, path(key), docPath(key));
 }
 
 std::vector<Params> Params::tableArray(std::string_view key) {
-    asked_.insert(std::string(key));
+    ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     std::vector<Params> out;
@@ -414,13 +435,13 @@ std::vector<Params> Params::tableArray(std::string_view key) {
         const toml::table* t = a->get(i)->as_table();
         std::string p = path(key) + "[" + std::to_string(i) + "]";
         if (!t) throw SpecError(sourceOf(*a->get(i), file_), p, "expected a table");
-        out.emplace_back(*t, file_, p, draw_, overrides_);
+        out.push_back(child(*t, p, docPath(key) + "[]"));
     }
     return out;
 }
 
 std::vector<std::string> Params::stringArray(std::string_view key) {
-    asked_.insert(std::string(key));
+    ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     std::vector<std::string> out;
@@ -436,7 +457,7 @@ std::vector<std::string> Params::stringArray(std::string_view key) {
 }
 
 std::vector<Vec2> Params::pairArray(std::string_view key, size_t minCount) {
-    asked_.insert(std::string(key));
+    ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     if (!n) fail(key, "missing: expected an array of [a, b] number pairs");

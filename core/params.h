@@ -60,6 +60,12 @@ struct Override {
 };
 using Overrides = std::map<std::string, Override>;  // full key path -> value
 
+// Every key a reader asks for, as a documentation path: "<context>.<key>.<key>…", with the
+// elements of an array of tables as "name[]" and keys whose names the user chooses (grammar
+// states, L-system letters) as "*"; the contexts are "species", "dataset", a method's name,
+// "volume" and "volume.<type>". docs/ lists exactly these (tests/project/spec_keys_test.cpp).
+using KeyLog = std::set<std::string>;
+
 // Per-instance draw state: the instance seed, and the values drawn (for the manifest).
 struct DrawContext {
     uint64_t seed = 0;
@@ -68,6 +74,7 @@ struct DrawContext {
     // Set when a random stream was handed out (a volume drawn per instance, e.g. canopy blobs
     // or refinement spheres): such a species is not cached across instances.
     bool perInstance = false;
+    KeyLog* keyLog = nullptr;  // when set, every key asked is recorded (documentation check)
 };
 
 class Params {
@@ -123,8 +130,19 @@ class Params {
     // Every key of this table that no read asked for is an error (with a suggestion).
     void finish() const;
 
+    // The documentation path of this table (see KeyLog); a reader shared by several places
+    // (a volume, the canopy envelope) names its own context. Returns the previous path.
+    std::string documentAs(std::string docPath);
+    // This table's keys are names the user chooses (grammar states, L-system letters): they
+    // are recorded as "*".
+    void keysAreUserNames() { userNames_ = true; }
+
   private:
     const toml::node* lookup(std::string_view key, SourcePos* where) const;
+    // Marks `key` asked (and records its documentation path when a KeyLog is attached).
+    void ask(std::string_view key);
+    std::string docPath(std::string_view key) const;
+    Params child(const toml::table& table, std::string path, std::string docPath) const;
     double readNumber(const toml::node& node, const SourcePos& where, const std::string& path,
                       const Range& range, bool wantInteger);
 
@@ -134,6 +152,23 @@ class Params {
     DrawContext* draw_;
     const Overrides* overrides_;
     std::set<std::string> asked_;
+    std::string docPath_;
+    bool userNames_ = false;
+};
+
+// Names the documentation context of `params` for a scope (a shared reader's keys are
+// documented once, wherever its table sits), restoring the previous one at its end.
+class DocumentAs {
+  public:
+    DocumentAs(Params& params, std::string docPath)
+        : params_(params), previous_(params.documentAs(std::move(docPath))) {}
+    ~DocumentAs() { params_.documentAs(previous_); }
+    DocumentAs(const DocumentAs&) = delete;
+    DocumentAs& operator=(const DocumentAs&) = delete;
+
+  private:
+    Params& params_;
+    std::string previous_;
 };
 
 SourcePos sourceOf(const toml::node& node, const std::string& file);

@@ -96,31 +96,13 @@ SweepAxis parseSweep(Params& p) {
     return a;
 }
 
-}  // namespace
-
-DatasetSpec loadDataset(const std::string& path) {
-    DatasetSpec d;
-    d.path = path;
-    d.table = std::make_shared<const toml::table>(parseTomlFile(path));
-    Params p(*d.table, path, "", nullptr);
-    d.name = p.string("name", fs::path(path).stem().string());
-    // The name is the default output directory (out/<name>): keep it a plain name.
-    if (!isFileSafeName(d.name)) {
-        p.fail("name",
-               "expected 1–64 letters, digits, '-' or '_' (it is used as the "
-               "output directory name), got \"" +
-                   d.name + "\"");
-    }
-    d.description = p.string("description", "");
-    d.seed = static_cast<uint64_t>(p.integer("seed", 0, Range::closed(0, 9.2e18)));
-    std::string fp = fileBytes(path);
-
-    for (Params& s : p.tableArray("sweep")) d.sweeps.push_back(parseSweep(s));
-
+// [[species]]: each file loaded and checked once, names unique; their bytes join the
+// fingerprint.
+void readSpeciesEntries(Params& p, DatasetSpec& d, std::string& fingerprintBytes) {
     std::vector<Params> entries = p.tableArray("species");
     if (entries.empty()) p.fail("species", "expected at least one [[species]] entry");
     std::set<std::string> names;
-    fs::path base = fs::path(path).parent_path();
+    fs::path base = fs::path(d.path).parent_path();
     for (Params& e : entries) {
         SpeciesEntry entry;
         std::string file = e.string("file");
@@ -135,9 +117,15 @@ DatasetSpec loadDataset(const std::string& path) {
             e.fail("file", "species \"" + entry.species.name +
                                "\" is listed twice (species names must be unique)");
         }
-        fp += fileBytes(entry.species.path);
+        fingerprintBytes += fileBytes(entry.species.path);
         d.species.push_back(std::move(entry));
     }
+}
+
+// Every species a sweep names is in the dataset.
+void checkSweptSpecies(const DatasetSpec& d) {
+    std::set<std::string> names;
+    for (const SpeciesEntry& e : d.species) names.insert(e.species.name);
     for (const SweepAxis& a : d.sweeps) {
         for (const std::string& s : a.species) {
             if (!names.count(s)) {
@@ -148,167 +136,198 @@ DatasetSpec loadDataset(const std::string& path) {
             }
         }
     }
-    if (auto o = p.optionalTable("outputs")) {
-        std::vector<std::string> sk = o->stringArray("skeleton");
-        if (o->has("skeleton")) {
-            d.outputs.ply = d.outputs.swc = false;
-            for (const auto& f : sk) {
-                if (f == "ply")
-                    d.outputs.ply = true;
-                else if (f == "swc")
-                    d.outputs.swc = true;
-                else
-                    o->fail("skeleton",
-                            "unknown skeleton format \"" + f + "\" (known: \"ply\", \"swc\")");
-            }
-        }
-        d.outputs.preview = o->boolean("preview", false);
-        d.outputs.previewSize =
-            static_cast<int>(o->integer("preview_size", 512, Range::closed(16, 8192)));
-        for (const auto& f : o->stringArray("mesh")) {
-            if (f != "ply" && f != "glb" && f != "obj") {
-                o->fail("mesh",
-                        "unknown mesh format \"" + f + "\" (known: \"ply\", \"glb\", \"obj\")");
-            }
-            if (std::find(d.outputs.meshFormats.begin(), d.outputs.meshFormats.end(), f) ==
-                d.outputs.meshFormats.end()) {
-                d.outputs.meshFormats.push_back(f);
-            }
-        }
-        if (auto t = o->optionalTable("tubes")) {
-            TubeOptions& tb = d.outputs.tubes;
-            tb.minSides = static_cast<int>(t->integer("min_sides", 3, Range::closed(3, 256)));
-            tb.maxSides = static_cast<int>(t->integer("max_sides", 16, Range::closed(3, 256)));
-            if (tb.maxSides < tb.minSides) t->fail("max_sides", "expected max_sides ≥ min_sides");
-            tb.edgeLength = t->number("edge_length", 0.03, Range::positive());
-            tb.minRadius = t->number("min_radius", 0.0, Range::nonNegative());
-            tb.dropThin = t->boolean("drop_thin", false);
-            t->finish();
-        }
-        if (const toml::node* w = o->raw("watertight"); w && w->is_boolean()) {
-            d.outputs.watertight = o->boolean("watertight", false);
-        } else if (auto wt = o->optionalTable("watertight")) {
-            d.outputs.watertight = true;
-            d.outputs.watertightOptions.voxelSize =
-                wt->number("voxel_size", 0.02, Range::closed(1e-4, 10));
-            d.outputs.vdb = wt->boolean("vdb", false);
-            wt->finish();
-        }
-        if (d.outputs.watertight && d.outputs.meshFormats.empty()) {
-            o->fail("watertight", "needs a mesh format: set mesh = [\"ply\"] (or glb, obj)");
-        }
-        d.outputs.speciesSheet =
-            static_cast<int>(o->integer("species_sheet", 16, Range::closed(0, 10000)));
-        o->finish();
-    }
-    if (auto v = p.optionalTable("views")) {
-        ViewOptions& vo = d.outputs.views;
-        vo.count = static_cast<int>(v->integer("count", 8, Range::closed(0, 1000)));
-        if (v->has("elevations_deg") && v->has("elevation_range_deg")) {
-            v->fail("elevation_range_deg", "give either elevations_deg or elevation_range_deg");
-        }
-        if (v->has("elevation_range_deg")) {
-            auto [lo, hi] = v->interval("elevation_range_deg", {0, 0}, Range::closed(-89, 89));
-            vo.elevationsDeg = {lo, hi};
-            vo.elevationRange = true;
-        } else if (v->has("elevations_deg")) {
-            const toml::array* a = v->raw("elevations_deg")->as_array();
-            if (!a || a->empty())
-                v->fail("elevations_deg", "expected a non-empty array of degrees");
-            vo.elevationsDeg.clear();
-            for (size_t i = 0; i < a->size(); ++i) {
-                auto x = a->get(i)->value<double>();
-                if (!x || !(*x >= -89 && *x <= 89)) {
-                    v->fail("elevations_deg", "expected degrees in [-89, 89]");
-                }
-                vo.elevationsDeg.push_back(*x);
-            }
-        }
-        if (v->has("azimuth_offset_deg")) {
-            vo.randomAzimuth = false;
-            vo.azimuthOffsetDeg = v->number("azimuth_offset_deg", 0, Range::closed(-360, 360));
-        }
-        std::string proj = v->choice("projection", "perspective", {"perspective", "orthographic"});
-        vo.orthographic = proj == "orthographic";
-        vo.fovDeg = v->number("fov_deg", 40, Range::closed(1, 170));
-        if (const toml::node* r = v->raw("resolution")) {
-            const toml::array* a = r->as_array();
-            auto w = a && a->size() == 2 ? a->get(0)->value<int64_t>() : std::nullopt;
-            auto h = a && a->size() == 2 ? a->get(1)->value<int64_t>() : std::nullopt;
-            if (!w || !h || *w < 8 || *h < 8 || *w > 16384 || *h > 16384) {
-                v->fail("resolution", "expected [width, height] in whole pixels, 8 to 16384");
-            }
-            vo.width = static_cast<int>(*w);
-            vo.height = static_cast<int>(*h);
-        }
-        vo.margin = v->number("margin", 1.05, Range::closed(0.5, 10));
-        vo.depth = v->boolean("depth", false);
-        vo.labels = v->boolean("labels", false);
-        vo.pointCloud = v->boolean("point_cloud", false);
-        if (vo.pointCloud && !vo.depth) v->fail("point_cloud", "needs depth = true");
-        vo.contactSheet = v->boolean("contact_sheet", true);
-        v->finish();
-    }
-    p.finish();
+}
 
-    // Sweep points per species: the cartesian product of the sweeps that apply to it.
-    for (SpeciesEntry& entry : d.species) {
-        std::vector<const SweepAxis*> axes;
-        for (const SweepAxis& a : d.sweeps) {
-            if (a.species.empty() || std::find(a.species.begin(), a.species.end(),
-                                               entry.species.name) != a.species.end()) {
-                for (const SweepAxis* b : axes) {
-                    if (b->path == a.path) {
-                        throw SpecError(a.where, "sweep.path",
-                                        "\"" + a.path + "\" is already swept (at " +
-                                            b->where.str() + ") for species \"" +
-                                            entry.species.name + "\"");
-                    }
-                }
-                axes.push_back(&a);
-            }
-        }
-        size_t total = 1;
-        for (auto* a : axes) {
-            total *= a->values.size();
-            if (total > 1000000) throw SpecError(a->where, "sweep", "over 10⁶ sweep points");
-        }
-        for (size_t k = 0; k < total; ++k) {
-            SweepPoint pt;
-            auto ov = std::make_shared<Overrides>();
-            size_t rest = k;
-            for (auto* a : axes) {
-                size_t v = rest % a->values.size();
-                rest /= a->values.size();
-                Override o;
-                o.holder = a->values[v];
-                o.where = a->where;
-                (*ov)[a->path] = std::move(o);
-                pt.values[a->path] = a->labels[v];
-                pt.key += (pt.key.empty() ? "" : ";") + a->path + "=" + a->labels[v];
-                if (!a->sameSeed) {
-                    pt.seedKey += (pt.seedKey.empty() ? "" : ";") + a->path + "=" + a->labels[v];
-                }
-            }
-            // Every point must make a valid species, and every swept path must be a key the
-            // species actually reads.
-            validateSpecies(entry.species, ov.get());
-            for (const auto& [path, o] : *ov) {
-                if (!o.used) {
-                    throw SpecError(o.where, "sweep.path",
-                                    "\"" + path + "\" is not a parameter of species \"" +
-                                        entry.species.name + "\" (" + entry.species.path + ")");
-                }
-            }
-            pt.overrides = ov;
-            entry.points.push_back(std::move(pt));
+// [outputs] (without the [views] table); defaults come from OutputOptions.
+void readOutputs(Params& o, OutputOptions& out) {
+    std::vector<std::string> sk = o.stringArray("skeleton");
+    if (o.has("skeleton")) {
+        out.ply = out.swc = false;
+        for (const auto& f : sk) {
+            if (f == "ply")
+                out.ply = true;
+            else if (f == "swc")
+                out.swc = true;
+            else
+                o.fail("skeleton", "unknown skeleton format \"" + f + "\" (known: \"ply\", \"swc\")");
         }
     }
-    d.fingerprint = [&] {
-        char buf[17];
-        std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hashString(fp)));
-        return std::string(buf);
-    }();
+    out.preview = o.boolean("preview", out.preview);
+    out.previewSize =
+        static_cast<int>(o.integer("preview_size", out.previewSize, Range::closed(16, 8192)));
+    for (const auto& f : o.stringArray("mesh")) {
+        if (f != "ply" && f != "glb" && f != "obj") {
+            o.fail("mesh", "unknown mesh format \"" + f + "\" (known: \"ply\", \"glb\", \"obj\")");
+        }
+        if (std::find(out.meshFormats.begin(), out.meshFormats.end(), f) ==
+            out.meshFormats.end()) {
+            out.meshFormats.push_back(f);
+        }
+    }
+    if (auto t = o.optionalTable("tubes")) {
+        TubeOptions& tb = out.tubes;
+        tb.minSides = static_cast<int>(t->integer("min_sides", tb.minSides, Range::closed(3, 256)));
+        tb.maxSides = static_cast<int>(t->integer("max_sides", tb.maxSides, Range::closed(3, 256)));
+        if (tb.maxSides < tb.minSides) t->fail("max_sides", "expected max_sides ≥ min_sides");
+        tb.edgeLength = t->number("edge_length", tb.edgeLength, Range::positive());
+        tb.minRadius = t->number("min_radius", tb.minRadius, Range::nonNegative());
+        tb.dropThin = t->boolean("drop_thin", tb.dropThin);
+        t->finish();
+    }
+    if (const toml::node* w = o.raw("watertight"); w && w->is_boolean()) {
+        out.watertight = o.boolean("watertight", out.watertight);
+    } else if (auto wt = o.optionalTable("watertight")) {
+        out.watertight = true;
+        out.watertightOptions.voxelSize =
+            wt->number("voxel_size", out.watertightOptions.voxelSize, Range::closed(1e-4, 10));
+        out.vdb = wt->boolean("vdb", out.vdb);
+        wt->finish();
+    }
+    if (out.watertight && out.meshFormats.empty()) {
+        o.fail("watertight", "needs a mesh format: set mesh = [\"ply\"] (or glb, obj)");
+    }
+    out.speciesSheet =
+        static_cast<int>(o.integer("species_sheet", out.speciesSheet, Range::closed(0, 10000)));
+    o.finish();
+}
+
+// [views]; defaults come from ViewOptions, except `count`: a [views] table without it asks
+// for kDefaultViewCount views (no table: none).
+constexpr int kDefaultViewCount = 8;
+void readViews(Params& v, ViewOptions& vo) {
+    vo.count = static_cast<int>(v.integer("count", kDefaultViewCount, Range::closed(0, 1000)));
+    if (v.has("elevations_deg") && v.has("elevation_range_deg")) {
+        v.fail("elevation_range_deg", "give either elevations_deg or elevation_range_deg");
+    }
+    if (v.has("elevation_range_deg")) {
+        auto [lo, hi] = v.interval("elevation_range_deg", {0, 0}, Range::closed(-89, 89));
+        vo.elevationsDeg = {lo, hi};
+        vo.elevationRange = true;
+    } else if (v.has("elevations_deg")) {
+        const toml::array* a = v.raw("elevations_deg")->as_array();
+        if (!a || a->empty()) v.fail("elevations_deg", "expected a non-empty array of degrees");
+        vo.elevationsDeg.clear();
+        for (size_t i = 0; i < a->size(); ++i) {
+            auto x = a->get(i)->value<double>();
+            if (!x || !(*x >= -89 && *x <= 89)) {
+                v.fail("elevations_deg", "expected degrees in [-89, 89]");
+            }
+            vo.elevationsDeg.push_back(*x);
+        }
+    }
+    if (v.has("azimuth_offset_deg")) {
+        vo.randomAzimuth = false;
+        vo.azimuthOffsetDeg =
+            v.number("azimuth_offset_deg", vo.azimuthOffsetDeg, Range::closed(-360, 360));
+    }
+    std::string proj = v.choice("projection", vo.orthographic ? "orthographic" : "perspective",
+                                {"perspective", "orthographic"});
+    vo.orthographic = proj == "orthographic";
+    vo.fovDeg = v.number("fov_deg", vo.fovDeg, Range::closed(1, 170));
+    if (const toml::node* r = v.raw("resolution")) {
+        const toml::array* a = r->as_array();
+        auto w = a && a->size() == 2 ? a->get(0)->value<int64_t>() : std::nullopt;
+        auto h = a && a->size() == 2 ? a->get(1)->value<int64_t>() : std::nullopt;
+        if (!w || !h || *w < 8 || *h < 8 || *w > 16384 || *h > 16384) {
+            v.fail("resolution", "expected [width, height] in whole pixels, 8 to 16384");
+        }
+        vo.width = static_cast<int>(*w);
+        vo.height = static_cast<int>(*h);
+    }
+    vo.margin = v.number("margin", vo.margin, Range::closed(0.5, 10));
+    vo.depth = v.boolean("depth", vo.depth);
+    vo.labels = v.boolean("labels", vo.labels);
+    vo.pointCloud = v.boolean("point_cloud", vo.pointCloud);
+    if (vo.pointCloud && !vo.depth) v.fail("point_cloud", "needs depth = true");
+    vo.contactSheet = v.boolean("contact_sheet", vo.contactSheet);
+    v.finish();
+}
+
+// The sweep points of one species: the cartesian product of the sweeps that apply to it, each
+// checked to make a valid species whose every swept path is a key the species reads.
+void expandSweepPoints(SpeciesEntry& entry, const std::vector<SweepAxis>& sweeps) {
+    std::vector<const SweepAxis*> axes;
+    for (const SweepAxis& a : sweeps) {
+        if (a.species.empty() || std::find(a.species.begin(), a.species.end(),
+                                           entry.species.name) != a.species.end()) {
+            for (const SweepAxis* b : axes) {
+                if (b->path == a.path) {
+                    throw SpecError(a.where, "sweep.path",
+                                    "\"" + a.path + "\" is already swept (at " + b->where.str() +
+                                        ") for species \"" + entry.species.name + "\"");
+                }
+            }
+            axes.push_back(&a);
+        }
+    }
+    size_t total = 1;
+    for (auto* a : axes) {
+        total *= a->values.size();
+        if (total > 1000000) throw SpecError(a->where, "sweep", "over 10⁶ sweep points");
+    }
+    for (size_t k = 0; k < total; ++k) {
+        SweepPoint pt;
+        auto ov = std::make_shared<Overrides>();
+        size_t rest = k;
+        for (auto* a : axes) {
+            size_t v = rest % a->values.size();
+            rest /= a->values.size();
+            Override o;
+            o.holder = a->values[v];
+            o.where = a->where;
+            (*ov)[a->path] = std::move(o);
+            pt.values[a->path] = a->labels[v];
+            pt.key += (pt.key.empty() ? "" : ";") + a->path + "=" + a->labels[v];
+            if (!a->sameSeed) {
+                pt.seedKey += (pt.seedKey.empty() ? "" : ";") + a->path + "=" + a->labels[v];
+            }
+        }
+        validateSpecies(entry.species, ov.get());
+        for (const auto& [path, o] : *ov) {
+            if (!o.used) {
+                throw SpecError(o.where, "sweep.path",
+                                "\"" + path + "\" is not a parameter of species \"" +
+                                    entry.species.name + "\" (" + entry.species.path + ")");
+            }
+        }
+        pt.overrides = ov;
+        entry.points.push_back(std::move(pt));
+    }
+}
+
+}  // namespace
+
+DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
+    DatasetSpec d;
+    d.path = path;
+    d.table = std::make_shared<const toml::table>(parseTomlFile(path));
+    DrawContext draw;
+    draw.draw = false;  // a dataset's numbers are plain values
+    draw.keyLog = keyLog;
+    Params p(*d.table, path, "", &draw);
+    p.documentAs("dataset");
+    d.name = p.string("name", fs::path(path).stem().string());
+    // The name is the default output directory (out/<name>): keep it a plain name.
+    if (!isFileSafeName(d.name)) {
+        p.fail("name",
+               "expected 1–64 letters, digits, '-' or '_' (it is used as the "
+               "output directory name), got \"" +
+                   d.name + "\"");
+    }
+    d.description = p.string("description", "");
+    d.seed = static_cast<uint64_t>(p.integer("seed", 0, Range::closed(0, 9.2e18)));
+    std::string fingerprintBytes = fileBytes(path);
+    for (Params& s : p.tableArray("sweep")) d.sweeps.push_back(parseSweep(s));
+    readSpeciesEntries(p, d, fingerprintBytes);
+    checkSweptSpecies(d);
+    if (auto o = p.optionalTable("outputs")) readOutputs(*o, d.outputs);
+    if (auto v = p.optionalTable("views")) readViews(*v, d.outputs.views);
+    p.finish();
+    for (SpeciesEntry& entry : d.species) expandSweepPoints(entry, d.sweeps);
+    char fingerprint[17];
+    std::snprintf(fingerprint, sizeof fingerprint, "%016llx",
+                  static_cast<unsigned long long>(hashString(fingerprintBytes)));
+    d.fingerprint = fingerprint;
     return d;
 }
 

@@ -64,8 +64,9 @@ struct DatasetSpec {
     std::shared_ptr<const toml::table> table;
 };
 
-// Loads and fully validates a dataset file: every species file, every sweep point.
-DatasetSpec loadDataset(const std::string& path);
+// Loads and fully validates a dataset file: every species file, every sweep point. With a
+// KeyLog, the dataset file's keys are recorded (core/params.h).
+DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog = nullptr);
 
 struct InstanceJob {
     std::string id;  // "<species>[-p<point>]-<index>"

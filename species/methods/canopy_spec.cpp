@@ -103,6 +103,7 @@ LSystem parseLSystem(Params& t) {
     const toml::table* table = node->as_table();
     if (!table) t.fail("rules", "expected a table of rules, e.g. { F = \"F[+F]F[-F]F\" }");
     Params r = t.table("rules");
+    r.keysAreUserNames();  // the letters A-Z
     for (const auto& [k, v] : *table) {
         const std::string key(k.str());
         if (key.size() != 1 || key[0] < 'A' || key[0] > 'Z') {

@@ -199,6 +199,7 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
     if (!sp.has("rules")) sp.fail("rules", "required table missing: the grammar's rules");
     const std::vector<std::string> ruleNames = keysOf(sp, "rules");
     Params rules = sp.table("rules");
+    rules.keysAreUserNames();  // state names
     std::set<std::string> known(stopNames.begin(), stopNames.end());
     for (const std::string& name : ruleNames) {
         if (name.find('*') != std::string::npos || name.find("->") != std::string::npos) {
@@ -316,6 +317,7 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
     if (sp.has("geometry")) {
         const std::vector<std::string> names = keysOf(sp, "geometry");
         Params geo = sp.table("geometry");
+        geo.keysAreUserNames();  // state names
         auto stemState = [&](const std::string& name, const std::string& key) {
             if (!known.count(name)) {
                 std::string hint;
@@ -369,6 +371,7 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
     if (sp.has("particles")) {
         const std::vector<std::string> names = keysOf(sp, "particles");
         Params parts = sp.table("particles");
+        parts.keysAreUserNames();  // state names
         for (const std::string& name : names) {
             const int s = stateOf(parts, name);
             Params p = parts.table(name);
@@ -391,6 +394,7 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
     if (sp.has("fruit")) {
         const std::vector<std::string> names = keysOf(sp, "fruit");
         Params fruits = sp.table("fruit");
+        fruits.keysAreUserNames();  // state names
         for (const std::string& name : names) {
             const int s = stateOf(fruits, name);
             Params p = fruits.table(name);
@@ -422,6 +426,7 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
     if (sp.has("seasons")) {
         const std::vector<std::string> names = keysOf(sp, "seasons");
         Params seasons = sp.table("seasons");
+        seasons.keysAreUserNames();  // season names
         for (const std::string& name : names) {
             auto it = std::find(kSeasonNames.begin(), kSeasonNames.end(), name);
             if (it == kSeasonNames.end()) {

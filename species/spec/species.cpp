@@ -76,10 +76,15 @@ LeafOptions parseLeaves(Params& sp) {
 std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
                                                  const Overrides* overrides, LeafOptions* leaves) {
     Params p(*species.table, species.path, "", &draw, overrides);
+    p.documentAs("species");
     p.string("name", "");
     p.string("description", "");
     std::string method = p.string("method");
-    std::unique_ptr<GrowthMethod> m = makeGrowthMethod(method, p);
+    std::unique_ptr<GrowthMethod> m;
+    {
+        DocumentAs methodKeys(p, method);  // the method's keys sit at the top level too
+        m = makeGrowthMethod(method, p);
+    }
     LeafOptions l = m->placesOwnLeaves() ? LeafOptions{} : parseLeaves(p);
     if (leaves) *leaves = l;
     p.finish();

@@ -48,8 +48,10 @@ VolumePtr parseVolume(Params& p, bool topLevel) {
                                                     "union",
                                                     "intersection",
                                                     "difference"};
+    DocumentAs volumeKeys(p, "volume");
     std::string type = p.choice("type", "", kTypes);
     VolumePtr v;
+    DocumentAs typeKeys(p, "volume." + type);
     if (type == "union" || type == "intersection" || type == "difference") {
         std::vector<Params> parts = p.tableArray("parts");
         if (parts.size() < (type == "difference" ? 2u : 1u)) {
@@ -82,6 +84,7 @@ VolumePtr parseVolume(Params& p, bool topLevel) {
         v = parsePrimitive(p, type);
     }
     // Placement: local +y onto `axis`, scale in the local frame, then move to `position`.
+    p.documentAs("volume");
     Placement pl;
     pl.position = p.vec3("position", {0, 0, 0});
     pl.axis = p.vec3("axis", {0, 1, 0});

@@ -84,6 +84,7 @@ CanopyLayer parseLayer(Params& l, ImageCache& cache) {
 }  // namespace
 
 std::shared_ptr<const CanopyEnvelope> parseCanopyEnvelope(Params& p) {
+    DocumentAs keys(p, "volume.canopy-envelope");  // also the canopy method's [canopy]
     CanopyEnvelopeOptions o;
     const std::string domain = p.choice("domain", "ellipsoid", {"ellipsoid", "cone"});
     o.domain = domain == "cone" ? CanopyDomain::kCone : CanopyDomain::kEllipsoid;
