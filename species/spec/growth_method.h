@@ -29,10 +29,14 @@ class GrowthMethod {
 };
 
 // Reads the method's parameters from the species table (its own keys only) and returns the
-// method; an unknown name is an error naming the file and line of `method`.
+// method; an unknown name is an error naming the file and line of `method` and the known
+// names. The methods are one table in growth_method.cpp.
 std::unique_ptr<GrowthMethod> makeGrowthMethod(const std::string& name, Params& species);
 
-// Each method's factory, one per file in species/methods/.
+// The names of every growth method, in the table's order.
+std::vector<std::string> growthMethodNames();
+
+// Each method's factory, one per file in species/methods/ (<method>_spec.cpp).
 std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& species);
 std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& species);
 std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& species);

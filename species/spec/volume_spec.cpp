@@ -8,83 +8,94 @@ namespace {
 
 constexpr double kDeg = kPi / 180.0;
 
-VolumePtr parsePrimitive(Params& p, const std::string& type) {
-    if (type == "sphere") return makeSphere(p.number("radius", Range::positive()));
-    if (type == "hemisphere") return makeHemisphere(p.number("radius", Range::positive()));
-    if (type == "ellipsoid") return makeEllipsoid(p.vec3("radii", {1, 1, 1}, Range::positive()));
-    if (type == "cylinder") {
-        return makeCylinder(p.number("radius", Range::positive()),
-                            p.number("height", Range::positive()));
-    }
-    if (type == "cone") {
-        double r = p.number("radius", Range::positive());
-        double h = p.number("height", Range::positive());
-        double top = p.number("top_radius", 0.0, Range::nonNegative());
-        return makeCone(r, h, top);
-    }
-    if (type == "box") return makeBox(p.vec3("size", {1, 1, 1}, Range::positive()));
-    if (type == "sphere-sector") {
-        return makeSphereSector(p.number("radius", Range::positive()),
-                                p.number("alpha_deg", Range::leftOpen(0, 180)) * kDeg);
-    }
-    return nullptr;
+VolumePtr parseSphere(Params& p) { return makeSphere(p.number("radius", Range::positive())); }
+VolumePtr parseHemisphere(Params& p) {
+    return makeHemisphere(p.number("radius", Range::positive()));
 }
+VolumePtr parseEllipsoid(Params& p) {
+    return makeEllipsoid(p.vec3("radii", {1, 1, 1}, Range::positive()));
+}
+VolumePtr parseCylinder(Params& p) {
+    return makeCylinder(p.number("radius", Range::positive()),
+                        p.number("height", Range::positive()));
+}
+VolumePtr parseCone(Params& p) {
+    double r = p.number("radius", Range::positive());
+    double h = p.number("height", Range::positive());
+    double top = p.number("top_radius", 0.0, Range::nonNegative());
+    return makeCone(r, h, top);
+}
+VolumePtr parseBox(Params& p) { return makeBox(p.vec3("size", {1, 1, 1}, Range::positive())); }
+VolumePtr parseSphereSector(Params& p) {
+    return makeSphereSector(p.number("radius", Range::positive()),
+                            p.number("alpha_deg", Range::leftOpen(0, 180)) * kDeg);
+}
+
+// The parts of a union, intersection or difference, each a volume table of its own.
+std::vector<VolumePtr> parseParts(Params& p, size_t atLeast, const char* expected) {
+    std::vector<Params> parts = p.tableArray("parts");
+    if (parts.size() < atLeast) p.fail("parts", expected);
+    std::vector<VolumePtr> vs;
+    for (auto& part : parts) vs.push_back(parseVolume(part, false));
+    return vs;
+}
+VolumePtr parseUnion(Params& p) {
+    return makeUnion(parseParts(p, 1, "expected at least one part"));
+}
+VolumePtr parseIntersection(Params& p) {
+    return makeIntersection(parseParts(p, 1, "expected at least one part"));
+}
+VolumePtr parseDifference(Params& p) {
+    std::vector<VolumePtr> vs =
+        parseParts(p, 2, "expected at least two parts (the base, then what to cut)");
+    VolumePtr base = vs.front();
+    vs.erase(vs.begin());
+    return makeDifference(base, vs);
+}
+
+// Every volume kind, by the name a volume table gives in `type`. Adding a kind is its files
+// in volumes/, its reader and one line here.
+struct VolumeKind {
+    const char* type;
+    VolumePtr (*parse)(Params& p);  // reads the kind's own keys
+};
+constexpr VolumeKind kVolumeKinds[] = {
+    {"sphere", parseSphere},
+    {"hemisphere", parseHemisphere},
+    {"ellipsoid", parseEllipsoid},
+    {"cylinder", parseCylinder},
+    {"cone", parseCone},
+    {"box", parseBox},
+    {"sphere-sector", parseSphereSector},
+    {"revolution", parseRevolutionVolume},
+    {"mask-revolution", parseMaskRevolutionVolume},
+    {"visual-hull", parseVisualHullVolume},
+    {"canopy-envelope", parseCanopyEnvelopeVolume},
+    {"crown-refinement", parseCrownRefinementVolume},
+    {"union", parseUnion},
+    {"intersection", parseIntersection},
+    {"difference", parseDifference},
+};
 
 }  // namespace
 
+std::vector<std::string> volumeTypeNames() {
+    std::vector<std::string> names;
+    for (const VolumeKind& k : kVolumeKinds) names.emplace_back(k.type);
+    return names;
+}
+
 VolumePtr parseVolume(Params& p, bool topLevel) {
-    static const std::vector<std::string> kTypes = {"sphere",
-                                                    "hemisphere",
-                                                    "ellipsoid",
-                                                    "cylinder",
-                                                    "cone",
-                                                    "box",
-                                                    "sphere-sector",
-                                                    "revolution",
-                                                    "mask-revolution",
-                                                    "visual-hull",
-                                                    "canopy-envelope",
-                                                    "crown-refinement",
-                                                    "union",
-                                                    "intersection",
-                                                    "difference"};
     DocumentAs volumeKeys(p, "volume");
-    std::string type = p.choice("type", "", kTypes);
+    const std::string type = p.choice("type", "", volumeTypeNames());
     VolumePtr v;
-    DocumentAs typeKeys(p, "volume." + type);
-    if (type == "union" || type == "intersection" || type == "difference") {
-        std::vector<Params> parts = p.tableArray("parts");
-        if (parts.size() < (type == "difference" ? 2u : 1u)) {
-            p.fail("parts", type == "difference"
-                                ? "expected at least two parts (the base, then what to cut)"
-                                : "expected at least one part");
+    {
+        DocumentAs typeKeys(p, "volume." + type);
+        for (const VolumeKind& k : kVolumeKinds) {
+            if (type == k.type) v = k.parse(p);
         }
-        std::vector<VolumePtr> vs;
-        for (auto& part : parts) vs.push_back(parseVolume(part, false));
-        if (type == "union") {
-            v = makeUnion(vs);
-        } else if (type == "intersection") {
-            v = makeIntersection(vs);
-        } else {
-            VolumePtr base = vs.front();
-            vs.erase(vs.begin());
-            v = makeDifference(base, vs);
-        }
-    } else if (type == "revolution") {
-        v = parseRevolutionVolume(p);
-    } else if (type == "mask-revolution") {
-        v = parseMaskRevolutionVolume(p);
-    } else if (type == "visual-hull") {
-        v = parseVisualHullVolume(p);
-    } else if (type == "canopy-envelope") {
-        v = parseCanopyEnvelopeVolume(p);
-    } else if (type == "crown-refinement") {
-        v = parseCrownRefinementVolume(p);
-    } else {
-        v = parsePrimitive(p, type);
     }
     // Placement: local +y onto `axis`, scale in the local frame, then move to `position`.
-    p.documentAs("volume");
     Placement pl;
     pl.position = p.vec3("position", {0, 0, 0});
     pl.axis = p.vec3("axis", {0, 1, 0});

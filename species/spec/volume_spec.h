@@ -14,8 +14,12 @@
 
 namespace sylva {
 
-// Parses a volume table (and its parts); errors name file, line and key path.
+// Parses a volume table (and its parts); errors name file, line and key path. The kinds are
+// one table in volume_spec.cpp.
 VolumePtr parseVolume(Params& p, bool topLevel = true);
+
+// The `type` of every volume kind, in the table's order.
+std::vector<std::string> volumeTypeNames();
 
 // The sketched and envelope kinds, one file each (species/volume_spec_<kind>.cpp). Each
 // reads the keys of its own type (not `type`, placement or `voxel_size`, which parseVolume
