@@ -368,6 +368,12 @@ std::string Params::choice(std::string_view key, std::string fallback,
     fail(key, "expected one of " + list + ", got \"" + v + "\"" + hint);
 }
 
+double Params::degrees(std::string_view key, double fallbackRad, const Range& rangeDeg) {
+    ask(key);
+    if (!has(key)) return fallbackRad;
+    return number(key, rangeDeg) * (kPi / 180.0);
+}
+
 Vec3 Params::vec3(std::string_view key, const Vec3& fallback, const Range& range) {
     ask(key);
     SourcePos w;

@@ -15,6 +15,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "core/math.h"
@@ -95,6 +96,13 @@ class Params {
     // One of the listed words; the error lists them.
     std::string choice(std::string_view key, std::string fallback,
                        const std::vector<std::string>& allowed);
+    // One of the listed words, as the enum value it names; `fallback` when absent (its word
+    // is the default the error shows). Each enum's words are written once, in `words`.
+    template <class E, class = std::enable_if_t<std::is_enum_v<E>>>
+    E choice(std::string_view key, E fallback, const std::vector<std::pair<std::string, E>>& words);
+    // An angle written in degrees (a `*_deg` key, `rangeDeg` in degrees), returned in radians;
+    // `fallbackRad` unchanged when the key is absent.
+    double degrees(std::string_view key, double fallbackRad, const Range& rangeDeg);
     // [x, y, z]; each component may be a distribution.
     Vec3 vec3(std::string_view key, const Vec3& fallback, const Range& range = Range::any());
     // [lo, hi] pair with lo ≤ hi (plain numbers).
@@ -155,6 +163,22 @@ class Params {
     std::string docPath_;
     bool userNames_ = false;
 };
+
+template <class E, class>
+E Params::choice(std::string_view key, E fallback,
+                 const std::vector<std::pair<std::string, E>>& words) {
+    std::string fallbackWord;
+    std::vector<std::string> allowed;
+    for (const auto& [word, value] : words) {
+        allowed.push_back(word);
+        if (value == fallback && fallbackWord.empty()) fallbackWord = word;
+    }
+    const std::string word = choice(key, fallbackWord, allowed);
+    for (const auto& [w, value] : words) {
+        if (w == word) return value;
+    }
+    return fallback;
+}
 
 // Names the documentation context of `params` for a scope (a shared reader's keys are
 // documented once, wherever its table sits), restoring the previous one at its end.

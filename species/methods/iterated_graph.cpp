@@ -560,7 +560,7 @@ void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const Roo
                 SkeletonNode node;
                 node.position = r.pos[k];
                 node.parent = r.parent[k] < 0 ? jobs[j].rootNode : base + r.parent[k];
-                node.level = level + 1;  // the paper's 1-based level i
+                node.level = level + 1;  // levels[level] is the paper's level i = level + 1
                 node.part = part;
                 tree.nodes.push_back(node);
             }

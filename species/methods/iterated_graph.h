@@ -23,19 +23,20 @@ enum class Orientation { kParent, kUp, kDown, kRandom, kFixed };
 // opening along v_g with half-angle α and height r ("cone" sub-graphs of Table 2, j and l).
 enum class SubgraphShape { kSector, kCone };
 
-// Parameters of one level (iteration) i. Level 0 is the user's initial graph; levels ≥ 1
-// are sub-graphs built around the endpoints of the level before.
+// Parameters of one level (iteration) k, the index of its [[levels]] table (the paper's level
+// i = k + 1). Level 0 is the user's initial graph; levels ≥ 1 are sub-graphs built around the
+// endpoints of the level before. These defaults are the species file's.
 struct IteratedGraphLevel {
-    int nodes = 200;             // k / K: graph nodes in each graph of this level
+    int nodes = 0;               // k / K: graph nodes in each graph of this level (required)
     double spacing = 0.0;        // Poisson-disc minimum distance, metres; 0 = from K and volume
-    int endpoints = 4;           // b: endpoints (branching factor) per graph
+    int endpoints = 0;           // b: endpoints (branching factor) per graph (required)
     double endpointShell = 0.0;  // d_e: endpoints only within this depth of the far side of
                                  // the volume (Wolff §3.1.1, Abb. 9), metres; 0 = anywhere
     SubgraphShape shape = SubgraphShape::kSector;
-    double alpha = 0.3 * kPi;  // sub-graph sector half-angle α, radians (levels ≥ 1)
-    double radius = 0.0;       // sub-graph sphere radius r, metres; 0 = previous level × a
-    double gamma = 0.0;        // rotation of v_g about the horizontal per level, radians;
-                               // positive turns branches down (weeping), negative up
+    double alpha = 54.0 * (kPi / 180.0);  // sub-graph half-angle α (0.3π), radians (levels ≥ 1)
+    double radius = 0.0;  // sub-graph sphere radius r, metres; 0 = previous level × a
+    double gamma = 0.0;   // rotation of v_g about the horizontal per level, radians;
+                          // positive turns branches down (weeping), negative up
     Orientation orientation = Orientation::kParent;  // how v_g is chosen
     Vec3 direction{0, 1, 0};                         // v_g when orientation == kFixed
     bool fromAllLevels = false;  // build this level's sub-graphs around the endpoints of
@@ -59,17 +60,24 @@ struct GraphSystem {
     VolumePtr volume;          // level-0 graph volume
     VolumePtr endpointVolume;  // where level-0 endpoints go (default: volume)
     std::vector<IteratedGraphLevel> levels;
-    double subgraphRadius = 1.0;  // r at level 1, metres (Maketree argument r)
+    double subgraphRadius = 1.0;  // r at level 1, metres (Maketree argument r); roots: 0.5
     double shrink = 0.7;          // a: sub-graph radius ratio between successive levels
 };
+
+// The root system's defaults: sub-graph radius r = 0.5 m (the crown's is 1 m).
+inline GraphSystem rootSystemDefaults() {
+    GraphSystem s;
+    s.subgraphRadius = 0.5;
+    return s;
+}
 
 // Root system (Xu & Mould 2012 §4, Figure 15): a graph below the ground, a taproot as the
 // path to one deep endpoint, lateral roots from endpoints placed around the taproot, then
 // sub-graph levels as for the crown.
 struct RootOptions {
     bool enabled = false;
-    GraphSystem system;            // system.volume: below-ground graph volume
-    double taprootDepth = 2.0;     // depth of the taproot endpoint, metres
+    GraphSystem system = rootSystemDefaults();  // system.volume: below-ground graph volume
+    double taprootDepth = 2.0;                  // depth of the taproot endpoint, metres
     double lateralDistance = 0.5;  // lateral endpoints lie within this distance of the taproot
 };
 
@@ -99,7 +107,7 @@ struct IteratedGraphOptions {
     LightOptions light;
 
     // Thickness (§3.2): w = scale · (d')^ζ / (i + 1), d' = path length to the branch tip,
-    // i = 1-based level of the segment.
+    // i = k + 1 the paper's level of the segment's levels[k].
     double zeta = 0.3;
     double thicknessScale = 0.05;  // metres per m^ζ
 };
