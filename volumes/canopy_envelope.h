@@ -86,10 +86,10 @@ struct CanopyLayer {
 
 struct CanopyEnvelopeOptions {
     CanopyDomain domain = CanopyDomain::kEllipsoid;
-    Vec3 radii{1, 1, 1};                // k = (kx, ky, kz), metres
-    double persistence = 0.7;           // p ∈ [0, 1]; the paper uses 0.7 throughout
-    double jitter = 2.0 * kPi / 180.0;  // radians, amplitude of the (φ, θ) white noise
-    bool hasBase = false;               // g₀ = base when set, else the constant 1
+    Vec3 radii{1, 1, 1};                  // k = (kx, ky, kz), metres
+    double persistence = 0.7;             // p ∈ [0, 1]; the paper uses 0.7 throughout
+    double jitter = 2.0 * (kPi / 180.0);  // radians (2°), amplitude of the (φ, θ) white noise
+    bool hasBase = false;                 // g₀ = base when set, else the constant 1
     CanopyGrid base;
     std::vector<CanopyLayer> layers;  // g₁ … gₙ, n ≤ 10
 };

@@ -99,9 +99,9 @@ struct MaskRevolutionOptions {
     double axisColumn = -1.0;  // pixels; < 0 means the image's centre column, width / 2
     ProfileSide side = ProfileSide::kMax;
     double metresPerPixel = 0.01;
-    StrokeCleaning cleaning;  // resampling and smoothing of the half-profile
-    int segments = 64;        // steps around the axis
-    double voxelSize = 0.0;   // metres; ≤ 0: the profile's largest dimension / 100
+    StrokeCleaning cleaning;             // resampling and smoothing of the half-profile
+    int segments = kRevolutionSegments;  // steps around the axis
+    double voxelSize = 0.0;              // metres; ≤ 0: the profile's largest dimension / 100
     MaskFalloff falloff;
 };
 

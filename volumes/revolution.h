@@ -22,6 +22,8 @@ class StrokeError : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
+constexpr int kRevolutionSegments = 64;  // steps around the axis, by default
+
 struct StrokeCleaning {
     int samples = 96;              // points after arc-length resampling
     int smoothing = 2;             // Laplacian smoothing passes (the end points stay fixed)
@@ -57,7 +59,8 @@ TriangleSoup revolveProfile(const std::vector<Vec2>& profile, int segments);
 // `profile` is a cleaned one (cleanStroke); throws StrokeError like revolveProfile.
 // Memoized: the same profile, voxel size and segments give the same volume (the 8 most
 // recently used are kept), so a sketch named twice in a species is built once.
-VolumePtr makeRevolution(const std::vector<Vec2>& profile, double voxelSize, int segments = 64);
+VolumePtr makeRevolution(const std::vector<Vec2>& profile, double voxelSize,
+                         int segments = kRevolutionSegments);
 
 // --- Stroke sources --------------------------------------------------------------------------
 // All return raw strokes in metres (x from the axis, y up) for cleanStroke.

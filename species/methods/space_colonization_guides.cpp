@@ -200,7 +200,7 @@ BrushStroke readStroke(Params& s) {
     b.radius = s.number("radius", Range::positive());
     b.density = s.number("density", Range::positive());
     b.sigma = s.number("sigma", b.radius / 2, Range::positive());
-    b.weight = s.number("weight", 1.0, Range::nonNegative());
+    b.weight = s.number("weight", b.weight, Range::nonNegative());
     double length = 0.0;
     for (size_t i = 0; i + 1 < b.points.size(); ++i) {
         length += distance(b.points[i], b.points[i + 1]);
@@ -217,15 +217,15 @@ SilhouetteGuide readSilhouette(Params& p) {
     SilhouetteGuide g;
     g.mask = readMaskKeys(p);
     g.metresPerPixel = readPixelScale(p, "the mask's").metresPerPixel(g.mask.height);
-    g.azimuthDeg = p.number("azimuth_deg", 0.0, Range::closed(-360, 360));
+    g.azimuthDeg = p.number("azimuth_deg", g.azimuthDeg, Range::closed(-360, 360));
     g.axisColumn = p.number("axis_column", g.mask.width / 2.0, Range::closed(0, g.mask.width));
     g.falloff.radius = p.number("falloff_radius", g.falloff.radius, Range::nonNegative());
     g.falloff.k = p.number("falloff_k", g.falloff.k, Range::positive());
-    g.markersPerPixel = p.number("markers_per_pixel", 1.0, Range::leftOpen(0, 1000));
+    g.markersPerPixel = p.number("markers_per_pixel", g.markersPerPixel, Range::leftOpen(0, 1000));
     g.depth = p.number("depth", g.mask.width * g.metresPerPixel / 2, Range::nonNegative());
-    g.depthProfile = p.choice("depth_profile", "slab", {"slab", "round"}) == "round"
-                         ? SilhouetteGuide::DepthProfile::kRound
-                         : SilhouetteGuide::DepthProfile::kSlab;
+    g.depthProfile = p.choice("depth_profile", g.depthProfile,
+                              {{"slab", SilhouetteGuide::DepthProfile::kSlab},
+                               {"round", SilhouetteGuide::DepthProfile::kRound}});
     if (g.markersPerPixel * g.mask.count() > kMaxGuideMarkers) {
         p.fail("markers_per_pixel", "markers_per_pixel × masked pixels is over 10⁷ markers");
     }

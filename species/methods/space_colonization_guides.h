@@ -47,8 +47,8 @@ namespace sylva {
 
 struct BrushStroke {
     std::vector<Vec3> points;  // metres, ≥ 2, drawn first to last
-    double radius = 0.2;       // metres: markers lie within it of the polyline
-    double density = 100.0;    // markers per metre of polyline length
+    double radius = 0.0;       // metres: markers lie within it of the polyline (required)
+    double density = 0.0;      // markers per metre of polyline length (required)
     double sigma = 0.0;        // metres, ω's σ; ≤ 0 means radius / 2
     double weight = 1.0;       // multiplies ω
 };

@@ -81,9 +81,10 @@ class SpaceColonizationMethod : public GrowthMethod {
 
 std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
     SpaceColonizationOptions o;
-    const std::string variant = sp.choice("variant", "baseline", {"baseline", "improved"});
-    const bool improved = variant == "improved";
-    o.variant = improved ? ColonizationVariant::kImproved : ColonizationVariant::kBaseline;
+    o.variant = sp.choice("variant", o.variant,
+                          {{"baseline", ColonizationVariant::kBaseline},
+                           {"improved", ColonizationVariant::kImproved}});
+    const bool improved = o.variant == ColonizationVariant::kImproved;
 
     std::optional<Params> crownTable = sp.optionalTable("crown");
     if (crownTable) {

@@ -4,6 +4,7 @@
 #include <map>
 #include <mutex>
 #include <sstream>
+#include <tuple>
 
 #include "species/geometry/leaves.h"
 
@@ -54,19 +55,19 @@ LeafOptions parseLeaves(Params& sp) {
     auto l = sp.optionalTable("leaves");
     if (!l) return o;
     o.enabled = true;
-    o.perTip = static_cast<int>(l->integer("per_tip", 5, Range::closed(0, 1000)));
-    o.alongTwig = l->number("along_twig", 0.4, Range::nonNegative());
-    auto [lo, hi] = l->interval("size", {0.08, 0.14}, Range::positive());
-    o.sizeMin = lo;
-    o.sizeMax = hi;
-    o.aspect = l->number("aspect", 0.6, Range::leftOpen(0, 10));
-    std::string orient = l->choice("orientation", "random", {"random", "sun"});
-    o.orientation = orient == "sun" ? LeafOrientation::kSun : LeafOrientation::kRandom;
-    o.sun = l->vec3("sun_direction", {0.3, 1.0, 0.2});
+    o.perTip = static_cast<int>(l->integer("per_tip", o.perTip, Range::closed(0, 1000)));
+    o.alongTwig = l->number("along_twig", o.alongTwig, Range::nonNegative());
+    std::tie(o.sizeMin, o.sizeMax) = l->interval("size", {o.sizeMin, o.sizeMax}, Range::positive());
+    o.aspect = l->number("aspect", o.aspect, Range::leftOpen(0, 10));
+    o.orientation =
+        l->choice("orientation", o.orientation,
+                  {{"random", LeafOrientation::kRandom}, {"sun", LeafOrientation::kSun}});
+    o.sun = l->vec3("sun_direction", o.sun);
     if (length(o.sun) < 1e-12) l->fail("sun_direction", "expected a non-zero direction");
-    o.sunWeight = l->number("sun_weight", 0.7, Range::closed(0, 1));
-    o.colourClasses = static_cast<int>(l->integer("colour_classes", 1, Range::closed(1, 254)));
-    o.colourJitter = l->number("colour_jitter", 0.1, Range::closed(0, 1));
+    o.sunWeight = l->number("sun_weight", o.sunWeight, Range::closed(0, 1));
+    o.colourClasses =
+        static_cast<int>(l->integer("colour_classes", o.colourClasses, Range::closed(1, 254)));
+    o.colourJitter = l->number("colour_jitter", o.colourJitter, Range::closed(0, 1));
     l->finish();
     return o;
 }

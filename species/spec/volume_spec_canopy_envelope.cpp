@@ -9,8 +9,6 @@ namespace sylva {
 
 namespace {
 
-constexpr double kDeg = kPi / 180.0;
-
 // Images named by several layers (packed channels) are read once per parse.
 class ImageCache {
   public:
@@ -60,19 +58,22 @@ CanopyLayer parseLayer(Params& l, ImageCache& cache) {
             }
             layer.count = static_cast<int>(layer.centres.size());
         } else {
-            layer.count = static_cast<int>(l.integer("count", 12, Range::closed(1, 10000)));
+            layer.count =
+                static_cast<int>(l.integer("count", layer.count, Range::closed(1, 10000)));
         }
-        layer.sigma = l.number("sigma", 0.08, Range::leftOpen(0, 0.5));
-        layer.amplitude = l.number("amplitude", 1.0, Range::any());
+        layer.sigma = l.number("sigma", layer.sigma, Range::leftOpen(0, 0.5));
+        layer.amplitude = l.number("amplitude", layer.amplitude, Range::any());
     } else if (type == "noise") {
         layer.kind = CanopyLayer::Kind::kNoise;
-        layer.resolution = static_cast<int>(l.integer("resolution", 32, Range::closed(1, 4096)));
-        layer.nearest = l.choice("interpolation", "bilinear", {"bilinear", "nearest"}) == "nearest";
-        layer.amplitude = l.number("amplitude", 1.0, Range::any());
+        layer.resolution =
+            static_cast<int>(l.integer("resolution", layer.resolution, Range::closed(1, 4096)));
+        layer.nearest = l.choice("interpolation", layer.nearest ? "nearest" : "bilinear",
+                                 {"bilinear", "nearest"}) == "nearest";
+        layer.amplitude = l.number("amplitude", layer.amplitude, Range::any());
     } else {
         layer.kind = CanopyLayer::Kind::kGrid;
         layer.grid = imageChannel(l, "image", "channel", cache);
-        const double amplitude = l.number("amplitude", 1.0, Range::any());
+        const double amplitude = l.number("amplitude", layer.amplitude, Range::any());
         if (amplitude != 1.0) {
             for (float& v : layer.grid.values) v = static_cast<float>(v * amplitude);
         }
@@ -86,15 +87,15 @@ CanopyLayer parseLayer(Params& l, ImageCache& cache) {
 std::shared_ptr<const CanopyEnvelope> parseCanopyEnvelope(Params& p) {
     DocumentAs keys(p, "volume.canopy-envelope");  // also the canopy method's [canopy]
     CanopyEnvelopeOptions o;
-    const std::string domain = p.choice("domain", "ellipsoid", {"ellipsoid", "cone"});
-    o.domain = domain == "cone" ? CanopyDomain::kCone : CanopyDomain::kEllipsoid;
+    o.domain = p.choice("domain", o.domain,
+                        {{"ellipsoid", CanopyDomain::kEllipsoid}, {"cone", CanopyDomain::kCone}});
     if (!p.has("radii")) {
         p.raw("radii");
         p.fail("radii", "required key missing (expected [kx, ky, kz], metres)");
     }
-    o.radii = p.vec3("radii", {1, 1, 1}, Range::positive());
-    o.persistence = p.number("persistence", 0.7, Range::closed(0, 1));
-    o.jitter = p.number("jitter_deg", 2.0, Range::closed(0, 30)) * kDeg;
+    o.radii = p.vec3("radii", o.radii, Range::positive());
+    o.persistence = p.number("persistence", o.persistence, Range::closed(0, 1));
+    o.jitter = p.degrees("jitter_deg", o.jitter, Range::closed(0, 30));
 
     ImageCache cache;
     if (p.has("base_image")) {

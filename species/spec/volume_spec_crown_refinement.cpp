@@ -30,7 +30,7 @@ VolumePtr parseCrownRefinementVolume(Params& p) {
     o.count = static_cast<int>(p.integer("count", Range::closed(1, 100000)));
     o.sphereRadius = p.number("sphere_radius", Range::positive());
     o.coneRadius = p.number("cone_radius", 0.5 * o.sphereRadius, Range::positive());
-    o.gap = p.number("gap", 0.0, Range::nonNegative());
+    o.gap = p.number("gap", o.gap, Range::nonNegative());
     Rng rng = p.has("seed")
                   ? Rng(static_cast<uint64_t>(p.integer("seed", Range::closed(0, 9.0e15))))
                   : p.randomStream("seed");

@@ -28,7 +28,7 @@ namespace sylva {
 
 MaskFalloff readMaskFalloff(Params& p) {
     MaskFalloff f;
-    f.enabled = p.boolean("soft_edge", true);
+    f.enabled = p.boolean("soft_edge", f.enabled);
     f.radius = p.number("falloff_radius", f.radius, Range::nonNegative());
     f.k = p.number("falloff_k", f.k, Range::positive());
     return f;
@@ -60,16 +60,17 @@ Mask readMaskKeys(Params& p) {
 VolumePtr parseMaskRevolutionVolume(Params& p) {
     const Mask mask = readMaskKeys(p);
     MaskRevolutionOptions o;
-    const std::string side = p.choice("side", "max", {"right", "left", "max"});
-    o.side = side == "right"  ? ProfileSide::kRight
-             : side == "left" ? ProfileSide::kLeft
-                              : ProfileSide::kMax;
+    o.side = p.choice(
+        "side", o.side,
+        {{"right", ProfileSide::kRight}, {"left", ProfileSide::kLeft}, {"max", ProfileSide::kMax}});
     o.axisColumn = p.number("axis_column", mask.width / 2.0, Range::closed(0, mask.width));
     o.metresPerPixel = readPixelScale(p, "the mask's").metresPerPixel(mask.height);
     // Same ranges as type "revolution".
-    o.cleaning.samples = static_cast<int>(p.integer("samples", 96, Range::closed(8, 100000)));
-    o.cleaning.smoothing = static_cast<int>(p.integer("smoothing", 2, Range::closed(0, 10000)));
-    o.segments = static_cast<int>(p.integer("segments", 64, Range::closed(8, 4096)));
+    o.cleaning.samples =
+        static_cast<int>(p.integer("samples", o.cleaning.samples, Range::closed(8, 100000)));
+    o.cleaning.smoothing =
+        static_cast<int>(p.integer("smoothing", o.cleaning.smoothing, Range::closed(0, 10000)));
+    o.segments = static_cast<int>(p.integer("segments", o.segments, Range::closed(8, 4096)));
     o.falloff = readMaskFalloff(p);
     if (p.has("level_set_voxel")) {
         o.voxelSize = p.number("level_set_voxel", Range::positive());

@@ -57,10 +57,14 @@ VolumePtr parseRevolutionVolume(Params& p) {
     }
 
     StrokeCleaning cleaning;
-    cleaning.samples = static_cast<int>(p.integer("samples", 96, Range::closed(8, 100000)));
-    cleaning.smoothing = static_cast<int>(p.integer("smoothing", 2, Range::closed(0, 10000)));
-    cleaning.closeTolerance = p.number("close_tolerance", 0.25, Range::closed(0, 1));
-    const int segments = static_cast<int>(p.integer("segments", 64, Range::closed(8, 4096)));
+    cleaning.samples =
+        static_cast<int>(p.integer("samples", cleaning.samples, Range::closed(8, 100000)));
+    cleaning.smoothing =
+        static_cast<int>(p.integer("smoothing", cleaning.smoothing, Range::closed(0, 10000)));
+    cleaning.closeTolerance =
+        p.number("close_tolerance", cleaning.closeTolerance, Range::closed(0, 1));
+    const int segments =
+        static_cast<int>(p.integer("segments", kRevolutionSegments, Range::closed(8, 4096)));
 
     std::vector<Vec2> profile;
     try {
