@@ -374,6 +374,15 @@ double Params::degrees(std::string_view key, double fallbackRad, const Range& ra
     return number(key, rangeDeg) * (kPi / 180.0);
 }
 
+std::pair<double, double> Params::degreeInterval(std::string_view key,
+                                                 std::pair<double, double> fallbackRad,
+                                                 const Range& rangeDeg) {
+    ask(key);
+    if (!has(key)) return fallbackRad;
+    const auto [lo, hi] = interval(key, {0, 0}, rangeDeg);
+    return {lo * (kPi / 180.0), hi * (kPi / 180.0)};
+}
+
 Vec3 Params::vec3(std::string_view key, const Vec3& fallback, const Range& range) {
     ask(key);
     SourcePos w;

@@ -103,6 +103,10 @@ class Params {
     // An angle written in degrees (a `*_deg` key, `rangeDeg` in degrees), returned in radians;
     // `fallbackRad` unchanged when the key is absent.
     double degrees(std::string_view key, double fallbackRad, const Range& rangeDeg);
+    // [lo, hi] in degrees (as interval()), returned in radians; `fallbackRad` when absent.
+    std::pair<double, double> degreeInterval(std::string_view key,
+                                             std::pair<double, double> fallbackRad,
+                                             const Range& rangeDeg);
     // [x, y, z]; each component may be a distribution.
     Vec3 vec3(std::string_view key, const Vec3& fallback, const Range& range = Range::any());
     // [lo, hi] pair with lo ≤ hi (plain numbers).

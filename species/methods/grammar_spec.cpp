@@ -1,9 +1,11 @@
 // Species-file parameters of the `grammar` method → GrammarOptions. The format (every key,
 // default and unit) is documented in species/methods/grammar.h.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <optional>
 #include <set>
+#include <tuple>
 
 #include "species/methods/grammar.h"
 #include "species/spec/growth_method.h"
@@ -147,39 +149,50 @@ class GrammarMethod : public GrowthMethod {
     GrammarOptions o_;
 };
 
-}  // namespace
+// The start state and stop states of a grammar without a [grammar] table, or that omits them.
+const char* const kDefaultStart = "s";
+const char* const kDefaultStop = "t";
 
-std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
-    if (sp.has("leaves")) {
-        sp.raw("leaves");
-        sp.fail("leaves",
-                "grammar species place particle leaves per state: use [particles.<state>] "
-                "(and [fruit.<state>]) instead of [leaves]");
+// A state name that exists: one with a rule, or a stop state (its error names the closest).
+int knownState(GrammarOptions& o, Params& owner, const std::set<std::string>& known,
+               const std::string& name, const std::string& key) {
+    if (!known.count(name)) {
+        std::string hint;
+        if (auto w = closestWord(name, known)) hint = "; did you mean \"" + *w + "\"?";
+        owner.fail(key, "unknown state \"" + name + "\"" + hint);
     }
-    GrammarOptions o;
+    return o.state(name);
+}
 
-    // [grammar]
-    std::string startName = "s";
-    std::vector<std::string> stopNames = {"t"};
+// A state that draws stems: known, and not a stop state.
+int stemState(GrammarOptions& o, Params& owner, const std::set<std::string>& known,
+              const std::string& name, const std::string& key) {
+    const int s = knownState(o, owner, known, name, key);
+    if (o.stop[s]) owner.fail(key, "\"" + name + "\" is a stop state: it draws no stem");
+    return s;
+}
+
+// [grammar]: the global parameters, the start state S and the stop states 𝒯 (§3.1).
+void readGrammarTable(Params& sp, GrammarOptions& o) {
+    std::string startName = kDefaultStart;
+    std::vector<std::string> stopNames = {kDefaultStop};
     std::optional<Params> g = sp.optionalTable("grammar");
-    bool startGiven = false;
     if (g) {
-        startGiven = g->has("start");
-        startName = g->string("start", "s");
+        startName = g->string("start", kDefaultStart);
         if (g->has("stop")) stopNames = g->stringArray("stop");
         o.maxDepth = g->has("max_depth")
                          ? static_cast<int>(g->integer(
                                "max_depth", Range::closed(1, GrammarOptions::kMaxLevels)))
                          : 0;
-        auto [wlo, whi] = g->interval("trunk_width", {0.2, 0.2}, Range::positive());
-        o.trunkWidthLo = wlo;
-        o.trunkWidthHi = whi;
-        o.segmentLength = g->number("segment_length", 0.1, Range::positive());
-        o.maxStems = static_cast<int>(g->integer("max_stems", 50000, Range::closed(1, 1e7)));
-        const std::string season = g->choice("season", "summer", kSeasonNames);
-        for (size_t i = 0; i < kSeasonNames.size(); ++i) {
-            if (season == kSeasonNames[i]) o.season = static_cast<Season>(i);
-        }
+        std::tie(o.trunkWidthLo, o.trunkWidthHi) =
+            g->interval("trunk_width", {o.trunkWidthLo, o.trunkWidthHi}, Range::positive());
+        o.segmentLength = g->number("segment_length", o.segmentLength, Range::positive());
+        o.maxStems = static_cast<int>(g->integer("max_stems", o.maxStems, Range::closed(1, 1e7)));
+        o.season = g->choice("season", o.season,
+                             {{"spring", Season::kSpring},
+                              {"summer", Season::kSummer},
+                              {"autumn", Season::kAutumn},
+                              {"winter", Season::kWinter}});
     }
     auto failGrammar = [&](const char* key, const std::string& msg) {
         if (g && g->has(key)) g->fail(key, msg);
@@ -194,72 +207,55 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
         if (s == startName) failGrammar("stop", "the start state cannot be a stop state");
         o.stop[o.state(s)] = true;
     }
+}
 
-    // [rules]: first every input state, so outputs can be checked against them.
-    if (!sp.has("rules")) sp.fail("rules", "required table missing: the grammar's rules");
-    const std::vector<std::string> ruleNames = keysOf(sp, "rules");
-    Params rules = sp.table("rules");
-    rules.keysAreUserNames();  // state names
-    std::set<std::string> known(stopNames.begin(), stopNames.end());
-    for (const std::string& name : ruleNames) {
-        if (name.find('*') != std::string::npos || name.find("->") != std::string::npos) {
-            rules.fail(name, "a state name may not contain '*' or '->'");
-        }
-        if (o.stop[o.state(name)]) {
-            rules.fail(name, "\"" + name + "\" is a stop state: stop states have no rule");
-        }
-        known.insert(name);
-    }
-    if (!known.count(startName) || o.stop[o.start]) {
-        const std::string msg = "no rule for the start state \"" + startName + "\"";
-        if (startGiven) g->fail("start", msg);
-        rules.failHere(msg);
-    }
-    for (const std::string& name : ruleNames) {
-        const int from = o.state(name);
-        std::vector<Params> alts = rules.tableArray(name);
-        if (alts.empty()) rules.fail(name, "expected at least one alternative { out = [...] }");
-        double sum = 0;
-        for (Params& alt : alts) {
-            GrammarAlternative a;
-            const std::vector<std::string> out = alt.stringArray("out");
-            if (!alt.has("out")) alt.failHere("missing \"out\": the alternative's output states");
-            if (out.empty()) alt.fail("out", "expected at least one output state");
-            for (const std::string& item : out) {
-                auto [outName, count] = parseOutput(alt, item);
-                if (!known.count(outName)) {
-                    std::string hint;
-                    if (auto w = closestWord(outName, known))
-                        hint = "; did you mean \"" + *w + "\"?";
-                    alt.fail("out", "unknown state \"" + outName +
-                                        "\": it has no rule and is not a stop state" + hint);
-                }
-                const int to = o.state(outName);
-                for (int k = 0; k < count; ++k) a.out.push_back(to);
+// One rule's alternatives { out, p } (§3.1.1), their probabilities summing to 1.
+void readAlternatives(Params& rules, const std::string& name, const std::set<std::string>& known,
+                      GrammarOptions& o) {
+    const int from = o.state(name);
+    std::vector<Params> alts = rules.tableArray(name);
+    if (alts.empty()) rules.fail(name, "expected at least one alternative { out = [...] }");
+    double sum = 0;
+    for (Params& alt : alts) {
+        GrammarAlternative a;
+        const std::vector<std::string> out = alt.stringArray("out");
+        if (!alt.has("out")) alt.failHere("missing \"out\": the alternative's output states");
+        if (out.empty()) alt.fail("out", "expected at least one output state");
+        for (const std::string& item : out) {
+            auto [outName, count] = parseOutput(alt, item);
+            if (!known.count(outName)) {
+                std::string hint;
+                if (auto w = closestWord(outName, known)) hint = "; did you mean \"" + *w + "\"?";
+                alt.fail("out", "unknown state \"" + outName +
+                                    "\": it has no rule and is not a stop state" + hint);
             }
-            if (alts.size() == 1) {
-                a.p = alt.number("p", 1.0, Range::closed(0, 1));
-            } else {
-                if (!alt.has("p")) {
-                    alt.failHere(
-                        "missing \"p\": a rule with several alternatives needs each one's "
-                        "probability");
-                }
-                a.p = alt.number("p", Range::closed(0, 1));
+            const int to = o.state(outName);
+            for (int k = 0; k < count; ++k) a.out.push_back(to);
+        }
+        if (alts.size() == 1) {
+            a.p = alt.number("p", a.p, Range::closed(0, 1));
+        } else {
+            if (!alt.has("p")) {
+                alt.failHere(
+                    "missing \"p\": a rule with several alternatives needs each one's "
+                    "probability");
             }
-            sum += a.p;
-            alt.finish();
-            o.rules[from].push_back(std::move(a));
+            a.p = alt.number("p", Range::closed(0, 1));
         }
-        if (std::abs(sum - 1.0) > 1e-6) {
-            rules.fail(name, "the alternatives' probabilities sum to " + fmt(sum) +
-                                 ", expected 1 (±1e-6)");
-        }
+        sum += a.p;
+        alt.finish();
+        o.rules[from].push_back(std::move(a));
     }
-    rules.finish();
+    if (std::abs(sum - 1.0) > 1e-6) {
+        rules.fail(name,
+                   "the alternatives' probabilities sum to " + fmt(sum) + ", expected 1 (±1e-6)");
+    }
+}
+
+// With D unbounded, every state reachable from the start must have a path to a stop state.
+void checkTermination(const GrammarOptions& o, Params& rules,
+                      const std::vector<std::string>& ruleNames) {
     const int nStates = static_cast<int>(o.states.size());
-
-    // Reachable states, and (with D unbounded) a path to termination from each.
     std::vector<bool> reachable(nStates, false);
     std::vector<int> todo = {o.start};
     reachable[o.start] = true;
@@ -275,36 +271,70 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
             }
         }
     }
-    if (o.maxDepth == 0) {
-        // Least fixed point: a state can terminate if some alternative's outputs all can.
-        std::vector<bool> ends(o.stop.begin(), o.stop.end());
-        for (bool changed = true; changed;) {
-            changed = false;
-            for (int s = 0; s < nStates; ++s) {
-                if (ends[s]) continue;
-                for (const GrammarAlternative& a : o.rules[s]) {
-                    bool all = a.p > 0;
-                    for (int t : a.out) all = all && ends[t];
-                    if (all) {
-                        ends[s] = changed = true;
-                        break;
-                    }
+    // Least fixed point: a state can terminate if some alternative's outputs all can.
+    std::vector<bool> ends(o.stop.begin(), o.stop.end());
+    for (bool changed = true; changed;) {
+        changed = false;
+        for (int s = 0; s < nStates; ++s) {
+            if (ends[s]) continue;
+            for (const GrammarAlternative& a : o.rules[s]) {
+                bool all = a.p > 0;
+                for (int t : a.out) all = all && ends[t];
+                if (all) {
+                    ends[s] = changed = true;
+                    break;
                 }
             }
         }
-        for (const std::string& name : ruleNames) {
-            const int s = o.state(name);
-            if (reachable[s] && !ends[s]) {
-                rules.fail(name, "no path from \"" + name +
-                                     "\" to a stop state while grammar.max_depth is unbounded: "
-                                     "add a stop state to the rule or set grammar.max_depth");
-            }
+    }
+    for (const std::string& name : ruleNames) {
+        const int s = std::find(o.states.begin(), o.states.end(), name) - o.states.begin();
+        if (reachable[s] && !ends[s]) {
+            rules.fail(name, "no path from \"" + name +
+                                 "\" to a stop state while grammar.max_depth is unbounded: "
+                                 "add a stop state to the rule or set grammar.max_depth");
         }
     }
+}
 
-    // [geometry.*]: "default", an output state, or a transition "from->to".
+// [rules]: the grammar 𝒢 (§3.1.1), one key per input state; returns the known states (those
+// with a rule, and the stop states).
+std::set<std::string> readRules(Params& sp, GrammarOptions& o) {
+    if (!sp.has("rules")) sp.fail("rules", "required table missing: the grammar's rules");
+    const std::vector<std::string> ruleNames = keysOf(sp, "rules");
+    Params rules = sp.table("rules");
+    rules.keysAreUserNames();  // state names
+    std::set<std::string> known;
+    for (int s = 0; s < static_cast<int>(o.states.size()); ++s) {
+        if (o.stop[s]) known.insert(o.states[s]);
+    }
+    // First every input state, so outputs can be checked against them.
+    for (const std::string& name : ruleNames) {
+        if (name.find('*') != std::string::npos || name.find("->") != std::string::npos) {
+            rules.fail(name, "a state name may not contain '*' or '->'");
+        }
+        if (o.stop[o.state(name)]) {
+            rules.fail(name, "\"" + name + "\" is a stop state: stop states have no rule");
+        }
+        known.insert(name);
+    }
+    if (!known.count(o.states[o.start]) || o.stop[o.start]) {
+        const std::string msg = "no rule for the start state \"" + o.states[o.start] + "\"";
+        std::optional<Params> g = sp.optionalTable("grammar");
+        if (g && g->has("start")) g->fail("start", msg);
+        rules.failHere(msg);
+    }
+    for (const std::string& name : ruleNames) readAlternatives(rules, name, known, o);
+    rules.finish();
+    if (o.maxDepth == 0) checkTermination(o, rules, ruleNames);
+    return known;
+}
+
+// [geometry.default], [geometry.<state>], [geometry."<from>-><to>"]: the geometry ℋ of every
+// transition (§3.1.2), each key from the most specific table that sets it.
+void readGeometryTables(Params& sp, const std::set<std::string>& known, GrammarOptions& o) {
     std::set<std::pair<int, int>> transitions;
-    for (int s = 0; s < nStates; ++s) {
+    for (int s = 0; s < static_cast<int>(o.states.size()); ++s) {
         for (const GrammarAlternative& a : o.rules[s]) {
             for (int t : a.out) {
                 if (!o.stop[t]) transitions.insert({s, t});
@@ -317,27 +347,17 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
     if (sp.has("geometry")) {
         const std::vector<std::string> names = keysOf(sp, "geometry");
         Params geo = sp.table("geometry");
-        geo.keysAreUserNames();  // state names
-        auto stemState = [&](const std::string& name, const std::string& key) {
-            if (!known.count(name)) {
-                std::string hint;
-                if (auto w = closestWord(name, known)) hint = "; did you mean \"" + *w + "\"?";
-                geo.fail(key, "unknown state \"" + name + "\"" + hint);
-            }
-            const int s = o.state(name);
-            if (o.stop[s]) geo.fail(key, "\"" + name + "\" is a stop state: it draws no stem");
-            return s;
-        };
+        geo.keysAreUserNames();  // "default", state names, transitions
         for (const std::string& name : names) {
             Params t = geo.table(name);
             const size_t arrow = name.find("->");
             if (name == "default") {
                 fallbackTable = readGeometry(t);
             } else if (arrow == std::string::npos) {
-                stateTables[stemState(name, name)] = readGeometry(t);
+                stateTables[stemState(o, geo, known, name, name)] = readGeometry(t);
             } else {
-                const int from = stemState(name.substr(0, arrow), name);
-                const int to = stemState(name.substr(arrow + 2), name);
+                const int from = stemState(o, geo, known, name.substr(0, arrow), name);
+                const int to = stemState(o, geo, known, name.substr(arrow + 2), name);
                 if (!transitions.count({from, to})) {
                     geo.fail(name, "no rule turns \"" + o.states[from] + "\" into \"" +
                                        o.states[to] + "\"");
@@ -356,90 +376,106 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
         }
         o.transition[{from, to}] = gg;
     }
+}
 
-    // [particles.<state>] and [fruit.<state>]
-    auto stateOf = [&](Params& owner, const std::string& name) {
-        if (!known.count(name)) {
-            std::string hint;
-            if (auto w = closestWord(name, known)) hint = "; did you mean \"" + *w + "\"?";
-            owner.fail(name, "unknown state \"" + name + "\"" + hint);
-        }
-        const int s = o.state(name);
-        if (o.stop[s]) owner.fail(name, "\"" + name + "\" is a stop state: it draws no stem");
-        return s;
-    };
-    if (sp.has("particles")) {
-        const std::vector<std::string> names = keysOf(sp, "particles");
-        Params parts = sp.table("particles");
-        parts.keysAreUserNames();  // state names
-        for (const std::string& name : names) {
-            const int s = stateOf(parts, name);
-            Params p = parts.table(name);
-            GrammarParticles& pp = o.particles[s];
-            pp.enabled = true;
-            pp.count = static_cast<int>(p.integer("count", Range::closed(0, 100000)));
-            std::tie(pp.sizeLo, pp.sizeHi) = p.interval("size", {0.05, 0.1}, Range::positive());
-            pp.aspect = p.number("aspect", 0.5, Range::leftOpen(0, 10));
-            auto [rlo, rhi] = p.interval("rotation_deg", {30, 60}, Range::closed(0, 180));
-            pp.rotationLo = rlo * kDeg;
-            pp.rotationHi = rhi * kDeg;
-            pp.randomness = p.number("randomness", 0.5, Range::closed(0, 1));
-            std::tie(pp.alongLo, pp.alongHi) = p.interval("along", {0, 1}, Range::closed(0, 1));
-            pp.minLevel = static_cast<int>(p.integer("min_level", 0, Range::closed(0, 1000)));
-            pp.twoRows = p.choice("arrangement", "spiral", {"spiral", "two-rows"}) == "two-rows";
-            p.finish();
-        }
-        parts.finish();
+// [particles.<state>]: leaves along every stem of that state (§3.2).
+void readParticles(Params& sp, const std::set<std::string>& known, GrammarOptions& o) {
+    if (!sp.has("particles")) return;
+    const std::vector<std::string> names = keysOf(sp, "particles");
+    Params parts = sp.table("particles");
+    parts.keysAreUserNames();  // state names
+    for (const std::string& name : names) {
+        const int s = stemState(o, parts, known, name, name);
+        Params p = parts.table(name);
+        GrammarParticles& pp = o.particles[s];
+        pp.enabled = true;
+        pp.count = static_cast<int>(p.integer("count", Range::closed(0, 100000)));
+        std::tie(pp.sizeLo, pp.sizeHi) =
+            p.interval("size", {pp.sizeLo, pp.sizeHi}, Range::positive());
+        pp.aspect = p.number("aspect", pp.aspect, Range::leftOpen(0, 10));
+        std::tie(pp.rotationLo, pp.rotationHi) =
+            p.degreeInterval("rotation_deg", {pp.rotationLo, pp.rotationHi}, Range::closed(0, 180));
+        pp.randomness = p.number("randomness", pp.randomness, Range::closed(0, 1));
+        std::tie(pp.alongLo, pp.alongHi) =
+            p.interval("along", {pp.alongLo, pp.alongHi}, Range::closed(0, 1));
+        pp.minLevel = static_cast<int>(p.integer("min_level", pp.minLevel, Range::closed(0, 1000)));
+        pp.twoRows = p.choice("arrangement", pp.twoRows ? "two-rows" : "spiral",
+                              {"spiral", "two-rows"}) == "two-rows";
+        p.finish();
     }
-    if (sp.has("fruit")) {
-        const std::vector<std::string> names = keysOf(sp, "fruit");
-        Params fruits = sp.table("fruit");
-        fruits.keysAreUserNames();  // state names
-        for (const std::string& name : names) {
-            const int s = stateOf(fruits, name);
-            Params p = fruits.table(name);
-            GrammarFruit& f = o.fruit[s];
-            f.enabled = true;
-            f.count = static_cast<int>(p.integer("count", Range::closed(0, 100000)));
-            std::tie(f.sizeLo, f.sizeHi) = p.interval("size", {0.06, 0.1}, Range::positive());
-            f.aspect = p.number("aspect", 1.0, Range::leftOpen(0, 10));
-            f.colour = static_cast<uint8_t>(p.integer("colour", 8, Range::closed(0, 255)));
-            std::tie(f.alongLo, f.alongHi) = p.interval("along", {0.5, 1}, Range::closed(0, 1));
-            f.minLevel = static_cast<int>(p.integer("min_level", 0, Range::closed(0, 1000)));
-            if (p.has("seasons")) {
-                f.seasons = {false, false, false, false};
-                for (const std::string& sn : p.stringArray("seasons")) {
-                    auto it = std::find(kSeasonNames.begin(), kSeasonNames.end(), sn);
-                    if (it == kSeasonNames.end()) {
-                        p.fail("seasons", "unknown season \"" + sn +
-                                              "\" (expected spring, summer, autumn, winter)");
-                    }
-                    f.seasons[it - kSeasonNames.begin()] = true;
+    parts.finish();
+}
+
+// [fruit.<state>]: fruit or flower cards hanging from the stems of that state.
+void readFruit(Params& sp, const std::set<std::string>& known, GrammarOptions& o) {
+    if (!sp.has("fruit")) return;
+    const std::vector<std::string> names = keysOf(sp, "fruit");
+    Params fruits = sp.table("fruit");
+    fruits.keysAreUserNames();  // state names
+    for (const std::string& name : names) {
+        const int s = stemState(o, fruits, known, name, name);
+        Params p = fruits.table(name);
+        GrammarFruit& f = o.fruit[s];
+        f.enabled = true;
+        f.count = static_cast<int>(p.integer("count", Range::closed(0, 100000)));
+        std::tie(f.sizeLo, f.sizeHi) = p.interval("size", {f.sizeLo, f.sizeHi}, Range::positive());
+        f.aspect = p.number("aspect", f.aspect, Range::leftOpen(0, 10));
+        f.colour = static_cast<uint8_t>(p.integer("colour", f.colour, Range::closed(0, 255)));
+        std::tie(f.alongLo, f.alongHi) =
+            p.interval("along", {f.alongLo, f.alongHi}, Range::closed(0, 1));
+        f.minLevel = static_cast<int>(p.integer("min_level", f.minLevel, Range::closed(0, 1000)));
+        if (p.has("seasons")) {
+            f.seasons = {false, false, false, false};
+            for (const std::string& sn : p.stringArray("seasons")) {
+                auto it = std::find(kSeasonNames.begin(), kSeasonNames.end(), sn);
+                if (it == kSeasonNames.end()) {
+                    p.fail("seasons", "unknown season \"" + sn +
+                                          "\" (expected spring, summer, autumn, winter)");
                 }
+                f.seasons[it - kSeasonNames.begin()] = true;
             }
-            p.finish();
         }
-        fruits.finish();
+        p.finish();
     }
+    fruits.finish();
+}
 
-    // [seasons.<name>]
-    if (sp.has("seasons")) {
-        const std::vector<std::string> names = keysOf(sp, "seasons");
-        Params seasons = sp.table("seasons");
-        seasons.keysAreUserNames();  // season names
-        for (const std::string& name : names) {
-            auto it = std::find(kSeasonNames.begin(), kSeasonNames.end(), name);
-            if (it == kSeasonNames.end()) {
-                seasons.fail(name, "unknown season (expected spring, summer, autumn, winter)");
-            }
-            Params p = seasons.table(name);
-            GrammarSeason& s = o.seasons[it - kSeasonNames.begin()];
-            if (p.has("classes")) s.classes = readClasses(p, "classes");
-            s.density = p.number("density", s.density, Range::closed(0, 1));
-            p.finish();
+// [seasons.<season>]: overrides of the built-in season palettes.
+void readSeasons(Params& sp, GrammarOptions& o) {
+    if (!sp.has("seasons")) return;
+    const std::vector<std::string> names = keysOf(sp, "seasons");
+    Params seasons = sp.table("seasons");
+    seasons.keysAreUserNames();  // season names
+    for (const std::string& name : names) {
+        auto it = std::find(kSeasonNames.begin(), kSeasonNames.end(), name);
+        if (it == kSeasonNames.end()) {
+            seasons.fail(name, "unknown season (expected spring, summer, autumn, winter)");
         }
-        seasons.finish();
+        Params p = seasons.table(name);
+        GrammarSeason& s = o.seasons[it - kSeasonNames.begin()];
+        if (p.has("classes")) s.classes = readClasses(p, "classes");
+        s.density = p.number("density", s.density, Range::closed(0, 1));
+        p.finish();
     }
+    seasons.finish();
+}
+
+}  // namespace
+
+std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
+    if (sp.has("leaves")) {
+        sp.raw("leaves");
+        sp.fail("leaves",
+                "grammar species place particle leaves per state: use [particles.<state>] "
+                "(and [fruit.<state>]) instead of [leaves]");
+    }
+    GrammarOptions o;
+    readGrammarTable(sp, o);
+    const std::set<std::string> known = readRules(sp, o);
+    readGeometryTables(sp, known, o);
+    readParticles(sp, known, o);
+    readFruit(sp, known, o);
+    readSeasons(sp, o);
     return std::make_unique<GrammarMethod>(std::move(o));
 }
 
