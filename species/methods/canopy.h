@@ -72,13 +72,13 @@ LSystemSize lsystemSizeBound(const LSystem& system, int iterations);
 
 struct BranchTemplate {
     LSystem lsystem;
-    int iterations = 4;
-    double angle = 25.0 * kPi / 180.0;  // yaw and pitch angle δ, radians
-    double roll = 25.0 * kPi / 180.0;   // roll angle, radians (default: the same δ)
-    double step = 1.0;                  // segment length at bracket depth 0, metres
-    double lengthRatio = 1.0;           // step multiplied by this per bracket depth
-    double angleJitter = 0.0;           // every turn's angle + uniform(−j, j), radians
-    double weight = 1.0;                // relative chance of being chosen per instance
+    int iterations = 0;                   // rewriting steps (a species file must give them)
+    double angle = 25.0 * (kPi / 180.0);  // yaw and pitch angle δ, radians
+    double roll = 25.0 * (kPi / 180.0);   // roll angle, radians (a species file: the same δ)
+    double step = 1.0;                    // segment length at bracket depth 0, metres
+    double lengthRatio = 1.0;             // step multiplied by this per bracket depth
+    double angleJitter = 0.0;             // every turn's angle + uniform(−j, j), radians
+    double weight = 1.0;                  // relative chance of being chosen per instance
 };
 
 // Turtle interpretation of a word: node 0 at the origin, one node per F (parent = the node
@@ -154,7 +154,8 @@ struct CanopyLeafOptions {
 
 struct CanopyOptions {
     std::shared_ptr<const CanopyEnvelope> envelope;
-    Vec3 position{0, 5, 0};  // the envelope's origin in the tree frame, metres
+    Vec3 position{0, 5, 0};  // the envelope's origin in the tree frame, metres (a species file
+                             // must give it: canopy.position)
     std::vector<BranchTemplate> templates;
     CanopyBranchOptions branches;
     CanopyLeafOptions leaves;

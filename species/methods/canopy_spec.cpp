@@ -50,7 +50,6 @@ namespace sylva {
 
 namespace {
 
-constexpr double kDeg = kPi / 180.0;
 constexpr double kMaxSegments = 200000;  // template budget (F symbols after expansion)
 constexpr double kMaxWord = 4.0e6;       // template word length budget
 
@@ -154,12 +153,12 @@ BranchTemplate parseTemplate(Params& t) {
         t.fail("iterations", "the template draws nothing: no F after " +
                                  std::to_string(b.iterations) + " iterations");
     }
-    b.angle = t.number("angle_deg", 25.0, Range::closed(0, 180)) * kDeg;
-    b.roll = t.has("roll_deg") ? t.number("roll_deg", Range::closed(0, 360)) * kDeg : b.angle;
-    b.step = t.number("step", 1.0, Range::positive());
-    b.lengthRatio = t.number("length_ratio", 1.0, Range::leftOpen(0, 2));
-    b.angleJitter = t.number("angle_jitter_deg", 0.0, Range::closed(0, 90)) * kDeg;
-    b.weight = t.number("weight", 1.0, Range::positive());
+    b.angle = t.degrees("angle_deg", b.angle, Range::closed(0, 180));
+    b.roll = t.degrees("roll_deg", b.angle, Range::closed(0, 360));  // default: the same δ
+    b.step = t.number("step", b.step, Range::positive());
+    b.lengthRatio = t.number("length_ratio", b.lengthRatio, Range::leftOpen(0, 2));
+    b.angleJitter = t.degrees("angle_jitter_deg", b.angleJitter, Range::closed(0, 90));
+    b.weight = t.number("weight", b.weight, Range::positive());
     t.finish();
     return b;
 }
@@ -199,7 +198,7 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
                    "required key missing (expected [x, y, z], metres: the canopy's "
                    "centre, or its base centre for a cone)");
         }
-        o.position = c.vec3("position", {0, 0, 0});
+        o.position = c.vec3("position", o.position);
         c.finish();
     }
 
@@ -207,18 +206,18 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
         CanopyBranchOptions& bo = o.branches;
         bo.trunkHeight =
             br->has("trunk_height") ? br->number("trunk_height", Range::positive()) : -1.0;
-        bo.outgrow = br->number("outgrow", 1.25, Range::closed(1, 10));
-        const std::string fit = br->choice("fit", "stretch", {"stretch", "uniform", "none"});
-        bo.fit = fit == "uniform" ? TemplateFit::kUniform
-                 : fit == "none"  ? TemplateFit::kNone
-                                  : TemplateFit::kStretch;
-        bo.clipThreshold = br->number("clip_threshold", 0.05, Range::closed(0, 10));
-        bo.tipRadius = br->number("tip_radius", 0.01, Range::positive());
-        bo.murrayExponent = br->number("murray_exponent", 3.0, Range::closed(1.5, 4));
-        bo.murrayOn = br->choice("radii", "clipped", {"clipped", "template"}) == "template"
-                          ? MurrayOn::kTemplate
-                          : MurrayOn::kClipped;
-        bo.randomYaw = br->boolean("random_yaw", true);
+        bo.outgrow = br->number("outgrow", bo.outgrow, Range::closed(1, 10));
+        bo.fit = br->choice("fit", bo.fit,
+                            {{"stretch", TemplateFit::kStretch},
+                             {"uniform", TemplateFit::kUniform},
+                             {"none", TemplateFit::kNone}});
+        bo.clipThreshold = br->number("clip_threshold", bo.clipThreshold, Range::closed(0, 10));
+        bo.tipRadius = br->number("tip_radius", bo.tipRadius, Range::positive());
+        bo.murrayExponent = br->number("murray_exponent", bo.murrayExponent, Range::closed(1.5, 4));
+        bo.murrayOn =
+            br->choice("radii", bo.murrayOn,
+                       {{"clipped", MurrayOn::kClipped}, {"template", MurrayOn::kTemplate}});
+        bo.randomYaw = br->boolean("random_yaw", bo.randomYaw);
         // The trunk top must be inside the canopy, or every crown segment would be cut.
         const double top = canopyTrunkHeight(o);
         const Vec3 local = Vec3{o.position.x, top, o.position.z} - o.position;
@@ -242,20 +241,19 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
 
     if (auto l = sp.optionalTable("leaves")) {
         CanopyLeafOptions& lo = o.leaves;
-        lo.count = static_cast<int>(l->integer("count", 10000, Range::closed(0, 1e6)));
-        lo.depth = l->number("depth", 0.0, Range::closed(0, 1));
-        lo.orientation = l->choice("orientation", "random", {"random", "sun"}) == "sun"
-                             ? LeafOrientation::kSun
-                             : LeafOrientation::kRandom;
-        lo.sun = l->vec3("sun_direction", {0.3, 1.0, 0.2});
+        lo.count = static_cast<int>(l->integer("count", lo.count, Range::closed(0, 1e6)));
+        lo.depth = l->number("depth", lo.depth, Range::closed(0, 1));
+        lo.orientation =
+            l->choice("orientation", lo.orientation,
+                      {{"random", LeafOrientation::kRandom}, {"sun", LeafOrientation::kSun}});
+        lo.sun = l->vec3("sun_direction", lo.sun);
         if (length(lo.sun) < 1e-12) l->fail("sun_direction", "expected a non-zero direction");
-        lo.sunWeight = l->number("sun_weight", 0.7, Range::closed(0, 1));
-        lo.cluster = static_cast<int>(l->integer("cluster", 1, Range::closed(1, 20)));
-        lo.twig = l->number("twig", 0.06, Range::nonNegative());
-        auto [lo0, hi0] = l->interval("size", {0.08, 0.14}, Range::positive());
-        lo.sizeMin = lo0;
-        lo.sizeMax = hi0;
-        lo.aspect = l->number("aspect", 0.6, Range::leftOpen(0, 10));
+        lo.sunWeight = l->number("sun_weight", lo.sunWeight, Range::closed(0, 1));
+        lo.cluster = static_cast<int>(l->integer("cluster", lo.cluster, Range::closed(1, 20)));
+        lo.twig = l->number("twig", lo.twig, Range::nonNegative());
+        std::tie(lo.sizeMin, lo.sizeMax) =
+            l->interval("size", {lo.sizeMin, lo.sizeMax}, Range::positive());
+        lo.aspect = l->number("aspect", lo.aspect, Range::leftOpen(0, 10));
         lo.colourFractions = parseFractions(*l, "colours");
         if (const toml::node* n = l->raw("colour_classes")) {
             const toml::array* a = n->as_array();
@@ -272,8 +270,9 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
                 lo.colourClasses.push_back(static_cast<uint8_t>(*v));
             }
         }
-        lo.colourPatchiness = l->number("colour_patchiness", 0.5, Range::closed(0, 1));
-        lo.supportDistance = l->number("support_distance", 0.3, Range::positive());
+        lo.colourPatchiness =
+            l->number("colour_patchiness", lo.colourPatchiness, Range::closed(0, 1));
+        lo.supportDistance = l->number("support_distance", lo.supportDistance, Range::positive());
         if (double(lo.count) * lo.cluster > 2e6) {
             l->fail("cluster", "count × cluster = " + num(double(lo.count) * lo.cluster) +
                                    " leaves; at most 2,000,000");
