@@ -11,16 +11,6 @@
 
 namespace sylva {
 
-std::string SourcePos::str() const {
-    std::ostringstream s;
-    s << (file.empty() ? "<spec>" : file);
-    if (line > 0) s << ':' << line << ':' << column;
-    return s.str();
-}
-
-SpecError::SpecError(const SourcePos& where, const std::string& keyPath, const std::string& message)
-    : std::runtime_error(where.str() + ": " + (keyPath.empty() ? "" : keyPath + ": ") + message) {}
-
 bool Range::contains(double v) const {
     if (loOpen ? !(v > lo) : !(v >= lo)) return false;
     if (hiOpen ? !(v < hi) : !(v <= hi)) return false;

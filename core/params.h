@@ -18,23 +18,11 @@
 #include <type_traits>
 #include <vector>
 
+#include "core/errors.h"
 #include "core/math.h"
 #include "core/rng.h"
 
 namespace sylva {
-
-struct SourcePos {
-    std::string file;
-    int line = 0;
-    int column = 0;
-    std::string str() const;
-};
-
-// A bad spec: the message is one line, "file:line:col: key.path: what was expected".
-class SpecError : public std::runtime_error {
-  public:
-    SpecError(const SourcePos& where, const std::string& keyPath, const std::string& message);
-};
 
 // A number for an error message: printf "%.*g" with `significantDigits` digits.
 std::string formatNumber(double v, int significantDigits = 12);

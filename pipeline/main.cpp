@@ -1,5 +1,6 @@
-// The `sylva` command line: build, grow, validate, volume, species list. Thin: everything lives in
-// the libraries. Exit codes: 0 success, 1 a runtime failure (some trees failed, I/O), 2 bad input.
+// The `sylva` command line: parse the arguments and dispatch to the libraries (build, grow,
+// validate, volume, species list, stats, report, merge). Exit codes: 0 success, 1 a runtime
+// failure (some trees failed, I/O, a broken invariant), 2 bad input (InputError, core/errors.h).
 #include <tbb/global_control.h>
 #include <unistd.h>
 
@@ -16,11 +17,7 @@
 #include "pipeline/analysis/volume_output.h"
 #include "pipeline/build/build.h"
 #include "pipeline/build/dataset.h"
-#include "pipeline/formats/atomic_file.h"
-#include "pipeline/formats/skeleton_writers.h"
-#include "pipeline/formats/stats_json.h"
-#include "pipeline/formats/view_writers.h"
-#include "species/model/tree_stats.h"
+#include "pipeline/build/grow_one.h"
 #include "species/spec/species.h"
 
 namespace fs = std::filesystem;
@@ -54,51 +51,27 @@ int runBuild(const std::string& specPath, std::string out, int threads, const st
 }
 
 int runMerge(const MergeOptions& o) {
-    try {
-        MergeSummary s = mergeShards(o);
-        std::fprintf(
-            stderr,
-            "sylva: merged %d shards, %lld instances, %lld species sheets in %.2f s -> %s\n",
-            s.shardCount, static_cast<long long>(s.instances), static_cast<long long>(s.sheets),
-            s.wallSeconds, o.out.string().c_str());
-    } catch (const MergeError& e) {
-        std::fprintf(stderr, "sylva: merge: %s\n", e.what());
-        return 2;
-    }
+    const MergeSummary s = mergeShards(o);
+    std::fprintf(stderr,
+                 "sylva: merged %d shards, %lld instances, %lld species sheets in %.2f s -> %s\n",
+                 s.shardCount, static_cast<long long>(s.instances),
+                 static_cast<long long>(s.sheets), s.wallSeconds, o.out.string().c_str());
     return 0;
 }
 
-int runGrow(const std::string& speciesPath, uint64_t seed, std::string out, int threads) {
-    SpeciesFile species = loadSpecies(speciesPath);
-    validateSpecies(species, nullptr);
+int runGrow(const std::string& speciesPath, uint64_t seed, const std::string& out, int threads) {
     std::unique_ptr<tbb::global_control> limit;
     if (threads > 0) {
         limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                       threads);
     }
-    fs::path dir = out.empty() ? fs::path("out") / "grow" / species.name : fs::path(out);
-    auto t0 = std::chrono::steady_clock::now();
-    GrownTree g = growSpecies(species, seed, nullptr, true);
-    double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    TreeStats stats = computeStats(g.tree);
-    writeFileAtomic(dir / "skeleton.ply", skeletonPly(g.tree));
-    writeFileAtomic(dir / "skeleton.swc", skeletonSwc(g.tree));
-    writePreviewPng(g.tree, dir / "preview.png", 1024);
-    nlohmann::json j = toJson(stats);
-    for (const auto& [k, v] : g.methodStats) j[k] = v;
-    nlohmann::json rec = {{"species", species.name},
-                          {"seed", seed},
-                          {"stats", j},
-                          {"params", g.sampled},
-                          {"grow_ms", ms}};
-    writeFileAtomic(dir / "stats.json", rec.dump(2) + "\n");
+    const GrowOneResult r = growOne(speciesPath, seed, out);
     std::printf(
         "%s seed %llu: %lld nodes, %lld endpoints, height %.2f m, crown width %.2f m, "
         "%.1f ms -> %s\n",
-        species.name.c_str(), static_cast<unsigned long long>(seed),
-        static_cast<long long>(stats.nodes), static_cast<long long>(stats.endpoints), stats.height,
-        stats.crownWidth, ms, dir.string().c_str());
+        r.species.c_str(), static_cast<unsigned long long>(seed),
+        static_cast<long long>(r.stats.nodes), static_cast<long long>(r.stats.endpoints),
+        r.stats.height, r.stats.crownWidth, r.growMs, r.dir.string().c_str());
     return 0;
 }
 
@@ -121,13 +94,7 @@ int runValidate(const std::string& path) {
 int runVolume(const std::string& speciesPath, const VolumeOutputOptions& options, std::string out) {
     fs::path dir = out;
     if (dir.empty()) dir = fs::path("out") / "volume" / loadSpecies(speciesPath).name;
-    VolumeOutputResult r;
-    try {
-        r = writeSpeciesVolumes(speciesPath, dir, options);
-    } catch (const std::invalid_argument& e) {  // a voxel size too fine: bad input
-        std::fprintf(stderr, "sylva: %s\n", e.what());
-        return 2;
-    }
+    const VolumeOutputResult r = writeSpeciesVolumes(speciesPath, dir, options);
     std::printf("%s seed %llu: %zu volume(s), species parsed in %.1f ms -> %s\n", r.species.c_str(),
                 static_cast<unsigned long long>(options.seed), r.volumes.size(), r.parseMs,
                 dir.string().c_str());
@@ -155,13 +122,7 @@ int runSpeciesList(std::string dir) {
         fs::path rel = found->lexically_relative(fs::current_path(ec));
         d = !ec && !rel.empty() && *rel.begin() != ".." ? rel : *found;
     }
-    std::vector<SpeciesListEntry> entries;
-    try {
-        entries = listSpecies(d);
-    } catch (const std::runtime_error& e) {
-        std::fprintf(stderr, "sylva: species list: %s\n", e.what());
-        return 2;
-    }
+    const std::vector<SpeciesListEntry> entries = listSpecies(d);
     std::fputs(formatSpeciesList(entries).c_str(), stdout);
     size_t failed = std::count_if(entries.begin(), entries.end(),
                                   [](const SpeciesListEntry& e) { return !e.error.empty(); });
@@ -178,13 +139,8 @@ int runSpeciesList(std::string dir) {
 int runStats(const std::string& dir, bool noTiming) {
     DatasetStatsOptions o;
     o.timing = !noTiming;
-    try {
-        DatasetStatsResult r = computeDatasetStats(dir, o);
-        std::printf("%s", r.summary.c_str());
-    } catch (const DatasetStatsInputError& e) {
-        std::fprintf(stderr, "sylva: stats: %s\n", e.what());
-        return 2;
-    }
+    const DatasetStatsResult r = computeDatasetStats(dir, o);
+    std::printf("%s", r.summary.c_str());
     return 0;
 }
 
@@ -297,6 +253,10 @@ int main(int argc, char** argv) {
         app.exit(e);
         return 2;
     }
+    // The subcommand, as error messages name it.
+    std::string command;
+    for (const CLI::App* c : app.get_subcommands()) command = c->get_name();
+    if (*speciesList) command = "species list";
     try {
         if (*build) return runBuild(spec, out, threads, shard);
         if (*grow) return runGrow(speciesPath, seed, growOut, growThreads);
@@ -306,10 +266,13 @@ int main(int argc, char** argv) {
         if (*speciesList) return runSpeciesList(speciesDir);
         if (*report) return runReport(reportDir);
         if (*stats) return runStats(statsDir, statsNoTiming);
-    } catch (const SpecError& e) {
+    } catch (const SpecError& e) {  // file:line:col: key: what was expected
         std::fprintf(stderr, "%s\n", e.what());
         return 2;
-    } catch (const std::exception& e) {
+    } catch (const InputError& e) {  // other bad input: a directory, a command-line value
+        std::fprintf(stderr, "sylva: %s: %s\n", command.c_str(), e.what());
+        return 2;
+    } catch (const std::exception& e) {  // a runtime failure or a broken invariant
         std::fprintf(stderr, "sylva: error: %s\n", e.what());
         return 1;
     }

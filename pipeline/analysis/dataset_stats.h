@@ -13,12 +13,14 @@
 #include <string>
 #include <vector>
 
+#include "core/errors.h"
+
 namespace sylva {
 
 // Bad input for `sylva stats` (missing directory, no manifest, no complete record, a malformed
 // line that is not the last): the CLI prints the message and exits 2.
-struct DatasetStatsInputError : std::runtime_error {
-    using std::runtime_error::runtime_error;
+struct DatasetStatsInputError : InputError {
+    using InputError::InputError;
 };
 
 // Quantile of ascending `sorted` at probability q in [0,1]: linear interpolation between order

@@ -13,12 +13,14 @@
 #include <string>
 #include <vector>
 
+#include "core/errors.h"
+
 namespace sylva {
 
 // Bad input to merge (a shard missing, twice, from another spec, incomplete): nothing written.
-class MergeError : public std::runtime_error {
+class MergeError : public InputError {
   public:
-    using std::runtime_error::runtime_error;
+    using InputError::InputError;
 };
 
 struct MergeOptions {

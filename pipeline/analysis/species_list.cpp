@@ -65,7 +65,7 @@ std::optional<fs::path> speciesDirAbove(fs::path dir) {
 std::vector<SpeciesListEntry> listSpecies(const fs::path& dir) {
     std::error_code ec;
     if (!fs::is_directory(dir, ec)) {
-        throw std::runtime_error(dir.string() + ": not a directory");
+        throw InputError(dir.string() + ": not a directory");
     }
     std::vector<fs::path> files;
     for (auto it =

@@ -300,8 +300,8 @@ VolumeOutputResult writeSpeciesVolumes(const std::string& speciesPath, const fs:
     result.parseMs = msSince(t0);
     const auto named = method->volumes();
     if (named.empty())
-        throw std::runtime_error(species.path + ": method \"" + species.method +
-                                 "\" has no named volumes to write");
+        throw InputError(species.path + ": method \"" + species.method +
+                         "\" has no named volumes to write");
 
     // Voxel sizes first, so a bad --voxel fails before any work.
     std::vector<double> voxels;
@@ -310,7 +310,7 @@ VolumeOutputResult writeSpeciesVolumes(const std::string& speciesPath, const fs:
         const double largest = std::max({e.x, e.y, e.z});
         const double voxel = options.voxel > 0 ? options.voxel : largest / kDefaultDivisions;
         if (!(voxel > 0) || !std::isfinite(voxel))
-            throw std::invalid_argument("the " + name + " volume has no extent to voxelise");
+            throw InputError("the " + name + " volume has no extent to voxelise");
         const double pad = 2 * (kHalfWidth + 1);
         const double cells = (e.x / voxel + pad) * (e.y / voxel + pad) * (e.z / voxel + pad);
         if (!(cells <= kMaxVoxels)) {
@@ -318,7 +318,7 @@ VolumeOutputResult writeSpeciesVolumes(const std::string& speciesPath, const fs:
             std::snprintf(buf, sizeof buf,
                           "voxel %g m is too fine for the %s volume (%.3g voxels, over 2·10⁹)",
                           voxel, name.c_str(), cells);
-            throw std::invalid_argument(buf);
+            throw InputError(buf);  // a --voxel too fine
         }
         voxels.push_back(voxel);
     }

@@ -45,9 +45,8 @@ struct VolumeOutputResult {
 // Parses the species (its draws seeded from options.seed as `sylva grow` does), realises
 // every named volume of its growth method as a level set and a mesh, and only then writes,
 // each file atomically, into `dir`: <name>.vdb, <name>.ply, preview.png and volumes.json.
-// A species error throws SpecError and a voxel size that would give over 2·10⁹ voxels
-// throws std::invalid_argument, both before anything is written; a method without named
-// volumes throws std::runtime_error.
+// Bad input throws InputError before anything is written: a species error (SpecError), a
+// voxel size that would give over 2·10⁹ voxels, a method without named volumes.
 VolumeOutputResult writeSpeciesVolumes(const std::string& speciesPath,
                                        const std::filesystem::path& dir,
                                        const VolumeOutputOptions& options);
