@@ -1,0 +1,41 @@
+#include "pipeline/build/grow_one.h"
+
+#include <chrono>
+#include <nlohmann/json.hpp>
+
+#include "pipeline/formats/atomic_file.h"
+#include "pipeline/formats/skeleton_writers.h"
+#include "pipeline/formats/stats_json.h"
+#include "pipeline/formats/view_writers.h"
+#include "species/spec/species.h"
+
+namespace sylva {
+
+namespace fs = std::filesystem;
+
+GrowOneResult growOne(const std::string& speciesPath, uint64_t seed, const fs::path& dir) {
+    SpeciesFile species = loadSpecies(speciesPath);
+    validateSpecies(species, nullptr);
+    GrowOneResult r;
+    r.species = species.name;
+    r.dir = dir.empty() ? fs::path("out") / "grow" / species.name : dir;
+    const auto t0 = std::chrono::steady_clock::now();
+    GrownTree g = growSpecies(species, seed, nullptr, true);
+    r.growMs =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    r.stats = computeStats(g.tree);
+    writeFileAtomic(r.dir / "skeleton.ply", skeletonPly(g.tree));
+    writeFileAtomic(r.dir / "skeleton.swc", skeletonSwc(g.tree));
+    writePreviewPng(g.tree, r.dir / "preview.png", 1024);
+    nlohmann::json j = toJson(r.stats);
+    for (const auto& [k, v] : g.methodStats) j[k] = v;
+    const nlohmann::json rec = {{"species", species.name},
+                                {"seed", seed},
+                                {"stats", j},
+                                {"params", g.sampled},
+                                {"grow_ms", r.growMs}};
+    writeFileAtomic(r.dir / "stats.json", rec.dump(2) + "\n");
+    return r;
+}
+
+}  // namespace sylva
