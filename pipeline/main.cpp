@@ -147,11 +147,6 @@ int runStats(const std::string& dir, bool noTiming) {
 // Self-contained HTML report of a dataset directory -> DIR/report/index.html. Exit 2 when DIR
 // is not a dataset directory or its manifest holds no record.
 int runReport(const std::string& dir) {
-    if (!fs::exists(fs::path(dir) / "dataset.json")) {
-        std::fprintf(stderr, "sylva: report: %s: no dataset.json (not a dataset directory)\n",
-                     dir.c_str());
-        return 2;
-    }
     ReportResult r = writeReport(dir);
     std::printf("%s: %zu instances, %zu species, %zu metrics, %zu plots (%zu sweep) -> %s\n",
                 dir.c_str(), r.instances, r.species, r.metrics, r.plots, r.sweepPlots,

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/errors.h"
 #include "pipeline/analysis/dataset_stats.h"
 #include "pipeline/formats/atomic_file.h"
 
@@ -464,73 +465,82 @@ svg text { font: 11px system-ui, sans-serif; fill: #333; } svg text.label { font
 .note { color: #666; }
 )css";
 
-}  // namespace
-
-ReportResult writeReport(const fs::path& dir) {
-    if (!fs::exists(dir / "dataset.json")) {
-        throw std::runtime_error(dir.string() + ": no dataset.json (not a dataset directory)");
-    }
-    json info = json::parse(slurpFile(dir / "dataset.json"), nullptr, false);
-    if (info.is_discarded() || !info.is_object()) {
-        throw std::runtime_error((dir / "dataset.json").string() + ": not valid JSON");
-    }
-    size_t skipped = 0;
+// Everything the page is made of, read once: dataset.json, the manifest's records, species in
+// dataset.json order (then any others in manifest order), each metric's values per species.
+struct ReportData {
+    json info;
+    std::string name;
+    std::vector<Record> recs;
+    size_t skipped = 0;  // unreadable manifest lines
     std::set<std::string> perView;
-    std::vector<Record> recs = readManifest(dir, skipped, perView);
-    if (recs.empty()) throw std::runtime_error(dir.string() + ": the manifest has no record");
-
-    // Species in dataset.json order, then any others in manifest order.
     std::vector<std::string> species;
-    if (info.contains("species") && info["species"].is_array()) {
-        for (const auto& s : info["species"]) {
-            if (s.is_object() && s.contains("name") && s["name"].is_string())
-                species.push_back(s["name"].get<std::string>());
-        }
-    }
-    for (const Record& r : recs) {
-        if (std::find(species.begin(), species.end(), r.species) == species.end())
-            species.push_back(r.species);
-    }
     std::map<std::string, size_t> perSpeciesCount;
-    for (const Record& r : recs) ++perSpeciesCount[r.species];
-    species.erase(std::remove_if(species.begin(), species.end(),
-                                 [&](const std::string& s) { return !perSpeciesCount.count(s); }),
-                  species.end());
-
     // metric -> species -> values; constant metrics are listed, not plotted.
     std::map<std::string, std::map<std::string, std::vector<double>>> values;
-    for (const Record& r : recs) {
-        for (const auto& [k, v] : r.metrics) {
-            if (std::isfinite(v)) values[k][r.species].push_back(v);
+    std::vector<std::string> metrics, constant, timing;
+    bool anySweep = false;
+};
+
+// Reads the dataset directory; bad input (not a dataset, no record) throws InputError.
+ReportData readReportData(const fs::path& dir) {
+    ReportData d;
+    if (!fs::exists(dir / "dataset.json")) {
+        throw InputError(dir.string() + ": no dataset.json (not a dataset directory)");
+    }
+    d.info = json::parse(slurpFile(dir / "dataset.json"), nullptr, false);
+    if (d.info.is_discarded() || !d.info.is_object()) {
+        throw InputError((dir / "dataset.json").string() + ": not valid JSON");
+    }
+    d.recs = readManifest(dir, d.skipped, d.perView);
+    if (d.recs.empty()) throw InputError(dir.string() + ": the manifest has no record");
+    d.name = d.info.value("name", dir.filename().string());
+
+    if (d.info.contains("species") && d.info["species"].is_array()) {
+        for (const auto& s : d.info["species"]) {
+            if (s.is_object() && s.contains("name") && s["name"].is_string())
+                d.species.push_back(s["name"].get<std::string>());
         }
     }
-    std::vector<std::string> metrics, constant, timing;
-    for (const auto& [m, bySpecies] : values) {
+    for (const Record& r : d.recs) {
+        if (std::find(d.species.begin(), d.species.end(), r.species) == d.species.end())
+            d.species.push_back(r.species);
+    }
+    for (const Record& r : d.recs) ++d.perSpeciesCount[r.species];
+    d.species.erase(
+        std::remove_if(d.species.begin(), d.species.end(),
+                       [&](const std::string& s) { return !d.perSpeciesCount.count(s); }),
+        d.species.end());
+
+    for (const Record& r : d.recs) {
+        for (const auto& [k, v] : r.metrics) {
+            if (std::isfinite(v)) d.values[k][r.species].push_back(v);
+        }
+    }
+    for (const auto& [m, bySpecies] : d.values) {
         double lo = INFINITY, hi = -INFINITY;
         for (const auto& [s, v] : bySpecies)
             for (double x : v) lo = std::min(lo, x), hi = std::max(hi, x);
         if (m.rfind("timing.", 0) == 0) {
-            timing.push_back(m);
+            d.timing.push_back(m);
         } else if (hi > lo) {
-            metrics.push_back(m);
+            d.metrics.push_back(m);
         } else {
-            constant.push_back(m + " = " + num(lo));
+            d.constant.push_back(m + " = " + num(lo));
         }
     }
+    d.anySweep =
+        std::any_of(d.recs.begin(), d.recs.end(), [](const Record& r) { return !r.sweep.empty(); });
+    return d;
+}
 
-    ReportResult result;
-    result.instances = recs.size();
-    result.species = species.size();
-    result.metrics = metrics.size();
-
-    std::ostringstream h;
-    std::string name = info.value("name", dir.filename().string());
+// The page head, the title and the section index.
+void writeHead(std::ostream& h, const ReportData& d, const fs::path& dir) {
     h << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>sylva "
          "report: "
-      << esc(name) << "</title>\n<style>" << kCss << "</style>\n</head>\n<body>\n";
-    h << "<h1>" << esc(name) << "</h1>\n";
-    if (info.contains("description") && info["description"].is_string())
-        h << "<p>" << esc(info["description"].get<std::string>()) << "</p>\n";
+      << esc(d.name) << "</title>\n<style>" << kCss << "</style>\n</head>\n<body>\n";
+    h << "<h1>" << esc(d.name) << "</h1>\n";
+    if (d.info.contains("description") && d.info["description"].is_string())
+        h << "<p>" << esc(d.info["description"].get<std::string>()) << "</p>\n";
     h << "<p class=\"note\">Written by <code>sylva report</code> from <a "
          "href=\"../dataset.json\">dataset.json</a>";
     if (fs::exists(dir / "manifest.jsonl"))
@@ -538,12 +548,12 @@ ReportResult writeReport(const fs::path& dir) {
     h << ". Sections: <a href=\"#facts\">facts</a> · <a href=\"#sheets\">contact sheets</a> · <a "
          "href=\"#summary\">summary</a> · <a href=\"#distributions\">distributions</a> · <a "
          "href=\"#compare\">comparison</a>";
-    bool anySweep =
-        std::any_of(recs.begin(), recs.end(), [](const Record& r) { return !r.sweep.empty(); });
-    if (anySweep) h << " · <a href=\"#sweeps\">sweeps</a>";
+    if (d.anySweep) h << " · <a href=\"#sweeps\">sweeps</a>";
     h << "</p>\n";
+}
 
-    // --- facts
+// The dataset's facts (dataset.json), the mean timings per species and the species table.
+void writeFacts(std::ostream& h, const ReportData& d) {
     h << "<h2 id=\"facts\">Dataset</h2>\n<table class=\"facts\">\n";
     auto fact = [&](const std::string& k, const std::string& v) {
         h << "<tr><td>" << esc(k) << "</td><td class=\"l\">" << esc(v) << "</td></tr>\n";
@@ -554,50 +564,51 @@ ReportResult writeReport(const fs::path& dir) {
         return v.dump();
     };
     for (const char* k : {"name", "seed", "fingerprint", "status", "threads"}) {
-        if (info.contains(k)) fact(k, scalar(info[k]));
+        if (d.info.contains(k)) fact(k, scalar(d.info[k]));
     }
-    if (info.contains("wall_seconds") && info["wall_seconds"].is_number())
-        fact("build time", num(info["wall_seconds"].get<double>(), 4) + " s");
-    if (info.contains("trees_per_second") && info["trees_per_second"].is_number())
-        fact("throughput", num(info["trees_per_second"].get<double>(), 4) + " trees/s");
-    if (info.contains("shard") && info["shard"].is_object())
-        fact("shard", std::to_string(info["shard"].value("index", 0)) + " of " +
-                          std::to_string(info["shard"].value("count", 1)));
-    if (info.contains("counts") && info["counts"].is_object()) {
-        for (const auto& [k, v] : info["counts"].items()) fact("count: " + k, scalar(v));
+    if (d.info.contains("wall_seconds") && d.info["wall_seconds"].is_number())
+        fact("build time", num(d.info["wall_seconds"].get<double>(), 4) + " s");
+    if (d.info.contains("trees_per_second") && d.info["trees_per_second"].is_number())
+        fact("throughput", num(d.info["trees_per_second"].get<double>(), 4) + " trees/s");
+    if (d.info.contains("shard") && d.info["shard"].is_object())
+        fact("shard", std::to_string(d.info["shard"].value("index", 0)) + " of " +
+                          std::to_string(d.info["shard"].value("count", 1)));
+    if (d.info.contains("counts") && d.info["counts"].is_object()) {
+        for (const auto& [k, v] : d.info["counts"].items()) fact("count: " + k, scalar(v));
     }
     fact("manifest records read",
-         std::to_string(recs.size()) +
-             (skipped ? " (" + std::to_string(skipped) + " unreadable lines skipped)"
-                      : std::string()));
-    if (info.contains("versions") && info["versions"].is_object()) {
+         std::to_string(d.recs.size()) +
+             (d.skipped ? " (" + std::to_string(d.skipped) + " unreadable lines skipped)"
+                        : std::string()));
+    if (d.info.contains("versions") && d.info["versions"].is_object()) {
         std::string v;
-        for (const auto& [k, x] : info["versions"].items())
+        for (const auto& [k, x] : d.info["versions"].items())
             v += (v.empty() ? "" : ", ") + k + " " + scalar(x);
         fact("versions", v);
     }
     h << "</table>\n";
-    if (!timing.empty()) {
+    if (!d.timing.empty()) {
         h << "<table><tr><th class=\"l\">species</th>";
-        for (const auto& t : timing) h << "<th>mean " << esc(t.substr(7)) << "</th>";
+        for (const auto& t : d.timing) h << "<th>mean " << esc(t.substr(7)) << "</th>";
         h << "</tr>\n";
-        for (const auto& s : species) {
+        for (const auto& s : d.species) {
             h << "<tr><td class=\"l\">" << esc(s) << "</td>";
-            for (const auto& t : timing) {
-                auto it = values[t].find(s);
+            for (const auto& t : d.timing) {
+                auto it = d.values.at(t).find(s);
                 h << "<td>"
-                  << (it == values[t].end() ? "–" : num(plotSummary(it->second).mean, 3) + " ms")
+                  << (it == d.values.at(t).end() ? "–"
+                                                 : num(plotSummary(it->second).mean, 3) + " ms")
                   << "</td>";
             }
             h << "</tr>\n";
         }
         h << "</table>\n";
     }
-    if (info.contains("species") && info["species"].is_array()) {
+    if (d.info.contains("species") && d.info["species"].is_array()) {
         h << "<table><tr><th class=\"l\">species</th><th class=\"l\">method</th><th>count</th>"
              "<th>sweep points</th><th class=\"l\">file</th><th "
              "class=\"l\">description</th></tr>\n";
-        for (const auto& s : info["species"]) {
+        for (const auto& s : d.info["species"]) {
             if (!s.is_object()) continue;
             h << "<tr><td class=\"l\">" << esc(s.contains("name") ? scalar(s["name"]) : "")
               << "</td><td class=\"l\">" << esc(s.contains("method") ? scalar(s["method"]) : "")
@@ -609,14 +620,16 @@ ReportResult writeReport(const fs::path& dir) {
         }
         h << "</table>\n";
     }
+}
 
-    // --- contact sheets
+// The species contact sheets, linked relatively (../contact/<species>.png).
+void writeContactSheets(std::ostream& h, const ReportData& d, const fs::path& dir) {
     h << "<h2 id=\"sheets\">Contact sheets</h2>\n<div class=\"sheets\">\n";
-    for (const auto& s : species) {
+    for (const auto& s : d.species) {
         if (fs::exists(dir / "contact" / (s + ".png"))) {
             std::string src = "../contact/" + urlSegment(s) + ".png";
             h << "<figure><a href=\"" << src << "\"><img src=\"" << src << "\" alt=\"" << esc(s)
-              << " contact sheet\"></a><figcaption>" << esc(s) << " (" << perSpeciesCount[s]
+              << " contact sheet\"></a><figcaption>" << esc(s) << " (" << d.perSpeciesCount.at(s)
               << " instances)</figcaption></figure>\n";
         } else {
             h << "<p class=\"note\">" << esc(s) << ": no contact sheet (the dataset has no "
@@ -624,18 +637,21 @@ ReportResult writeReport(const fs::path& dir) {
         }
     }
     h << "</div>\n";
+}
 
-    // --- summary table
+// mean ± sd (median) of every plotted metric per species, and the constant metrics.
+void writeSummaryTable(std::ostream& h, const ReportData& d) {
     h << "<h2 id=\"summary\">Per-species summary</h2>\n<p class=\"note\">mean ± sd (median) of "
          "each metric; array metrics (one value per view) are averaged over the views first.</p>\n"
          "<table><tr><th class=\"l\">metric</th>";
-    for (const auto& s : species) h << "<th>" << esc(s) << " (n " << perSpeciesCount[s] << ")</th>";
+    for (const auto& s : d.species)
+        h << "<th>" << esc(s) << " (n " << d.perSpeciesCount.at(s) << ")</th>";
     h << "</tr>\n";
-    for (const auto& m : metrics) {
-        h << "<tr><td class=\"l\">" << esc(axisTitle(m, perView)) << "</td>";
-        for (const auto& s : species) {
-            auto it = values[m].find(s);
-            if (it == values[m].end()) {
+    for (const auto& m : d.metrics) {
+        h << "<tr><td class=\"l\">" << esc(axisTitle(m, d.perView)) << "</td>";
+        for (const auto& s : d.species) {
+            auto it = d.values.at(m).find(s);
+            if (it == d.values.at(m).end()) {
                 h << "<td>–</td>";
                 continue;
             }
@@ -645,29 +661,35 @@ ReportResult writeReport(const fs::path& dir) {
         h << "</tr>\n";
     }
     h << "</table>\n";
-    if (!constant.empty()) {
+    if (!d.constant.empty()) {
         h << "<p class=\"note\">Constant over the whole dataset (not plotted): ";
-        for (size_t i = 0; i < constant.size(); ++i) h << (i ? ", " : "") << esc(constant[i]);
+        for (size_t i = 0; i < d.constant.size(); ++i) h << (i ? ", " : "") << esc(d.constant[i]);
         h << ".</p>\n";
     }
+}
 
-    // --- distributions
+// A box plot per metric, timings last; returns the number of plots.
+size_t writeDistributions(std::ostream& h, const ReportData& d) {
+    size_t plots = 0;
     h << "<h2 id=\"distributions\">Distributions</h2>\n<p class=\"note\">Box: q25–q75; thick "
          "line: median; whiskers: q05–q95; diamond: mean; dots: instances (only those past the "
          "whiskers above 300 per species).</p>\n<div class=\"plots\">\n";
-    for (const auto& m : metrics) {
-        h << boxPlotSvg(m, species, values[m], perView);
-        ++result.plots;
+    for (const auto& m : d.metrics) {
+        h << boxPlotSvg(m, d.species, d.values.at(m), d.perView);
+        ++plots;
     }
-    for (const auto& m : timing) {
-        h << boxPlotSvg(m, species, values[m], perView);
-        ++result.plots;
+    for (const auto& m : d.timing) {
+        h << boxPlotSvg(m, d.species, d.values.at(m), d.perView);
+        ++plots;
     }
     h << "</div>\n";
+    return plots;
+}
 
-    // --- comparison
+// For every pair of species, the five metrics that separate them best (KS D, then W1).
+void writeComparison(std::ostream& h, const ReportData& d) {
     h << "<h2 id=\"compare\">Species comparison</h2>\n";
-    if (species.size() < 2) {
+    if (d.species.size() < 2) {
         h << "<p class=\"note\">One species: nothing to compare.</p>\n";
     } else {
         h << "<p class=\"note\">For every pair of species, the five metrics that separate them "
@@ -677,16 +699,17 @@ ReportResult writeReport(const fs::path& dir) {
              "unit.</p>\n<table><tr><th class=\"l\">species a</th><th class=\"l\">species "
              "b</th><th class=\"l\">metric</th><th>mean a</th><th>mean b</th><th>KS D</th>"
              "<th>p</th><th>W1</th></tr>\n";
-        for (size_t a = 0; a < species.size(); ++a) {
-            for (size_t b = a + 1; b < species.size(); ++b) {
+        for (size_t a = 0; a < d.species.size(); ++a) {
+            for (size_t b = a + 1; b < d.species.size(); ++b) {
                 struct Row {
                     std::string m;
                     double d, w, ma, mb, p, effect;
                 };
                 std::vector<Row> rows;
-                for (const auto& m : metrics) {
-                    auto ia = values[m].find(species[a]), ib = values[m].find(species[b]);
-                    if (ia == values[m].end() || ib == values[m].end()) continue;
+                for (const auto& m : d.metrics) {
+                    auto ia = d.values.at(m).find(d.species[a]),
+                         ib = d.values.at(m).find(d.species[b]);
+                    if (ia == d.values.at(m).end() || ib == d.values.at(m).end()) continue;
                     std::vector<double> xa = ia->second, xb = ib->second;
                     std::sort(xa.begin(), xa.end());
                     std::sort(xb.begin(), xb.end());
@@ -706,7 +729,7 @@ ReportResult writeReport(const fs::path& dir) {
                     const Row& r = rows[i];
                     std::string u = metricUnit(r.m);
                     h << "<tr" << (i == 0 ? " class=\"top\"" : "") << "><td class=\"l\">"
-                      << esc(species[a]) << "</td><td class=\"l\">" << esc(species[b])
+                      << esc(d.species[a]) << "</td><td class=\"l\">" << esc(d.species[b])
                       << "</td><td class=\"l\">" << esc(r.m) << "</td><td>" << num(r.ma)
                       << "</td><td>" << num(r.mb) << "</td><td"
                       << (r.d >= 0.5 ? " class=\"strong\"" : "") << ">" << num(r.d, 3)
@@ -717,90 +740,115 @@ ReportResult writeReport(const fs::path& dir) {
         }
         h << "</table>\n";
     }
+}
 
-    // --- sweeps
-    if (anySweep) {
-        h << "<h2 id=\"sweeps\">Sweeps</h2>\n<p class=\"note\">Per species and swept path: the "
-             "mean of each metric against the swept value (line), ±1 sd (band); the four "
-             "metrics whose means vary most with the value (largest share of variance between "
-             "sweep points) are shown.</p>\n";
-        for (const auto& s : species) {
-            std::set<std::string> paths;
-            for (const Record& r : recs)
-                if (r.species == s)
-                    for (const auto& kv : r.sweep) paths.insert(kv.first);
-            for (const auto& path : paths) {
-                std::map<std::string, std::vector<const Record*>> groups;
-                for (const Record& r : recs) {
-                    auto it = r.sweep.find(path);
-                    if (r.species == s && it != r.sweep.end()) groups[it->second].push_back(&r);
-                }
-                if (groups.size() < 2) continue;
-                bool numericX = true;
-                std::vector<std::pair<double, std::string>> order;
-                for (const auto& g : groups) {
-                    char* end = nullptr;
-                    double x = std::strtod(g.first.c_str(), &end);
-                    if (end == g.first.c_str() || *end != '\0' || !std::isfinite(x))
-                        numericX = false;
-                    order.emplace_back(x, g.first);
-                }
-                if (numericX) std::sort(order.begin(), order.end());
-                struct Scored {
-                    double eta2;
-                    std::string m;
-                    std::vector<SweepPoint> pts;
-                };
-                std::vector<Scored> scored;
-                for (const auto& m : metrics) {
-                    std::vector<SweepPoint> pts;
-                    std::vector<double> all;
-                    for (const auto& [x, label] : order) {
-                        std::vector<double> v;
-                        for (const Record* r : groups[label]) {
-                            auto it = r->metrics.find(m);
-                            if (it != r->metrics.end() && std::isfinite(it->second))
-                                v.push_back(it->second);
-                        }
-                        if (v.empty()) continue;
-                        all.insert(all.end(), v.begin(), v.end());
-                        pts.push_back({label, x, plotSummary(v)});
-                    }
-                    if (pts.size() < 2) continue;
-                    double grand = std::accumulate(all.begin(), all.end(), 0.0) /
-                                   static_cast<double>(all.size());
-                    double total = 0, between = 0;
-                    for (double v : all) total += (v - grand) * (v - grand);
-                    for (const auto& p : pts)
-                        between +=
-                            static_cast<double>(p.s.n) * (p.s.mean - grand) * (p.s.mean - grand);
-                    if (total <= 0) continue;
-                    scored.push_back({between / total, m, std::move(pts)});
-                }
-                std::stable_sort(scored.begin(), scored.end(),
-                                 [](const Scored& x, const Scored& y) { return x.eta2 > y.eta2; });
-                if (scored.size() > 4) scored.resize(4);
-                h << "<h3>" << esc(s) << " · " << esc(path) << "</h3>\n<div class=\"plots\">\n";
-                for (const auto& sc : scored) {
-                    h << sweepSvg(s, path, sc.m, sc.pts, numericX, perView);
-                    ++result.plots;
-                    ++result.sweepPlots;
-                }
-                h << "</div>\n";
+// Per species and swept path, the four metrics whose means vary most with the swept value;
+// returns the number of plots.
+size_t writeSweeps(std::ostream& h, const ReportData& d) {
+    size_t plots = 0;
+    h << "<h2 id=\"sweeps\">Sweeps</h2>\n<p class=\"note\">Per species and swept path: the "
+         "mean of each metric against the swept value (line), ±1 sd (band); the four "
+         "metrics whose means vary most with the value (largest share of variance between "
+         "sweep points) are shown.</p>\n";
+    for (const auto& s : d.species) {
+        std::set<std::string> paths;
+        for (const Record& r : d.recs)
+            if (r.species == s)
+                for (const auto& kv : r.sweep) paths.insert(kv.first);
+        for (const auto& path : paths) {
+            std::map<std::string, std::vector<const Record*>> groups;
+            for (const Record& r : d.recs) {
+                auto it = r.sweep.find(path);
+                if (r.species == s && it != r.sweep.end()) groups[it->second].push_back(&r);
             }
+            if (groups.size() < 2) continue;
+            bool numericX = true;
+            std::vector<std::pair<double, std::string>> order;
+            for (const auto& g : groups) {
+                char* end = nullptr;
+                double x = std::strtod(g.first.c_str(), &end);
+                if (end == g.first.c_str() || *end != '\0' || !std::isfinite(x)) numericX = false;
+                order.emplace_back(x, g.first);
+            }
+            if (numericX) std::sort(order.begin(), order.end());
+            struct Scored {
+                double eta2;
+                std::string m;
+                std::vector<SweepPoint> pts;
+            };
+            std::vector<Scored> scored;
+            for (const auto& m : d.metrics) {
+                std::vector<SweepPoint> pts;
+                std::vector<double> all;
+                for (const auto& [x, label] : order) {
+                    std::vector<double> v;
+                    for (const Record* r : groups[label]) {
+                        auto it = r->metrics.find(m);
+                        if (it != r->metrics.end() && std::isfinite(it->second))
+                            v.push_back(it->second);
+                    }
+                    if (v.empty()) continue;
+                    all.insert(all.end(), v.begin(), v.end());
+                    pts.push_back({label, x, plotSummary(v)});
+                }
+                if (pts.size() < 2) continue;
+                double grand =
+                    std::accumulate(all.begin(), all.end(), 0.0) / static_cast<double>(all.size());
+                double total = 0, between = 0;
+                for (double v : all) total += (v - grand) * (v - grand);
+                for (const auto& p : pts)
+                    between += static_cast<double>(p.s.n) * (p.s.mean - grand) * (p.s.mean - grand);
+                if (total <= 0) continue;
+                scored.push_back({between / total, m, std::move(pts)});
+            }
+            std::stable_sort(scored.begin(), scored.end(),
+                             [](const Scored& x, const Scored& y) { return x.eta2 > y.eta2; });
+            if (scored.size() > 4) scored.resize(4);
+            h << "<h3>" << esc(s) << " · " << esc(path) << "</h3>\n<div class=\"plots\">\n";
+            for (const auto& sc : scored) {
+                h << sweepSvg(s, path, sc.m, sc.pts, numericX, d.perView);
+                ++plots;
+            }
+            h << "</div>\n";
         }
     }
-    h << "</body>\n</html>\n";
+    return plots;
+}
 
-    std::string html = h.str();
-    const fs::path reportDir = dir / "report";
-    fs::create_directories(reportDir);  // so "../x" resolves through it
+// Every relative link of the page resolves from `reportDir` (created, so "../x" resolves).
+void checkLinks(const std::string& html, const fs::path& reportDir) {
+    fs::create_directories(reportDir);
     for (const std::string& link : relativeLinks(html)) {
         std::string file = urlDecode(link.substr(0, link.find_first_of("#?")));
         if (!fs::exists(reportDir / file)) {
             throw std::runtime_error("report: the link \"" + link + "\" does not resolve");
         }
     }
+}
+
+}  // namespace
+
+ReportResult writeReport(const fs::path& dir) {
+    const ReportData d = readReportData(dir);
+    ReportResult result;
+    result.instances = d.recs.size();
+    result.species = d.species.size();
+    result.metrics = d.metrics.size();
+    std::ostringstream h;
+    writeHead(h, d, dir);
+    writeFacts(h, d);
+    writeContactSheets(h, d, dir);
+    writeSummaryTable(h, d);
+    result.plots += writeDistributions(h, d);
+    writeComparison(h, d);
+    if (d.anySweep) {
+        result.sweepPlots = writeSweeps(h, d);
+        result.plots += result.sweepPlots;
+    }
+    h << "</body>\n</html>\n";
+    const std::string html = h.str();
+    const fs::path reportDir = dir / "report";
+    checkLinks(html, reportDir);
     result.index = reportDir / "index.html";
     writeFileAtomic(result.index, html);
     return result;
