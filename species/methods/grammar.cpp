@@ -105,309 +105,362 @@ double valueNoise3(const Vec3& p, uint64_t seed) {
     return lerp(lerp(c[0][0], c[1][0], v), lerp(c[0][1], c[1][1], v), w);
 }
 
-Tree growGrammar(const GrammarOptions& o, Rng& rng, GrammarStats* statsOut,
-                 std::vector<GrammarStem>* stemsOut) {
+namespace {
+
+// One tree's derivation in progress: the queue of outputs still to draw, the stems drawn so
+// far with their sampled curves, and the skeleton they make.
+struct Derivation {
+    const GrammarOptions& o;
+    Rng& rng;
+    int maxDepth;       // D, or the internal cap when unbounded
+    double trunkWidth;  // W, drawn once per tree
+    uint64_t noiseSeed;
+    Tree tree;
     GrammarStats stats;
+    std::vector<Pending> queue;
     std::vector<GrammarStem> stems;
     std::vector<StemCurve> curves;
-    Tree tree;
+};
 
-    const int maxDepth = o.maxDepth > 0 ? o.maxDepth : GrammarOptions::kMaxLevels;
-    const double trunkWidth = rng.derive("trunk_width").uniform(o.trunkWidthLo, o.trunkWidthHi);
-    const uint64_t noiseSeed = hashCombine(rng.seed(), hashString("curve-noise"));
-
-    SkeletonNode root;
-    root.radius = 0.5 * trunkWidth;
-    tree.nodes.push_back(root);
-
-    std::vector<Pending> queue;
-    // Applies `state`'s rule for the stem `parent` (−1: the start rule) and queues the
-    // outputs; the alternative is drawn from the parent's own keyed stream.
-    auto expand = [&](int state, int parentStem, int level, int order, uint64_t key) {
-        const std::vector<GrammarAlternative>& alts = o.rules[state];
-        if (alts.empty()) return;
-        if (level >= maxDepth) {
-            ++stats.truncated;
-            return;
-        }
-        Rng pick = rng.derive(hashCombine(key, kRuleTag));
-        const double u = pick.uniform();
-        size_t a = 0;
-        for (double acc = alts[0].p; a + 1 < alts.size() && u >= acc; acc += alts[++a].p) {
-        }
-        const std::vector<int>& out = alts[a].out;
-        // Jain §3.1.2 Euler angles; "even" siblings share one random offset (our extension).
-        int evenCount = 0;
-        for (int s : out) {
-            if (!o.stop[s] && o.geometry(state, s).evenSpread) ++evenCount;
-        }
-        const double evenOffset = rng.derive(hashCombine(key, kEvenTag)).uniform(0.0, 2 * kPi);
-        int evenSlot = 0;
-        bool continued = false;
-        for (size_t i = 0; i < out.size(); ++i) {
-            const int s = out[i];
-            if (o.stop[s]) {
-                ++stats.stopStates;
-                continue;
-            }
-            Pending p;
-            p.state = s;
-            p.parentStem = parentStem;
-            p.level = level;
-            const bool continues = parentStem >= 0 && s == state && !continued;
-            if (continues) continued = true;
-            p.order = parentStem < 0 ? 0 : (continues ? order : order + 1);
-            p.key = hashCombine(key, i + 1);
-            p.even = o.geometry(state, s).evenSpread;
-            p.evenAngle = p.even ? evenOffset + 2 * kPi * evenSlot++ / evenCount : 0.0;
-            queue.push_back(p);
-        }
-    };
-
-    expand(o.start, -1, 0, 0, kRootKey);
-    for (size_t head = 0; head < queue.size(); ++head) {
-        const Pending pd = queue[head];
-        if (static_cast<int64_t>(stems.size()) >= o.maxStems) {
-            ++stats.truncated;
+// Jain §3.1.1: applies `state`'s rule for the stem `parentStem` (−1: the start rule) and
+// queues its outputs; the alternative is drawn from the parent's own keyed stream, and the
+// "even" siblings of one application share a random offset (our extension).
+void expand(Derivation& d, int state, int parentStem, int level, int order, uint64_t key) {
+    const GrammarOptions& o = d.o;
+    const std::vector<GrammarAlternative>& alts = o.rules[state];
+    if (alts.empty()) return;
+    if (level >= d.maxDepth) {
+        ++d.stats.truncated;
+        return;
+    }
+    Rng pick = d.rng.derive(hashCombine(key, kRuleTag));
+    const double u = pick.uniform();
+    size_t a = 0;
+    for (double acc = alts[0].p; a + 1 < alts.size() && u >= acc; acc += alts[++a].p) {
+    }
+    const std::vector<int>& out = alts[a].out;
+    int evenCount = 0;
+    for (int s : out) {
+        if (!o.stop[s] && o.geometry(state, s).evenSpread) ++evenCount;
+    }
+    const double evenOffset = d.rng.derive(hashCombine(key, kEvenTag)).uniform(0.0, 2 * kPi);
+    int evenSlot = 0;
+    bool continued = false;
+    for (size_t i = 0; i < out.size(); ++i) {
+        const int s = out[i];
+        if (o.stop[s]) {
+            ++d.stats.stopStates;
             continue;
         }
-        const int parentState = pd.parentStem >= 0 ? stems[pd.parentStem].state : o.start;
-        const GrammarGeometry& g = o.geometry(parentState, pd.state);
-        Rng r = rng.derive(pd.key);
-        const int c = pd.level;
-
-        // Draws, always in this order from the stem's own stream.
-        const double baseLength = r.uniform(g.lengthLo, g.lengthHi);
-        const double azimuthDraw = r.uniform(g.azimuthLo, g.azimuthHi);
-        const double tiltDraw = r.uniform(g.tiltLo, g.tiltHi);
-        const double rollDraw = r.uniform(g.rollLo, g.rollHi);
-        const double position = r.uniform(g.positionLo, g.positionHi);
-        const double curve = r.uniform(g.curveLo, g.curveHi);
-        const Vec3 noiseOrigin{r.uniform(0, 1000), r.uniform(0, 1000), r.uniform(0, 1000)};
-
-        // Jain §3.1.2: t_l = b_l · r_l^c and t_a = b_a · r_a^c.
-        const double len = baseLength * std::pow(g.reduceLength, c);
-        const double azimuth =
-            (pd.even ? pd.evenAngle : 0.0) + azimuthDraw * std::pow(g.reduceAngle.x, c);
-        const double tilt = tiltDraw * std::pow(g.reduceAngle.y, c);
-        const double roll = rollDraw * std::pow(g.reduceAngle.z, c);
-
-        // Attachment: the parent's sampled point nearest the drawn fraction of its length.
-        Vec3 base, parentT, parentN;
-        double w;
-        int32_t baseNode;
-        if (pd.parentStem < 0) {
-            base = {0, 0, 0};
-            parentT = {0, 1, 0};
-            parentN = {1, 0, 0};
-            w = trunkWidth;
-            baseNode = 0;
-        } else {
-            const StemCurve& pc = curves[pd.parentStem];
-            const int n = static_cast<int>(pc.point.size()) - 1;
-            // Index 0 is the grandparent's node: a child grows from one of its parent's own.
-            const int j = std::clamp(static_cast<int>(std::lround(position * n)), 1, n);
-            base = pc.point[j];
-            parentT = pc.tangent[j];
-            parentN = pc.normal[j];
-            w = pc.width[j];
-            baseNode = pc.node[j];
-        }
-        // Intrinsic Euler angles: azimuth about the parent's tangent, tilt away from it,
-        // roll about the new axis.
-        const Vec3 side = rotate(parentN, parentT, azimuth);
-        const Vec3 dir = normalize(parentT * std::cos(tilt) + side * std::sin(tilt));
-        const Vec3 refN =
-            rotate(normalize(parentT * -std::sin(tilt) + side * std::cos(tilt)), dir, roll);
-
-        // Centre line: a circular arc turning toward −y (tropism > 0) or +y, never past the
-        // vertical; then control points displaced by value noise ∝ curve · length.
-        double tau = g.tropism;
-        Vec3 bendAxis{0, 0, 0};
-        if (tau != 0.0) {
-            const Vec3 toward = tau > 0 ? Vec3{0, -1, 0} : Vec3{0, 1, 0};
-            const Vec3 k = cross(dir, toward);
-            if (length(k) < 1e-9) {
-                tau = 0.0;
-            } else {
-                bendAxis = normalize(k);
-                tau = std::min(std::abs(tau), angleBetween(dir, toward));
-            }
-        }
-        const int m = std::max(2, g.controlPoints);
-        std::vector<Vec3> ctrl(m);
-        const Vec3 bendTo = cross(bendAxis, dir);
-        for (int k = 0; k < m; ++k) {
-            const double s = len * k / (m - 1);
-            Vec3 p;
-            if (tau < 1e-9) {
-                p = base + dir * s;
-            } else {
-                const double phi = tau * s / len;
-                p = base + dir * (std::sin(phi) * len / tau) +
-                    bendTo * ((1.0 - std::cos(phi)) * len / tau);
-            }
-            if (curve > 0 && k > 0) {
-                const Vec3 q = noiseOrigin + Vec3{0.6 * k, 0.0, 0.0};
-                const Vec3 n{valueNoise3(q, noiseSeed),
-                             valueNoise3(q + Vec3{31.7, 0, 0}, noiseSeed),
-                             valueNoise3(q + Vec3{0, 57.3, 0}, noiseSeed)};
-                p += n * (curve * len * k / (m - 1));
-            }
-            ctrl[k] = p;
-        }
-
-        int segments = std::max(1, static_cast<int>(std::ceil(len / o.segmentLength - 1e-9)));
-        if (curve > 0 || tau > 0) segments = std::max(segments, 2 * (m - 1));
-
-        StemCurve sc;
-        GrammarStem st;
-        st.state = pd.state;
-        st.parent = pd.parentStem;
-        st.level = c;
-        st.order = pd.order;
-        st.key = pd.key;
-        st.baseNode = baseNode;
-        st.length = len;
-        st.direction = dir;
-        st.parentTangent = parentT;
-        st.widthBegin = w * g.reduceWidthBegin;
-        st.widthEnd = w * g.reduceWidthEnd;
-
-        Vec3 prevN = refN;
-        for (int i = 0; i <= segments; ++i) {
-            Vec3 pos, der;
-            catmullRom(ctrl, static_cast<double>(i) * (m - 1) / segments, pos, der);
-            if (i == 0) pos = base;
-            const Vec3 t = length(der) > 1e-12 ? normalize(der) : dir;
-            Vec3 nn = prevN - t * dot(prevN, t);  // parallel transport of the reference
-            nn = length(nn) > 1e-9 ? normalize(nn) : anyPerpendicular(t);
-            prevN = nn;
-            const double width =
-                lerp(st.widthBegin, st.widthEnd, static_cast<double>(i) / segments);
-            int32_t node = baseNode;
-            if (i > 0) {
-                SkeletonNode sn;
-                sn.position = pos;
-                sn.radius = 0.5 * width;
-                sn.parent = i == 1 ? baseNode : static_cast<int32_t>(tree.nodes.size()) - 1;
-                sn.order = pd.order;
-                sn.level = c;
-                node = static_cast<int32_t>(tree.nodes.size());
-                tree.nodes.push_back(sn);
-                st.nodes.push_back(node);
-            }
-            sc.point.push_back(pos);
-            sc.tangent.push_back(t);
-            sc.normal.push_back(nn);
-            sc.width.push_back(width);
-            sc.node.push_back(node);
-        }
-        tree.endpoints.push_back(st.nodes.back());
-        stats.depthReached = std::max(stats.depthReached, c + 1);
-        const int stemIndex = static_cast<int>(stems.size());
-        stems.push_back(std::move(st));
-        curves.push_back(std::move(sc));
-        expand(pd.state, stemIndex, c + 1, pd.order, pd.key);
+        Pending p;
+        p.state = s;
+        p.parentStem = parentStem;
+        p.level = level;
+        const bool continues = parentStem >= 0 && s == state && !continued;
+        if (continues) continued = true;
+        p.order = parentStem < 0 ? 0 : (continues ? order : order + 1);
+        p.key = hashCombine(key, i + 1);
+        p.even = o.geometry(state, s).evenSpread;
+        p.evenAngle = p.even ? evenOffset + 2 * kPi * evenSlot++ / evenCount : 0.0;
+        d.queue.push_back(p);
     }
-    stats.stems = static_cast<int64_t>(stems.size());
+}
 
-    // Jain §3.2: particle leaves along each stem's spline, lighter and smaller higher up.
+// Where a stem grows from: the parent's sampled point nearest the drawn fraction of its
+// length (never the parent's base, which is the grandparent's node), or the ground point.
+struct Attachment {
+    Vec3 base, tangent, normal;
+    double width;  // the parent's width there, metres
+    int32_t node;
+};
+Attachment attachment(const Derivation& d, int parentStem, double position) {
+    if (parentStem < 0) return {{0, 0, 0}, {0, 1, 0}, {1, 0, 0}, d.trunkWidth, 0};
+    const StemCurve& pc = d.curves[parentStem];
+    const int n = static_cast<int>(pc.point.size()) - 1;
+    const int j = std::clamp(static_cast<int>(std::lround(position * n)), 1, n);
+    return {pc.point[j], pc.tangent[j], pc.normal[j], pc.width[j], pc.node[j]};
+}
+
+// The stem's control points: a circular arc from `base` along `dir` turning toward −y
+// (tropism > 0) or +y, never past the vertical; then displaced by smooth value noise
+// ∝ curve · length (Jain §3.1.2's noisy spline). `tau` returns the turn actually used.
+std::vector<Vec3> controlPoints(const Derivation& d, const GrammarGeometry& g, const Vec3& base,
+                                const Vec3& dir, double len, double curve, const Vec3& noiseOrigin,
+                                double& tau) {
+    tau = g.tropism;
+    Vec3 bendAxis{0, 0, 0};
+    if (tau != 0.0) {
+        const Vec3 toward = tau > 0 ? Vec3{0, -1, 0} : Vec3{0, 1, 0};
+        const Vec3 k = cross(dir, toward);
+        if (length(k) < 1e-9) {
+            tau = 0.0;
+        } else {
+            bendAxis = normalize(k);
+            tau = std::min(std::abs(tau), angleBetween(dir, toward));
+        }
+    }
+    const int m = std::max(2, g.controlPoints);
+    std::vector<Vec3> ctrl(m);
+    const Vec3 bendTo = cross(bendAxis, dir);
+    for (int k = 0; k < m; ++k) {
+        const double s = len * k / (m - 1);
+        Vec3 p;
+        if (tau < 1e-9) {
+            p = base + dir * s;
+        } else {
+            const double phi = tau * s / len;
+            p = base + dir * (std::sin(phi) * len / tau) +
+                bendTo * ((1.0 - std::cos(phi)) * len / tau);
+        }
+        if (curve > 0 && k > 0) {
+            const Vec3 q = noiseOrigin + Vec3{0.6 * k, 0.0, 0.0};
+            const Vec3 n{valueNoise3(q, d.noiseSeed),
+                         valueNoise3(q + Vec3{31.7, 0, 0}, d.noiseSeed),
+                         valueNoise3(q + Vec3{0, 57.3, 0}, d.noiseSeed)};
+            p += n * (curve * len * k / (m - 1));
+        }
+        ctrl[k] = p;
+    }
+    return ctrl;
+}
+
+// Samples the spline into the stem's skeleton nodes (every `segmentLength`, at least two per
+// control span when it bends), widths linear from begin to end, the reference normal carried
+// by parallel transport.
+StemCurve sampleStem(Derivation& d, const std::vector<Vec3>& ctrl, int segments,
+                     const Attachment& at, const Vec3& dir, const Vec3& refN, int order, int level,
+                     GrammarStem& st) {
+    const int m = static_cast<int>(ctrl.size());
+    StemCurve sc;
+    Vec3 prevN = refN;
+    for (int i = 0; i <= segments; ++i) {
+        Vec3 pos, der;
+        catmullRom(ctrl, static_cast<double>(i) * (m - 1) / segments, pos, der);
+        if (i == 0) pos = at.base;
+        const Vec3 t = length(der) > 1e-12 ? normalize(der) : dir;
+        Vec3 nn = prevN - t * dot(prevN, t);  // parallel transport of the reference
+        nn = length(nn) > 1e-9 ? normalize(nn) : anyPerpendicular(t);
+        prevN = nn;
+        const double width = lerp(st.widthBegin, st.widthEnd, static_cast<double>(i) / segments);
+        int32_t node = at.node;
+        if (i > 0) {
+            SkeletonNode sn;
+            sn.position = pos;
+            sn.radius = 0.5 * width;
+            sn.parent = i == 1 ? at.node : static_cast<int32_t>(d.tree.nodes.size()) - 1;
+            sn.order = order;
+            sn.level = level;
+            node = static_cast<int32_t>(d.tree.nodes.size());
+            d.tree.nodes.push_back(sn);
+            st.nodes.push_back(node);
+        }
+        sc.point.push_back(pos);
+        sc.tangent.push_back(t);
+        sc.normal.push_back(nn);
+        sc.width.push_back(width);
+        sc.node.push_back(node);
+    }
+    return sc;
+}
+
+// Jain §3.1.2: draws the stem of one queued output with its transition's geometry — length
+// t_l = b_l·r_l^c, Euler angles t_a = b_a·r_a^c, attachment, noisy spline — adds its nodes to
+// the skeleton, then expands its own state's rule.
+void drawStem(Derivation& d, const Pending& pd) {
+    const GrammarOptions& o = d.o;
+    const int parentState = pd.parentStem >= 0 ? d.stems[pd.parentStem].state : o.start;
+    const GrammarGeometry& g = o.geometry(parentState, pd.state);
+    Rng r = d.rng.derive(pd.key);
+    const int c = pd.level;
+
+    // Draws, always in this order from the stem's own stream.
+    const double baseLength = r.uniform(g.lengthLo, g.lengthHi);
+    const double azimuthDraw = r.uniform(g.azimuthLo, g.azimuthHi);
+    const double tiltDraw = r.uniform(g.tiltLo, g.tiltHi);
+    const double rollDraw = r.uniform(g.rollLo, g.rollHi);
+    const double position = r.uniform(g.positionLo, g.positionHi);
+    const double curve = r.uniform(g.curveLo, g.curveHi);
+    const Vec3 noiseOrigin{r.uniform(0, 1000), r.uniform(0, 1000), r.uniform(0, 1000)};
+
+    const double len = baseLength * std::pow(g.reduceLength, c);
+    const double azimuth =
+        (pd.even ? pd.evenAngle : 0.0) + azimuthDraw * std::pow(g.reduceAngle.x, c);
+    const double tilt = tiltDraw * std::pow(g.reduceAngle.y, c);
+    const double roll = rollDraw * std::pow(g.reduceAngle.z, c);
+
+    const Attachment at = attachment(d, pd.parentStem, position);
+    // Intrinsic Euler angles: azimuth about the parent's tangent, tilt away from it, roll
+    // about the new axis.
+    const Vec3 side = rotate(at.normal, at.tangent, azimuth);
+    const Vec3 dir = normalize(at.tangent * std::cos(tilt) + side * std::sin(tilt));
+    const Vec3 refN =
+        rotate(normalize(at.tangent * -std::sin(tilt) + side * std::cos(tilt)), dir, roll);
+
+    double tau = 0.0;
+    const std::vector<Vec3> ctrl = controlPoints(d, g, at.base, dir, len, curve, noiseOrigin, tau);
+    const int m = static_cast<int>(ctrl.size());
+    int segments = std::max(1, static_cast<int>(std::ceil(len / o.segmentLength - 1e-9)));
+    if (curve > 0 || tau > 0) segments = std::max(segments, 2 * (m - 1));
+
+    GrammarStem st;
+    st.state = pd.state;
+    st.parent = pd.parentStem;
+    st.level = c;
+    st.order = pd.order;
+    st.key = pd.key;
+    st.baseNode = at.node;
+    st.length = len;
+    st.direction = dir;
+    st.parentTangent = at.tangent;
+    st.widthBegin = at.width * g.reduceWidthBegin;
+    st.widthEnd = at.width * g.reduceWidthEnd;
+    StemCurve sc = sampleStem(d, ctrl, segments, at, dir, refN, pd.order, c, st);
+
+    d.tree.endpoints.push_back(st.nodes.back());
+    d.stats.depthReached = std::max(d.stats.depthReached, c + 1);
+    const int stemIndex = static_cast<int>(d.stems.size());
+    d.stems.push_back(std::move(st));
+    d.curves.push_back(std::move(sc));
+    expand(d, pd.state, stemIndex, c + 1, pd.order, pd.key);
+}
+
+// A point at fraction a of a stem's sampled curve: position, tangent, normal, width, node.
+void pointAt(const StemCurve& sc, double a, Vec3& p, Vec3& t, Vec3& n, double& w, int32_t& node) {
+    const int segs = static_cast<int>(sc.point.size()) - 1;
+    const double x = std::clamp(a, 0.0, 1.0) * segs;
+    const int i = std::min(static_cast<int>(std::floor(x)), segs - 1);
+    const double f = x - i;
+    p = sc.point[i] + (sc.point[i + 1] - sc.point[i]) * f;
+    t = normalize(sc.tangent[i] * (1 - f) + sc.tangent[i + 1] * f);
+    n = sc.normal[i] * (1 - f) + sc.normal[i + 1] * f;
+    n = n - t * dot(n, t);
+    n = length(n) > 1e-9 ? normalize(n) : anyPerpendicular(t);
+    w = lerp(sc.width[i], sc.width[i + 1], f);
+    node = sc.node[f < 0.5 ? i : i + 1];
+}
+
+// The tree's height range, for the leaves' size and colour by relative height.
+struct HeightRange {
+    double lo, span;
+};
+HeightRange heightRange(const Tree& tree) {
     double yLo = 1e300, yHi = -1e300;
     for (const SkeletonNode& n : tree.nodes) {
         yLo = std::min(yLo, n.position.y);
         yHi = std::max(yHi, n.position.y);
     }
-    const double ySpan = std::max(1e-9, yHi - yLo);
-    const GrammarSeason& season = o.seasons[static_cast<int>(o.season)];
+    return {yLo, std::max(1e-9, yHi - yLo)};
+}
+
+// Jain §3.2: the particle leaves of one stem, lighter and smaller higher up; the season's
+// density keeps a subset (the first draw of each leaf decides its presence).
+void emitParticles(Derivation& d, size_t si, const HeightRange& y) {
+    const GrammarStem& st = d.stems[si];
+    const StemCurve& sc = d.curves[si];
+    const GrammarParticles& pp = d.o.particles[st.state];
+    const GrammarSeason& season = d.o.seasons[static_cast<int>(d.o.season)];
     const int classes = static_cast<int>(season.classes.size());
-
-    // A point at fraction a of a stem's sampled curve: position, tangent, normal, width, node.
-    auto pointAt = [](const StemCurve& sc, double a, Vec3& p, Vec3& t, Vec3& n, double& w,
-                      int32_t& node) {
-        const int segs = static_cast<int>(sc.point.size()) - 1;
-        const double x = std::clamp(a, 0.0, 1.0) * segs;
-        const int i = std::min(static_cast<int>(std::floor(x)), segs - 1);
-        const double f = x - i;
-        p = sc.point[i] + (sc.point[i + 1] - sc.point[i]) * f;
-        t = normalize(sc.tangent[i] * (1 - f) + sc.tangent[i + 1] * f);
-        n = sc.normal[i] * (1 - f) + sc.normal[i + 1] * f;
-        n = n - t * dot(n, t);
-        n = length(n) > 1e-9 ? normalize(n) : anyPerpendicular(t);
-        w = lerp(sc.width[i], sc.width[i + 1], f);
-        node = sc.node[f < 0.5 ? i : i + 1];
-    };
-
-    for (size_t si = 0; si < stems.size(); ++si) {
-        const GrammarStem& st = stems[si];
-        const StemCurve& sc = curves[si];
-        const GrammarParticles& pp = o.particles[st.state];
-        if (pp.enabled && st.level >= pp.minLevel && classes > 0 && season.density > 0) {
-            const Rng stream = rng.derive(hashCombine(st.key, kLeafTag));
-            for (int k = 0; k < pp.count; ++k) {
-                Rng lr = stream.derive(static_cast<uint64_t>(k));
-                // First draw decides presence: a sparser season keeps a subset of the leaves.
-                if (lr.uniform() >= season.density) continue;
-                const double a = lr.uniform(pp.alongLo, pp.alongHi);
-                // Around the stem: anywhere ("spiral"), or alternately on the two sides of the
-                // stem's plane (leaflets of a pinnate frond, distichous leaves).
-                const double uPsi = lr.uniform();
-                const double psi =
-                    pp.twoRows ? (k % 2 ? 0.5 : -0.5) * kPi + (uPsi - 0.5) * 0.5 * pp.randomness
+    if (!(pp.enabled && st.level >= pp.minLevel && classes > 0 && season.density > 0)) return;
+    const Rng stream = d.rng.derive(hashCombine(st.key, kLeafTag));
+    for (int k = 0; k < pp.count; ++k) {
+        Rng lr = stream.derive(static_cast<uint64_t>(k));
+        if (lr.uniform() >= season.density) continue;
+        const double a = lr.uniform(pp.alongLo, pp.alongHi);
+        // Around the stem: anywhere ("spiral"), or alternately on the two sides of the stem's
+        // plane (leaflets of a pinnate frond, distichous leaves).
+        const double uPsi = lr.uniform();
+        const double psi = pp.twoRows
+                               ? (k % 2 ? 0.5 : -0.5) * kPi + (uPsi - 0.5) * 0.5 * pp.randomness
                                : uPsi * 2 * kPi;
-                const double uRot = lr.uniform(), uSize = lr.uniform(), uColour = lr.uniform();
-                Vec3 p, t, n;
-                double w;
-                int32_t node;
-                pointAt(sc, a, p, t, n, w, node);
-                const double h = std::clamp((p.y - yLo) / ySpan, 0.0, 1.0);
-                const double rho =
-                    lerp(pp.rotationLo, pp.rotationHi, lerp(0.5, uRot, pp.randomness));
-                const Vec3 side = rotate(n, t, psi);
-                Leaf leaf;
-                // Larger, older leaves low; smaller, newer leaves high (Jain §3.2).
-                leaf.size = lerp(pp.sizeHi, pp.sizeLo, lerp(h, uSize, pp.randomness));
-                leaf.aspect = pp.aspect;
-                leaf.tangent = normalize(t * std::cos(rho) + side * std::sin(rho));
-                leaf.normal = normalize(t * -std::sin(rho) + side * std::cos(rho));
-                leaf.position = p + side * (0.5 * w) + leaf.tangent * (0.5 * leaf.size);
-                const int ci = std::clamp(static_cast<int>(std::floor(h * classes - 0.5 + uColour)),
-                                          0, classes - 1);
-                leaf.colour = season.classes[ci];
-                leaf.node = node;
-                tree.leaves.push_back(leaf);
-                ++stats.leaves;
-            }
+        const double uRot = lr.uniform(), uSize = lr.uniform(), uColour = lr.uniform();
+        Vec3 p, t, n;
+        double w;
+        int32_t node;
+        pointAt(sc, a, p, t, n, w, node);
+        const double h = std::clamp((p.y - y.lo) / y.span, 0.0, 1.0);
+        const double rho = lerp(pp.rotationLo, pp.rotationHi, lerp(0.5, uRot, pp.randomness));
+        const Vec3 side = rotate(n, t, psi);
+        Leaf leaf;
+        // Larger, older leaves low; smaller, newer leaves high (Jain §3.2).
+        leaf.size = lerp(pp.sizeHi, pp.sizeLo, lerp(h, uSize, pp.randomness));
+        leaf.aspect = pp.aspect;
+        leaf.tangent = normalize(t * std::cos(rho) + side * std::sin(rho));
+        leaf.normal = normalize(t * -std::sin(rho) + side * std::cos(rho));
+        leaf.position = p + side * (0.5 * w) + leaf.tangent * (0.5 * leaf.size);
+        const int ci =
+            std::clamp(static_cast<int>(std::floor(h * classes - 0.5 + uColour)), 0, classes - 1);
+        leaf.colour = season.classes[ci];
+        leaf.node = node;
+        d.tree.leaves.push_back(leaf);
+        ++d.stats.leaves;
+    }
+}
+
+// The fruit or flower cards of one stem, hanging from it, in the seasons they appear.
+void emitFruit(Derivation& d, size_t si) {
+    const GrammarStem& st = d.stems[si];
+    const StemCurve& sc = d.curves[si];
+    const GrammarFruit& fr = d.o.fruit[st.state];
+    if (!(fr.enabled && st.level >= fr.minLevel && fr.seasons[static_cast<int>(d.o.season)])) {
+        return;
+    }
+    const Rng stream = d.rng.derive(hashCombine(st.key, kFruitTag));
+    for (int k = 0; k < fr.count; ++k) {
+        Rng fr2 = stream.derive(static_cast<uint64_t>(k));
+        const double a = fr2.uniform(fr.alongLo, fr.alongHi);
+        const double size = fr2.uniform(fr.sizeLo, fr.sizeHi);
+        const double turn = fr2.uniform(0.0, 2 * kPi);
+        Vec3 p, t, n;
+        double w;
+        int32_t node;
+        pointAt(sc, a, p, t, n, w, node);
+        Leaf card;
+        card.size = size;
+        card.aspect = fr.aspect;
+        card.tangent = {0, -1, 0};  // hanging
+        card.normal = {std::cos(turn), 0.0, std::sin(turn)};
+        card.position = p + Vec3{0, -(0.5 * size + 0.5 * w), 0};
+        card.colour = fr.colour;
+        card.node = node;
+        d.tree.leaves.push_back(card);
+        ++d.stats.fruit;
+    }
+}
+
+}  // namespace
+
+Tree growGrammar(const GrammarOptions& o, Rng& rng, GrammarStats* statsOut,
+                 std::vector<GrammarStem>* stemsOut) {
+    const int maxDepth = o.maxDepth > 0 ? o.maxDepth : GrammarOptions::kMaxLevels;
+    const double trunkWidth = rng.derive("trunk_width").uniform(o.trunkWidthLo, o.trunkWidthHi);
+    const uint64_t noiseSeed = hashCombine(rng.seed(), hashString("curve-noise"));
+    Derivation d{o, rng, maxDepth, trunkWidth, noiseSeed, {}, {}, {}, {}, {}};
+    SkeletonNode root;
+    root.radius = 0.5 * trunkWidth;
+    d.tree.nodes.push_back(root);
+
+    // The derivation, breadth first from the start rule (§3.1.1), one stem per output.
+    expand(d, o.start, -1, 0, 0, kRootKey);
+    for (size_t head = 0; head < d.queue.size(); ++head) {
+        const Pending pd = d.queue[head];
+        if (static_cast<int64_t>(d.stems.size()) >= o.maxStems) {
+            ++d.stats.truncated;
+            continue;
         }
-        const GrammarFruit& fr = o.fruit[st.state];
-        if (fr.enabled && st.level >= fr.minLevel && fr.seasons[static_cast<int>(o.season)]) {
-            const Rng stream = rng.derive(hashCombine(st.key, kFruitTag));
-            for (int k = 0; k < fr.count; ++k) {
-                Rng fr2 = stream.derive(static_cast<uint64_t>(k));
-                const double a = fr2.uniform(fr.alongLo, fr.alongHi);
-                const double size = fr2.uniform(fr.sizeLo, fr.sizeHi);
-                const double turn = fr2.uniform(0.0, 2 * kPi);
-                Vec3 p, t, n;
-                double w;
-                int32_t node;
-                pointAt(sc, a, p, t, n, w, node);
-                Leaf card;
-                card.size = size;
-                card.aspect = fr.aspect;
-                card.tangent = {0, -1, 0};  // hanging
-                card.normal = {std::cos(turn), 0.0, std::sin(turn)};
-                card.position = p + Vec3{0, -(0.5 * size + 0.5 * w), 0};
-                card.colour = fr.colour;
-                card.node = node;
-                tree.leaves.push_back(card);
-                ++stats.fruit;
-            }
-        }
+        drawStem(d, pd);
+    }
+    d.stats.stems = static_cast<int64_t>(d.stems.size());
+
+    // Particles along the stems (§3.2).
+    const HeightRange y = heightRange(d.tree);
+    for (size_t si = 0; si < d.stems.size(); ++si) {
+        emitParticles(d, si, y);
+        emitFruit(d, si);
     }
 
-    if (statsOut) *statsOut = stats;
-    if (stemsOut) *stemsOut = std::move(stems);
-    return tree;
+    if (statsOut) *statsOut = d.stats;
+    if (stemsOut) *stemsOut = std::move(d.stems);
+    return std::move(d.tree);
 }
 
 }  // namespace sylva
