@@ -1,42 +1,7 @@
 // Species-file parameters of the `canopy` method (Shesh et al. §3) → CanopyOptions.
 //
-// clang-format off
-// | key                          | type        | default     | meaning |
-// |------------------------------|-------------|-------------|---------|
-// | [canopy]                     | envelope    | required    | canopy-envelope keys (species/spec/canopy_envelope_spec.h) plus `position` |
-// | canopy.position              | [x, y, z]   | required    | the envelope's centre (ellipsoid) or base centre (cone), metres |
-// | branches.trunk_height        | metres      | see below   | top of the trunk; default 10 % up from the envelope's lowest axis point (cone: its base) |
-// | branches.outgrow             | number ≥ 1  | 1.25        | the template's crown spans this × the envelope (height above the trunk top, reach) |
-// | branches.fit                 | string      | "stretch"   | "stretch" (height and reach scaled apart), "uniform" (one scale, the larger), "none" |
-// | branches.clip_threshold      | number ≥ 0  | 0.05        | cut segments ending beyond (1 + t) × the envelope radius at their angles (§3.5) |
-// | branches.tip_radius          | metres      | 0.01        | radius of every tip |
-// | branches.murray_exponent     | [1.5, 4]    | 3           | n in r_parentⁿ = Σ r_childⁿ (3: Murray 1927) |
-// | branches.radii               | string      | "clipped"   | Murray over the clipped tree, or "template": over the whole template (the paper) |
-// | branches.random_yaw          | bool        | true        | turn the template about the vertical per tree |
-// | [[templates]]                | tables      | required    | branch templates, one chosen per tree by `weight` |
-// | templates[i].axiom           | string      | required    | start word (alphabet in species/methods/canopy.h) |
-// | templates[i].rules           | table       | {}          | `X = "word"`, or `X = [ { to = "word", p = 0.5 }, … ]` (stochastic, p sum to 1) |
-// | templates[i].iterations      | 0–12        | required    | rewriting steps; the result must stay ≤ 200,000 segments |
-// | templates[i].angle_deg       | degrees     | 25          | δ for + − & ^ |
-// | templates[i].roll_deg        | degrees     | angle_deg   | angle for \ / |
-// | templates[i].step            | metres      | 1           | F length at bracket depth 0 (only ratios matter unless fit = "none") |
-// | templates[i].length_ratio    | (0, 2]      | 1           | step × this per bracket depth |
-// | templates[i].angle_jitter_deg| degrees     | 0           | every turn + uniform(−j, j), drawn per tree |
-// | templates[i].weight          | number > 0  | 1           | relative chance of the template |
-// | leaves.count                 | integer     | 10000       | leaf positions on the envelope (area-uniform) |
-// | leaves.depth                 | [0, 1]      | 0           | positions pulled inward by uniform [0, depth] of their radius |
-// | leaves.orientation           | string      | "random"    | "random" or "sun" (§3.2) |
-// | leaves.sun_direction         | [x, y, z]   | [0.3,1,0.2] | towards the sun |
-// | leaves.sun_weight            | [0, 1]      | 0.7         | normal = normalise(w·sun + (1 − w)·random) |
-// | leaves.cluster               | 1–20        | 1           | leaves per position, fanned around a twig (Fig. 4(a): 5) |
-// | leaves.twig                  | metres      | 0.06        | twig length of a cluster |
-// | leaves.size                  | [lo, hi]    | [0.08,0.14] | card length, metres |
-// | leaves.aspect                | number      | 0.6         | card width / length |
-// | leaves.colours               | [fractions] | [1]         | share of positions per entry; sums to 1 |
-// | leaves.colour_classes        | [integers]  | [0, 1, …]   | Leaf::colour of each entry (e.g. the grammar palette: 0–3 greens, 5 red, 6 orange) |
-// | leaves.colour_patchiness     | [0, 1]      | 0.5         | 0: classes at random; 1: in smooth patches over the canopy |
-// | leaves.support_distance      | metres      | 0.3         | a leaf with a branch node this close is supported |
-// clang-format on
+// Keys, units, defaults and ranges: docs/methods/canopy.md (tests/project/spec_keys_test.cpp checks
+// them against this reader); every default is CanopyOptions' and its members'.
 #include <cmath>
 #include <memory>
 #include <string>

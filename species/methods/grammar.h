@@ -6,94 +6,12 @@
 // Frame: +y up, metres. Angles in the species file are degrees, in the options radians.
 //
 // ---------------------------------------------------------------------------------------------
-// Species-file format (method = "grammar"). Worked example: species/presets/grammar-fir.toml.
-//
-// [grammar]                                   global parameters
-// | key            | type          | default | meaning |
-// |----------------|---------------|---------|-------------------------------------------------|
-// | start          | state name    | "s"     | start state S (§3.1); draws no stem itself       |
-// | stop           | [names]       | ["t"]   | stop states 𝒯; a stop state draws NO stem         |
-// | max_depth      | integer ≥ 1   | absent  | D, maximum branching depth (§3.1.1): stems have   |
-// |                |               |         | level c = 0 … D−1; absent = unbounded, allowed    |
-// |                |               |         | only if every reachable state can reach a stop    |
-// |                |               |         | state (then an internal cap of 64 levels applies) |
-// | trunk_width    | [lo, hi] m    | [0.2,0.2] | W, width (diameter) of the stems drawn by the   |
-// |                |               |         | start rule, uniform per tree (§3.1.2)            |
-// | segment_length | metres        | 0.1     | skeleton sampling step along each stem spline     |
-// | max_stems      | integer       | 50000   | safety cap; states past it are not expanded       |
-// | season         | string        | "summer"| "spring", "summer", "autumn" or "winter" (§3.2)   |
-//
-// [rules]                                     the grammar 𝒢 (§3.1.1), one key per input state
-//   a = [ { out = ["a", "b1", "b1", "b2*2"], p = 0.4 }, { out = ["a", "b1*2"], p = 0.6 } ]
-//   - `out`: the output set; "name*N" repeats a state N times (Table 1's "bb…b").
-//   - `p`: probability of the alternative; may be omitted when a rule has one alternative;
-//     the alternatives' p must sum to 1 (±1e-6).
-//   - every state named in `out` must have a rule or be a stop state; the start state must
-//     have a rule; stop states must not have one.
-//
-// [geometry.default], [geometry.<state>], [geometry."<from>-><to>"]   the geometry ℋ (§3.1.2)
-//   Each key is looked up in the most specific table that sets it: the transition's own
-//   table ("a->b1"), then the output state's ("b1"), then "default", then the built-in
-//   default below. A transition table must name a transition some rule can make.
-// | key                | type        | default  | meaning |
-// |--------------------|-------------|----------|----------------------------------------------|
-// | length             | [lo, hi] m  | [1, 1]   | base length b_l, uniform                      |
-// | reduce_length      | number > 0  | 1.0      | r_l: true length t_l = b_l · r_l^c            |
-// | azimuth_deg        | [lo, hi]    | [0, 360] | Euler angle 1: turn about the parent's axis   |
-// | tilt_deg           | [lo, hi]    | [0, 0]   | Euler angle 2: away from the parent's axis    |
-// | roll_deg           | [lo, hi]    | [0, 0]   | Euler angle 3: about the child's own axis     |
-// | reduce_angle       | [3 numbers] | [1,1,1]  | r_a per Euler angle: t_a = b_a · r_a^c        |
-// | phyllotaxis        | string      | "random" | "random": azimuth drawn from azimuth_deg;     |
-// |                    |             |          | "even": the "even" siblings of one rule       |
-// |                    |             |          | application share a random offset and sit     |
-// |                    |             |          | 360°/n apart, azimuth_deg added as jitter     |
-// | position           | [lo, hi]    | [1, 1]   | attachment as a fraction of the parent stem's |
-// |                    |             |          | length (1 = its end); snapped to the nearest  |
-// |                    |             |          | parent skeleton node (never its base node)    |
-// | reduce_width_begin | (0, 1]      | 1.0      | r_wb: child base width w · r_wb               |
-// | reduce_width_end   | (0, 1]      | 0.7      | r_we: child tip width w · r_we (w = parent's  |
-// |                    |             |          | width at the attachment; widths interpolated) |
-// | curve              | [lo, hi]    | [0, 0]   | curviness: control points displaced by smooth |
-// |                    |             |          | 3-D value noise × curve × stem length         |
-// | control_points     | integer ≥ 2 | 4        | spline control points (Catmull–Rom)           |
-// | tropism_deg        | [-180, 180] | 0        | extension (Jain §5 future work): the stem     |
-// |                    |             |          | turns this far toward −y over its length      |
-// |                    |             |          | (negative: toward +y), never past vertical    |
-//
-// [particles.<state>]                         leaves on every stem of that state (§3.2)
-// | key          | type         | default      | meaning |
-// |--------------|--------------|--------------|------------------------------------------------|
-// | count        | integer ≥ 0  | required     | leaves per stem (before the season's density)  |
-// | size         | [lo, hi] m   | [0.05, 0.1]  | card length; larger low in the tree, smaller   |
-// |              |              |              | high up, mixed by `randomness`                 |
-// | aspect       | number       | 0.5          | card width / length                            |
-// | rotation_deg | [lo, hi]     | [30, 60]     | angle between the leaf axis and the stem tangent|
-// | randomness   | [0, 1]       | 0.5          | 0: size by height only, rotation mid-range;    |
-// |              |              |              | 1: uniform in the ranges                       |
-// | along        | [lo, hi]     | [0, 1]       | stretch of the stem (fractions of its length)  |
-// | min_level    | integer ≥ 0  | 0            | only on stems with level c ≥ min_level         |
-// | arrangement  | string       | "spiral"     | "spiral": anywhere around the stem; "two-rows":|
-// |              |              |              | alternately either side of the stem's plane    |
-// |              |              |              | (its reference normal ± 90°: pinnate fronds)   |
-//
-// [fruit.<state>]                             fruit or flower cards on stems of that state
-// | count   | integer ≥ 0 | required      | per stem |
-// | size    | [lo, hi] m  | [0.06, 0.1]   | card size |
-// | aspect  | number      | 1.0           | width / length |
-// | colour  | integer     | 8             | colour class (8 fruit, 9 flower by convention) |
-// | along   | [lo, hi]    | [0.5, 1]      | stretch of the stem |
-// | min_level | integer   | 0             | as for particles |
-// | seasons | [names]     | all but winter| seasons in which the cards appear |
-// Fruit cards hang: their long axis points down (−y) from the stem point.
-//
-// [seasons.<season>]                          overrides of the built-in season palettes
-// | classes | [integers] | see below | leaf colour classes, darkest/lowest first |
-// | density | [0, 1]     | see below | fraction of `count` kept (a per-leaf draw, so   |
-// |         |            |           | a sparser season's leaves are a subset)         |
-// Built-in: spring [1, 2, 3] × 0.6; summer [0, 1, 2, 3] × 1; autumn [4, 5, 6, 7] × 0.8;
-// winter [] × 0 (bare). An evergreen sets e.g. [seasons.winter] classes = [0, 1], density = 1.
-//
-// The generic [leaves] table is rejected for grammar species (leaves are per state here).
+// Species-file format (method = "grammar"): every key of [grammar], [rules], [geometry.*],
+// [particles.*], [fruit.*] and [seasons.*], with units, defaults and ranges, is documented in
+// docs/methods/grammar.md (tests/project/spec_keys_test.cpp checks it against the reader,
+// grammar_spec.cpp); the defaults are the structs' below. Worked example:
+// species/presets/grammar-fir.toml. The generic [leaves] table is rejected for grammar species
+// (leaves are per state here).
 //
 // ---------------------------------------------------------------------------------------------
 // Conventions

@@ -1,5 +1,5 @@
-// Species-file parameters of the `grammar` method → GrammarOptions. The format (every key,
-// default and unit) is documented in species/methods/grammar.h.
+// Species-file parameters of the `grammar` method → GrammarOptions. Every key, with its unit,
+// default and range, is documented in docs/methods/grammar.md; the defaults are GrammarOptions'.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

@@ -90,30 +90,9 @@ Vec3 silhouetteToTree(const SilhouetteGuide& g, double column, double row, doubl
 // Markers around every masked pixel (see the file comment). Deterministic for a given rng.
 std::vector<GuideMarker> silhouetteMarkers(const SilhouetteGuide& guide, Rng& rng);
 
-// Reads a species' [guides] table:
-//
-// clang-format off
-// | key                           | type     | default          | meaning                                  |
-// |-------------------------------|----------|------------------|------------------------------------------|
-// | strokes                       | tables   | none             | [[guides.strokes]], brush strokes         |
-// | strokes[i].points             | [[x,y,z]]| required, ≥ 2    | polyline, metres, tree frame             |
-// | strokes[i].radius             | metres   | required         | markers within it of the polyline        |
-// | strokes[i].density            | 1/metre  | required         | markers per metre of polyline            |
-// | strokes[i].sigma              | metres   | radius / 2       | σ of ω = exp(−d²/2σ²)/√(2π)              |
-// | strokes[i].weight             | number   | 1                | multiplies ω                             |
-// | silhouette                    | table    | none             | [guides.silhouette]                      |
-// | silhouette.mask               | file     | required         | PNG (any OpenImageIO image), relative to the species file |
-// | silhouette.invert             | bool     | false            | inside = grey < 0.5 (black on white)     |
-// | silhouette.height             | metres   | one of the two   | what the image's full height represents  |
-// | silhouette.metres_per_pixel   | metres   | one of the two   | size of one pixel                        |
-// | silhouette.azimuth_deg        | degrees  | 0                | the view; 0 = x–y plane seen from +z     |
-// | silhouette.axis_column        | pixels   | width / 2        | image column on the tree's y axis        |
-// | silhouette.falloff_radius     | pixels   | 10               | R of r_m = R·(1/(1+e^(−k·n_x)) − 0.5)    |
-// | silhouette.falloff_k          | number   | 0.4              | k, steepness of the logistic in n_x      |
-// | silhouette.markers_per_pixel  | number   | 1                | markers per masked pixel                 |
-// | silhouette.depth              | metres   | width·mpp / 2    | spread across the view (widest row)      |
-// | silhouette.depth_profile      | string   | "slab"           | "slab" or "round" (elliptical sections)  |
-// clang-format on
+// Reads a species' [guides] table. Its keys, units, defaults and ranges are documented in
+// docs/methods/space-colonization.md (tests/project/spec_keys_test.cpp checks them against this
+// reader); defaults are BrushStroke's and SilhouetteGuide's.
 //
 // Stroke i draws from rng.derive("strokes[i]"), the silhouette from rng.derive("silhouette"), so
 // adding a stroke changes no other guide's markers. Errors go through Params (file:line:col

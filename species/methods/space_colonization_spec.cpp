@@ -2,31 +2,9 @@
 // The keys sit at the top level of the species file (before its first [table]); lengths
 // marked "internodes" are multiples of `internode`.
 //
-// clang-format off
-// | key                  | type      | default     | meaning |
-// |----------------------|-----------|-------------|---------|
-// | variant              | string    | "baseline"  | "baseline" (Palubicki 2009) or "improved" (Liu 2020 §3) |
-// | [crown]              | volume    | required for the baseline | where markers may be (any volume kind); improved: optional bound |
-// | internode            | metres    | 0.1         | metamer (internode) length, the unit of ρ, r, σ |
-// | occupancy            | internodes| 2           | ρ, occupancy-zone radius (Liu 2020 §3 default) |
-// | perception           | internodes| 4           | r, perception radius, must be > ρ (Liu 2020 §3) |
-// | perception_angle_deg | degrees   | 75          | θ, perception half-angle, in (0, 180) (Liu 2020 §3) |
-// | markers              | integer   | 20000       | baseline only: markers spread uniformly in the crown |
-// | markers_per_bud      | integer   | 64          | improved only: markers each live bud draws per iteration (§3; more = denser) |
-// | kappa                | number    | 3           | improved only: κ, markers within κ·r of their bud; [1, 4] (paper: 2–4) |
-// | sigma                | internodes| 1           | improved only: σ of ω = exp(−d²/2σ²)/(√(2π)σ) (§3) |
-// | gravity              | number    | 0           | improved only: λ ≥ 0, weight of v_g = (0, −1, 0) (§3) |
-// | branch_angle_deg     | degrees   | 45          | lateral bud direction from its internode, in (0, 180) |
-// | phyllotaxis_deg      | degrees   | 137.5       | divergence between successive lateral buds on an axis |
-// | bud_direction_weight | number    | 0           | ξ ≥ 0: the bud's own direction added to v_opt (smoother axes; cf. Palubicki 2009's default bud orientation) |
-// | tropism              | [x, y, z] | [0, 0, 0]   | added to every growth direction (then normalised) |
-// | trunk_length         | metres    | 0           | straight bole grown first (no lateral buds on it) |
-// | pipe_exponent        | number    | 2.5         | n in r_parentⁿ = Σ r_childⁿ, [1.5, 3.5] |
-// | tip_radius           | metres    | 0.004       | radius of every terminal internode |
-// | max_iterations       | integer   | 200         | growth iterations at most |
-// | max_internodes       | integer   | 20000       | internodes at most (the bole included) |
-// | [guides]             | table     | none        | brush strokes / silhouette (space_colonization_guides.h) |
-// clang-format on
+// Keys, units, defaults and ranges: docs/methods/space-colonization.md
+// (tests/project/spec_keys_test.cpp checks them against this reader); every default is
+// SpaceColonizationOptions'.
 //
 // κ: the paper gives 2–4; values down to 1 are accepted too (κ = 1 draws a bud's markers
 // exactly within its perception radius), below 1 a bud's markers could not fill its

@@ -1,14 +1,6 @@
 // type = "crown-refinement" (Wolff 2013 §3.1.1, Abb. 11; volumes/crown_refinement.h):
-//
-// | key           | type        | default   | meaning                                           |
-// |---------------|-------------|-----------|---------------------------------------------------|
-// | crown         | volume      | required  | the crown to refine (any volume table)            |
-// | trunk_top     | [x, y, z]   | required  | apex of every cone, metres                        |
-// | count         | integer ≥ 1 | required  | N spheres                                         |
-// | sphere_radius | metres      | required  | R                                                 |
-// | cone_radius   | metres      | R/2       | radius of each cone's base at its sphere's centre |
-// | gap           | metres      | 0         | centres at least 2R + gap apart                   |
-// | seed          | integer ≥ 0 | per tree  | fixes the centres (same crown for every tree)     |
+// keys, units, defaults and ranges in docs/specs.md, "crown-refinement"
+// (tests/project/spec_keys_test.cpp checks them against this reader).
 #include "species/spec/volume_spec.h"
 #include "volumes/crown_refinement.h"
 #include "volumes/poisson.h"

@@ -1,23 +1,9 @@
 // Species-file reader for type = "mask-revolution" (Liu et al. 2020 §4.3): a silhouette mask
 // whose half-profile is revolved about its vertical axis (volumes/mask.h).
 //
-// clang-format off
-// | key              | type    | default          | meaning                                      |
-// |------------------|---------|------------------|----------------------------------------------|
-// | mask             | file    | required         | PNG (any OpenImageIO image), relative to the species file |
-// | invert           | bool    | false            | inside = grey < 0.5 (black drawn on white)   |
-// | side             | string  | "max"            | half-profile from "right", "left" or "max" of both |
-// | axis_column      | pixels  | width / 2        | image column of the vertical axis            |
-// | height           | metres  | one of the two   | what the image's full height represents      |
-// | metres_per_pixel | metres  | one of the two   | size of one pixel                            |
-// | samples          | integer | 96               | profile points after resampling (cleanStroke) |
-// | smoothing        | integer | 2                | Laplacian smoothing passes                   |
-// | segments         | integer | 64               | steps around the axis                        |
-// | level_set_voxel  | metres  | largest dim/100  | voxel of the revolved level set              |
-// | soft_edge        | bool    | true             | Liu 2020 fall-off of samples at the border   |
-// | falloff_radius   | pixels  | 10               | R: r_m = R·(1/(1+e^(−k·n_x)) − 0.5)          |
-// | falloff_k        | number  | 0.4              | k, steepness of the logistic in n_x          |
-// clang-format on
+// Keys, units, defaults and ranges: docs/specs.md, "mask-revolution"
+// (tests/project/spec_keys_test.cpp checks them against this reader); defaults are
+// MaskRevolutionOptions' and MaskFalloff's.
 #include <algorithm>
 #include <cmath>
 

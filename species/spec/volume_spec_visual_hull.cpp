@@ -9,20 +9,8 @@
 //             { mask = "../sketches/acacia-side.png", azimuth_deg = 90 } ]
 //   height = 9
 //
-// clang-format off
-// | key                    | type    | default        | meaning                                 |
-// |------------------------|---------|----------------|-----------------------------------------|
-// | views                  | tables  | required, ≥ 2  | one per mask                            |
-// | views[i].mask          | file    | required       | PNG (any OpenImageIO image), relative to the species file |
-// | views[i].azimuth_deg   | degrees | required       | direction of the view about +y          |
-// | views[i].invert        | bool    | false          | inside = grey < 0.5 (black on white)    |
-// | views[i].axis_column   | pixels  | width / 2      | image column on the world y axis        |
-// | height                 | metres  | one of the two | what each image's full height represents |
-// | metres_per_pixel       | metres  | one of the two | size of one pixel, every view           |
-// | soft_edge              | bool    | true           | Liu 2020 fall-off of samples at the border |
-// | falloff_radius         | pixels  | 10             | R: r_m = R·(1/(1+e^(−k·n_x)) − 0.5)     |
-// | falloff_k              | number  | 0.4            | k, steepness of the logistic in n_x     |
-// clang-format on
+// Keys, units, defaults and ranges: docs/specs.md, "visual-hull" (tests/project/spec_keys_test.cpp
+// checks them against this reader).
 #include "species/spec/volume_spec.h"
 #include "volumes/mask.h"
 
