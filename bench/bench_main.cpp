@@ -121,6 +121,30 @@ static void RenderView(benchmark::State& state) {
 }
 BENCHMARK(RenderView)->Unit(benchmark::kMillisecond);
 
+// One 512×512 view with depth and labels of the large Table 1 tree (bench/table1.toml), per
+// view, on 1 thread (Arg 1) and on every core (Arg 0): the renderer's banded parallelism.
+static void RenderViewLarge(benchmark::State& state) {
+    std::optional<tbb::global_control> limit;
+    if (state.range(0) > 0) {
+        limit.emplace(tbb::global_control::max_allowed_parallelism, state.range(0));
+    }
+    static const Tree tree =
+        growSpecies(loadSpecies(SYLVA_SOURCE_DIR "/bench/table1.toml"), 1, nullptr, true).tree;
+    ViewOptions vo;
+    vo.count = 8;
+    vo.width = vo.height = 512;
+    vo.randomAzimuth = false;
+    Rng rng(1);
+    const std::vector<Camera> cams = makeCameras(tree, vo, rng);
+    size_t k = 0;
+    for (auto _ : state) {
+        ViewImage v = renderView(tree, cams[k++ % cams.size()], true, true);
+        benchmark::DoNotOptimize(v.silhouette.data());
+    }
+    state.counters["segments"] = static_cast<double>(tree.nodes.size() - 1);
+}
+BENCHMARK(RenderViewLarge)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
+
 // Writing one view's files to a RAM disk (/dev/shm when present): the silhouette PNG, the
 // label PNG and the depth EXR (Arg 0, 1, 2), per file.
 static void WriteViewFile(benchmark::State& state) {

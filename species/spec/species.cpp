@@ -17,7 +17,14 @@ struct SpeciesCache {
     };
     std::mutex mutex;
     std::map<std::string, Entry> entries;  // keyed by the sweep point's overrides, as text
+    SpeciesCacheCounts counts;
 };
+
+SpeciesCacheCounts speciesCacheCounts(const SpeciesFile& species) {
+    if (!species.cache) return {};
+    std::lock_guard<std::mutex> lock(species.cache->mutex);
+    return species.cache->counts;
+}
 
 namespace {
 std::string overridesKey(const Overrides* overrides) {
@@ -103,6 +110,9 @@ GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides
         if (it != species.cache->entries.end()) {
             method = it->second.method;
             leaves = it->second.leaves;
+            ++species.cache->counts.hits;
+        } else {
+            ++species.cache->counts.misses;
         }
     }
     if (!method) {

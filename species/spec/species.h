@@ -3,6 +3,7 @@
 // (distributions drawn, sweep overrides applied) into the method's plain options.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <string>
@@ -41,6 +42,14 @@ struct LeafOptions;
 std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
                                                  const Overrides* overrides,
                                                  LeafOptions* leaves = nullptr);
+
+// How often growSpecies took a species' method from its cache (hits: a species without
+// distributions, per sweep point) or parsed it (misses).
+struct SpeciesCacheCounts {
+    int64_t hits = 0;
+    int64_t misses = 0;
+};
+SpeciesCacheCounts speciesCacheCounts(const SpeciesFile& species);
 
 // Grows one tree of the species with the given instance seed.
 GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,

@@ -1,8 +1,6 @@
 // `sylva volume`: the .vdb, PLY and preview of a species' volumes read back and checked
 // against closed forms (a ball's voxel count, enclosed volume and projected area), the
 // preview's view orientation, the per-instance draw, and bad input (exit 2, nothing written).
-#include "pipeline/analysis/volume_output.h"
-
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
@@ -20,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "pipeline/analysis/volume_output.h"
 #include "species/spec/species.h"
 #include "tests/test_support.h"
 #include "volumes/level_set_grid.h"

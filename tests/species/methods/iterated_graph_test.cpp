@@ -9,7 +9,6 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -512,6 +511,7 @@ std::vector<std::filesystem::path> presetFiles() {
 }
 
 TEST(IteratedGraphTree, EveryPresetGrowsValidTrees) {
+    constexpr size_t kOneSeedAboveNodes = 20000;
     const auto files = presetFiles();
     int grown = 0, withRoots = 0;
     for (const auto& file : files) {
@@ -520,10 +520,7 @@ TEST(IteratedGraphTree, EveryPresetGrowsValidTrees) {
         if (species.method != "iterated-graph") continue;
         for (uint64_t seed = 1; seed <= 3; ++seed) {
             SCOPED_TRACE("seed " + std::to_string(seed));
-            const auto start = std::chrono::steady_clock::now();
             GrownTree g = growSpecies(species, seed, nullptr, true);
-            const double seconds =
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
             ++grown;
             EXPECT_TRUE(validTree(g.tree));
             EXPECT_GT(g.tree.nodes.size(), 1u);
@@ -541,11 +538,12 @@ TEST(IteratedGraphTree, EveryPresetGrowsValidTrees) {
             if (it != g.methodStats.end()) {
                 EXPECT_EQ(it->second, static_cast<double>(g.tree.endpoints.size()));
             }
-            // Large presets: one seed keeps the suite fast.
-            if (seconds > 0.25 || g.tree.nodes.size() > 40000) break;
+            // Large presets: one seed keeps the suite fast (a fixed rule, not the clock, so
+            // every machine checks the same trees).
+            if (g.tree.nodes.size() > kOneSeedAboveNodes) break;
         }
     }
-    EXPECT_GE(grown, 1) << "no iterated-graph presets found in " << SYLVA_SOURCE_DIR;
+    EXPECT_GE(grown, 22) << "the 22 xm-* presets in " << SYLVA_SOURCE_DIR;
     EXPECT_GE(withRoots, 1) << "no preset with a [roots] table was checked";
 }
 
@@ -1030,10 +1028,8 @@ TEST(IteratedGraphThickness, RadiusFollowsPathLengthToTip) {
 // Poisson saturation.
 
 TEST(IteratedGraphPoisson, SaturatedLevelThrows) {
-    using Clock = std::chrono::steady_clock;
     IteratedGraphOptions o = smallOptions({3, 2}, {200, 30});
     o.crown.levels[0].spacing = 1.0;  // room for a handful of nodes, 200 wanted
-    auto start = Clock::now();
     EXPECT_THROW(grow(o, 1), std::runtime_error);
     EXPECT_THROW(grow(o, 1), PoissonSaturated);
 
@@ -1042,7 +1038,8 @@ TEST(IteratedGraphPoisson, SaturatedLevelThrows) {
     o.crown.levels[1].spacing = 0.3;  // sector r = 0.8 holds a few dozen at 0.3 m
     EXPECT_THROW(grow(o, 1, true), std::runtime_error);
     EXPECT_THROW(grow(o, 1, false), std::runtime_error);
-    EXPECT_LT(std::chrono::duration<double>(Clock::now() - start).count(), 5.0);
+    // (That the dart throwing gives up after a bounded number of darts, whatever the machine's
+    // speed: Poisson.SaturationGivesUpAfterBoundedDarts.)
 }
 
 // ------------------------------------------------------------------------------------------

@@ -26,8 +26,6 @@
 
 #include "tests/test_support.h"
 
-extern char** environ;
-
 namespace {
 
 namespace fs = std::filesystem;
@@ -630,13 +628,14 @@ TEST(CliGrow, WritesFilesAndIsDeterministicPerSeed) {
 TEST(CliValidate, EveryShippedSpecIsValid) {
     TempDir t;
     std::vector<std::vector<std::string>> runs;
-    for (const fs::path& dir : {kSource / "species" / "presets", kSource / "datasets", kData}) {
+    for (const fs::path& dir :
+         {kSource / "species" / "presets", kSource / "datasets", kData, kData / "keys"}) {
         for (const auto& e : fs::directory_iterator(dir)) {
             if (e.path().extension() == ".toml") runs.push_back({"validate", e.path().string()});
         }
     }
     std::sort(runs.begin(), runs.end());
-    EXPECT_GE(runs.size(), 5u);
+    ASSERT_GE(runs.size(), 48u + 5u + 4u);  // every preset, the datasets, the fixtures
     const std::vector<RunResult> r = runAll(runs, t.path());
     for (size_t i = 0; i < r.size(); ++i) {
         SCOPED_TRACE(runs[i][1]);
@@ -648,6 +647,33 @@ TEST(CliValidate, EveryShippedSpecIsValid) {
                 << r[i].out;
         }
     }
+}
+
+// --- 8. stats and report ----------------------------------------------------------------------
+
+// What is not a dataset (or a dataset without a record) is bad input: one line, exit 2.
+TEST(CliStatsReport, BadDirectoriesExitTwoWithOneLine) {
+    TempDir t;
+    auto expectBadInput = [&](const std::vector<std::string>& args, const std::string& message) {
+        const RunResult r = run(args, t.path());
+        EXPECT_EQ(r.code, 2) << describe(r);
+        EXPECT_NE(r.err.find(message), std::string::npos) << describe(r);
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << describe(r);
+    };
+    expectBadInput({"stats", (t / "nope").string()}, "sylva: stats: ");
+    expectBadInput({"stats", (t / "nope").string()}, "not a directory");
+    expectBadInput({"stats", t.path().string()}, "no manifest.jsonl");
+    expectBadInput({"report", (t / "nowhere").string()}, "sylva: report: ");
+    expectBadInput({"report", (t / "nowhere").string()}, "no dataset.json");
+
+    buildOk(kDataset, t / "ds", t.path());
+    RunResult ok = run({"report", (t / "ds").string()}, t.path());
+    EXPECT_EQ(ok.code, 0) << describe(ok);
+    EXPECT_TRUE(fs::is_regular_file(t / "ds" / "report" / "index.html"));
+    spit(t / "ds" / "manifest.jsonl", "");
+    fs::remove_all(t / "ds" / "report");
+    expectBadInput({"report", (t / "ds").string()}, "the manifest has no record");
+    EXPECT_FALSE(fs::exists(t / "ds" / "report" / "index.html"));
 }
 
 }  // namespace

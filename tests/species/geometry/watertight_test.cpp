@@ -17,7 +17,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -377,7 +376,7 @@ TEST(Watertight, RootsBelowGround) {
 // radius >= 2 voxels: thin twigs are thickened around their axis).
 TEST(Watertight, EveryPresetIsClosedManifoldAndContainsItsSkeleton) {
     const auto files = presetFiles();
-    ASSERT_FALSE(files.empty()) << "no presets in " << SYLVA_SOURCE_DIR;
+    ASSERT_GE(files.size(), 48u) << "the preset library in " << SYLVA_SOURCE_DIR;
     for (const auto& file : files) {
         SCOPED_TRACE(file.filename().string());
         const SpeciesFile species = loadSpecies(file.string());
@@ -504,24 +503,6 @@ TEST(Watertight, VdbRoundTrip) {
               -background);
     EXPECT_EQ(acc.getValue(openvdb::Coord(1000, 1000, 1000)), background);
     std::filesystem::remove_all(dir);
-}
-
-// The preset of the performance target (xm-a at 3 cm voxels, about 2.5k segments): report
-// the time; generous bound so a loaded machine does not fail it.
-TEST(Watertight, PresetTimeAtThreeCentimetres) {
-    const auto file = std::filesystem::path(SYLVA_SOURCE_DIR) / "species/presets/xm-a.toml";
-    const GrownTree g = growSpecies(loadSpecies(file.string()), 1, nullptr, true);
-    double best = 1e9;
-    Mesh m;
-    for (int rep = 0; rep < 2; ++rep) {
-        const auto start = std::chrono::steady_clock::now();
-        m = watertightMesh(g.tree, {0.03, 3.0});
-        best = std::min(
-            best, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-    }
-    std::printf("[ info     ] xm-a: %zu segments, voxel 0.03 m: %zu triangles in %.3f s\n",
-                g.tree.nodes.size() - 1, m.triangleCount(), best);
-    EXPECT_LT(best, 5.0);
 }
 
 }  // namespace

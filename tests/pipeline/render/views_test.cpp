@@ -5,7 +5,6 @@
 #include <tbb/global_control.h>
 #include <unistd.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -825,39 +824,6 @@ TEST(ViewContactSheet, ShrinkingAveragesTheCoveredArea) {
     for (int y = 2; y < 4; ++y) {
         for (int x = 2; x < 4; ++x) EXPECT_EQ(out2.at(static_cast<size_t>(y) * w + x), 128);
     }
-}
-
-// Timing report (not part of the default run):
-//   ./sylva_tests --gtest_also_run_disabled_tests --gtest_filter='ViewBench.*'
-TEST(ViewBench, DISABLED_RenderTimes) {
-    auto time = [](const Tree& tree, const Camera& c, int reps) {
-        renderView(tree, c, true, true);  // warm up
-        const auto t0 = std::chrono::steady_clock::now();
-        for (int i = 0; i < reps; ++i) renderView(tree, c, true, true);
-        return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                   .count() /
-               reps;
-    };
-    auto report = [&](const char* name, const Tree& tree, int size) {
-        ViewOptions o;
-        o.count = 8;
-        o.width = o.height = size;
-        o.randomAzimuth = false;
-        Rng rng(1);
-        const auto cams = makeCameras(tree, o, rng);
-        double one = 0, many = 0;
-        {
-            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
-            for (const Camera& c : cams) one += time(tree, c, 20) / cams.size();
-        }
-        for (const Camera& c : cams) many += time(tree, c, 20) / cams.size();
-        std::printf("%s: %zu segments, %dx%d: %.3f ms/view on 1 thread, %.3f ms default\n", name,
-                    tree.nodes.size() - 1, size, size, one, many);
-    };
-    report("xm-a", grownTree(), 256);
-    SpeciesFile big = loadSpecies(SYLVA_SOURCE_DIR "/bench/table1.toml");
-    const Tree bigTree = growSpecies(big, 1, nullptr, true).tree;
-    report("table1", bigTree, 512);
 }
 
 }  // namespace
