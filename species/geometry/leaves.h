@@ -10,16 +10,21 @@ namespace sylva {
 
 enum class LeafOrientation { kRandom, kSun };
 
-struct LeafOptions {
-    bool enabled = false;
-    int perTip = 5;          // leaves per terminal twig
-    double alongTwig = 0.4;  // spread over the last this-many metres of each twig
-    double sizeMin = 0.08;   // card length, uniform in [sizeMin, sizeMax], metres
+// The leaf cards themselves, shared by every [leaves] table (these leaves and the canopy
+// method's): their size, shape and orientation.
+struct LeafCardOptions {
+    double sizeMin = 0.08;  // card length, uniform in [sizeMin, sizeMax], metres
     double sizeMax = 0.14;
     double aspect = 0.6;  // card width / length
     LeafOrientation orientation = LeafOrientation::kRandom;
-    Vec3 sun{0.3, 1.0, 0.2};    // towards the sun (unit after parsing)
-    double sunWeight = 0.7;     // normal = normalise(w·sun + (1 − w)·random)
+    Vec3 sun{0.3, 1.0, 0.2};  // towards the sun (unit after parsing)
+    double sunWeight = 0.7;   // normal = normalise(w·sun + (1 − w)·random)
+};
+
+struct LeafOptions : LeafCardOptions {
+    bool enabled = false;
+    int perTip = 5;             // leaves per terminal twig
+    double alongTwig = 0.4;     // spread over the last this-many metres of each twig
     int colourClasses = 1;      // classes by relative height, 0 lowest (lighter higher)
     double colourJitter = 0.1;  // random shift of the height fraction before classing
 };

@@ -136,16 +136,11 @@ struct CanopyBranchOptions {
     bool randomYaw = true;                   // turn the template about the vertical per tree
 };
 
-struct CanopyLeafOptions {
+struct CanopyLeafOptions : LeafCardOptions {  // size, shape and orientation of the cards
     int count = 10000;   // leaf positions (§4: "each tree … has 10000 leaves")
     double depth = 0.0;  // each position pulled inward by uniform [0, depth] of its radius
-    LeafOrientation orientation = LeafOrientation::kRandom;
-    Vec3 sun{0.3, 1.0, 0.2};  // towards the sun (unit after parsing)
-    double sunWeight = 0.7;   // normal = normalise(w·sun + (1 − w)·random)
-    int cluster = 1;          // leaves per position, fanned around a short twig (Fig. 4(a): 5)
-    double twig = 0.06;       // twig length of a cluster, metres
-    double sizeMin = 0.08, sizeMax = 0.14;  // card length, metres
-    double aspect = 0.6;
+    int cluster = 1;     // leaves per position, fanned around a short twig (Fig. 4(a): 5)
+    double twig = 0.06;  // twig length of a cluster, metres
     std::vector<double> colourFractions{1.0};  // share of positions per colour entry
     std::vector<uint8_t> colourClasses;        // Leaf::colour per entry (empty: 0, 1, 2, …)
     double colourPatchiness = 0.5;             // 0: classes at random; 1: in patches over (φ, θ)

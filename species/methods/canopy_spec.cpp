@@ -10,6 +10,7 @@
 #include "species/methods/canopy.h"
 #include "species/spec/canopy_envelope_spec.h"
 #include "species/spec/growth_method.h"
+#include "species/spec/leaves_spec.h"
 
 namespace sylva {
 
@@ -208,17 +209,9 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
         CanopyLeafOptions& lo = o.leaves;
         lo.count = static_cast<int>(l->integer("count", lo.count, Range::closed(0, 1e6)));
         lo.depth = l->number("depth", lo.depth, Range::closed(0, 1));
-        lo.orientation =
-            l->choice("orientation", lo.orientation,
-                      {{"random", LeafOrientation::kRandom}, {"sun", LeafOrientation::kSun}});
-        lo.sun = l->vec3("sun_direction", lo.sun);
-        if (length(lo.sun) < 1e-12) l->fail("sun_direction", "expected a non-zero direction");
-        lo.sunWeight = l->number("sun_weight", lo.sunWeight, Range::closed(0, 1));
+        readLeafCards(*l, lo);
         lo.cluster = static_cast<int>(l->integer("cluster", lo.cluster, Range::closed(1, 20)));
         lo.twig = l->number("twig", lo.twig, Range::nonNegative());
-        std::tie(lo.sizeMin, lo.sizeMax) =
-            l->interval("size", {lo.sizeMin, lo.sizeMax}, Range::positive());
-        lo.aspect = l->number("aspect", lo.aspect, Range::leftOpen(0, 10));
         lo.colourFractions = parseFractions(*l, "colours");
         if (const toml::node* n = l->raw("colour_classes")) {
             const toml::array* a = n->as_array();

@@ -4,9 +4,9 @@
 #include <map>
 #include <mutex>
 #include <sstream>
-#include <tuple>
 
 #include "species/geometry/leaves.h"
+#include "species/spec/leaves_spec.h"
 
 namespace sylva {
 
@@ -54,33 +54,6 @@ SpeciesFile loadSpecies(const std::string& path) {
     return s;
 }
 
-namespace {
-
-// The species' [leaves] table (shared by methods that do not place their own leaves).
-LeafOptions parseLeaves(Params& sp) {
-    LeafOptions o;
-    auto l = sp.optionalTable("leaves");
-    if (!l) return o;
-    o.enabled = true;
-    o.perTip = static_cast<int>(l->integer("per_tip", o.perTip, Range::closed(0, 1000)));
-    o.alongTwig = l->number("along_twig", o.alongTwig, Range::nonNegative());
-    std::tie(o.sizeMin, o.sizeMax) = l->interval("size", {o.sizeMin, o.sizeMax}, Range::positive());
-    o.aspect = l->number("aspect", o.aspect, Range::leftOpen(0, 10));
-    o.orientation =
-        l->choice("orientation", o.orientation,
-                  {{"random", LeafOrientation::kRandom}, {"sun", LeafOrientation::kSun}});
-    o.sun = l->vec3("sun_direction", o.sun);
-    if (length(o.sun) < 1e-12) l->fail("sun_direction", "expected a non-zero direction");
-    o.sunWeight = l->number("sun_weight", o.sunWeight, Range::closed(0, 1));
-    o.colourClasses =
-        static_cast<int>(l->integer("colour_classes", o.colourClasses, Range::closed(1, 254)));
-    o.colourJitter = l->number("colour_jitter", o.colourJitter, Range::closed(0, 1));
-    l->finish();
-    return o;
-}
-
-}  // namespace
-
 std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
                                                  const Overrides* overrides, LeafOptions* leaves) {
     Params p(*species.table, species.path, "", &draw, overrides);
@@ -93,7 +66,7 @@ std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, Dra
         DocumentAs methodKeys(p, method);  // the method's keys sit at the top level too
         m = makeGrowthMethod(method, p);
     }
-    LeafOptions l = m->placesOwnLeaves() ? LeafOptions{} : parseLeaves(p);
+    LeafOptions l = m->placesOwnLeaves() ? LeafOptions{} : readLeaves(p);
     if (leaves) *leaves = l;
     p.finish();
     return m;

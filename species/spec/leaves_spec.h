@@ -1,0 +1,18 @@
+// Readers of [leaves] tables: the leaf cards' own keys, shared by every such table, and the
+// species' [leaves] table of the methods that do not place their own leaves. Keys, units,
+// defaults and ranges: docs/specs.md ("Leaves") and docs/methods/canopy.md.
+#pragma once
+
+#include "core/params.h"
+#include "species/geometry/leaves.h"
+
+namespace sylva {
+
+// size, aspect, orientation, sun_direction and sun_weight of a [leaves] table, defaults from
+// `cards`.
+void readLeafCards(Params& leaves, LeafCardOptions& cards);
+
+// The species' [leaves] table (disabled options when it has none).
+LeafOptions readLeaves(Params& species);
+
+}  // namespace sylva
