@@ -149,7 +149,8 @@ void readOutputs(Params& o, OutputOptions& out) {
             else if (f == "swc")
                 out.swc = true;
             else
-                o.fail("skeleton", "unknown skeleton format \"" + f + "\" (known: \"ply\", \"swc\")");
+                o.fail("skeleton",
+                       "unknown skeleton format \"" + f + "\" (known: \"ply\", \"swc\")");
         }
     }
     out.preview = o.boolean("preview", out.preview);
@@ -159,8 +160,7 @@ void readOutputs(Params& o, OutputOptions& out) {
         if (f != "ply" && f != "glb" && f != "obj") {
             o.fail("mesh", "unknown mesh format \"" + f + "\" (known: \"ply\", \"glb\", \"obj\")");
         }
-        if (std::find(out.meshFormats.begin(), out.meshFormats.end(), f) ==
-            out.meshFormats.end()) {
+        if (std::find(out.meshFormats.begin(), out.meshFormats.end(), f) == out.meshFormats.end()) {
             out.meshFormats.push_back(f);
         }
     }
@@ -248,8 +248,8 @@ void readViews(Params& v, ViewOptions& vo) {
 void expandSweepPoints(SpeciesEntry& entry, const std::vector<SweepAxis>& sweeps) {
     std::vector<const SweepAxis*> axes;
     for (const SweepAxis& a : sweeps) {
-        if (a.species.empty() || std::find(a.species.begin(), a.species.end(),
-                                           entry.species.name) != a.species.end()) {
+        if (a.species.empty() ||
+            std::find(a.species.begin(), a.species.end(), entry.species.name) != a.species.end()) {
             for (const SweepAxis* b : axes) {
                 if (b->path == a.path) {
                     throw SpecError(a.where, "sweep.path",

@@ -64,7 +64,8 @@ LayoutReport checkLayout(const fs::path& root) {
     for (const auto& [folder, files] : folders) {
         const auto allowed = mayInclude(root / folder / "README.md");
         if (!allowed) {
-            r.problems.push_back(folder + "/README.md: missing, or without a \"May include:\" line");
+            r.problems.push_back(folder +
+                                 "/README.md: missing, or without a \"May include:\" line");
             continue;
         }
         for (const std::string& a : *allowed) {
