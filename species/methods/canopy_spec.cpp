@@ -8,9 +8,9 @@
 #include <utility>
 
 #include "species/methods/canopy.h"
-#include "species/spec/canopy_envelope_spec.h"
 #include "species/spec/growth_method.h"
 #include "species/spec/leaves_spec.h"
+#include "species/spec/volume_spec_canopy_envelope.h"
 
 namespace sylva {
 

@@ -1,8 +1,9 @@
-// type = "canopy-envelope": the keys are listed in species/spec/canopy_envelope_spec.h.
+// type = "canopy-envelope" and the canopy method's [canopy] table (volume_spec_canopy_envelope.h).
+#include "species/spec/volume_spec_canopy_envelope.h"
+
 #include <map>
 #include <stdexcept>
 
-#include "species/spec/canopy_envelope_spec.h"
 #include "species/spec/volume_spec.h"
 
 namespace sylva {

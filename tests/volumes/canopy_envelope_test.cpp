@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "core/params.h"
-#include "species/spec/canopy_envelope_spec.h"
 #include "species/spec/volume_spec.h"
+#include "species/spec/volume_spec_canopy_envelope.h"
 #include "volumes/poisson.h"
 #include "volumes/volume.h"
 
