@@ -167,6 +167,10 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     if (!w.views.empty()) {
         st["silhouette_coverage"] = coverage;
         st["fractal_dimension"] = fractal;
+        // Leaves' share of the tree's pixels, from the label images (null without them).
+        const double leafFraction = leafPixelFraction(w.views);
+        st["leaf_pixel_fraction"] =
+            std::isfinite(leafFraction) ? nlohmann::json(leafFraction) : nlohmann::json(nullptr);
     }
 
     nlohmann::json& rec = w.record;

@@ -47,6 +47,12 @@ nlohmann::json toJson(const TreeStats& stats) {
     j["crown_asymmetry_m"] = num(stats.crownAsymmetry);
     j["leaves"] = stats.leaves;
     j["leaf_area_m2"] = num(stats.leafArea);
+    // Realism measures (docs/metrics.md, "Realism").
+    j["lowest_shoot_y_m"] = num(stats.lowestShootY);
+    j["below_ground_fraction"] = num(stats.belowGroundFraction);
+    j["stems_at_base"] = stats.stemsAtBase;
+    j["leader_lean_deg"] = num(stats.leaderLeanDeg);
+    j["leaf_wood_distance_p95_m"] = num(stats.leafWoodDistanceP95);
     return j;
 }
 

@@ -534,6 +534,18 @@ double silhouetteCoverage(const ViewImage& view) {
     return static_cast<double>(tree) / view.silhouette.size();
 }
 
+double leafPixelFraction(const std::vector<ViewImage>& views) {
+    size_t leaf = 0, tree = 0;
+    for (const ViewImage& v : views) {
+        for (uint8_t l : v.labels) {
+            leaf += l == kLabelLeaf;
+            tree += l != kLabelBackground;
+        }
+    }
+    return tree > 0 ? static_cast<double>(leaf) / static_cast<double>(tree)
+                    : std::numeric_limits<double>::quiet_NaN();
+}
+
 double boxCountingDimension(const ViewImage& view) {
     const int w = view.width, h = view.height;
     if (w <= 0 || h <= 0 || view.silhouette.size() != static_cast<size_t>(w) * h) return 0.0;

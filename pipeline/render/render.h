@@ -31,5 +31,8 @@ ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, boo
 // Silhouette statistics.
 double silhouetteCoverage(const ViewImage& view);    // fraction of tree pixels
 double boxCountingDimension(const ViewImage& view);  // slope of log N(s) vs log 1/s
+// Leaf pixels over tree pixels of the label images of all views; NaN without label images or
+// without tree pixels.
+double leafPixelFraction(const std::vector<ViewImage>& views);
 
 }  // namespace sylva

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "species/model/realism_metrics.h"
 #include "species/model/tree_metrics.h"
 
 namespace sylva {
@@ -74,6 +75,7 @@ TreeStats computeStats(const Tree& tree) {
     s.nodes = n;
     if (n == 0) {
         addShapeMetrics(tree, s);
+        addRealismMetrics(tree, s);
         return s;
     }
     ChildIndex children(tree);  // also validates the parent invariant
@@ -109,6 +111,7 @@ TreeStats computeStats(const Tree& tree) {
     s.rootDepth = anyRoot ? std::max(0.0, -minRootY) : 0.0;
     s.crownHullVolume = convexHullVolume(shootPoints);
     addShapeMetrics(tree, s);
+    addRealismMetrics(tree, s);
     return s;
 }
 

@@ -48,6 +48,13 @@ struct TreeStats {
     double crownAsymmetry = 0;   // distance of the crown-node centroid from the trunk axis, m
     int64_t leaves = 0;
     double leafArea = 0;  // sum of size² · aspect over the leaf cards, m²
+
+    // Realism measures (realism_metrics.h; definitions in docs/metrics.md), NaN if undefined.
+    double lowestShootY = 0;         // min y of the shoot system, m (≥ 0: nothing underground)
+    double belowGroundFraction = 0;  // shoot nodes (root node excluded) with y < 0, fraction
+    int64_t stemsAtBase = 0;         // shoot segments leaving the base ball outward
+    double leaderLeanDeg = 0;        // top fifth of the order-0 axis from the vertical, degrees
+    double leafWoodDistanceP95 = 0;  // 95th percentile leaf attachment → wood surface, m
 };
 
 // Uses the orders already stored in the nodes (call assignBranchOrder first if needed).

@@ -210,4 +210,29 @@ TEST_F(BuiltDataset, RecordedCoverageMatchesWrittenSilhouettes) {
     }
 }
 
+// leaf_pixel_fraction: leaf pixels (label 255) over tree pixels (label > 0), counted again in
+// the label PNGs as written, over every view of every instance.
+TEST_F(BuiltDataset, LeafPixelFractionCountsTheWrittenLabelImages) {
+    int withLeaves = 0;
+    for (const auto& rec : records_) {
+        const fs::path tf = out_ / rec["files"]["transforms"].get<std::string>();
+        const nlohmann::json tj = nlohmann::json::parse(std::ifstream(tf));
+        double leaf = 0, tree = 0;
+        for (const auto& frame : tj["frames"]) {
+            int w = 0, h = 0;
+            auto labels =
+                readImage<uint8_t>(tf.parent_path() / frame["label_file_path"].get<std::string>(),
+                                   OIIO::TypeDesc::UINT8, w, h);
+            ASSERT_FALSE(labels.empty());
+            leaf += static_cast<double>(std::count(labels.begin(), labels.end(), 255));
+            tree +=
+                static_cast<double>(labels.size() - std::count(labels.begin(), labels.end(), 0));
+        }
+        ASSERT_GT(tree, 0);
+        EXPECT_NEAR(rec["stats"]["leaf_pixel_fraction"].get<double>(), leaf / tree, 1e-12);
+        withLeaves += leaf > 0;
+    }
+    EXPECT_GT(withLeaves, 0);  // tiny.toml has leaves: some views show them
+}
+
 }  // namespace

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <thread>
 
@@ -240,8 +241,18 @@ TEST(StatsJson, KeysAndValues) {
     s.totalLength = 9.75;
     s.crownHullVolume = 0.5;
     s.segmentsPerOrder = {5, 1};
+    s.lowestShootY = -0.25;
+    s.belowGroundFraction = 0.5;
+    s.stemsAtBase = 2;
+    s.leaderLeanDeg = std::numeric_limits<double>::quiet_NaN();
+    s.leafWoodDistanceP95 = 0.125;
     nlohmann::json j = toJson(s);
-    EXPECT_EQ(j.size(), 30u);
+    EXPECT_EQ(j.size(), 35u);
+    EXPECT_EQ(j.at("lowest_shoot_y_m"), -0.25);
+    EXPECT_EQ(j.at("below_ground_fraction"), 0.5);
+    EXPECT_EQ(j.at("stems_at_base"), 2);
+    EXPECT_TRUE(j.at("leader_lean_deg").is_null());  // undefined: null
+    EXPECT_EQ(j.at("leaf_wood_distance_p95_m"), 0.125);
     EXPECT_EQ(j.at("nodes"), 7);
     EXPECT_EQ(j.at("segments"), 6);
     EXPECT_EQ(j.at("endpoints"), 3);

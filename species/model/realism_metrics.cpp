@@ -1,0 +1,226 @@
+#include "species/model/realism_metrics.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "species/model/tree_metrics.h"
+
+namespace sylva {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The region a stem leaves the base through: the ball of the base radius (at least 1 cm)
+// around the root node.
+constexpr double kMinBaseRadius = 0.01;  // metres
+// The top of the leader: the last fifth of its length.
+constexpr double kLeaderTopFraction = 0.2;
+// A leader must reach half the tree's height (otherwise the trunk ends in a fork: no leader).
+constexpr double kLeaderMinHeightFraction = 0.5;
+
+// Distance from p to the surface of the tapered capsule a(ra) – b(rb), ≥ 0. The axis point
+// nearest p, with the radius interpolated there: exact for a cylinder, a close upper bound for
+// a cone (within the taper's slope).
+double capsuleDistance(const Vec3& p, const Vec3& a, double ra, const Vec3& b, double rb) {
+    const Vec3 ab = b - a;
+    const double len2 = length2(ab);
+    const double t = len2 > 0 ? std::clamp(dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
+    const double r = ra + (rb - ra) * t;
+    return std::max(0.0, distance(p, a + ab * t) - r);
+}
+
+// Segments bucketed in a uniform grid of their bounding boxes (radius included), searched in
+// growing rings of cells until no unsearched segment can be nearer.
+class SegmentGrid {
+  public:
+    explicit SegmentGrid(const Tree& tree) : tree_(tree) {
+        for (size_t i = 1; i < tree.nodes.size(); ++i) {
+            const SkeletonNode& n = tree.nodes[i];
+            const SkeletonNode& p = tree.nodes[n.parent];
+            const double r = std::max(n.radius, p.radius);
+            const Vec3 pad{r, r, r};
+            bounds_.extend(vmin(n.position, p.position) - pad);
+            bounds_.extend(vmax(n.position, p.position) + pad);
+            segments_.push_back(static_cast<int32_t>(i));
+        }
+        if (segments_.empty()) return;
+        const Vec3 size = bounds_.size();
+        const double extent = std::max({size.x, size.y, size.z, 1e-6});
+        cell_ = std::max(extent / 64.0, 0.05);
+        for (int a = 0; a < 3; ++a) {
+            dims_[a] = std::max(1, static_cast<int>(std::ceil(size[a] / cell_)));
+        }
+        cells_.resize(static_cast<size_t>(dims_[0]) * dims_[1] * dims_[2]);
+        for (int32_t i : segments_) {
+            const SkeletonNode& n = tree.nodes[i];
+            const SkeletonNode& p = tree.nodes[n.parent];
+            const double r = std::max(n.radius, p.radius);
+            const Vec3 pad{r, r, r};
+            const auto lo = cellOf(vmin(n.position, p.position) - pad);
+            const auto hi = cellOf(vmax(n.position, p.position) + pad);
+            for (int x = lo[0]; x <= hi[0]; ++x)
+                for (int y = lo[1]; y <= hi[1]; ++y)
+                    for (int z = lo[2]; z <= hi[2]; ++z) cells_[index(x, y, z)].push_back(i);
+        }
+    }
+
+    double distanceTo(const Vec3& q) const {
+        if (segments_.empty()) return kInf;
+        const auto c = cellOf(q);
+        // Cells outside the grid hold nothing: start the rings from the nearest cell.
+        const int maxRing = std::max({dims_[0], dims_[1], dims_[2]});
+        const double outside = std::max(0.0, distanceToBox(q));
+        double best = kInf;
+        for (int ring = 0; ring <= maxRing; ++ring) {
+            // The cells of the ring (Chebyshev distance `ring` from c) inside the grid: whole
+            // rows where y or z is on the ring's face, else only the two x ends.
+            for (int z = std::max(0, c[2] - ring); z <= std::min(dims_[2] - 1, c[2] + ring); ++z) {
+                for (int y = std::max(0, c[1] - ring); y <= std::min(dims_[1] - 1, c[1] + ring);
+                     ++y) {
+                    const bool face = std::abs(y - c[1]) == ring || std::abs(z - c[2]) == ring;
+                    const int step = face ? 1 : std::max(1, 2 * ring);
+                    for (int x = c[0] - ring; x <= c[0] + ring; x += step) {
+                        if (x < 0 || x >= dims_[0]) continue;
+                        for (int32_t i : cells_[index(x, y, z)]) {
+                            const SkeletonNode& n = tree_.nodes[i];
+                            const SkeletonNode& p = tree_.nodes[n.parent];
+                            best = std::min(best, capsuleDistance(q, p.position, p.radius,
+                                                                  n.position, n.radius));
+                        }
+                    }
+                }
+            }
+            // Every segment not yet seen lies in cells at least `ring` cells from q's cell
+            // (the bounding boxes include the radii).
+            if (best <= std::max(outside, ring * cell_)) break;
+        }
+        return best;
+    }
+
+  private:
+    std::array<int, 3> cellOf(const Vec3& p) const {
+        std::array<int, 3> c{};
+        for (int a = 0; a < 3; ++a) {
+            c[a] = std::clamp(static_cast<int>(std::floor((p[a] - bounds_.lo[a]) / cell_)), 0,
+                              dims_[a] - 1);
+        }
+        return c;
+    }
+    size_t index(int x, int y, int z) const {
+        return (static_cast<size_t>(z) * dims_[1] + y) * dims_[0] + x;
+    }
+    double distanceToBox(const Vec3& q) const {
+        const Vec3 d = vmax(vmax(bounds_.lo - q, q - bounds_.hi), Vec3{0, 0, 0});
+        return length(d);
+    }
+
+    const Tree& tree_;
+    std::vector<int32_t> segments_;
+    Aabb bounds_;
+    double cell_ = 1.0;
+    std::array<int, 3> dims_{1, 1, 1};
+    std::vector<std::vector<int32_t>> cells_;
+};
+
+// The order-0 axis from the root: at each node the shoot child of order 0 (the highest one if
+// several), as long as there is one.
+std::vector<Vec3> leaderAxis(const Tree& tree, const ChildIndex& children) {
+    std::vector<Vec3> axis = {tree.nodes[0].position};
+    int32_t i = 0;
+    for (;;) {
+        int32_t next = -1;
+        for (int32_t k = children.offset[i]; k < children.offset[i + 1]; ++k) {
+            const int32_t c = children.child[k];
+            const SkeletonNode& n = tree.nodes[c];
+            if (n.part != kShootPart || n.order != 0) continue;
+            if (next < 0 || n.position.y > tree.nodes[next].position.y) next = c;
+        }
+        if (next < 0) return axis;
+        axis.push_back(tree.nodes[next].position);
+        i = next;
+    }
+}
+
+}  // namespace
+
+std::vector<double> woodDistances(const Tree& tree, const std::vector<Vec3>& points) {
+    const SegmentGrid grid(tree);
+    std::vector<double> out;
+    out.reserve(points.size());
+    for (const Vec3& p : points) out.push_back(grid.distanceTo(p));
+    return out;
+}
+
+void addRealismMetrics(const Tree& tree, TreeStats& s) {
+    s.lowestShootY = s.belowGroundFraction = s.leaderLeanDeg = s.leafWoodDistanceP95 = kNaN;
+    s.stemsAtBase = 0;
+    const auto& nodes = tree.nodes;
+    if (nodes.empty() || nodes[0].part != kShootPart) return;
+
+    // Ground: the shoot system's lowest point and its share of nodes below y = 0.
+    int64_t shoot = 0, below = 0;
+    s.lowestShootY = nodes[0].position.y;
+    double top = nodes[0].position.y;
+    for (size_t i = 1; i < nodes.size(); ++i) {
+        if (nodes[i].part != kShootPart) continue;
+        ++shoot;
+        below += nodes[i].position.y < 0.0;
+        s.lowestShootY = std::min(s.lowestShootY, nodes[i].position.y);
+        top = std::max(top, nodes[i].position.y);
+    }
+    if (shoot > 0) s.belowGroundFraction = static_cast<double>(below) / static_cast<double>(shoot);
+
+    // Stems: shoot segments leaving the base ball outward.
+    const Vec3 root = nodes[0].position;
+    const double baseRadius = std::max(nodes[0].radius, kMinBaseRadius);
+    for (size_t i = 1; i < nodes.size(); ++i) {
+        const SkeletonNode& n = nodes[i];
+        if (n.part != kShootPart || nodes[n.parent].part != kShootPart) continue;
+        if (distance(nodes[n.parent].position, root) <= baseRadius &&
+            distance(n.position, root) > baseRadius) {
+            ++s.stemsAtBase;
+        }
+    }
+
+    // Leader: the direction of the order-0 axis over its last fifth, from the vertical; none
+    // when the axis stops below half the tree's height.
+    const ChildIndex children(tree);
+    const std::vector<Vec3> axis = leaderAxis(tree, children);
+    double axisLength = 0.0;
+    for (size_t k = 1; k < axis.size(); ++k) axisLength += distance(axis[k - 1], axis[k]);
+    if (axis.size() >= 2 && axisLength > 0 &&
+        axis.back().y - root.y >= kLeaderMinHeightFraction * (top - root.y)) {
+        const double from = (1.0 - kLeaderTopFraction) * axisLength;
+        double walked = 0.0;
+        Vec3 start = axis.front();
+        for (size_t k = 1; k < axis.size(); ++k) {
+            const double seg = distance(axis[k - 1], axis[k]);
+            if (walked + seg >= from) {
+                const double t = seg > 0 ? (from - walked) / seg : 0.0;
+                start = axis[k - 1] + (axis[k] - axis[k - 1]) * t;
+                break;
+            }
+            walked += seg;
+        }
+        const Vec3 d = axis.back() - start;
+        if (length(d) > 0) {
+            const double c = std::clamp(d.y / length(d), -1.0, 1.0);
+            s.leaderLeanDeg = std::acos(c) * 180.0 / kPi;
+        }
+    }
+
+    // Leaves: the distance from each card's attachment (the middle of its near edge) to the
+    // wood; the 95th percentile.
+    if (!tree.leaves.empty() && nodes.size() > 1) {
+        std::vector<Vec3> attach;
+        attach.reserve(tree.leaves.size());
+        for (const Leaf& l : tree.leaves) attach.push_back(l.position - l.tangent * (0.5 * l.size));
+        s.leafWoodDistanceP95 = quantile(woodDistances(tree, attach), 0.95);
+    }
+}
+
+}  // namespace sylva
