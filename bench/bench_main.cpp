@@ -11,7 +11,7 @@
 //  - Colonization/<variant>/<internodes>: the space-colonization method's baseline
 //    (Palubicki 2009) and improved (Liu 2020 §3) variants growing to 2k, 10k and 50k
 //    internodes in the same crown with the same marker budget, one thread (Liu 2020 Fig. 17).
-//  - SpeciesTree/<species>: every preset in species/presets/ (found at run time), time per
+//  - SpeciesTree/<species>: every shipped species (found at run time), time per
 //    tree with its mesh and 8 views at 256² as in datasets/species-gallery.toml, one thread,
 //    no file writes; GalleryBuild: the whole gallery built and written, all cores, trees/s.
 #include <benchmark/benchmark.h>
@@ -70,7 +70,7 @@ BENCHMARK(Table1Tree)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond)->MinTime(3.
 
 // Per tree: tubes + leaf cards for a demo-sized tree (xm-a, ~2.5k nodes, 4 leaves per tip).
 static GrownTree demoTree() {
-    SpeciesFile species = loadSpecies(SYLVA_SOURCE_DIR "/species/presets/xm-a.toml");
+    SpeciesFile species = loadSpecies(SYLVA_SOURCE_DIR "/species/papers/xu-mould-2012/xm-a.toml");
     return growSpecies(species, 1, nullptr, false);
 }
 
@@ -256,19 +256,27 @@ static const toml::table* findKind(const toml::table& t, const std::string& kind
     return nullptr;
 }
 
-// The first preset (sorted by name) among species/presets/<prefix>*.toml whose [crown] or
+// Every shipped species file (species/presets/ and species/papers/), sorted by file name.
+static std::vector<fs::path> shippedSpeciesFiles() {
+    std::vector<fs::path> files;
+    for (const char* dir : {"/species/presets", "/species/papers"}) {
+        std::error_code ec;
+        for (const auto& e :
+             fs::recursive_directory_iterator(SYLVA_SOURCE_DIR + std::string(dir), ec)) {
+            if (e.path().extension() == ".toml") files.push_back(e.path());
+        }
+    }
+    std::sort(files.begin(), files.end(),
+              [](const fs::path& a, const fs::path& b) { return a.filename() < b.filename(); });
+    return files;
+}
+
+// The first species (sorted by name) among the shipped <prefix>*.toml whose [crown] or
 // [endpoints] holds a volume of type `kind`.
 static std::optional<VolumeSource> presetVolume(const std::string& filePrefix,
                                                 const std::string& kind) {
-    std::vector<fs::path> files;
-    std::error_code ec;
-    for (const auto& e : fs::directory_iterator(SYLVA_SOURCE_DIR "/species/presets", ec)) {
-        const std::string name = e.path().filename().string();
-        if (name.rfind(filePrefix, 0) == 0 && e.path().extension() == ".toml")
-            files.push_back(e.path());
-    }
-    std::sort(files.begin(), files.end());
-    for (const fs::path& f : files) {
+    for (const fs::path& f : shippedSpeciesFiles()) {
+        if (f.filename().string().rfind(filePrefix, 0) != 0) continue;
         VolumeSource v;
         v.file = f.string();
         v.owner = parseTomlFile(v.file);
@@ -524,16 +532,9 @@ static void SpeciesTree(benchmark::State& state, const std::string& file) {
     state.counters["render_ms"] = renderMs / n;
 }
 
-// One SpeciesTree benchmark per species/presets/*.toml, in name order.
+// One SpeciesTree benchmark per shipped species file, in name order.
 static void registerSpeciesTrees() {
-    std::vector<fs::path> files;
-    const fs::path dir = SYLVA_SOURCE_DIR "/species/presets";
-    std::error_code ec;
-    for (const auto& e : fs::directory_iterator(dir, ec)) {
-        if (e.path().extension() == ".toml") files.push_back(e.path());
-    }
-    std::sort(files.begin(), files.end());
-    for (const fs::path& f : files) {
+    for (const fs::path& f : shippedSpeciesFiles()) {
         const std::string name = "SpeciesTree/" + f.stem().string();
         benchmark::RegisterBenchmark(name.c_str(), SpeciesTree, f.string())
             ->Unit(benchmark::kMillisecond)

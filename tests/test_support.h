@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cctype>
 #include <cstdint>
@@ -12,6 +13,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "species/model/tree.h"
 
@@ -28,6 +30,21 @@ inline int32_t addNode(Tree& t, int32_t parent, Vec3 p, double radius = 0.01, in
     n.part = part;
     t.nodes.push_back(n);
     return static_cast<int32_t>(t.nodes.size() - 1);
+}
+
+// Every species file shipped: the library (species/presets/) and the papers' reproductions
+// (species/papers/<paper>/), sorted by file name.
+inline std::vector<std::filesystem::path> shippedSpeciesFiles() {
+    std::vector<std::filesystem::path> files;
+    const std::filesystem::path species = std::filesystem::path(SYLVA_SOURCE_DIR) / "species";
+    for (const char* dir : {"presets", "papers"}) {
+        for (const auto& e : std::filesystem::recursive_directory_iterator(species / dir)) {
+            if (e.is_regular_file() && e.path().extension() == ".toml") files.push_back(e.path());
+        }
+    }
+    std::sort(files.begin(), files.end(),
+              [](const auto& a, const auto& b) { return a.filename() < b.filename(); });
+    return files;
 }
 
 inline std::string slurp(const std::filesystem::path& p) {

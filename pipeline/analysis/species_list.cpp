@@ -86,7 +86,14 @@ std::vector<SpeciesListEntry> listSpecies(const fs::path& dir) {
     for (size_t i = 0; i < files.size(); ++i) {
         if (!dataset[i]) out.push_back(std::move(entries[i]));
     }
-    std::stable_sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+    // The library first, then the papers' reproductions (files under a `papers/` folder).
+    auto inPapers = [&](const SpeciesListEntry& e) {
+        const fs::path rel = fs::path(e.path).lexically_relative(dir);
+        return std::any_of(rel.begin(), rel.end(), [](const fs::path& c) { return c == "papers"; });
+    };
+    std::stable_sort(out.begin(), out.end(), [&](const auto& a, const auto& b) {
+        const bool pa = inPapers(a), pb = inPapers(b);
+        if (pa != pb) return pb;
         return a.name != b.name ? a.name < b.name : a.path < b.path;
     });
     return out;

@@ -21,8 +21,9 @@ struct SpeciesListEntry {
 // Every *.toml under `dir`, recursively, that is not a dataset file (one with [[species]]).
 // Each is loaded and validated (all keys and values checked, volumes built, as `sylva
 // validate` does), in parallel; a file that fails is listed with its one-line error instead
-// of its method and description. Sorted by name, then path. Throws InputError when `dir` is
-// not a directory.
+// of its method and description. The library first, then the papers' reproductions (files
+// in a `papers/` folder below `dir`), each sorted by name, then path. Throws InputError when
+// `dir` is not a directory.
 std::vector<SpeciesListEntry> listSpecies(const std::filesystem::path& dir);
 
 // The entries as text, one line each: name, method, description, path in columns padded to

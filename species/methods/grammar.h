@@ -10,7 +10,7 @@
 // [particles.*], [fruit.*] and [seasons.*], with units, defaults and ranges, is documented in
 // docs/methods/grammar.md (tests/project/spec_keys_test.cpp checks it against the reader,
 // grammar_spec.cpp); the defaults are the structs' below. Worked example:
-// species/presets/grammar-fir.toml. The generic [leaves] table is rejected for grammar species
+// species/papers/jain-2021/grammar-fir.toml. The generic [leaves] table is rejected for grammar species
 // (leaves are per state here).
 //
 // ---------------------------------------------------------------------------------------------

@@ -628,8 +628,10 @@ TEST(CliGrow, WritesFilesAndIsDeterministicPerSeed) {
 TEST(CliValidate, EveryShippedSpecIsValid) {
     TempDir t;
     std::vector<std::vector<std::string>> runs;
-    for (const fs::path& dir :
-         {kSource / "species" / "presets", kSource / "datasets", kData, kData / "keys"}) {
+    for (const fs::path& f : sylva::test::shippedSpeciesFiles()) {
+        runs.push_back({"validate", f.string()});
+    }
+    for (const fs::path& dir : {kSource / "datasets", kData, kData / "keys"}) {
         for (const auto& e : fs::directory_iterator(dir)) {
             if (e.path().extension() == ".toml") runs.push_back({"validate", e.path().string()});
         }

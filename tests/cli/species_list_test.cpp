@@ -128,12 +128,12 @@ TEST_F(SpeciesListTest, DefaultIsTheRepositorySpeciesDirectory) {
     for (const auto& e : fs::recursive_directory_iterator(kSource / "species")) {
         files += e.path().extension() == ".toml";
     }
-    ASSERT_GE(files, 48u);  // the preset library, at least
+    ASSERT_GE(files, 48u);  // the library and the papers' reproductions, at least
     Result r = list("", dir_);
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_EQ(r.lines.size(), files);
     bool sawXmA = false;
-    const std::string xmA = (fs::weakly_canonical(kSource) / "species/presets/xm-a.toml").string();
+    const std::string xmA = (fs::weakly_canonical(kSource) / "species/papers/xu-mould-2012/xm-a.toml").string();
     for (const std::string& line : r.lines) {
         if (line.rfind("xm-a ", 0) == 0) {
             sawXmA = true;
@@ -142,6 +142,17 @@ TEST_F(SpeciesListTest, DefaultIsTheRepositorySpeciesDirectory) {
         }
     }
     EXPECT_TRUE(sawXmA);
+    // The library (species/presets/) first, then the papers' reproductions.
+    size_t lastLibrary = 0, firstPaper = r.lines.size();
+    for (size_t i = 0; i < r.lines.size(); ++i) {
+        if (r.lines[i].find("/species/papers/") != std::string::npos) {
+            firstPaper = std::min(firstPaper, i);
+        } else {
+            lastLibrary = i;
+        }
+    }
+    EXPECT_LT(lastLibrary, firstPaper);
+    EXPECT_LT(firstPaper, r.lines.size());
 }
 
 }  // namespace

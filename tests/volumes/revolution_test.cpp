@@ -456,7 +456,7 @@ TEST(Revolution, TracedImageGivesTheProfile) {
 // --- shipped presets ----------------------------------------------------------------------------
 
 TEST(Revolution, ShippedSketchPresetsParse) {
-    const fs::path presets = fs::path(SYLVA_SOURCE_DIR) / "species" / "presets";
+    const fs::path presets = fs::path(SYLVA_SOURCE_DIR) / "species" / "papers" / "xu-mould-2012";
     int found = 0;
     for (const char* name :
          {"xm-sketch-poplar.toml", "xm-sketch-umbrella.toml", "xm-sketch-twotier.toml"}) {

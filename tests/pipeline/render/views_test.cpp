@@ -48,7 +48,7 @@ double footprint(const Camera& c, double depth) {
 
 const Tree& grownTree() {
     static const Tree tree = [] {
-        SpeciesFile species = loadSpecies(SYLVA_SOURCE_DIR "/species/presets/xm-a.toml");
+        SpeciesFile species = loadSpecies(SYLVA_SOURCE_DIR "/species/papers/xu-mould-2012/xm-a.toml");
         return growSpecies(species, 1, nullptr, true).tree;
     }();
     return tree;

@@ -26,6 +26,7 @@
 
 #include "species/model/tree.h"
 #include "species/spec/species.h"
+#include "tests/test_support.h"
 
 namespace sylva {
 namespace {
@@ -141,15 +142,7 @@ std::filesystem::path scratchDir(const std::string& name) {
     return dir;
 }
 
-std::vector<std::filesystem::path> presetFiles() {
-    std::vector<std::filesystem::path> files;
-    const auto dir = std::filesystem::path(SYLVA_SOURCE_DIR) / "species/presets";
-    for (const auto& entry : std::filesystem::directory_iterator(dir))
-        if (entry.is_regular_file() && entry.path().extension() == ".toml")
-            files.push_back(entry.path());
-    std::sort(files.begin(), files.end());
-    return files;
-}
+std::vector<std::filesystem::path> presetFiles() { return test::shippedSpeciesFiles(); }
 
 double treeExtent(const Tree& t) {
     Aabb b;
@@ -408,7 +401,8 @@ TEST(Watertight, EveryPresetIsClosedManifoldAndContainsItsSkeleton) {
 
 // (c) Identical mesh and .vdb bytes with one thread and with the default thread count.
 TEST(Watertight, IdenticalForAnyThreadCount) {
-    const auto file = std::filesystem::path(SYLVA_SOURCE_DIR) / "species/presets/xm-a.toml";
+    const auto file =
+        std::filesystem::path(SYLVA_SOURCE_DIR) / "species/papers/xu-mould-2012/xm-a.toml";
     const GrownTree g = growSpecies(loadSpecies(file.string()), 1, nullptr, true);
     const WatertightOptions o{treeExtent(g.tree) / 250, 3.0};
     const auto dir = scratchDir("threads");

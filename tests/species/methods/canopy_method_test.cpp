@@ -630,7 +630,7 @@ TEST(CanopySpec, BadParametersNameFileLineAndKey) {
 TEST(CanopySpec, PresetsGrowRootedTreesWithLeaves) {
     for (const char* name : {"canopy-maple", "canopy-pine"}) {
         const SpeciesFile species =
-            loadSpecies(std::string(SYLVA_SOURCE_DIR) + "/species/presets/" + name + ".toml");
+            loadSpecies(std::string(SYLVA_SOURCE_DIR) + "/species/papers/shesh/" + name + ".toml");
         EXPECT_EQ(species.method, "canopy");
         const GrownTree g = growSpecies(species, 1, nullptr, false);
         const Tree& t = g.tree;

@@ -511,7 +511,7 @@ TEST(GrammarSpec, GeometryMergesTransitionStateAndDefault) {
 }
 
 TEST(GrammarSpec, PresetsBuildDeterministicallyAndFast) {
-    const fs::path presets = fs::path(SYLVA_SOURCE_DIR) / "species/presets";
+    const fs::path presets = fs::path(SYLVA_SOURCE_DIR) / "species/papers/jain-2021";
     int found = 0;
     for (const char* name : {"grammar-fir", "grammar-guava", "grammar-palm", "grammar-bamboo"}) {
         const fs::path file = presets / (std::string(name) + ".toml");

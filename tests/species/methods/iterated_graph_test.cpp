@@ -23,6 +23,7 @@
 #include "core/rng.h"
 #include "species/model/tree.h"
 #include "species/spec/species.h"
+#include "tests/test_support.h"
 #include "volumes/poisson.h"
 #include "volumes/volume.h"
 
@@ -498,17 +499,7 @@ TEST(IteratedGraphTree, DirectOptionsInvariantsAndVolumes) {
     }
 }
 
-std::vector<std::filesystem::path> presetFiles() {
-    std::vector<std::filesystem::path> files;
-    const std::filesystem::path dir = std::filesystem::path(SYLVA_SOURCE_DIR) / "species/presets";
-    for (const auto& entry : std::filesystem::directory_iterator(dir)) {
-        if (entry.is_regular_file() && entry.path().extension() == ".toml") {
-            files.push_back(entry.path());
-        }
-    }
-    std::sort(files.begin(), files.end());
-    return files;
-}
+std::vector<std::filesystem::path> presetFiles() { return test::shippedSpeciesFiles(); }
 
 TEST(IteratedGraphTree, EveryPresetGrowsValidTrees) {
     constexpr size_t kOneSeedAboveNodes = 20000;

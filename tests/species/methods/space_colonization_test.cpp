@@ -540,12 +540,7 @@ TEST(SpaceColonizationSpec, SpeciesGrowsAndReportsItsCrown) {
 // Shipped presets.
 
 TEST(SpaceColonizationPresets, EveryPresetGrowsARootedTreeInItsCrown) {
-    const fs::path dir = fs::path(SYLVA_SOURCE_DIR) / "species" / "presets";
-    std::vector<fs::path> files;
-    for (const auto& e : fs::directory_iterator(dir)) {
-        if (e.path().extension() == ".toml") files.push_back(e.path());
-    }
-    std::sort(files.begin(), files.end());
+    const std::vector<fs::path> files = test::shippedSpeciesFiles();
     int grown = 0;
     for (const fs::path& file : files) {
         const SpeciesFile species = loadSpecies(file.string());
@@ -588,7 +583,7 @@ TEST(SpaceColonizationPresets, EveryPresetGrowsARootedTreeInItsCrown) {
         // containment is checked for unguided presets only.
         EXPECT_EQ(outside, 0);
     }
-    EXPECT_EQ(grown, 4) << "the four sc-* presets in " << dir;
+    EXPECT_EQ(grown, 4) << "the four sc-* species (species/papers/liu-2020)";
 }
 
 }  // namespace

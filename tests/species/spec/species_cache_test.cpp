@@ -20,7 +20,7 @@ void expectSameTree(const Tree& a, const Tree& b) {
 
 TEST(SpeciesCache, CachedMethodGrowsTheSameTreeAsAFreshParse) {
     // xm-h's crown is an OpenVDB level set: the expensive part the cache saves.
-    const std::string path = SYLVA_SOURCE_DIR "/species/presets/xm-h.toml";
+    const std::string path = SYLVA_SOURCE_DIR "/species/papers/xu-mould-2012/xm-h.toml";
     SpeciesFile warm = loadSpecies(path);
     growSpecies(warm, 5, nullptr, false);  // fills the cache
     EXPECT_EQ(speciesCacheCounts(warm).misses, 1);
