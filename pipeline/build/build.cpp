@@ -129,6 +129,7 @@ void writeDatasetJson(const DatasetSpec& spec, const BuildOptions& o, const fs::
         j["file"] = e.species.path;
         j["method"] = e.species.method;
         j["description"] = e.species.description;
+        if (!e.species.habit.empty()) j["habit"] = e.species.habit;
         j["count"] = e.count;
         j["sweep_points"] = e.points.size();
         j["spec"] = tomlToJson(*e.species.table);

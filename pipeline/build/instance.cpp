@@ -177,6 +177,7 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     rec["id"] = job.id;
     rec["species"] = species.name;
     rec["method"] = species.method;
+    if (!species.habit.empty()) rec["habit"] = species.habit;
     rec["index"] = job.index;
     rec["seed"] = hex64(job.seed);
     rec["sweep"] = job.point->values;

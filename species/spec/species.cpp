@@ -10,6 +10,21 @@
 
 namespace sylva {
 
+// A tree with one stem; a conifer (excurrent, with a leader); a shrub; a clump of many culms
+// or stems; a palm.
+const std::vector<std::string>& speciesHabits() {
+    static const std::vector<std::string> habits = {"tree", "conifer", "shrub", "clump", "palm"};
+    return habits;
+}
+
+namespace {
+// `habit`, "" when the file states none.
+std::string readHabit(Params& p) {
+    if (!p.has("habit")) return p.string("habit", "");
+    return p.choice("habit", "", speciesHabits());
+}
+}  // namespace
+
 struct SpeciesCache {
     struct Entry {
         std::shared_ptr<const GrowthMethod> method;
@@ -51,6 +66,7 @@ SpeciesFile loadSpecies(const std::string& path) {
     }
     s.method = p.string("method");
     s.description = p.string("description", "");
+    s.habit = readHabit(p);
     return s;
 }
 
@@ -60,6 +76,7 @@ std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, Dra
     p.documentAs("species");
     p.string("name", "");
     p.string("description", "");
+    readHabit(p);
     std::string method = p.string("method");
     std::unique_ptr<GrowthMethod> m;
     {

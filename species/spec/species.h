@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/params.h"
 #include "species/model/tree.h"
@@ -21,11 +22,15 @@ struct SpeciesFile {
     std::string name;         // `name`, or the file stem
     std::string method;       // `method`
     std::string description;  // `description`
+    std::string habit;        // `habit`: "tree", "conifer", "shrub", "clump", "palm" or ""
     std::shared_ptr<const toml::table> table;
     // Parsed methods of species without distributions, per sweep point: the same for every
     // instance, so a crown level set or a CSG measure is built once, not once per tree.
     std::shared_ptr<SpeciesCache> cache;
 };
+
+// The habits a species file may state in `habit`.
+const std::vector<std::string>& speciesHabits();
 
 // Reads and checks the file's top-level keys. Throws SpecError.
 SpeciesFile loadSpecies(const std::string& path);

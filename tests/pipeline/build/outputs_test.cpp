@@ -95,6 +95,25 @@ TEST_F(BuiltDataset, EveryInstanceRecorded) {
     EXPECT_GT(records_.size(), 0u);
 }
 
+// The species' habit goes with every instance (tiny.toml states "tree", tiny_var.toml none),
+// and into dataset.json's species list.
+TEST_F(BuiltDataset, HabitRecordedWhenTheSpeciesStatesOne) {
+    int tiny = 0;
+    for (const auto& rec : records_) {
+        if (rec["species"] == "tiny") {
+            EXPECT_EQ(rec.at("habit"), "tree");
+            ++tiny;
+        } else {
+            EXPECT_FALSE(rec.contains("habit")) << rec["species"];
+        }
+    }
+    EXPECT_GT(tiny, 0);
+    const auto info = nlohmann::json::parse(std::ifstream(out_ / "dataset.json"));
+    EXPECT_EQ(info["species"][0]["name"], "tiny");
+    EXPECT_EQ(info["species"][0]["habit"], "tree");
+    EXPECT_FALSE(info["species"][1].contains("habit"));
+}
+
 // Every skeleton node, projected with the written cameras, lands on a tree pixel of the
 // written silhouette, and the written depth there is the node's camera depth up to the
 // branch radius and the pixel footprint (never behind the node; less only where something
