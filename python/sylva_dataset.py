@@ -20,7 +20,7 @@ back::
         m.vertices["nx"], m.faces         #   structured vertex array, (F, 3) int array (triangles)
         cams = inst.cameras()             # transforms.json (dict: intrinsics + "frames")
         masks = inst.masks()              # list of (H, W) uint8 silhouettes: 0 background, 255 tree
-        labels = inst.labels()            # list of (H, W) uint8: 0 background, 1 + order wood, 255 leaf
+        labels = inst.labels()            # list of (H, W) uint8: 0 background, 1 + order wood, 254 root, 255 leaf
     inst = ds["tiny-p000-00003"]          # by id (or ds[3] by position)
     ds.by_species("tiny")                 # the instances of one species
 
@@ -275,7 +275,8 @@ class Instance:
         return self._frame_images("file_path")
 
     def labels(self):
-        """The label views: (H, W) uint8, 0 background, 1 + branch order for wood, 255 leaves."""
+        """The label views: (H, W) uint8, 0 background, 1 + branch order for the shoot's wood
+        (at most 253), 254 root wood, 255 leaves."""
         return self._frame_images("label_file_path")
 
 

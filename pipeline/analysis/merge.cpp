@@ -197,20 +197,15 @@ MergeSummary mergeShards(const MergeOptions& o) {
                               .value("species_sheet", int64_t{16});  // dataset.cpp's default
         for (const auto& e : first.dataset.value("species", nlohmann::json::array())) {
             const std::string name = e.value("name", "");
-            std::vector<fs::path> images;
+            std::vector<fs::path> dirs;
             for (const Record& r : records) {
-                if (k <= 0 || static_cast<int64_t>(images.size()) >= k) break;
+                if (k <= 0 || static_cast<int64_t>(dirs.size()) >= k) break;
                 if (r.species != name) continue;
                 const fs::path dir = stage / "trees" / r.species / r.id;
-                if (fs::exists(dir / "contact.png")) {
-                    images.push_back(dir / "contact.png");
-                } else if (fs::exists(dir / "views" / "000.png")) {
-                    images.push_back(dir / "views" / "000.png");
-                }
+                if (fs::exists(dir / "views" / "000.png")) dirs.push_back(dir);
             }
-            if (images.empty()) continue;
-            int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(images.size()))));
-            writeContactSheetFromFiles(stage / "contact" / (name + ".png"), images, cols, 256);
+            if (dirs.empty()) continue;
+            writeSpeciesSheet(stage / "contact" / (name + ".png"), dirs);
             ++summary.sheets;
         }
 

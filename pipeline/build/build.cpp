@@ -90,25 +90,22 @@ auto stageBody(F stage) {
     };
 }
 
-// Per species, the contact sheets (or first views) of its first K recorded instances.
+// Per species, a sheet of the first views of its first K recorded instances.
 void writeSpeciesSheets(const DatasetSpec& spec, const std::vector<InstanceJob>& jobs,
                         const std::set<std::string>& recorded, const fs::path& out,
                         const std::string& suffix) {
     const int k = spec.outputs.speciesSheet;
     if (k <= 0 || spec.outputs.views.count <= 0) return;
     for (const SpeciesEntry& e : spec.species) {
-        std::vector<fs::path> images;
+        std::vector<fs::path> dirs;
         for (const InstanceJob& j : jobs) {
             if (j.entry != &e || !recorded.count(j.id)) continue;
-            fs::path dir = out / instanceDir(j);
-            fs::path img =
-                spec.outputs.views.contactSheet ? dir / "contact.png" : dir / "views" / "000.png";
-            if (fs::exists(img)) images.push_back(img);
-            if (static_cast<int>(images.size()) >= k) break;
+            const fs::path dir = out / instanceDir(j);
+            if (fs::exists(dir / "views" / "000.png")) dirs.push_back(dir);
+            if (static_cast<int>(dirs.size()) >= k) break;
         }
-        if (images.empty()) continue;
-        int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(images.size()))));
-        writeContactSheetFromFiles(out / "contact" / (e.species.name + ".png"), images, cols, 256);
+        if (dirs.empty()) continue;
+        writeSpeciesSheet(out / "contact" / (e.species.name + ".png"), dirs);
     }
 }
 

@@ -26,7 +26,7 @@ GrowOneResult growOne(const std::string& speciesPath, uint64_t seed, const fs::p
     r.stats = computeStats(g.tree);
     writeFileAtomic(r.dir / "skeleton.ply", skeletonPly(g.tree));
     writeFileAtomic(r.dir / "skeleton.swc", skeletonSwc(g.tree));
-    writePreviewPng(g.tree, r.dir / "preview.png", 1024);
+    writeLabelPreviewPng(g.tree, r.dir / "preview.png", kGrowPreviewSize);
     nlohmann::json j = toJson(r.stats);
     for (const auto& [k, v] : g.methodStats) j[k] = v;
     const nlohmann::json rec = {{"species", species.name},

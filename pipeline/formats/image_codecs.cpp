@@ -34,7 +34,8 @@ void appendToString(png_structp png, png_bytep data, png_size_t length) {
 void noFlush(png_structp) {}
 
 // libpng reports errors by longjmp; nothing with a destructor lives across setjmp here.
-bool pngEncode(int width, int height, const uint8_t* pixels, std::string& out, std::string& error) {
+bool pngEncode(int width, int height, int channels, const uint8_t* pixels, std::string& out,
+               std::string& error) {
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
     if (!png) {
         error = "libpng: cannot create a write struct";
@@ -48,8 +49,8 @@ bool pngEncode(int width, int height, const uint8_t* pixels, std::string& out, s
     }
     png_set_write_fn(png, &out, appendToString, noFlush);
     png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8,
-                 PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
-                 PNG_FILTER_TYPE_DEFAULT);
+                 channels == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
     png_set_compression_level(png, 1);
     png_set_compression_strategy(png, Z_RLE);
@@ -58,7 +59,7 @@ bool pngEncode(int width, int height, const uint8_t* pixels, std::string& out, s
     png_set_compression_mem_level(png, 6);
     png_write_info(png, info);
     for (int y = 0; y < height; ++y) {
-        png_write_row(png, pixels + static_cast<size_t>(y) * width);
+        png_write_row(png, pixels + static_cast<size_t>(y) * width * channels);
     }
     png_write_end(png, nullptr);
     png_destroy_write_struct(&png, &info);
@@ -130,7 +131,16 @@ std::string encodeGreyPng(int width, int height, const uint8_t* pixels) {
     std::string out;
     out.reserve(static_cast<size_t>(width) * height / 8 + 256);
     std::string error;
-    if (!pngEncode(width, height, pixels, out, error)) throw std::runtime_error(error);
+    if (!pngEncode(width, height, 1, pixels, out, error)) throw std::runtime_error(error);
+    return out;
+}
+
+std::string encodeRgbPng(int width, int height, const uint8_t* rgb) {
+    checkSize(width, height, "encodeRgbPng");
+    std::string out;
+    out.reserve(static_cast<size_t>(width) * height / 4 + 256);
+    std::string error;
+    if (!pngEncode(width, height, 3, rgb, out, error)) throw std::runtime_error(error);
     return out;
 }
 

@@ -27,6 +27,8 @@ namespace sylva {
 // width × height pixels, row-major, row 0 at the top. Throws std::invalid_argument for a
 // non-positive size.
 std::string encodeGreyPng(int width, int height, const uint8_t* pixels);
+// The same PNG encoding for 8-bit RGB: 3 bytes per pixel (r, g, b), row-major.
+std::string encodeRgbPng(int width, int height, const uint8_t* rgb);
 std::string encodeFloatExr(int width, int height, const float* pixels,
                            const std::string& channel = "Z");
 

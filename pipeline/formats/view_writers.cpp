@@ -18,13 +18,15 @@
 //   encoded in memory (pipeline/formats/image_codecs.h, which gives the formats and the measured
 //   reasons) and written with writeFileAtomic; identical pixels give identical bytes.
 // Point cloud PLY: binary little-endian, vertex = float x, y, z (world metres), uchar label
-//   (1 + branch order wood, 255 leaf; 1 when the view has no label image), uchar view
-//   (camera index); views in order, then rows top to bottom, then columns.
-// Contact sheets: 8-bit grey PNG, tiles in row-major order, `columns` per row (≤ 0: about
-//   square), 2 px light grey (200) gutters around and between tiles, white letterboxing.
-//   writeContactSheet draws silhouettes black (0) on white (255); writeContactSheetFromFiles
-//   shows its inputs as they are (no inversion), each fitted into tile × tile keeping its
-//   aspect (shrunk by area averaging, enlarged by nearest pixel; see fitGrey).
+//   (as the label images: 1 + branch order shoot wood, 254 root wood, 255 leaf; 1 when the view
+//   has no label image), uchar view (camera index); views in order, then rows top to bottom,
+//   then columns.
+// Contact sheets: tiles in row-major order, 2 px light grey (200) gutters around and between
+//   tiles, white letterboxing. writeContactSheet (an instance's views): 8-bit grey PNG,
+//   `columns` per row (≤ 0: about square), silhouettes black (0) on white (255).
+//   writeSpeciesSheet (a species' instances): 8-bit RGB PNG, about square, each instance's
+//   first view in label colours (render.h labelColour), or its silhouette dark grey on white
+//   without label images, at an integer scale (nearest pixel) in tiles of max(256, view size).
 #include "pipeline/formats/view_writers.h"
 
 #include <OpenImageIO/imageio.h>
@@ -123,95 +125,22 @@ struct Sheet {
     }
 };
 
-// A grey PNG (or any OIIO-readable image) as float grey: 1 channel as is, 3+ channels by
-// Rec. 709 luminance of the first three, 2 channels (grey + alpha) by the first. Read
+// The first channel of an 8-bit image file (a label or silhouette PNG), exactly. Read
 // directly (no ImageCache), so a file rewritten during the run is never seen stale.
-struct GreyImage {
-    int width = 0, height = 0;
-    std::vector<float> pixels;  // row-major
-};
-
-GreyImage readGrey(const fs::path& path) {
+std::vector<uint8_t> readChannel0(const fs::path& path, int& w, int& h) {
     auto in = OIIO::ImageInput::open(path.string());
     if (!in) {
         throw std::runtime_error("cannot read image '" + path.string() + "': " + OIIO::geterror());
     }
-    const OIIO::ImageSpec& spec = in->spec();
-    const int w = spec.width, h = spec.height, nc = spec.nchannels;
-    std::vector<float> data(static_cast<size_t>(w) * h * nc);
-    if (w <= 0 || h <= 0 || nc <= 0 ||
-        !in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, data.data())) {
-        std::string err = in->geterror();
+    w = in->spec().width;
+    h = in->spec().height;
+    std::vector<uint8_t> px(static_cast<size_t>(std::max(w, 0)) * std::max(h, 0));
+    if (w <= 0 || h <= 0 || !in->read_image(0, 0, 0, 1, OIIO::TypeDesc::UINT8, px.data())) {
+        const std::string err = in->geterror();
         throw std::runtime_error("cannot read image '" + path.string() + "': " + err);
     }
     in->close();
-    if (nc == 1) return {w, h, std::move(data)};
-    GreyImage grey{w, h, std::vector<float>(static_cast<size_t>(w) * h)};
-    for (size_t k = 0; k < grey.pixels.size(); ++k) {
-        const float* p = data.data() + k * nc;
-        grey.pixels[k] = nc >= 3 ? 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2] : p[0];
-    }
-    return grey;
-}
-
-// A grey image fitted to rw × rh. Enlarging in both directions (views smaller than the tile):
-// nearest source pixel, so silhouettes stay crisp (a box filter would leave gaps between
-// source pixels). Otherwise area averaging: each output pixel is the mean of the source
-// area it covers (partly covered source pixels weighted by the covered fraction), which keeps
-// thin twigs as grey lines. Separable: rows first, then columns. (OIIO's resize with a box
-// filter gives the same kind of result but took 14 ms per 776² sheet through its iterators.)
-std::vector<float> fitGrey(const float* in, int w, int h, int rw, int rh) {
-    std::vector<float> out(static_cast<size_t>(rw) * rh);
-    if (rw >= w && rh >= h) {
-        for (int y = 0; y < rh; ++y) {
-            const int sy = std::min(h - 1, static_cast<int>((y + 0.5) * h / rh));
-            for (int x = 0; x < rw; ++x) {
-                const int sx = std::min(w - 1, static_cast<int>((x + 0.5) * w / rw));
-                out[static_cast<size_t>(y) * rw + x] = in[static_cast<size_t>(sy) * w + sx];
-            }
-        }
-        return out;
-    }
-    // Per output index: the source indices it covers and their weights (summing to 1).
-    struct Tap {
-        int first = 0;
-        std::vector<double> weights;
-    };
-    auto taps = [](int n, int rn) {
-        std::vector<Tap> t(rn);
-        const double scale = static_cast<double>(n) / rn;
-        for (int o = 0; o < rn; ++o) {
-            const double lo = o * scale, hi = (o + 1) * scale;
-            t[o].first = static_cast<int>(lo);
-            for (int i = t[o].first; i < n && i < hi; ++i) {
-                t[o].weights.push_back(
-                    (std::min(hi, i + 1.0) - std::max(lo, static_cast<double>(i))) / scale);
-            }
-        }
-        return t;
-    };
-    const std::vector<Tap> tx = taps(w, rw), ty = taps(h, rh);
-    std::vector<double> rows(static_cast<size_t>(rw) * h);  // rows resampled, full height
-    for (int y = 0; y < h; ++y) {
-        const float* src = in + static_cast<size_t>(y) * w;
-        for (int x = 0; x < rw; ++x) {
-            double v = 0.0;
-            for (size_t k = 0; k < tx[x].weights.size(); ++k) {
-                v += tx[x].weights[k] * src[tx[x].first + k];
-            }
-            rows[static_cast<size_t>(y) * rw + x] = v;
-        }
-    }
-    for (int y = 0; y < rh; ++y) {
-        for (int x = 0; x < rw; ++x) {
-            double v = 0.0;
-            for (size_t k = 0; k < ty[y].weights.size(); ++k) {
-                v += ty[y].weights[k] * rows[(ty[y].first + k) * rw + x];
-            }
-            out[static_cast<size_t>(y) * rw + x] = static_cast<float>(v);
-        }
-    }
-    return out;
+    return px;
 }
 
 }  // namespace
@@ -330,33 +259,70 @@ void writeContactSheet(const fs::path& path, const std::vector<ViewImage>& views
     writeGreyPng(path, sheet.width, sheet.height, sheet.pixels);
 }
 
-void writeContactSheetFromFiles(const fs::path& path, const std::vector<fs::path>& images,
-                                int columns, int tile) {
-    if (images.empty()) throw std::invalid_argument("writeContactSheetFromFiles: no images");
-    if (tile <= 0) {
-        throw std::invalid_argument("writeContactSheetFromFiles: tile size must be positive");
-    }
-    Sheet sheet(images.size(), columns, tile, tile);
-    for (size_t i = 0; i < images.size(); ++i) {
-        const GreyImage src = readGrey(images[i]);
-        const int w = src.width, h = src.height;
-        const double s = static_cast<double>(tile) / std::max(w, h);
-        const int rw = std::clamp(static_cast<int>(std::lround(w * s)), 1, tile);
-        const int rh = std::clamp(static_cast<int>(std::lround(h * s)), 1, tile);
-        const std::vector<float> px = fitGrey(src.pixels.data(), w, h, rw, rh);
-        sheet.put(i, rw, rh, [&](int y, uint8_t* dst) {
-            const float* src = px.data() + static_cast<size_t>(y) * rw;
-            for (int x = 0; x < rw; ++x) {
-                dst[x] = static_cast<uint8_t>(std::lround(255.0f * std::clamp(src[x], 0.0f, 1.0f)));
+void writeSpeciesSheet(const fs::path& path, const std::vector<fs::path>& instanceDirs) {
+    if (instanceDirs.empty()) throw std::invalid_argument("writeSpeciesSheet: no instances");
+    struct Tile {
+        int w = 0, h = 0;
+        std::vector<uint8_t> rgb;
+    };
+    std::vector<Tile> tiles;
+    int tile = kSpeciesSheetMinTile;
+    for (const fs::path& dir : instanceDirs) {
+        Tile t;
+        const fs::path labels = dir / "views" / "000_label.png";
+        if (fs::exists(labels)) {
+            t.rgb = colourLabels(readChannel0(labels, t.w, t.h));
+        } else {  // silhouettes only: the tree dark grey on white
+            const std::vector<uint8_t> sil = readChannel0(dir / "views" / "000.png", t.w, t.h);
+            t.rgb.resize(3 * sil.size());
+            for (size_t k = 0; k < sil.size(); ++k) {
+                const uint8_t v = sil[k] ? 40 : 255;
+                t.rgb[3 * k] = t.rgb[3 * k + 1] = t.rgb[3 * k + 2] = v;
             }
-        });
+        }
+        tile = std::max({tile, t.w, t.h});
+        tiles.push_back(std::move(t));
     }
-    writeGreyPng(path, sheet.width, sheet.height, sheet.pixels);
+    const int n = static_cast<int>(tiles.size());
+    const int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
+    const int rows = (n + cols - 1) / cols;
+    const int width = cols * (tile + kGutter) + kGutter, height = rows * (tile + kGutter) + kGutter;
+    std::vector<uint8_t> sheet(3 * static_cast<size_t>(width) * height, kGutterGrey);
+    for (int i = 0; i < n; ++i) {
+        const Tile& t = tiles[i];
+        // Each view at an integer scale (nearest pixel: labels stay exact), centred on white.
+        const int s = std::max(1, std::min(tile / t.w, tile / t.h));
+        const int x0 = kGutter + (i % cols) * (tile + kGutter);
+        const int y0 = kGutter + (i / cols) * (tile + kGutter);
+        const int ox = x0 + (tile - s * t.w) / 2, oy = y0 + (tile - s * t.h) / 2;
+        for (int y = 0; y < tile; ++y) {
+            uint8_t* row = sheet.data() + 3 * (static_cast<size_t>(y0 + y) * width + x0);
+            std::fill_n(row, 3 * tile, uint8_t{255});
+        }
+        for (int y = 0; y < s * t.h; ++y) {
+            uint8_t* row = sheet.data() + 3 * (static_cast<size_t>(oy + y) * width + ox);
+            const uint8_t* src = t.rgb.data() + 3 * static_cast<size_t>(y / s) * t.w;
+            for (int x = 0; x < s * t.w; ++x) std::memcpy(row + 3 * x, src + 3 * (x / s), 3);
+        }
+    }
+    writeFileAtomic(path, encodeRgbPng(width, height, sheet.data()));
 }
 
 void writePreviewPng(const Tree& tree, const fs::path& path, int sizePixels) {
     const std::vector<uint8_t> pixels = renderPreview(tree, sizePixels);
     writeFileAtomic(path, encodeGreyPng(sizePixels, sizePixels, pixels.data()));
+}
+
+void writeLabelPreviewPng(const Tree& tree, const fs::path& path, int size) {
+    ViewOptions o;
+    o.count = 1;
+    o.width = o.height = size;
+    o.elevationsDeg = {10};
+    o.randomAzimuth = false;
+    Rng unused(0);  // no random azimuth
+    const std::vector<Camera> cameras = makeCameras(tree, o, unused);
+    const ViewImage v = renderView(tree, cameras.front(), false, true);
+    writeFileAtomic(path, encodeRgbPng(size, size, colourLabels(v.labels).data()));
 }
 
 }  // namespace sylva

@@ -33,11 +33,17 @@ std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<
 // All views of an instance tiled in a grid (silhouettes, black tree on white).
 void writeContactSheet(const std::filesystem::path& path, const std::vector<ViewImage>& views,
                        int columns);
-// A sheet from existing grey PNG files (per-species sheets), each fitted into a `tile`-pixel
-// square; inputs are shown as they are (not inverted).
-void writeContactSheetFromFiles(const std::filesystem::path& path,
-                                const std::vector<std::filesystem::path>& images, int columns,
-                                int tile);
+// A species' contact sheet (contact/<species>.png): one tile per instance directory, its
+// first view (views/000_label.png in label colours, else views/000.png), each view shown at
+// least kSpeciesSheetMinTile pixels wide so a twig can be seen. RGB PNG.
+constexpr int kSpeciesSheetMinTile = 256;
+void writeSpeciesSheet(const std::filesystem::path& path,
+                       const std::vector<std::filesystem::path>& instanceDirs);
+
+// One view of the tree in label colours (render.h labelColour), an RGB PNG of size × size
+// pixels: a perspective camera at azimuth 0 (looking along −z), 10° above the horizon,
+// framing the tree as the dataset views do (`sylva grow`'s preview).
+void writeLabelPreviewPng(const Tree& tree, const std::filesystem::path& path, int size);
 
 // renderPreview() (pipeline/render/preview.h) written as an 8-bit greyscale PNG, atomically
 // (temp sibling + rename; never a torn file). Creates parent directories. Throws

@@ -245,7 +245,7 @@ Scene buildScene(const Tree& tree, const View& view) {
         }
         s.reach = std::max(kMinRadiusPx, screenReach(view, s, da, db));
         s.zmin = static_cast<float>(std::min(da - s.ra, db - s.rb));
-        s.label = woodLabel(nodes[i].order);
+        s.label = segmentLabel(nodes[i]);
         const double reach = s.reach;
         if (!pixelBox(std::min(s.ax, s.bx) - reach, std::max(s.ax, s.bx) + reach,
                       std::min(s.ay, s.by) - reach, std::max(s.ay, s.by) + reach, view.width,
@@ -532,6 +532,27 @@ double silhouetteCoverage(const ViewImage& view) {
     size_t tree = 0;
     for (uint8_t v : view.silhouette) tree += v != 0;
     return static_cast<double>(tree) / view.silhouette.size();
+}
+
+Rgb labelColour(uint8_t label) {
+    static constexpr Rgb kOrders[] = {
+        {214, 120, 34}, {49, 116, 178}, {150, 75, 160}, {0, 158, 150}, {200, 60, 110}};
+    if (label == kLabelBackground) return {255, 255, 255};
+    if (label == kLabelLeaf) return {60, 170, 70};
+    if (label == kLabelRoot) return {150, 30, 30};
+    if (label == woodLabel(0)) return {92, 51, 23};
+    return kOrders[(label - 2) % 5];
+}
+
+std::vector<uint8_t> colourLabels(const std::vector<uint8_t>& labels) {
+    std::vector<uint8_t> rgb(3 * labels.size());
+    for (size_t k = 0; k < labels.size(); ++k) {
+        const Rgb c = labelColour(labels[k]);
+        rgb[3 * k] = c.r;
+        rgb[3 * k + 1] = c.g;
+        rgb[3 * k + 2] = c.b;
+    }
+    return rgb;
 }
 
 double leafPixelFraction(const std::vector<ViewImage>& views) {

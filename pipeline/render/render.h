@@ -11,10 +11,26 @@
 
 namespace sylva {
 
-// Label values in label PNGs.
+// Label values in label images: 0 background, 1 + branch order for the shoot's wood (at most
+// 253), 254 the root system's wood, 255 leaves.
 constexpr uint8_t kLabelBackground = 0;
+constexpr uint8_t kLabelRoot = 254;
 constexpr uint8_t kLabelLeaf = 255;
-inline uint8_t woodLabel(int order) { return static_cast<uint8_t>(std::min(order + 1, 254)); }
+inline uint8_t woodLabel(int order) { return static_cast<uint8_t>(std::clamp(order + 1, 1, 253)); }
+// The label of the segment ending at `node`: root wood, or shoot wood of the node's order.
+inline uint8_t segmentLabel(const SkeletonNode& node) {
+    return node.part == kRootPart ? kLabelRoot : woodLabel(node.order);
+}
+
+// Label colours for looking at trees (contact sheets, previews): white background, the trunk
+// dark brown, branch orders 1–5 orange, blue, purple, teal, magenta (repeating above), roots
+// dark red, leaves green. RGB.
+struct Rgb {
+    uint8_t r, g, b;
+};
+Rgb labelColour(uint8_t label);
+// A label image as RGB (3 bytes per pixel) in those colours.
+std::vector<uint8_t> colourLabels(const std::vector<uint8_t>& labels);
 
 struct ViewImage {
     int width = 0, height = 0;

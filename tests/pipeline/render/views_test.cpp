@@ -9,7 +9,10 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <set>
 #include <sstream>
+#include <tuple>
 
 #include "pipeline/formats/view_writers.h"
 #include "pipeline/render/camera.h"
@@ -48,7 +51,8 @@ double footprint(const Camera& c, double depth) {
 
 const Tree& grownTree() {
     static const Tree tree = [] {
-        SpeciesFile species = loadSpecies(SYLVA_SOURCE_DIR "/species/papers/xu-mould-2012/xm-a.toml");
+        SpeciesFile species =
+            loadSpecies(SYLVA_SOURCE_DIR "/species/papers/xu-mould-2012/xm-a.toml");
         return growSpecies(species, 1, nullptr, true).tree;
     }();
     return tree;
@@ -767,62 +771,103 @@ TEST(ViewContactSheet, TilesSilhouettesBlackOnWhite) {
     EXPECT_EQ(pix(2 + 64 + 5, 2 + 22 + 5), 200);  // empty cell stays grey
 }
 
-TEST(ViewContactSheet, FromFilesFitsEachImageInItsTile) {
-    TempDir dir;
-    std::vector<fs::path> files;
-    for (int k = 0; k < 3; ++k) {
-        const int w = k == 1 ? 80 : 40, h = 40;
-        std::vector<uint8_t> px(w * h, 255);
-        for (int y = 0; y < h; ++y) {
-            for (int x = 0; x < w; ++x) {
-                if (x < w / 2) px[y * w + x] = 0;  // left half black
-            }
-        }
-        files.push_back(dir.path / ("in" + std::to_string(k) + ".png"));
-        writeGreyPng(files.back(), w, h, px);
-    }
-    const fs::path sheet = dir.path / "species.png";
-    writeContactSheetFromFiles(sheet, files, 2, 20);
-    int w = 0, h = 0;
-    const auto px = readGreyFile(sheet, w, h);
-    EXPECT_EQ(w, 2 * 20 + 3 * 2);
-    EXPECT_EQ(h, 2 * 20 + 3 * 2);
-    auto pix = [&](int x, int y) { return px.at(static_cast<size_t>(y) * w + x); };
-    EXPECT_EQ(pix(2 + 2, 2 + 10), 0);     // tile 0: left half black
-    EXPECT_EQ(pix(2 + 17, 2 + 10), 255);  // right half white
-    // Tile 1 (80×40 → 20×10, letterboxed vertically in white).
-    EXPECT_EQ(pix(24 + 2, 2 + 1), 255);
-    EXPECT_EQ(pix(24 + 2, 2 + 10), 0);
-    EXPECT_EQ(pix(24 + 17, 2 + 10), 255);
-    EXPECT_EQ(pix(1, 1), 200);
-    EXPECT_THROW(writeContactSheetFromFiles(sheet, {dir.path / "missing.png"}, 2, 20),
-                 std::runtime_error);
+// RGB pixels of an image file, read through OpenImageIO.
+std::vector<uint8_t> readRgbFile(const fs::path& p, int& w, int& h) {
+    auto in = OIIO::ImageInput::open(p.string());
+    EXPECT_TRUE(in);
+    if (!in) return {};
+    w = in->spec().width;
+    h = in->spec().height;
+    EXPECT_EQ(in->spec().nchannels, 3);
+    std::vector<uint8_t> px(3 * static_cast<size_t>(w) * h);
+    EXPECT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, px.data()));
+    return px;
 }
 
-TEST(ViewContactSheet, ShrinkingAveragesTheCoveredArea) {
-    // A white 3×3 image with one black centre pixel, fitted into a 2×2 tile: each output
-    // pixel covers 1.5 × 1.5 source pixels, a third by a third of the centre one, so it is
-    // 1 − 1/9 grey: 255 · 8/9 = 226.7 → 227.
-    TempDir dir;
-    std::vector<uint8_t> px(9, 255);
-    px[4] = 0;
-    const fs::path in = dir.path / "in.png", sheet = dir.path / "sheet.png";
-    writeGreyPng(in, 3, 3, px);
-    writeContactSheetFromFiles(sheet, {in}, 1, 2);
-    int w = 0, h = 0;
-    const auto out = readGreyFile(sheet, w, h);
-    ASSERT_EQ(w, 2 + 2 + 2);
-    for (int y = 2; y < 4; ++y) {
-        for (int x = 2; x < 4; ++x) EXPECT_EQ(out.at(static_cast<size_t>(y) * w + x), 227);
+TEST(ViewLabels, ColoursAreDistinctPerPart) {
+    std::set<std::tuple<int, int, int>> seen;
+    for (int label : {0, 1, 2, 3, 4, 5, 6, 254, 255}) {
+        const Rgb c = labelColour(static_cast<uint8_t>(label));
+        EXPECT_TRUE(seen.insert({c.r, c.g, c.b}).second) << label;
     }
-    // 4×4 → 2×2: exact 2×2 means (a checkerboard of 0/255 gives 127.5 → 128).
-    std::vector<uint8_t> board(16);
-    for (int k = 0; k < 16; ++k) board[k] = ((k % 4) + (k / 4)) % 2 ? 255 : 0;
-    writeGreyPng(in, 4, 4, board);
-    writeContactSheetFromFiles(sheet, {in}, 1, 2);
-    const auto out2 = readGreyFile(sheet, w, h);
-    for (int y = 2; y < 4; ++y) {
-        for (int x = 2; x < 4; ++x) EXPECT_EQ(out2.at(static_cast<size_t>(y) * w + x), 128);
+    EXPECT_EQ(labelColour(7).r, labelColour(2).r);  // orders repeat after five
+    const Rgb white = labelColour(kLabelBackground);
+    EXPECT_EQ(white.r + white.g + white.b, 3 * 255);
+    EXPECT_EQ(woodLabel(0), 1);
+    EXPECT_EQ(woodLabel(400), 253);  // never the root or leaf label
+    SkeletonNode root;
+    root.part = kRootPart;
+    root.order = 0;
+    EXPECT_EQ(segmentLabel(root), kLabelRoot);
+}
+
+// The species sheet: each instance's first view in label colours, at least 256 px, exact.
+TEST(ViewContactSheet, SpeciesSheetShowsFirstViewsInLabelColours) {
+    TempDir dir;
+    std::vector<fs::path> instances;
+    for (int k = 0; k < 3; ++k) {
+        const fs::path inst = dir.path / ("i" + std::to_string(k));
+        std::vector<uint8_t> labels(64 * 64, kLabelBackground), sil(64 * 64, 0);
+        for (int y = 10; y < 20; ++y) {
+            for (int x = 0; x < 64; ++x) {
+                labels[y * 64 + x] = x < 32 ? woodLabel(k) : kLabelLeaf;
+                sil[y * 64 + x] = 255;
+            }
+        }
+        writeGreyPng(inst / "views" / "000.png", 64, 64, sil);
+        if (k != 2) writeGreyPng(inst / "views" / "000_label.png", 64, 64, labels);
+        instances.push_back(inst);
+    }
+    const fs::path sheet = dir.path / "species.png";
+    writeSpeciesSheet(sheet, instances);
+    int w = 0, h = 0;
+    const auto px = readRgbFile(sheet, w, h);
+    const int tile = kSpeciesSheetMinTile;  // 64 px views, enlarged 4× to 256
+    EXPECT_EQ(w, 2 * tile + 3 * 2);
+    EXPECT_EQ(h, 2 * tile + 3 * 2);
+    auto pix = [&](int x, int y) {
+        const uint8_t* p = px.data() + 3 * (static_cast<size_t>(y) * w + x);
+        return std::make_tuple(int(p[0]), int(p[1]), int(p[2]));
+    };
+    auto colour = [](uint8_t label) {
+        const Rgb c = labelColour(label);
+        return std::make_tuple(int(c.r), int(c.g), int(c.b));
+    };
+    EXPECT_EQ(pix(2 + 4 * 5, 2 + 4 * 12), colour(woodLabel(0)));  // tile 0: the trunk colour
+    EXPECT_EQ(pix(2 + 4 * 40, 2 + 4 * 12), colour(kLabelLeaf));   // leaves
+    EXPECT_EQ(pix(2 + 4 * 5, 2 + 4 * 40), colour(kLabelBackground));
+    EXPECT_EQ(pix(4 + tile + 4 * 5, 2 + 4 * 12), colour(woodLabel(1)));  // tile 1: order 1
+    // Tile 2 has no label image: its silhouette, dark grey on white.
+    EXPECT_EQ(pix(2 + 4 * 5, 4 + tile + 4 * 12), std::make_tuple(40, 40, 40));
+    EXPECT_EQ(pix(2 + 4 * 5, 4 + tile + 4 * 40), std::make_tuple(255, 255, 255));
+    EXPECT_EQ(pix(0, 0), std::make_tuple(200, 200, 200));  // gutter
+    EXPECT_THROW(writeSpeciesSheet(sheet, {dir.path / "missing"}), std::runtime_error);
+}
+
+// `sylva grow`'s preview: one view in label colours; roots in the root colour.
+TEST(ViewLabels, LabelPreviewShowsTrunkRootsAndLeaves) {
+    Tree t;
+    test::addNode(t, -1, {0, 0, 0}, 0.2);
+    test::addNode(t, 0, {0, 3, 0}, 0.15);
+    test::addNode(t, 0, {0, -2, 0}, 0.15, 0, kRootPart);
+    Leaf leaf;
+    leaf.position = {0, 3.3, 0};
+    leaf.normal = {0, 0, 1};
+    leaf.size = 0.6;
+    leaf.aspect = 1.0;
+    leaf.node = 1;
+    t.leaves.push_back(leaf);
+    TempDir dir;
+    writeLabelPreviewPng(t, dir.path / "preview.png", 256);
+    int w = 0, h = 0;
+    const auto px = readRgbFile(dir.path / "preview.png", w, h);
+    ASSERT_EQ(w, 256);
+    ASSERT_EQ(h, 256);
+    std::map<std::tuple<int, int, int>, int> count;
+    for (size_t k = 0; k < px.size(); k += 3) ++count[{px[k], px[k + 1], px[k + 2]}];
+    for (uint8_t label : {woodLabel(0), kLabelRoot, kLabelLeaf, kLabelBackground}) {
+        const Rgb c = labelColour(label);
+        EXPECT_GT((count[{c.r, c.g, c.b}]), 100) << int(label);
     }
 }
 
