@@ -27,6 +27,9 @@ GrowOneResult growOne(const std::string& speciesPath, uint64_t seed, const fs::p
     writeFileAtomic(r.dir / "skeleton.ply", skeletonPly(g.tree));
     writeFileAtomic(r.dir / "skeleton.swc", skeletonSwc(g.tree));
     writeLabelPreviewPng(g.tree, r.dir / "preview.png", kGrowPreviewSize);
+    Tree wood = g.tree;  // the branching, which leaves hide
+    wood.leaves.clear();
+    writeLabelPreviewPng(wood, r.dir / "preview_wood.png", kGrowPreviewSize);
     nlohmann::json j = toJson(r.stats);
     for (const auto& [k, v] : g.methodStats) j[k] = v;
     const nlohmann::json rec = {{"species", species.name},

@@ -606,7 +606,8 @@ TEST(CliGrow, WritesFilesAndIsDeterministicPerSeed) {
                                      t.path())) {
         EXPECT_EQ(r.code, 0) << describe(r);
     }
-    for (const char* f : {"skeleton.ply", "skeleton.swc", "preview.png", "stats.json"}) {
+    for (const char* f :
+         {"skeleton.ply", "skeleton.swc", "preview.png", "preview_wood.png", "stats.json"}) {
         EXPECT_TRUE(fs::is_regular_file(t / "a" / f)) << f;
         EXPECT_GT(fs::file_size(t / "a" / f), 0u) << f;
     }
