@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/errors.h"
 #include "species/model/tree_metrics.h"
 
 namespace sylva {
@@ -134,7 +135,9 @@ std::vector<SpeciesGates> evaluateGates(const std::vector<nlohmann::json>& recor
 
 std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir) {
     std::ifstream in(datasetDir / "manifest.jsonl");
-    if (!in) throw std::runtime_error((datasetDir / "manifest.jsonl").string() + ": not found");
+    if (!in) {
+        throw InputError(datasetDir.string() + ": no manifest.jsonl (not a built dataset)");
+    }
     std::vector<nlohmann::json> records;
     for (std::string line; std::getline(in, line);) {
         nlohmann::json r = nlohmann::json::parse(line, nullptr, false);

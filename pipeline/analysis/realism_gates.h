@@ -41,8 +41,8 @@ const std::vector<GateSpec>& realismGates();
 // in the order species first appear.
 std::vector<SpeciesGates> evaluateGates(const std::vector<nlohmann::json>& records);
 
-// Reads the complete lines of DIR/manifest.jsonl and evaluates them. Throws
-// std::runtime_error when the manifest is missing.
+// Reads the complete lines of DIR/manifest.jsonl and evaluates them. Throws InputError when
+// the manifest is missing.
 std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir);
 
 // The results as a Markdown table: one row per species, one column per gate (value, ✗ when it
