@@ -708,13 +708,23 @@ int64_t mergeParallelPaths(Tree& tree, const MergeOptions& options) {
     };
     int64_t merged = 0;
     for (int32_t v = 1; v < n; ++v) {
-        const int32_t p = alias[nodes[v].parent];
+        int32_t p = alias[nodes[v].parent];
+        if (p != nodes[v].parent) {
+            // The parent was snapped onto another path, perhaps ahead of v: hang v from the
+            // last node of that path behind it, so the path never turns back (no hook).
+            while (parent[p] >= 0 && dot(nodes[v].position - nodes[p].position,
+                                         nodes[p].position - nodes[parent[p]].position) < 0) {
+                p = parent[p];
+            }
+        }
         alias[v] = v;
         parent[v] = p;  // provisional: direction(v) below reads it
         const Vec3 dv = direction(v);
+        const double reach =
+            options.distance * std::pow(options.shrink, std::max(0, nodes[v].level - 1));
         int32_t best = -1;
         double bestD = std::numeric_limits<double>::infinity();
-        grid.forEachWithin(nodes[v].position, options.distance, [&](int32_t u, const Vec3& q) {
+        grid.forEachWithin(nodes[v].position, reach, [&](int32_t u, const Vec3& q) {
             if (nodes[u].part != nodes[v].part) return;
             const double d = distance2(q, nodes[v].position);
             if (d > bestD || (d == bestD && u > best)) return;

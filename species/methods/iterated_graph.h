@@ -96,8 +96,11 @@ struct TrunkOptions {
 // creation order (older paths first); a node within `distance` of a kept node of another
 // path whose direction is within `maxAngle` of its own is snapped onto it: its children hang
 // from that node instead, so the later path follows the older one until they part.
+// A kept node's parent that was snapped ahead of it is replaced by the last node behind it
+// on the path it was snapped onto, so a path never turns back where it rejoins.
 struct MergeOptions {
-    double distance = 0.0;               // metres; 0 = off
+    double distance = 0.0;               // metres, for nodes of levels[0]; 0 = off
+    double shrink = 1.0;                 // the distance × shrink^k for nodes of levels[k]
     double maxAngle = 30.0 * kPi / 180;  // radians: directions (over two segments) this close
 };
 

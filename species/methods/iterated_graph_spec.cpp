@@ -177,6 +177,7 @@ std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& sp) {
     }
     if (auto m = sp.optionalTable("merge")) {
         o.merge.distance = m->number("distance", o.merge.distance, Range::nonNegative());
+        o.merge.shrink = m->number("shrink", o.merge.shrink, Range::leftOpen(0, 1));
         o.merge.maxAngle = m->degrees("max_angle_deg", o.merge.maxAngle, Range::closed(0, 90));
         m->finish();
     }
