@@ -135,10 +135,12 @@ int runSpeciesList(std::string dir) {
 }
 
 // Summaries, species comparison and sweep table of a dataset directory (finished, partial or
-// sharded). Exit 2 when DIR is not a dataset directory or holds no complete record.
-int runStats(const std::string& dir, bool noTiming) {
+// sharded), and with a reference file the KS distances to it. Exit 2 when DIR is not a dataset
+// directory or holds no complete record, or the reference file or a skeleton is bad.
+int runStats(const std::string& dir, bool noTiming, const std::string& reference) {
     DatasetStatsOptions o;
     o.timing = !noTiming;
+    o.reference = reference;
     const DatasetStatsResult r = computeDatasetStats(dir, o);
     std::printf("%s", r.summary.c_str());
     return 0;
@@ -209,6 +211,11 @@ int main(int argc, char** argv) {
         ->required();
     stats->add_flag("--no-timing", statsNoTiming,
                     "Leave out the timing.* metrics (machine-dependent), for reproducible files");
+    std::string statsReference;
+    stats->add_option("--reference", statsReference,
+                      "Reference distributions of measured trees (e.g. "
+                      "species/reference/treeqsm-broadleaf.json): KS distance of every species' "
+                      "architecture to them -> DIR/stats/reference.{csv,json}");
 
     std::string speciesDir;
     auto* species = app.add_subcommand("species", "The species library");
@@ -260,7 +267,7 @@ int main(int argc, char** argv) {
         if (*volume) return runVolume(volumePath, volumeOptions, volumeOut);
         if (*speciesList) return runSpeciesList(speciesDir);
         if (*report) return runReport(reportDir);
-        if (*stats) return runStats(statsDir, statsNoTiming);
+        if (*stats) return runStats(statsDir, statsNoTiming, statsReference);
     } catch (const SpecError& e) {  // file:line:col: key: what was expected
         std::fprintf(stderr, "%s\n", e.what());
         return 2;
