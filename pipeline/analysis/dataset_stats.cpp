@@ -395,10 +395,13 @@ ReferenceFiles compareWithReference(const fs::path& dir, const fs::path& file, c
         }
         std::stringstream ss;
         ss << in.rdbuf();
-        const Tree tree = readSkeletonPly(ss.str(), path.string());
         ReferenceValues values;
         try {
-            values = referenceValues(tree);
+            values = referenceValues(readSkeletonPly(ss.str(), path.string()));
+        } catch (const DatasetStatsInputError&) {
+            throw;
+        } catch (const InputError& e) {  // readSkeletonPly's message names the file
+            throw DatasetStatsInputError(e.what());
         } catch (const std::invalid_argument& e) {
             throw DatasetStatsInputError(path.string() + ": " + e.what());
         }
