@@ -17,7 +17,9 @@ path with '/' replaced by '_', the newest version of a path last:
     }
     for r in treeRchitecture qsm2r rTwig ITSMe; do extract $r DATA/$r; done
 
-then   /usr/bin/python3 scripts/reference_from_treeqsm.py DATA --out species/reference/treeqsm-broadleaf.json
+then
+    /usr/bin/python3 scripts/reference_from_treeqsm.py DATA \
+        --out species/reference/treeqsm-broadleaf.json --markdown TABLE.md
 
 Needs numpy and scipy (Debian: python3-numpy python3-scipy; scipy.io.loadmat reads the .mat
 files). TreeQSM's cylinder fields (treeqsm.m): radius, length (m), start (xyz, z up), axis
@@ -51,9 +53,9 @@ docs/metrics.md "Reference distributions"):
 
 Pooling: every tree has the same total weight (a tree's values weigh 1/n_tree each), so the
 large high-resolution models do not outweigh the rest (one walnut has 1,128 forks, the median
-tropical model 60); a tree joins a distribution only with >= MIN_VALUES values of it; quantiles of the weighted distribution
-interpolate linearly between the sorted values at cumulative-weight midpoints (numpy's linear
-/ R's type 7 for equal weights).
+tropical model 50); a tree joins a distribution only with >= MIN_VALUES values of it.
+Quantiles of the weighted distribution interpolate linearly between the sorted values at
+cumulative-weight midpoints (numpy's linear / R's type 7 for equal weights).
 """
 import argparse
 import json
@@ -66,12 +68,14 @@ import scipy.io as sio
 
 # Every tree of the reference: (source, path under DATA/<source>/, variable, species, note).
 # treeRchitecture: Jackson et al.'s tropical broadleaf QSMs (LPG01: Lope, Gabon; SEP09:
-# Sepilok, Sabah); *_wood are the leaf-off (wood only) models; the four LPG01_<n>.mat without
-# _wood are the same trees with leaves fitted as cylinders and are left out.
-_TR = ["example_data_LPG01_%d_wood.mat" % i for i in (0, 1, 4, 5, 7, 8, 9, 10, 26, 27, 29, 30, 31, 34, 35,
-                                         37, 38, 39, 40, 42)]
-_TR += ["example_data_SEP09_%dwnb.mat" % i for i in (3, 5, 6, 8, 9, 11, 12, 13, 98, 99, 100, 101, 102, 103,
-                                        104, 105, 106, 800, 801, 802, 803, 804, 805)]
+# Sepilok, Sabah), wood models (*_wood, *wnb). The four LPG01_<n>.mat without _wood are the same
+# trees (same base) modelled again with 3-5 times the cylinder length, presumably before the
+# leaves were separated from the wood; they are left out.
+_TR = ["example_data_LPG01_%d_wood.mat" % i
+       for i in (0, 1, 4, 5, 7, 8, 9, 10, 26, 27, 29, 30, 31, 34, 35, 37, 38, 39, 40, 42)]
+_TR += ["example_data_SEP09_%dwnb.mat" % i
+        for i in (3, 5, 6, 8, 9, 11, 12, 13, 98, 99, 100, 101, 102, 103, 104, 105, 106, 800, 801,
+                  802, 803, 804, 805)]
 TREES = [("treeRchitecture", f, "qsm", "tropical broadleaf (Gabon, Malaysian Borneo)", "")
          for f in _TR]
 TREES += [
@@ -258,12 +262,31 @@ def compact_json(x, indent=""):
     return json.dumps(x)
 
 
+def markdown_table(dists):
+    """Quantiles as rows (min, 2 %, 5 %, 10 % ... 95 %, 98 %, max), distributions as columns."""
+    rows = [0.0, 0.02] + [round(0.05 * k, 2) for k in range(1, 20)] + [0.98, 1.0]
+    keys = [k for k, _, _ in DISTRIBUTIONS]
+    out = "| p | " + " | ".join("`%s`" % k for k in keys) + " |\n"
+    out += "|---|" + "---:|" * len(keys) + "\n"
+    out += "| n (trees) | " + " | ".join("%d (%d)" % (dists[k]["n"], dists[k]["trees"])
+                                         for k in keys) + " |\n"
+    for p in rows:
+        label = "min" if p == 0 else ("max" if p == 1 else "%g %%" % (100 * p))
+        vals = []
+        for k in keys:
+            x = float(np.interp(p, dists[k]["p"], dists[k]["q"]))
+            vals.append(("%.1f" if k == "branch_angle_deg" else "%.3f") % x)
+        out += "| %s | %s |\n" % (label, " | ".join(vals))
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("data", help="directory with treeRchitecture/, qsm2r/, rTwig/, ITSMe/")
     ap.add_argument("--out", help="write the reference JSON here")
     ap.add_argument("--step", type=float, default=0.02, help="quantile step (default 0.02)")
     ap.add_argument("--per-tree", help="write a CSV of per-tree counts and medians here")
+    ap.add_argument("--markdown", help="write the quantile table of docs/metrics.md here")
     args = ap.parse_args()
 
     probs = [round(k * args.step, 10) for k in range(int(round(1 / args.step)) + 1)]
@@ -312,6 +335,9 @@ def main():
             for r in rows:
                 f.write(",".join(("%.6g" % r[k]) if isinstance(r[k], float) else str(r[k])
                                  for k in keys) + "\n")
+    if args.markdown:
+        with open(args.markdown, "w") as f:
+            f.write(markdown_table(dists))
     if args.out:
         ref = {
             "name": "treeqsm-broadleaf",
