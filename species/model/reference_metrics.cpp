@@ -61,6 +61,15 @@ ReferenceValues referenceValues(const Tree& tree) {
         }
     }
 
+    // Branch orders as TreeQSM numbers them: the stem (the chain from the root node) is 0, a
+    // branch leaving a branch of order k has order k + 1 (parents precede children).
+    std::vector<int32_t> branchOrder(n, 0);
+    for (int32_t c = 1; c < n; ++c) {
+        if (!isSegment(c)) continue;
+        const int32_t p = nodes[c].parent;
+        branchOrder[c] = branchOrder[p] + (c == cont[p] ? 0 : 1);
+    }
+
     // (a), (b): forks. TreeQSM's cap on a branch's radius (0.95 × its parent cylinder's) makes
     // the ratio of a capped lateral meaningless, so a fork with a lateral at the cap is left out.
     for (int32_t i = 0; i < n; ++i) {
@@ -83,13 +92,13 @@ ReferenceValues referenceValues(const Tree& tree) {
         if (std::isfinite(e)) out[kRadiusExponent].push_back(e);
     }
 
-    // (c): an order-1 branch leaving an order-0 node a: the angle between the stem's direction
+    // (c): an order-1 branch, leaving the stem at node a: the angle between the stem's direction
     // at a — the segment into a (the cylinder the branch leaves, in a QSM), or at the root node
     // the stem's first segment — and the branch's first segment.
     for (int32_t c = 1; c < n; ++c) {
         if (!isSegment(c)) continue;
         const int32_t a = nodes[c].parent;
-        if (c == cont[a] || nodes[c].order != 1 || nodes[a].order != 0) continue;
+        if (c == cont[a] || branchOrder[c] != 1) continue;
         Vec3 stem{0, 1, 0};
         if (isSegment(a)) {
             stem = nodes[a].position - nodes[nodes[a].parent].position;
@@ -118,7 +127,7 @@ ReferenceValues referenceValues(const Tree& tree) {
     // (e): every branch of order 1–3: the segment from the node it leaves plus its chain.
     for (int32_t c = 1; c < n; ++c) {
         if (!isSegment(c) || c == cont[nodes[c].parent]) continue;
-        const int32_t order = nodes[c].order;
+        const int32_t order = branchOrder[c];
         if (order < 1 || order > 3) continue;
         double len = segLength(c);
         for (int32_t x = cont[c]; x >= 0; x = cont[x]) len += segLength(x);

@@ -37,14 +37,15 @@ using ReferenceValues = std::array<std::vector<double>, kReferenceDistributions>
 
 // The distributions of one tree's shoot (part == kShootPart; the root system is left out).
 // Definitions: a *fork* is a shoot node with ≥ 2 shoot children. At every shoot node, the
-// *continuing child* is the shoot child of the node's own order with the longest path to a tip
-// below it (ties: the smaller index), if any; every other shoot child begins a *branch*, the
-// maximal chain that follows continuing children, and the branch's order is its first node's
-// order (the stem: the chain from the root node). A fork's *laterals* are its children other
-// than the continuing one. The tree height is max y over shoot nodes − the root node's y.
-// Empty distributions for an empty tree or one whose root node is not a shoot node; (d) and
-// (e) are empty when the height is not positive. Throws std::invalid_argument when a parent
-// index is not smaller than its child's (as ChildIndex does).
+// *continuing child* is the shoot child of the node's own order (SkeletonNode::order) with the
+// longest path to a tip below it (ties: the smaller index), if any; every other shoot child
+// begins a *branch*, the maximal chain that follows continuing children. The *stem* is the
+// chain from the root node, of order 0; a branch leaving a branch of order k has order k + 1
+// (TreeQSM's numbering; a method may keep its order field at a fork where two children go on).
+// A fork's *laterals* are its children other than the continuing one. The tree height is max y over
+// shoot nodes − the root node's y. Empty distributions for an empty tree or one whose root node is
+// not a shoot node; (d) and (e) are empty when the height is not positive. Throws
+// std::invalid_argument when a parent index is not smaller than its child's (as ChildIndex does).
 ReferenceValues referenceValues(const Tree& tree);
 
 }  // namespace sylva

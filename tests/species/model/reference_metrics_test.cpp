@@ -151,9 +151,9 @@ TEST(ReferenceMetrics, StemDirectionIsTheSegmentIntoTheAttachmentOrTheFirstAtThe
 }
 
 TEST(ReferenceMetrics, TheLongerChildOfTheSameOrderContinuesTheBranch) {
-    // An order-1 branch forks into two order-1 children, 0.4 and 1.0 m long: the longer
-    // continues (branch of 0.5 + 1.0 m), the shorter begins an order-1 branch of its own and is
-    // the fork's lateral.
+    // An order-1 branch forks into two children that keep order 1, 0.4 and 1.0 m long: the
+    // longer continues (a branch of 0.5 + 1.0 m), the shorter is the fork's lateral and begins a
+    // branch of order 2, as TreeQSM numbers a branch leaving an order-1 branch.
     Tree t;
     addNode(t, -1, {0, 0, 0}, 0.2);
     int32_t top = addNode(t, 0, {0, 2, 0}, 0.1);
@@ -161,13 +161,26 @@ TEST(ReferenceMetrics, TheLongerChildOfTheSameOrderContinuesTheBranch) {
     addNode(t, b, {0.5, 2.4, 0}, 0.02, 1);
     addNode(t, b, {1.5, 2, 0}, 0.04, 1);
     const ReferenceValues v = referenceValues(t);
-    ASSERT_EQ(v[kBranchLengthOrder1].size(), 2u);
+    ASSERT_EQ(v[kBranchLengthOrder1].size(), 1u);
     EXPECT_NEAR(v[kBranchLengthOrder1][0], 1.5 / 2.4, 1e-12);
-    EXPECT_NEAR(v[kBranchLengthOrder1][1], 0.4 / 2.4, 1e-12);
+    ASSERT_EQ(v[kBranchLengthOrder2].size(), 1u);
+    EXPECT_NEAR(v[kBranchLengthOrder2][0], 0.4 / 2.4, 1e-12);
     ASSERT_EQ(v[kRadiusRatio].size(), 1u);
     EXPECT_NEAR(v[kRadiusRatio][0], 0.02 / 0.05, 1e-12);
     // Only the branch leaving the stem is measured against it.
     EXPECT_EQ(v[kBranchAngle].size(), 1u);
+
+    // Two order-0 stems from the root, 3 m and 1 m: the taller is the stem, the other an
+    // order-1 branch leaving it at the root, at 30° from the stem's first segment.
+    Tree two;
+    addNode(two, -1, {0, 0, 0}, 0.2);
+    addNode(two, 0, {0, 3, 0}, 0.1);
+    addNode(two, 0, dirDeg(30), 0.05);
+    const ReferenceValues w = referenceValues(two);
+    ASSERT_EQ(w[kBranchAngle].size(), 1u);
+    EXPECT_NEAR(w[kBranchAngle][0], 30.0, 1e-9);
+    ASSERT_EQ(w[kBranchLengthOrder1].size(), 1u);
+    EXPECT_NEAR(w[kBranchLengthOrder1][0], 1.0 / 3, 1e-12);
 }
 
 TEST(ReferenceMetrics, RootSystemIgnoredAndDegenerateTrees) {
