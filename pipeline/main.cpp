@@ -11,8 +11,8 @@
 #include <iostream>
 
 #include "pipeline/analysis/dataset_stats.h"
-#include "pipeline/analysis/realism_gates.h"
 #include "pipeline/analysis/merge.h"
+#include "pipeline/analysis/realism_gates.h"
 #include "pipeline/analysis/report.h"
 #include "pipeline/analysis/species_list.h"
 #include "pipeline/analysis/volume_output.h"
