@@ -2,7 +2,8 @@
 // CSR graph construction, tree invariants for direct options and every preset, determinism
 // across thread counts, graph/endpoint counts with known answers (levels, lifespan rules,
 // from-all-levels), sub-graph volumes and orientation, γ curvature, linking modes, light,
-// roots, the thickness formula and Poisson saturation.
+// roots, the thickness formula and Poisson saturation; the continuous-limb options (smoothing,
+// merging, a single trunk, the radial weight) with known answers.
 #include "species/methods/iterated_graph.h"
 
 #include <gtest/gtest.h>
