@@ -30,7 +30,8 @@ struct Pending {
     int order;
     uint64_t key;
     bool even;
-    double evenAngle;  // slot angle when even, radians
+    double evenAngle;    // slot angle when even, radians
+    int distichousSide;  // 0 or 1 for a distichous sibling, −1 otherwise
 };
 
 // Uniform Catmull–Rom through c[0..m-1] at global parameter t ∈ [0, m−1]; phantom ends by
@@ -125,7 +126,8 @@ struct Derivation {
 
 // Jain §3.1.1: applies `state`'s rule for the stem `parentStem` (−1: the start rule) and
 // queues its outputs; the alternative is drawn from the parent's own keyed stream, and the
-// "even" siblings of one application share a random offset (our extension).
+// "even" siblings of one application share a random offset (our extension), the "distichous"
+// ones alternate sides.
 void expand(Derivation& d, int state, int parentStem, int level, int order, uint64_t key) {
     const GrammarOptions& o = d.o;
     const std::vector<GrammarAlternative>& alts = o.rules[state];
@@ -145,7 +147,7 @@ void expand(Derivation& d, int state, int parentStem, int level, int order, uint
         if (!o.stop[s] && o.geometry(state, s).evenSpread) ++evenCount;
     }
     const double evenOffset = d.rng.derive(hashCombine(key, kEvenTag)).uniform(0.0, 2 * kPi);
-    int evenSlot = 0;
+    int evenSlot = 0, distichousSlot = 0;
     bool continued = false;
     for (size_t i = 0; i < out.size(); ++i) {
         const int s = out[i];
@@ -161,8 +163,12 @@ void expand(Derivation& d, int state, int parentStem, int level, int order, uint
         if (continues) continued = true;
         p.order = parentStem < 0 ? 0 : (continues ? order : order + 1);
         p.key = hashCombine(key, i + 1);
-        p.even = o.geometry(state, s).evenSpread;
+        const GrammarGeometry& g = o.geometry(state, s);
+        p.even = g.evenSpread;
         p.evenAngle = p.even ? evenOffset + 2 * kPi * evenSlot++ / evenCount : 0.0;
+        // Our extension: distichous siblings alternate between the two sides of the parent
+        // (drawStem), the first side alternating by level.
+        p.distichousSide = g.distichous ? (distichousSlot++ + level) % 2 : -1;
         d.queue.push_back(p);
     }
 }
@@ -325,6 +331,19 @@ StemCurve addNodes(Derivation& d, const StemSamples& ss, const Attachment& at, c
     return sc;
 }
 
+// Our extension (phyllotaxis = "distichous"): the azimuth that puts a sibling on side 0 or 1
+// of its parent in the plane through the parent's axis closest to the horizontal — the two
+// ranks of a flat spray (a vertical parent: 90° and 270° from its reference normal).
+double distichousAngle(const Attachment& at, int side) {
+    const Vec3 across = cross(at.tangent, Vec3{0, 1, 0});
+    double base = 0.5 * kPi;
+    if (length(across) > 1e-6) {
+        const Vec3 h = normalize(across);
+        base = std::atan2(dot(cross(at.normal, h), at.tangent), dot(at.normal, h));
+    }
+    return base + kPi * side;
+}
+
 // Jain §3.1.2: draws the stem of one queued output with its transition's geometry — length
 // t_l = b_l·r_l^c, Euler angles t_a = b_a·r_a^c, attachment, noisy spline — adds its nodes to
 // the skeleton, then expands its own state's rule.
@@ -345,8 +364,7 @@ void drawStem(Derivation& d, const Pending& pd) {
     const Vec3 noiseOrigin{r.uniform(0, 1000), r.uniform(0, 1000), r.uniform(0, 1000)};
 
     const double len = baseLength * std::pow(g.reduceLength, c) * o.lengthScale;
-    const double azimuth =
-        (pd.even ? pd.evenAngle : 0.0) + azimuthDraw * std::pow(g.reduceAngle.x, c);
+    double azimuth = (pd.even ? pd.evenAngle : 0.0) + azimuthDraw * std::pow(g.reduceAngle.x, c);
     double tilt = tiltDraw * std::pow(g.reduceAngle.y, c);
     const double roll = rollDraw * std::pow(g.reduceAngle.z, c);
 
@@ -361,6 +379,7 @@ void drawStem(Derivation& d, const Pending& pd) {
     if (straight || vertical) tilt = tropism = bend = 0.0;
 
     const Attachment at = attachment(d, pd.parentStem, position);
+    if (pd.distichousSide >= 0) azimuth += distichousAngle(at, pd.distichousSide);
     // Intrinsic Euler angles: azimuth about the parent's tangent, tilt away from it, roll
     // about the new axis.
     const Vec3 side = rotate(at.normal, at.tangent, azimuth);

@@ -68,6 +68,7 @@ struct GrammarGeometry {
     double rollLo = 0.0, rollHi = 0.0;
     Vec3 reduceAngle{1, 1, 1};  // r_a for (azimuth, tilt, roll)
     bool evenSpread = false;    // phyllotaxis = "even"
+    bool distichous = false;    // phyllotaxis = "distichous" (our extension): two ranks
     double positionLo = 1.0, positionHi = 1.0;
     double reduceWidthBegin = 1.0;  // r_wb
     double reduceWidthEnd = 0.7;    // r_we

@@ -35,7 +35,7 @@ struct GeometryTable {
     std::optional<std::pair<double, double>> length, azimuth, tilt, roll, position, curve;
     std::optional<double> reduceLength, reduceWidthBegin, reduceWidthEnd, tropism;
     std::optional<Vec3> reduceAngle;
-    std::optional<bool> even;
+    std::optional<std::string> phyllotaxis;
     std::optional<int> controlPoints;
 };
 
@@ -66,7 +66,7 @@ GeometryTable readGeometry(Params& p) {
     if (auto t = number("tropism_deg", Range::closed(-180, 180))) g.tropism = *t * kDeg;
     if (p.has("reduce_angle")) g.reduceAngle = p.vec3("reduce_angle", {1, 1, 1}, Range::positive());
     if (p.has("phyllotaxis"))
-        g.even = p.choice("phyllotaxis", "random", {"random", "even"}) == "even";
+        g.phyllotaxis = p.choice("phyllotaxis", "random", {"random", "even", "distichous"});
     if (p.has("control_points")) {
         g.controlPoints = static_cast<int>(p.integer("control_points", Range::closed(2, 32)));
     }
@@ -93,7 +93,10 @@ void apply(const GeometryTable& t, GrammarGeometry& g) {
     if (t.reduceWidthEnd) g.reduceWidthEnd = *t.reduceWidthEnd;
     if (t.tropism) g.tropism = *t.tropism;
     if (t.reduceAngle) g.reduceAngle = *t.reduceAngle;
-    if (t.even) g.evenSpread = *t.even;
+    if (t.phyllotaxis) {
+        g.evenSpread = *t.phyllotaxis == "even";
+        g.distichous = *t.phyllotaxis == "distichous";
+    }
     if (t.controlPoints) g.controlPoints = *t.controlPoints;
 }
 
