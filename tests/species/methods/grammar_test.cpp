@@ -824,6 +824,42 @@ TEST(GrammarSpec, PresetsBuildDeterministicallyAndFast) {
     EXPECT_GE(found, 1);
 }
 
+// The library's grammar species (species/presets/): the same tree threaded or not, no shoot
+// node below the ground (their ground_clearance, before the form stage's prune), and the
+// banyan's prop roots, labelled as roots, hanging straight down and ending on the ground.
+TEST(GrammarSpec, LibrarySpeciesGrowAboveTheGround) {
+    const fs::path presets = fs::path(SYLVA_SOURCE_DIR) / "species/presets";
+    int grammar = 0, rootedProps = 0;
+    for (const auto& e : fs::directory_iterator(presets)) {
+        if (e.path().extension() != ".toml") continue;
+        const SpeciesFile sp = loadSpecies(e.path().string());
+        if (sp.method != "grammar") continue;
+        SCOPED_TRACE(sp.name);
+        ++grammar;
+        const GrownTree a = growSpecies(sp, 7, nullptr, false);
+        const GrownTree b = growSpecies(sp, 7, nullptr, true);
+        ASSERT_EQ(a.tree.nodes.size(), b.tree.nodes.size());
+        for (size_t i = 0; i < a.tree.nodes.size(); ++i) {
+            ASSERT_EQ(a.tree.nodes[i].position, b.tree.nodes[i].position);
+        }
+        const ChildIndex children(a.tree);
+        for (size_t i = 1; i < a.tree.nodes.size(); ++i) {
+            const SkeletonNode& n = a.tree.nodes[i];
+            if (n.part == kShootPart) {
+                EXPECT_GE(n.position.y, 0.0) << "shoot node " << i;
+                continue;
+            }
+            // A prop root: straight under its parent, above the ground, ending on it if rooted.
+            const Vec3 step = n.position - a.tree.nodes[n.parent].position;
+            EXPECT_LT(angleBetween(step, Vec3{0, -1, 0}), 1.0 * kDeg) << "root node " << i;
+            EXPECT_GE(n.position.y, 0.0);
+            if (children.count(static_cast<int>(i)) == 0 && n.position.y == 0.0) ++rootedProps;
+        }
+    }
+    EXPECT_GE(grammar, 17);
+    EXPECT_GT(rootedProps, 0) << "the banyan's prop roots reach the ground";
+}
+
 // A dataset sweep over grammar.max_depth with same_seed = true is a growth series: one seed
 // per instance across the points, and each point's tree contains the previous one.
 TEST(GrammarSpec, SameSeedDepthSweepGivesNestedGrowthStages) {
