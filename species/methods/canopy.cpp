@@ -11,9 +11,12 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <utility>
+
+#include "volumes/point_grid.h"
 
 namespace sylva {
 
@@ -256,6 +259,14 @@ double envelopeRatio(const CanopyEnvelope& e, const Vec3& p) {
     return ratio;
 }
 
+double envelopeDepth(const CanopyEnvelope& e, const Vec3& p) {
+    const Vec2 a = e.angles(p);
+    const Vec3 s = e.surfacePoint(a.x, a.y);
+    if (e.domain() == CanopyDomain::kEllipsoid) return length(s) - length(p);
+    // Cone: angles() clamps θ to the apex above it, where the surface radius is 0.
+    return std::hypot(s.x, s.z) - std::hypot(p.x, p.z);
+}
+
 CanopySurfaceSampler::CanopySurfaceSampler(const CanopyEnvelope& e) {
     // Surface points at the cell corners: φ_i = 2πi/U (wrapping), θ_j = πj/V.
     std::vector<Vec3> p(size_t(kCellsPhi) * (kCellsTheta + 1));
@@ -476,22 +487,31 @@ FittedTemplate fitTemplate(const Tree& t, const CanopyOptions& o, double trunkTo
 }
 
 // Shesh §3.5: a segment whose end lies beyond the envelope (ratio > 1 + threshold) is cut,
-// and so is everything above it. Parents precede children, so one pass suffices.
-Tree clipTemplate(const FittedTemplate& f, const CanopyOptions& o) {
+// and so is everything above it. Parents precede children, so one pass suffices. With a leaf
+// margin, a crown node less than the margin inside the surface is cut too. `bole` (if given)
+// gets the kept nodes' bole flags.
+Tree clipTemplate(const FittedTemplate& f, const CanopyOptions& o,
+                  std::vector<char>* bole = nullptr) {
     const std::vector<SkeletonNode>& nodes = f.tree.nodes;
     const double limit = 1.0 + o.branches.clipThreshold;
+    const double margin = o.branches.leafMargin;
     std::vector<int32_t> map(nodes.size(), -1);
     Tree out;
     for (size_t i = 0; i < nodes.size(); ++i) {
         const SkeletonNode& n = nodes[i];
         if (i > 0) {
             if (map[n.parent] < 0) continue;
-            if (!f.bole[i] && envelopeRatio(*o.envelope, n.position - o.position) > limit) continue;
+            if (!f.bole[i]) {
+                const Vec3 local = n.position - o.position;
+                if (envelopeRatio(*o.envelope, local) > limit) continue;
+                if (margin > 0.0 && envelopeDepth(*o.envelope, local) < margin) continue;
+            }
         }
         SkeletonNode kept = n;
         kept.parent = i > 0 ? map[n.parent] : -1;
         map[i] = static_cast<int32_t>(out.nodes.size());
         out.nodes.push_back(kept);
+        if (bole) bole->push_back(f.bole[i]);
     }
     return out;
 }
@@ -534,6 +554,11 @@ void placeCanopyLeaves(Tree& tree, const CanopyOptions& o, const CanopySurfaceSa
             leaf.position = at;
             leaf.normal = n0;
             leaf.tangent = randomPerpendicular(n0, positions);
+            // Supported leaves point out of the crown from their base (the attachment, where
+            // a twig will reach them): the same card, its near edge on the inner side.
+            if (o.support.mode != LeafSupport::kNone && dot(leaf.tangent, outward) < 0.0) {
+                leaf.tangent = -leaf.tangent;
+            }
             leaf.size = positions.uniform(lo.sizeMin, lo.sizeMax);
             leaf.aspect = lo.aspect;
             tree.leaves.push_back(leaf);
@@ -625,7 +650,293 @@ int64_t attachLeaves(Tree& tree, double supportDistance) {
     return unsupported;
 }
 
+// Support: crown segments longer than `maxLength` are cut into equal pieces, so twigs can
+// sprout along them and a leaf beside a segment has a node near it. The pieces take the
+// child's order, level and radius (Murray's rule gives a chain one radius); the bole is left
+// whole. `sprouts` and `own` (per node) follow the nodes; inserted nodes get 0 own flow.
+Tree subdivideCrown(const Tree& t, double maxLength, std::vector<char>& sprouts,
+                    std::vector<double>& own) {
+    Tree out;
+    std::vector<char> outSprouts;
+    std::vector<double> outOwn;
+    std::vector<int32_t> map(t.nodes.size(), -1);
+    for (size_t i = 0; i < t.nodes.size(); ++i) {
+        SkeletonNode n = t.nodes[i];
+        if (i > 0) {
+            const int32_t parent = map[n.parent];
+            const Vec3 from = t.nodes[n.parent].position;
+            const double len = distance(from, n.position);
+            const int pieces =
+                sprouts[i] ? std::max(1, static_cast<int>(std::ceil(len / maxLength))) : 1;
+            int32_t at = parent;
+            for (int k = 1; k < pieces; ++k) {
+                SkeletonNode mid = n;
+                mid.position = from + (n.position - from) * (double(k) / pieces);
+                mid.parent = at;
+                at = static_cast<int32_t>(out.nodes.size());
+                out.nodes.push_back(mid);
+                outSprouts.push_back(sprouts[i]);
+                outOwn.push_back(0.0);
+            }
+            n.parent = at;
+        }
+        map[i] = static_cast<int32_t>(out.nodes.size());
+        out.nodes.push_back(n);
+        outSprouts.push_back(sprouts[i]);
+        outOwn.push_back(own[i]);
+    }
+    out.leaves = t.leaves;
+    sprouts.swap(outSprouts);
+    own.swap(outOwn);
+    return out;
+}
+
+// Murray's rule with a flow of the node's own (Murray 1927; Shesh §3.4): r_iⁿ = own_i +
+// Σ r_childⁿ, and a tip max(own_i, r_tipⁿ). own ≡ 0 is murrayRadii; own = what a template
+// node lost to clipping keeps the template's radii where nothing was added.
+void flowRadii(Tree& tree, const std::vector<double>& own, double tipRadius, double exponent) {
+    const size_t n = tree.nodes.size();
+    std::vector<double> sum(n, 0.0);
+    std::vector<char> hasChild(n, 0);
+    const double tipFlow = std::pow(tipRadius, exponent);
+    for (size_t i = n; i-- > 0;) {
+        SkeletonNode& node = tree.nodes[i];
+        const double o = i < own.size() ? own[i] : 0.0;
+        if (!hasChild[i]) {
+            node.radius = o > tipFlow ? std::pow(o, 1.0 / exponent) : tipRadius;
+        } else {
+            node.radius = std::pow(sum[i] + o, 1.0 / exponent);
+        }
+        if (node.parent >= 0) {
+            sum[node.parent] += std::pow(node.radius, exponent);
+            hasChild[node.parent] = 1;
+        }
+    }
+}
+
+void setEndpoints(Tree& tree) {
+    const ChildIndex children(tree);
+    tree.endpoints.clear();
+    for (int32_t i = 1; i < static_cast<int32_t>(tree.nodes.size()); ++i) {
+        if (children.count(i) == 0) tree.endpoints.push_back(i);
+    }
+}
+
+Tree finish(Tree tree, CanopyStats& st, CanopyStats* stats) {
+    st.leaves = static_cast<int64_t>(tree.leaves.size());
+    st.unsupportedLeafFraction =
+        st.leaves > 0 ? static_cast<double>(st.unsupportedLeaves) / st.leaves : 0.0;
+    if (stats) *stats = st;
+    return tree;
+}
+
 }  // namespace
+
+// --- leaf support ------------------------------------------------------------------------------
+
+int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
+                         const CanopySupportOptions& o,
+                         const std::function<bool(const Vec3&)>& inside, int64_t* grown) {
+    if (grown) *grown = 0;
+    const size_t leafCount = tree.leaves.size();
+    if (leafCount == 0) return 0;
+    if (tree.nodes.empty()) {
+        tree.leaves.clear();
+        return static_cast<int64_t>(leafCount);
+    }
+    const double reach = o.reach, step = o.step, kill2 = o.attach * o.attach;
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+
+    // Markers: the leaves' attachment points (the middle of the card's near edge).
+    std::vector<Vec3> marker(leafCount);
+    Aabb box;
+    for (size_t k = 0; k < leafCount; ++k) {
+        const Leaf& l = tree.leaves[k];
+        marker[k] = l.position - l.tangent * (0.5 * l.size);
+        box.extend(marker[k]);
+    }
+    for (const SkeletonNode& n : tree.nodes) box.extend(n.position);
+    box.extend(box.lo - Vec3{reach, reach, reach});
+    box.extend(box.hi + Vec3{reach, reach, reach});
+    // Markers are fixed: packed by cell. Nodes are added as twigs grow.
+    PackedPointGrid markerGrid;
+    markerGrid.assign(marker, 0.5 * reach);
+    PointGrid nodeGrid(box, 0.5 * reach);
+    nodeGrid.reserve(tree.nodes.size() * 2);
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+        nodeGrid.insert(static_cast<int32_t>(i), tree.nodes[i].position);
+    }
+
+    // Per marker: the nearest node that may grow (within reach) and, once one is within the
+    // kill distance, the node that carries it. Ties go to the lower index (determinism).
+    struct Marker {
+        int32_t nearest = -1;
+        double d2 = kInf;
+        int32_t carrier = -1;
+        double carrierD2 = kInf;
+    };
+    std::vector<Marker> m(leafCount);
+    std::vector<char> canGrow(sprouts.begin(), sprouts.end());
+    canGrow.resize(tree.nodes.size(), 0);
+    auto better = [](double d2, int32_t id, double bestD2, int32_t bestId) {
+        return d2 < bestD2 || (d2 == bestD2 && id < bestId);
+    };
+    {
+        // The nearest node, and the nearest that may grow, by kd-tree (CGAL).
+        std::vector<IndexedPoint> all, growing;
+        for (size_t i = 0; i < tree.nodes.size(); ++i) {
+            const Vec3& p = tree.nodes[i].position;
+            all.emplace_back(KPoint(p.x, p.y, p.z), static_cast<int32_t>(i));
+            if (canGrow[i]) growing.push_back(all.back());
+        }
+        const NeighbourSearch::Tree allKd(all.begin(), all.end());
+        const NeighbourSearch::Tree growKd(growing.begin(), growing.end());
+        for (size_t k = 0; k < leafCount; ++k) {
+            Marker& mk = m[k];
+            const KPoint q(marker[k].x, marker[k].y, marker[k].z);
+            NeighbourSearch nearest(allKd, q, 1);
+            if (nearest.begin() != nearest.end() && nearest.begin()->second <= kill2) {
+                mk.carrier = nearest.begin()->first.second;
+                mk.carrierD2 = nearest.begin()->second;
+                continue;
+            }
+            if (growing.empty()) continue;
+            NeighbourSearch grower(growKd, q, 1);
+            if (grower.begin() != grower.end() && grower.begin()->second <= reach * reach) {
+                mk.nearest = grower.begin()->first.second;
+                mk.d2 = grower.begin()->second;
+            }
+        }
+    }
+
+    std::vector<int32_t> childCount(tree.nodes.size(), 0);
+    for (size_t i = 1; i < tree.nodes.size(); ++i) ++childCount[tree.nodes[i].parent];
+    std::vector<int32_t> firstTwig(tree.nodes.size(), -1), nextTwig(tree.nodes.size(), -1);
+    std::vector<Vec3> pull(tree.nodes.size());         // Σ unit directions to the markers
+    std::vector<int32_t> pulls(tree.nodes.size(), 0);  // markers attracted
+    std::vector<int32_t> closest(tree.nodes.size(), -1);
+    std::vector<int32_t> touched, added;
+    const double duplicate2 = 0.25 * step * step;  // a twig child this close is the same twig
+    const Vec3 size = box.size();
+    const int maxIterations =
+        16 + static_cast<int>(std::ceil(4.0 * length(size) / step));  // a safety bound
+    int64_t newNodes = 0;
+    std::vector<int32_t> active;  // markers not yet carried
+    for (size_t k = 0; k < leafCount; ++k) {
+        if (m[k].carrier < 0) active.push_back(static_cast<int32_t>(k));
+    }
+    for (int iteration = 0; iteration < maxIterations; ++iteration) {
+        // Runions et al. 2007, §3: every marker pulls its nearest node (a node that could not
+        // grow hands its markers to the nearest other one).
+        touched.clear();
+        size_t alive = 0;
+        for (int32_t k : active) {
+            Marker& mk = m[k];
+            if (mk.carrier >= 0) continue;
+            active[alive++] = k;
+            if (mk.nearest < 0) continue;
+            if (!canGrow[mk.nearest]) {
+                mk.nearest = -1;
+                mk.d2 = kInf;
+                nodeGrid.forEachWithin(marker[k], reach, [&](int32_t id, const Vec3& p) {
+                    const double d2 = distance2(p, marker[k]);
+                    if (canGrow[id] && better(d2, id, mk.d2, mk.nearest)) {
+                        mk.nearest = id;
+                        mk.d2 = d2;
+                    }
+                });
+                if (mk.nearest < 0) continue;
+            }
+            const int32_t i = mk.nearest;
+            const Vec3 d = marker[k] - tree.nodes[i].position;
+            const double len = length(d);
+            if (pulls[i]++ == 0) touched.push_back(i);
+            if (len > 0.0) pull[i] += d * (1.0 / len);
+            if (closest[i] < 0 || better(mk.d2, k, m[closest[i]].d2, closest[i])) closest[i] = k;
+        }
+        active.resize(alive);
+        if (touched.empty()) break;
+        std::sort(touched.begin(), touched.end());
+        added.clear();
+        for (int32_t i : touched) {
+            const Vec3 p = tree.nodes[i].position;
+            auto fits = [&](const Vec3& q) {
+                if (!inside(q)) return false;
+                for (int32_t c = firstTwig[i]; c >= 0; c = nextTwig[c]) {
+                    if (distance2(tree.nodes[c].position, q) < duplicate2) return false;
+                }
+                return true;
+            };
+            const Vec3 toClosest = marker[closest[i]] - p;
+            Vec3 q{0, 0, 0};
+            bool ok = false;
+            if (length(pull[i]) > 1e-6 * pulls[i]) {
+                q = p + normalize(pull[i]) * step;
+                ok = fits(q);
+            }
+            if (!ok && length(toClosest) > 0.0) {  // opposite pulls cancel: the nearest marker
+                q = p + normalize(toClosest) * step;
+                ok = fits(q);
+            }
+            pull[i] = Vec3{0, 0, 0};
+            pulls[i] = 0;
+            closest[i] = -1;
+            if (!ok) {
+                canGrow[i] = 0;  // it cannot grow toward its markers: another node may
+                continue;
+            }
+            SkeletonNode n;
+            n.position = q;
+            n.parent = i;
+            n.order = tree.nodes[i].order + (childCount[i] > 0 ? 1 : 0);
+            n.level = n.order;
+            n.part = tree.nodes[i].part;
+            const int32_t id = static_cast<int32_t>(tree.nodes.size());
+            tree.nodes.push_back(n);
+            ++childCount[i];
+            childCount.push_back(0);
+            canGrow.push_back(1);
+            nextTwig.push_back(firstTwig[i]);
+            firstTwig[i] = id;
+            firstTwig.push_back(-1);
+            pull.push_back(Vec3{0, 0, 0});
+            pulls.push_back(0);
+            closest.push_back(-1);
+            nodeGrid.insert(id, q);
+            added.push_back(id);
+        }
+        if (added.empty()) continue;  // only frozen nodes: their markers look again
+        newNodes += static_cast<int64_t>(added.size());
+        // The new nodes take over the markers they are nearer to, and carry those in reach.
+        for (int32_t id : added) {
+            const Vec3 q = tree.nodes[id].position;
+            markerGrid.forEachWithin(q, reach, [&](int32_t k, const Vec3& p) {
+                Marker& mk = m[k];
+                const double d2 = distance2(p, q);
+                if (d2 <= kill2 && better(d2, id, mk.carrierD2, mk.carrier)) {
+                    mk.carrier = id;
+                    mk.carrierD2 = d2;
+                }
+                if (better(d2, id, mk.d2, mk.nearest)) {
+                    mk.nearest = id;
+                    mk.d2 = d2;
+                }
+            });
+        }
+    }
+    if (grown) *grown = newNodes;
+
+    // Carried leaves keep their node; the rest are dropped.
+    size_t kept = 0;
+    for (size_t k = 0; k < leafCount; ++k) {
+        if (m[k].carrier < 0) continue;
+        Leaf leaf = tree.leaves[k];
+        leaf.node = m[k].carrier;
+        tree.leaves[kept++] = leaf;
+    }
+    tree.leaves.resize(kept);
+    return static_cast<int64_t>(leafCount - kept);
+}
 
 Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
                 const CanopySurfaceSampler* sampler) {
@@ -657,34 +968,63 @@ Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
     if (o.branches.murrayOn == MurrayOn::kTemplate) {
         murrayRadii(fitted.tree, o.branches.tipRadius, o.branches.murrayExponent);
     }
-    Tree tree = clipTemplate(fitted, o);
-    if (o.branches.murrayOn == MurrayOn::kClipped) {
-        murrayRadii(tree, o.branches.tipRadius, o.branches.murrayExponent);
-    }
-    st.keptSegments = static_cast<int64_t>(tree.nodes.size()) - 1;
-    {
-        const ChildIndex children(tree);
-        for (int32_t i = 1; i < static_cast<int32_t>(tree.nodes.size()); ++i) {
-            if (children.count(i) == 0) tree.endpoints.push_back(i);
+    if (o.support.mode == LeafSupport::kNone) {
+        Tree tree = clipTemplate(fitted, o);
+        if (o.branches.murrayOn == MurrayOn::kClipped) {
+            murrayRadii(tree, o.branches.tipRadius, o.branches.murrayExponent);
         }
+        st.keptSegments = static_cast<int64_t>(tree.nodes.size()) - 1;
+        setEndpoints(tree);
+        // Leaves: their own stream, so changing them never moves a branch.
+        if (o.leaves.count > 0) {
+            Rng leafRng = rng.derive("leaves");
+            if (sampler) {
+                placeCanopyLeaves(tree, o, *sampler, leafRng);
+            } else {
+                const CanopySurfaceSampler own(*o.envelope);
+                placeCanopyLeaves(tree, o, own, leafRng);
+            }
+            st.unsupportedLeaves = attachLeaves(tree, o.leaves.supportDistance);
+        }
+        return finish(std::move(tree), st, stats);
     }
 
-    // Leaves: their own stream, so changing them never moves a branch.
+    // Leaf support: the template clipped (with its leaf margin), its crown segments cut to the
+    // kill distance, the leaves placed, twigs grown to them, then Murray's rule over it all.
+    std::vector<char> bole;
+    Tree tree = clipTemplate(fitted, o, &bole);
+    st.keptSegments = static_cast<int64_t>(tree.nodes.size()) - 1;
+    const double n = o.branches.murrayExponent;
+    std::vector<double> own(tree.nodes.size(), 0.0);
+    if (o.branches.murrayOn == MurrayOn::kTemplate) {
+        // What each kept node carried in the template beyond its kept children: the flow of
+        // the branches clipped off it (a kept tip: all of its own).
+        for (size_t i = 0; i < tree.nodes.size(); ++i) own[i] = std::pow(tree.nodes[i].radius, n);
+        for (size_t i = 1; i < tree.nodes.size(); ++i) {
+            own[tree.nodes[i].parent] -= std::pow(tree.nodes[i].radius, n);
+        }
+        for (double& f : own) f = std::max(0.0, f);
+    }
+    std::vector<char> sprouts(bole.size());
+    for (size_t i = 0; i < bole.size(); ++i) sprouts[i] = !bole[i];
+    tree = subdivideCrown(tree, o.support.attach, sprouts, own);
     if (o.leaves.count > 0) {
         Rng leafRng = rng.derive("leaves");
         if (sampler) {
             placeCanopyLeaves(tree, o, *sampler, leafRng);
         } else {
-            const CanopySurfaceSampler own(*o.envelope);
-            placeCanopyLeaves(tree, o, own, leafRng);
+            const CanopySurfaceSampler samplerOwn(*o.envelope);
+            placeCanopyLeaves(tree, o, samplerOwn, leafRng);
         }
-        st.unsupportedLeaves = attachLeaves(tree, o.leaves.supportDistance);
     }
-    st.leaves = static_cast<int64_t>(tree.leaves.size());
-    st.unsupportedLeafFraction =
-        st.leaves > 0 ? static_cast<double>(st.unsupportedLeaves) / st.leaves : 0.0;
-    if (stats) *stats = st;
-    return tree;
+    const CanopyEnvelope& env = *o.envelope;
+    const Vec3 centre = o.position;
+    st.droppedLeaves = growSupportTwigs(
+        tree, sprouts, o.support,
+        [&](const Vec3& p) { return envelopeRatio(env, p - centre) <= 1.0; }, &st.twigNodes);
+    flowRadii(tree, own, o.branches.tipRadius, n);
+    setEndpoints(tree);
+    return finish(std::move(tree), st, stats);
 }
 
 }  // namespace sylva
