@@ -568,7 +568,9 @@ void placeCanopyLeaves(Tree& tree, const CanopyOptions& o, const CanopySurfaceSa
         // its end, evenly in angle from a random start.
         const Vec3 twig = normalize(outward + positions.unitVector() * 0.5);
         const Vec3 e1 = randomPerpendicular(twig, positions), e2 = cross(twig, e1);
-        const Vec3 end = at + twig * lo.twig;
+        // Supported: the twig ends at the position (its leaves' attachment, where the grown
+        // twigs reach them, stays inside the canopy) instead of starting there.
+        const Vec3 end = o.support.mode != LeafSupport::kNone ? at : at + twig * lo.twig;
         for (int j = 0; j < lo.cluster; ++j) {
             const double psi = 2 * kPi * j / lo.cluster;
             const Vec3 side = e1 * std::cos(psi) + e2 * std::sin(psi);
@@ -758,14 +760,9 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     for (const SkeletonNode& n : tree.nodes) box.extend(n.position);
     box.extend(box.lo - Vec3{reach, reach, reach});
     box.extend(box.hi + Vec3{reach, reach, reach});
-    // Markers are fixed: packed by cell. Nodes are added as twigs grow.
+    // Markers are fixed: packed by cell.
     PackedPointGrid markerGrid;
     markerGrid.assign(marker, 0.5 * reach);
-    PointGrid nodeGrid(box, 0.5 * reach);
-    nodeGrid.reserve(tree.nodes.size() * 2);
-    for (size_t i = 0; i < tree.nodes.size(); ++i) {
-        nodeGrid.insert(static_cast<int32_t>(i), tree.nodes[i].position);
-    }
 
     // Per marker: the nearest node that may grow (within reach) and, once one is within the
     // kill distance, the node that carries it. Ties go to the lower index (determinism).
@@ -776,6 +773,10 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
         double carrierD2 = kInf;
     };
     std::vector<Marker> m(leafCount);
+    // A marker outside the region attracts nothing (no twig may reach it); a node may still
+    // come within the kill distance of it.
+    std::vector<char> pulling(leafCount);
+    for (size_t k = 0; k < leafCount; ++k) pulling[k] = inside(marker[k]) ? 1 : 0;
     std::vector<char> canGrow(sprouts.begin(), sprouts.end());
     canGrow.resize(tree.nodes.size(), 0);
     auto better = [](double d2, int32_t id, double bestD2, int32_t bestId) {
@@ -810,6 +811,7 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     }
 
     std::vector<int32_t> childCount(tree.nodes.size(), 0);
+    std::vector<double> path(tree.nodes.size(), 0.0);  // twig length from the sprouting node
     for (size_t i = 1; i < tree.nodes.size(); ++i) ++childCount[tree.nodes[i].parent];
     std::vector<int32_t> firstTwig(tree.nodes.size(), -1), nextTwig(tree.nodes.size(), -1);
     std::vector<Vec3> pull(tree.nodes.size());         // Σ unit directions to the markers
@@ -826,26 +828,19 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
         if (m[k].carrier < 0) active.push_back(static_cast<int32_t>(k));
     }
     for (int iteration = 0; iteration < maxIterations; ++iteration) {
-        // Runions et al. 2007, §3: every marker pulls its nearest node (a node that could not
-        // grow hands its markers to the nearest other one).
+        // Runions et al. 2007, §3: every marker pulls its nearest node.
         touched.clear();
         size_t alive = 0;
         for (int32_t k : active) {
             Marker& mk = m[k];
             if (mk.carrier >= 0) continue;
             active[alive++] = k;
-            if (mk.nearest < 0) continue;
+            if (mk.nearest < 0 || !pulling[k]) continue;
+            // Its node stopped growing (at its longest, or blocked by the envelope): the marker
+            // gives up rather than pull twig after twig from the nodes around.
             if (!canGrow[mk.nearest]) {
-                mk.nearest = -1;
-                mk.d2 = kInf;
-                nodeGrid.forEachWithin(marker[k], reach, [&](int32_t id, const Vec3& p) {
-                    const double d2 = distance2(p, marker[k]);
-                    if (canGrow[id] && better(d2, id, mk.d2, mk.nearest)) {
-                        mk.nearest = id;
-                        mk.d2 = d2;
-                    }
-                });
-                if (mk.nearest < 0) continue;
+                pulling[k] = 0;
+                continue;
             }
             const int32_t i = mk.nearest;
             const Vec3 d = marker[k] - tree.nodes[i].position;
@@ -895,17 +890,18 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
             tree.nodes.push_back(n);
             ++childCount[i];
             childCount.push_back(0);
-            canGrow.push_back(1);
+            path.push_back(path[i] + step);
+            // A twig is at most `reach` long: beyond, it would crawl along the leaf layer.
+            canGrow.push_back(path.back() + step <= reach * (1 + 1e-9) ? 1 : 0);
             nextTwig.push_back(firstTwig[i]);
             firstTwig[i] = id;
             firstTwig.push_back(-1);
             pull.push_back(Vec3{0, 0, 0});
             pulls.push_back(0);
             closest.push_back(-1);
-            nodeGrid.insert(id, q);
             added.push_back(id);
         }
-        if (added.empty()) continue;  // only frozen nodes: their markers look again
+        if (added.empty()) continue;  // only frozen nodes: their markers give up
         newNodes += static_cast<int64_t>(added.size());
         // The new nodes take over the markers they are nearer to, and carry those in reach.
         for (int32_t id : added) {
@@ -917,7 +913,7 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
                     mk.carrier = id;
                     mk.carrierD2 = d2;
                 }
-                if (better(d2, id, mk.d2, mk.nearest)) {
+                if (canGrow[id] && better(d2, id, mk.d2, mk.nearest)) {
                     mk.nearest = id;
                     mk.d2 = d2;
                 }
@@ -1021,7 +1017,7 @@ Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
     const Vec3 centre = o.position;
     st.droppedLeaves = growSupportTwigs(
         tree, sprouts, o.support,
-        [&](const Vec3& p) { return envelopeRatio(env, p - centre) <= 1.0; }, &st.twigNodes);
+        [&](const Vec3& p) { return envelopeRatio(env, p - centre) <= 1.0 + 1e-9; }, &st.twigNodes);
     flowRadii(tree, own, o.branches.tipRadius, n);
     setEndpoints(tree);
     return finish(std::move(tree), st, stats);

@@ -159,17 +159,21 @@ enum class LeafSupport { kNone, kTwigs };
 // attachment points are the markers; each attracts the nearest crown node within the radius
 // of influence `reach`; a node attracted by markers grows a twig node `step` toward the mean
 // of their unit directions; a marker is removed once a node is within the kill distance
-// `attach`, and that node carries its leaf. New nodes stay inside the envelope. A leaf that
-// no wood ever comes within reach of is dropped. Twigs continue the order of a tip they
+// `attach`, and that node carries its leaf. New nodes stay inside the envelope, and a twig is
+// at most `reach` long from the crown node it sprouts from (longer ones would crawl along the
+// leaf layer); a marker whose node stops growing (at its longest, or blocked by the envelope)
+// gives up. So a leaf more than reach + attach from the clipped template, or one the twigs
+// cannot reach inside the envelope, is dropped. Twigs continue the order of a tip they
 // extend and are one order higher than a node that already has children; radii follow
 // Murray's rule over the final tree (`radii = "template"`: the clipped-off template still
 // counts, as before).
 struct CanopySupportOptions {
     LeafSupport mode = LeafSupport::kNone;  // kNone: the paper's leaves (node within
                                             // leaves.supportDistance, else −1)
-    double reach = 1.0;                     // radius of influence d_i, metres
-    double step = 0.08;    // twig segment length D, metres; crown segments are cut to ≤ attach
-    double attach = 0.12;  // kill distance d_k, metres (≥ step)
+    double reach = 1.0;                     // radius of influence d_i and longest twig, metres
+    double step = 0.08;                     // twig segment length D, metres
+    double attach = 0.12;  // kill distance d_k, metres (step ≤ attach ≤ reach); crown
+                           // segments are cut into pieces no longer than this
 };
 
 struct CanopyLeafOptions : LeafCardOptions {  // size, shape and orientation of the cards
@@ -207,12 +211,12 @@ struct CanopyStats {
 };
 
 // Space colonization of twigs toward the leaves (see CanopySupportOptions), on any tree: the
-// markers are the leaves' attachment points (centre − tangent · size / 2). Nodes with
-// `sprouts[i]` may grow (the first sprouts.size() nodes; the rest may not, nor can they carry
-// a leaf). A new node is kept only where `inside(position)` holds. Every leaf left gets
-// `node` = a node within `attach` of its attachment; the others are removed. New nodes are
-// appended (parents first) with radius 0. Returns the number of leaves dropped; `grown` gets
-// the number of nodes added.
+// markers are the leaves' attachment points (centre − tangent · size / 2). Nodes i with
+// sprouts[i] (one flag per node) may sprout twigs; every node may carry a leaf. A new node is
+// kept only where `inside(position)` holds, and a marker outside attracts nothing. Every leaf
+// left gets `node` = a node within `attach` of its attachment; the others are removed. New
+// nodes are appended (parents first) with radius 0. Returns the number of leaves dropped;
+// `grown` gets the number of nodes added.
 int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
                          const CanopySupportOptions& options,
                          const std::function<bool(const Vec3&)>& inside, int64_t* grown = nullptr);
