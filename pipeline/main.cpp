@@ -11,6 +11,7 @@
 #include <iostream>
 
 #include "pipeline/analysis/dataset_stats.h"
+#include "pipeline/analysis/realism_gates.h"
 #include "pipeline/analysis/merge.h"
 #include "pipeline/analysis/report.h"
 #include "pipeline/analysis/species_list.h"
@@ -210,6 +211,11 @@ int main(int argc, char** argv) {
     stats->add_flag("--no-timing", statsNoTiming,
                     "Leave out the timing.* metrics (machine-dependent), for reproducible files");
 
+    std::string gatesDir;
+    auto* gates = app.add_subcommand(
+        "gates", "The realism gates of every species of a built dataset, as a Markdown table");
+    gates->add_option("DIR", gatesDir, "Dataset directory")->required();
+
     std::string speciesDir;
     auto* species = app.add_subcommand("species", "The species library");
     species->require_subcommand(1);
@@ -261,6 +267,10 @@ int main(int argc, char** argv) {
         if (*speciesList) return runSpeciesList(speciesDir);
         if (*report) return runReport(reportDir);
         if (*stats) return runStats(statsDir, statsNoTiming);
+        if (*gates) {
+            std::fputs(gatesMarkdown(evaluateGates(fs::path(gatesDir))).c_str(), stdout);
+            return 0;
+        }
     } catch (const SpecError& e) {  // file:line:col: key: what was expected
         std::fprintf(stderr, "%s\n", e.what());
         return 2;

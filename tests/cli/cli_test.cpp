@@ -624,6 +624,20 @@ TEST(CliGrow, WritesFilesAndIsDeterministicPerSeed) {
     EXPECT_TRUE(tempFilesUnder(t.path()).empty());
 }
 
+// `sylva gates DIR`: the realism gates table of a built dataset on stdout; no dataset: exit 2.
+TEST(CliGates, PrintsOneRowPerSpeciesAndRejectsADirectoryWithoutManifest) {
+    TempDir t;
+    buildOk(kDataset, t / "d", t.path());
+    const RunResult ok = run({"gates", (t / "d").string()}, t.path());
+    EXPECT_EQ(ok.code, 0) << describe(ok);
+    EXPECT_EQ(ok.out.rfind("| species | habit | n | ground |", 0), 0u) << ok.out;
+    EXPECT_NE(ok.out.find("| `tiny` | tree | "), std::string::npos) << ok.out;
+    const RunResult bad = run({"gates", (t / "nothing").string()}, t.path());
+    EXPECT_EQ(bad.code, 2);
+    EXPECT_NE(bad.err.find("sylva: gates: "), std::string::npos) << bad.err;
+    EXPECT_NE(bad.err.find("no manifest.jsonl"), std::string::npos) << bad.err;
+}
+
 // --- 7. validate -----------------------------------------------------------------------------
 
 TEST(CliValidate, EveryShippedSpecIsValid) {
