@@ -488,30 +488,47 @@ FittedTemplate fitTemplate(const Tree& t, const CanopyOptions& o, double trunkTo
 
 // Shesh §3.5: a segment whose end lies beyond the envelope (ratio > 1 + threshold) is cut,
 // and so is everything above it. Parents precede children, so one pass suffices. With a leaf
-// margin, a crown node less than the margin inside the surface is cut too. `bole` (if given)
-// gets the kept nodes' bole flags.
+// margin, a crown node less than the margin inside the surface is cut too. With cutAtSurface,
+// the segment is shortened to where it leaves (bisection) instead of dropped — "ideally one
+// must determine where the branch would intersect the canopy surface to clip it" (§3.5).
+// `bole` (if given) gets the kept nodes' bole flags.
 Tree clipTemplate(const FittedTemplate& f, const CanopyOptions& o,
                   std::vector<char>* bole = nullptr) {
     const std::vector<SkeletonNode>& nodes = f.tree.nodes;
     const double limit = 1.0 + o.branches.clipThreshold;
     const double margin = o.branches.leafMargin;
+    auto keeps = [&](const Vec3& p) {
+        const Vec3 local = p - o.position;
+        if (envelopeRatio(*o.envelope, local) > limit) return false;
+        return !(margin > 0.0 && envelopeDepth(*o.envelope, local) < margin);
+    };
     std::vector<int32_t> map(nodes.size(), -1);
     Tree out;
     for (size_t i = 0; i < nodes.size(); ++i) {
         const SkeletonNode& n = nodes[i];
+        SkeletonNode kept = n;
+        bool cut = false;
         if (i > 0) {
             if (map[n.parent] < 0) continue;
-            if (!f.bole[i]) {
-                const Vec3 local = n.position - o.position;
-                if (envelopeRatio(*o.envelope, local) > limit) continue;
-                if (margin > 0.0 && envelopeDepth(*o.envelope, local) < margin) continue;
+            if (!f.bole[i] && !keeps(n.position)) {
+                if (!o.branches.cutAtSurface) continue;
+                // The last point of the segment still kept (the parent is).
+                const Vec3 a = out.nodes[map[n.parent]].position;
+                double lo = 0.0, hi = 1.0;
+                for (int k = 0; k < 30; ++k) {
+                    const double mid = 0.5 * (lo + hi);
+                    (keeps(a + (n.position - a) * mid) ? lo : hi) = mid;
+                }
+                if (lo * distance(a, n.position) < 1e-3) continue;
+                kept.position = a + (n.position - a) * lo;
+                cut = true;
             }
         }
-        SkeletonNode kept = n;
         kept.parent = i > 0 ? map[n.parent] : -1;
-        map[i] = static_cast<int32_t>(out.nodes.size());
         out.nodes.push_back(kept);
         if (bole) bole->push_back(f.bole[i]);
+        // A cut node ends its branch: nothing above it is kept.
+        map[i] = cut ? -1 : static_cast<int32_t>(out.nodes.size() - 1);
     }
     return out;
 }
@@ -539,7 +556,13 @@ void placeCanopyLeaves(Tree& tree, const CanopyOptions& o, const CanopySurfaceSa
     std::vector<Vec2> angles(lo.count);
     tree.leaves.reserve(size_t(lo.count) * lo.cluster);
     for (int k = 0; k < lo.count; ++k) {
-        const Vec2 a = sampler.sample(positions);
+        Vec2 a = sampler.sample(positions);
+        // An open base: positions below the leafy part are drawn again (the rest of the
+        // surface stays uniform by area).
+        for (int tries = 0; lo.openBase > 0.0 && a.y > kPi * (1.0 - lo.openBase) && tries < 1000;
+             ++tries) {
+            a = sampler.sample(positions);
+        }
         angles[k] = a;
         const Vec3 s = env.surfacePoint(a.x, a.y);
         // Inward toward the centre (ellipsoid) or the axis at the same height (cone).
@@ -748,6 +771,7 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     }
     const double reach = o.reach, step = o.step, kill2 = o.attach * o.attach;
     constexpr double kInf = std::numeric_limits<double>::infinity();
+    constexpr int kRetargets = 3;  // times a marker turns to another node before giving up
 
     // Markers: the leaves' attachment points (the middle of the card's near edge).
     std::vector<Vec3> marker(leafCount);
@@ -760,9 +784,14 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     for (const SkeletonNode& n : tree.nodes) box.extend(n.position);
     box.extend(box.lo - Vec3{reach, reach, reach});
     box.extend(box.hi + Vec3{reach, reach, reach});
-    // Markers are fixed: packed by cell.
+    // Markers are fixed: packed by cell. Nodes are added as twigs grow.
     PackedPointGrid markerGrid;
     markerGrid.assign(marker, 0.5 * reach);
+    PointGrid nodeGrid(box, 0.5 * reach);
+    nodeGrid.reserve(tree.nodes.size() * 2);
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+        nodeGrid.insert(static_cast<int32_t>(i), tree.nodes[i].position);
+    }
 
     // Per marker: the nearest node that may grow (within reach) and, once one is within the
     // kill distance, the node that carries it. Ties go to the lower index (determinism).
@@ -771,6 +800,7 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
         double d2 = kInf;
         int32_t carrier = -1;
         double carrierD2 = kInf;
+        int retargets = 0;
     };
     std::vector<Marker> m(leafCount);
     // A marker outside the region attracts nothing (no twig may reach it); a node may still
@@ -836,11 +866,25 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
             if (mk.carrier >= 0) continue;
             active[alive++] = k;
             if (mk.nearest < 0 || !pulling[k]) continue;
-            // Its node stopped growing (at its longest, or blocked by the envelope): the marker
-            // gives up rather than pull twig after twig from the nodes around.
+            // Its node stopped growing (at its longest, blocked by the envelope, or caught
+            // between markers): the marker turns to the nearest node that still grows, a few
+            // times, then gives up rather than pull twig after twig from the nodes around.
             if (!canGrow[mk.nearest]) {
-                pulling[k] = 0;
-                continue;
+                mk.nearest = -1;
+                mk.d2 = kInf;
+                if (mk.retargets++ < kRetargets) {
+                    nodeGrid.forEachWithin(marker[k], reach, [&](int32_t id, const Vec3& p) {
+                        const double d2 = distance2(p, marker[k]);
+                        if (canGrow[id] && better(d2, id, mk.d2, mk.nearest)) {
+                            mk.nearest = id;
+                            mk.d2 = d2;
+                        }
+                    });
+                }
+                if (mk.nearest < 0) {
+                    pulling[k] = 0;
+                    continue;
+                }
             }
             const int32_t i = mk.nearest;
             const Vec3 d = marker[k] - tree.nodes[i].position;
@@ -892,13 +936,14 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
             childCount.push_back(0);
             path.push_back(path[i] + step);
             // A twig is at most `reach` long: beyond, it would crawl along the leaf layer.
-            canGrow.push_back(path.back() + step <= reach * (1 + 1e-9) ? 1 : 0);
+            canGrow.push_back(path.back() + step <= o.length * (1 + 1e-9) ? 1 : 0);
             nextTwig.push_back(firstTwig[i]);
             firstTwig[i] = id;
             firstTwig.push_back(-1);
             pull.push_back(Vec3{0, 0, 0});
             pulls.push_back(0);
             closest.push_back(-1);
+            nodeGrid.insert(id, q);
             added.push_back(id);
         }
         if (added.empty()) continue;  // only frozen nodes: their markers give up
@@ -1003,7 +1048,7 @@ Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
     }
     std::vector<char> sprouts(bole.size());
     for (size_t i = 0; i < bole.size(); ++i) sprouts[i] = !bole[i];
-    tree = subdivideCrown(tree, o.support.attach, sprouts, own);
+    tree = subdivideCrown(tree, o.support.sproutSpacing, sprouts, own);
     if (o.leaves.count > 0) {
         Rng leafRng = rng.derive("leaves");
         if (sampler) {

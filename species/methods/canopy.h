@@ -149,6 +149,9 @@ struct CanopyBranchOptions {
     // (envelopeDepth), so no template wood reaches into the leaf layer and no stub pokes out
     // through the leaves. 0: the paper's threshold rule alone.
     double leafMargin = 0.0;
+    // True: a segment that leaves the envelope (or enters the leaf margin) is shortened to where
+    // it does instead of dropped with its end node (§3.5's "ideally …" surface clipping).
+    bool cutAtSurface = false;
 };
 
 enum class LeafSupport { kNone, kTwigs };
@@ -160,25 +163,31 @@ enum class LeafSupport { kNone, kTwigs };
 // of influence `reach`; a node attracted by markers grows a twig node `step` toward the mean
 // of their unit directions; a marker is removed once a node is within the kill distance
 // `attach`, and that node carries its leaf. New nodes stay inside the envelope, and a twig is
-// at most `reach` long from the crown node it sprouts from (longer ones would crawl along the
-// leaf layer); a marker whose node stops growing (at its longest, or blocked by the envelope)
-// gives up. So a leaf more than reach + attach from the clipped template, or one the twigs
-// cannot reach inside the envelope, is dropped. Twigs continue the order of a tip they
-// extend and are one order higher than a node that already has children; radii follow
-// Murray's rule over the final tree (`radii = "template"`: the clipped-off template still
-// counts, as before).
+// at most `length` long from the crown node it sprouts from (longer ones would crawl along
+// the leaf layer); a marker whose node stops growing (at its longest, blocked by the
+// envelope, or caught between markers) turns to the nearest growing node within reach, up to
+// three times, then gives up. A leaf with no wood within reach, or one the twigs cannot
+// reach, is dropped. Twigs continue the order of a tip they extend and are one order higher
+// than a node that already has children; radii follow Murray's rule over the final tree
+// (`radii = "template"`: the clipped-off template still counts, as before).
 struct CanopySupportOptions {
     LeafSupport mode = LeafSupport::kNone;  // kNone: the paper's leaves (node within
                                             // leaves.supportDistance, else −1)
-    double reach = 1.0;                     // radius of influence d_i and longest twig, metres
-    double step = 0.08;                     // twig segment length D, metres
-    double attach = 0.12;  // kill distance d_k, metres (step ≤ attach ≤ reach); crown
-                           // segments are cut into pieces no longer than this
+    double reach = 1.0;                     // radius of influence d_i, metres
+    double length = 2.0;         // longest twig (path from the crown node it sprouts from), metres
+    double step = 0.08;          // twig segment length D, metres
+    double attach = 0.12;        // kill distance d_k, metres (step ≤ attach ≤ reach)
+    double sproutSpacing = 0.3;  // crown segments cut into pieces ≤ this, metres, so twigs can
+                                 // sprout along them (the bole is left whole)
 };
 
 struct CanopyLeafOptions : LeafCardOptions {  // size, shape and orientation of the cards
     int count = 10000;   // leaf positions (§4: "each tree … has 10000 leaves")
     double depth = 0.0;  // each position pulled inward by uniform [0, depth] of its radius
+    // Fraction of the polar range θ ∈ [0, π] left bare at the bottom: no leaf with
+    // θ > π (1 − openBase) (ellipsoid: a cap around the lowest point, where the trunk enters
+    // an open crown base; cone: the lowest part of the flank). 0: leaves everywhere (§3.2).
+    double openBase = 0.0;
     int cluster = 1;     // leaves per position, fanned around a short twig (Fig. 4(a): 5)
     double twig = 0.06;  // twig length of a cluster, metres
     std::vector<double> colourFractions{1.0};  // share of positions per colour entry

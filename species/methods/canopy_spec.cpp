@@ -189,6 +189,7 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
                        {{"clipped", MurrayOn::kClipped}, {"template", MurrayOn::kTemplate}});
         bo.randomYaw = br->boolean("random_yaw", bo.randomYaw);
         bo.leafMargin = br->number("leaf_margin", bo.leafMargin, Range::nonNegative());
+        bo.cutAtSurface = br->boolean("cut_at_surface", bo.cutAtSurface);
         // The trunk top must be inside the canopy, or every crown segment would be cut.
         const double top = canopyTrunkHeight(o);
         const Vec3 local = Vec3{o.position.x, top, o.position.z} - o.position;
@@ -211,8 +212,10 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
         so.mode = su->choice("mode", so.mode,
                              {{"none", LeafSupport::kNone}, {"twigs", LeafSupport::kTwigs}});
         so.reach = su->number("reach", so.reach, Range::positive());
+        so.length = su->number("length", so.length, Range::positive());
         so.step = su->number("step", so.step, Range::positive());
         so.attach = su->number("attach", so.attach, Range::positive());
+        so.sproutSpacing = su->number("sprout_spacing", so.sproutSpacing, Range::positive());
         // Runions et al. 2007: a twig must not step past the marker it grows to (d_k ≥ D), and
         // a marker must attract the node that will reach it (d_k ≤ d_i).
         if (so.attach < so.step) {
@@ -235,6 +238,7 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
         CanopyLeafOptions& lo = o.leaves;
         lo.count = static_cast<int>(l->integer("count", lo.count, Range::closed(0, 1e6)));
         lo.depth = l->number("depth", lo.depth, Range::closed(0, 1));
+        lo.openBase = l->number("open_base", lo.openBase, Range::closed(0, 0.9));
         readLeafCards(*l, lo);
         lo.cluster = static_cast<int>(l->integer("cluster", lo.cluster, Range::closed(1, 20)));
         lo.twig = l->number("twig", lo.twig, Range::nonNegative());

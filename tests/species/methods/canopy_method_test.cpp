@@ -713,6 +713,48 @@ TEST(CanopySupport, WithoutLeavesTheRadiiAreThoseOfTheClippedTemplate) {
     }
 }
 
+TEST(CanopySupport, CutAtSurfaceEndsLimbsAtTheMarginAndTheBaseCanBeOpen) {
+    const double r = 1.5, margin = 0.2;
+    CanopyOptions o = supportedOptions(margin);
+    o.branches.trunkHeight = 2.0;
+    o.leaves.count = 0;
+    o.support.mode = LeafSupport::kNone;
+    Rng a(35), b(35);
+    CanopyStats dropped, cut;
+    const Tree whole = growCanopy(o, a, &dropped);
+    o.branches.cutAtSurface = true;
+    const Tree shortened = growCanopy(o, b, &cut);
+    // Same template, same cuts: a segment leaving the inner sphere ends on it instead of
+    // vanishing, so there are more segments and the farthest tips lie on r − margin.
+    EXPECT_GT(cut.keptSegments, dropped.keptSegments);
+    auto farthest = [&](const Tree& t) {  // over the crown (the bole stands below the sphere)
+        const std::vector<char> bole = boleOf(t, 2.0);
+        double far = 0.0;
+        for (size_t i = 0; i < t.nodes.size(); ++i)
+            if (!bole[i]) far = std::max(far, distance(t.nodes[i].position, o.position));
+        return far;
+    };
+    const double farWhole = farthest(whole), farCut = farthest(shortened);
+    EXPECT_LE(farCut, r - margin + 1e-9);
+    EXPECT_GT(farCut, r - margin - 1e-6);
+    EXPECT_LT(farWhole, r - margin - 1e-3);
+    // An open base: no leaf in the bottom 20 % of θ, and as many leaves as asked.
+    CanopyOptions open = supportedOptions(margin);
+    open.support.mode = LeafSupport::kNone;
+    open.leaves.openBase = 0.2;
+    Rng c(36);
+    const Tree t = growCanopy(open, c);
+    ASSERT_EQ(t.leaves.size(), 1500u);
+    double lowest = kPi;
+    for (const Leaf& l : t.leaves) {
+        const Vec3 d = l.position - open.position;
+        const double theta = std::acos(std::clamp(d.y / length(d), -1.0, 1.0));
+        EXPECT_LE(theta, 0.8 * kPi + 1e-9);
+        lowest = std::min(lowest, 0.8 * kPi - theta);
+    }
+    EXPECT_LT(lowest, 0.02);  // the leaves reach down to the edge
+}
+
 // A hand-built trunk (0, 0, 0) → (0, 2, 0); leaves of size 0 (attachment = position).
 Tree stick() {
     Tree t;
@@ -732,19 +774,20 @@ void addLeaf(Tree& t, Vec3 p) {
     t.leaves.push_back(l);
 }
 
-TEST(CanopySupport, ALeafBeyondReachPlusAttachIsDropped) {
+TEST(CanopySupport, LeavesBeyondReachOrTheLongestTwigAreDropped) {
     CanopySupportOptions o;
     o.mode = LeafSupport::kTwigs;
     o.reach = 1.0;
+    o.length = 1.0;
     o.step = 0.05;
     o.attach = 0.1;
     const std::vector<char> sprouts(5, 1);
     auto anywhere = [](const Vec3&) { return true; };
     Tree t = stick();
     // A ring around the top (opposite pulls cancel at the trunk: it grows toward the nearest);
-    // a row out from the trunk's middle at 0.8, 1.08 (a twig of at most reach = 1 m ends within
-    // attach of it), 1.5 and 2.2 m (beyond reach + attach); a lone leaf 3 m out; a leaf at the
-    // trunk.
+    // a row out from the trunk's middle at 0.8, 1.08 (a twig of at most length = 1 m ends
+    // within attach of it), 1.5 and 2.2 m (beyond length + attach); a lone leaf 3 m out; a leaf at
+    // the trunk.
     for (int k = 0; k < 8; ++k) {
         const double a = 2 * kPi * k / 8;
         addLeaf(t, {0.6 * std::cos(a), 2.0, 0.6 * std::sin(a)});
@@ -763,13 +806,13 @@ TEST(CanopySupport, ALeafBeyondReachPlusAttachIsDropped) {
         EXPECT_LE(distance(t.nodes[l.node].position, l.position), o.attach + 1e-12);
     }
     EXPECT_EQ(t.leaves.back().node, 1);  // the leaf at the trunk hangs on it
-    // Every new node is one step from its parent, and no twig is longer than reach.
+    // Every new node is one step from its parent, and no twig is longer than `length`.
     std::vector<double> path(t.nodes.size(), 0.0);
     for (size_t i = 5; i < t.nodes.size(); ++i) {
         const int32_t p = t.nodes[i].parent;
         EXPECT_NEAR(distance(t.nodes[i].position, t.nodes[p].position), o.step, 1e-12);
         path[i] = path[p] + o.step;
-        EXPECT_LE(path[i], o.reach + 1e-9);
+        EXPECT_LE(path[i], o.length + 1e-9);
     }
     // Nodes that may not sprout grow nothing: a leaf beyond the kill distance drops.
     Tree u = stick();
