@@ -755,6 +755,37 @@ Tree finish(Tree tree, CanopyStats& st, CanopyStats* stats) {
     return tree;
 }
 
+// Removes the nodes i ≥ `from` (but not those with keep[i]) that carry no leaf, neither
+// themselves nor any node above them; parents precede children, so one backward pass marks
+// and one forward pass compacts. Leaf nodes are renumbered; `survivors` (if given) gets the
+// old index of every node left. Returns the node count.
+size_t shedBare(Tree& tree, size_t from, const std::vector<char>* keep,
+                std::vector<int32_t>* survivors = nullptr) {
+    std::vector<char> bears(tree.nodes.size(), 0);
+    for (size_t i = 0; i < std::min(from, tree.nodes.size()); ++i) bears[i] = 1;
+    if (keep) {
+        for (size_t i = 0; i < keep->size(); ++i) bears[i] |= (*keep)[i];
+    }
+    for (const Leaf& l : tree.leaves) bears[l.node] = 1;
+    for (size_t i = tree.nodes.size(); i-- > 1;) {
+        if (bears[i]) bears[tree.nodes[i].parent] = 1;
+    }
+    std::vector<int32_t> remap(tree.nodes.size(), -1);
+    if (survivors) survivors->clear();
+    size_t next = 0;
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+        if (!bears[i]) continue;
+        SkeletonNode n = tree.nodes[i];
+        if (n.parent >= 0) n.parent = remap[n.parent];
+        remap[i] = static_cast<int32_t>(next);
+        tree.nodes[next++] = n;
+        if (survivors) survivors->push_back(static_cast<int32_t>(i));
+    }
+    tree.nodes.resize(next);
+    for (Leaf& l : tree.leaves) l.node = remap[l.node];
+    return next;
+}
+
 }  // namespace
 
 // --- leaf support ------------------------------------------------------------------------------
@@ -769,6 +800,7 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
         tree.leaves.clear();
         return static_cast<int64_t>(leafCount);
     }
+    const size_t firstGrown = tree.nodes.size();  // grown nodes follow
     const double reach = o.reach, step = o.step, kill2 = o.attach * o.attach;
     constexpr double kInf = std::numeric_limits<double>::infinity();
     constexpr int kRetargets = 3;  // times a marker turns to another node before giving up
@@ -852,8 +884,7 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     const Vec3 size = box.size();
     const int maxIterations =
         16 + static_cast<int>(std::ceil(4.0 * length(size) / step));  // a safety bound
-    int64_t newNodes = 0;
-    std::vector<int32_t> active;  // markers not yet carried
+    std::vector<int32_t> active;                                      // markers not yet carried
     for (size_t k = 0; k < leafCount; ++k) {
         if (m[k].carrier < 0) active.push_back(static_cast<int32_t>(k));
     }
@@ -910,7 +941,14 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
             Vec3 q{0, 0, 0};
             bool ok = false;
             if (length(pull[i]) > 1e-6 * pulls[i]) {
-                q = p + normalize(pull[i]) * step;
+                // Liu et al. 2020, §3: v = norm(v_markers + λ v_g), gravity v_g = (0, −1, 0):
+                // drooping twigs.
+                Vec3 v = normalize(pull[i]);
+                if (o.droop > 0.0) {
+                    v = v + Vec3{0, -o.droop, 0};
+                    v = length(v) > 1e-9 ? normalize(v) : normalize(pull[i]);
+                }
+                q = p + v * step;
                 ok = fits(q);
             }
             if (!ok && length(toClosest) > 0.0) {  // opposite pulls cancel: the nearest marker
@@ -947,7 +985,7 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
             added.push_back(id);
         }
         if (added.empty()) continue;  // only frozen nodes: their markers give up
-        newNodes += static_cast<int64_t>(added.size());
+
         // The new nodes take over the markers they are nearer to, and carry those in reach.
         for (int32_t id : added) {
             const Vec3 q = tree.nodes[id].position;
@@ -965,7 +1003,6 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
             });
         }
     }
-    if (grown) *grown = newNodes;
 
     // Carried leaves keep their node; the rest are dropped.
     size_t kept = 0;
@@ -976,6 +1013,10 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
         tree.leaves[kept++] = leaf;
     }
     tree.leaves.resize(kept);
+
+    // Twigs that carry no leaf are shed (a shoot without leaves dies back).
+    const size_t nodes = shedBare(tree, firstGrown, nullptr);
+    if (grown) *grown = static_cast<int64_t>(nodes - firstGrown);
     return static_cast<int64_t>(leafCount - kept);
 }
 
@@ -1063,6 +1104,17 @@ Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
     st.droppedLeaves = growSupportTwigs(
         tree, sprouts, o.support,
         [&](const Vec3& p) { return envelopeRatio(env, p - centre) <= 1.0 + 1e-9; }, &st.twigNodes);
+    if (o.support.pruneBare) {
+        // Self-pruning: crown branches that carry no leaf die (the bole stays); `own` follows.
+        std::vector<char> keep(sprouts.size());
+        for (size_t i = 0; i < sprouts.size(); ++i) keep[i] = !sprouts[i];  // the bole
+        const size_t crown = own.size();  // nodes before the twigs (which all carry leaves)
+        std::vector<int32_t> survivors;
+        shedBare(tree, 1, &keep, &survivors);
+        std::vector<double> ownKept;
+        for (int32_t i : survivors) ownKept.push_back(size_t(i) < crown ? own[i] : 0.0);
+        own.swap(ownKept);
+    }
     flowRadii(tree, own, o.branches.tipRadius, n);
     setEndpoints(tree);
     return finish(std::move(tree), st, stats);

@@ -174,9 +174,12 @@ struct CanopySupportOptions {
     LeafSupport mode = LeafSupport::kNone;  // kNone: the paper's leaves (node within
                                             // leaves.supportDistance, else −1)
     double reach = 1.0;                     // radius of influence d_i, metres
-    double length = 2.0;         // longest twig (path from the crown node it sprouts from), metres
-    double step = 0.08;          // twig segment length D, metres
-    double attach = 0.12;        // kill distance d_k, metres (step ≤ attach ≤ reach)
+    double length = 2.0;     // longest twig (path from the crown node it sprouts from), metres
+    double step = 0.08;      // twig segment length D, metres
+    double attach = 0.12;    // kill distance d_k, metres (step ≤ attach ≤ reach)
+    bool pruneBare = false;  // crown branches of the template that carry no leaf are removed
+                             // too (self-pruning of shaded or bare limbs; the bole stays)
+    double droop = 0.0;      // λ: weight of gravity in a twig's direction (Liu et al. 2020), ≥ 0
     double sproutSpacing = 0.3;  // crown segments cut into pieces ≤ this, metres, so twigs can
                                  // sprout along them (the bole is left whole)
 };

@@ -216,6 +216,8 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
         so.step = su->number("step", so.step, Range::positive());
         so.attach = su->number("attach", so.attach, Range::positive());
         so.sproutSpacing = su->number("sprout_spacing", so.sproutSpacing, Range::positive());
+        so.droop = su->number("droop", so.droop, Range::closed(0, 2));
+        so.pruneBare = su->boolean("prune_bare", so.pruneBare);
         // Runions et al. 2007: a twig must not step past the marker it grows to (d_k ≥ D), and
         // a marker must attract the node that will reach it (d_k ≤ d_i).
         if (so.attach < so.step) {

@@ -596,6 +596,14 @@ TEST(CanopySupport, EveryLeafIsCarriedWithinTheAttachDistance) {
         worst = std::max(worst, wood[k]);
     }
     EXPECT_GT(worst, 0.0);
+    // Every grown twig carries a leaf at its tip (twigs that reach none are shed).
+    const ChildIndex children(tree);
+    std::vector<char> carries(tree.nodes.size(), 0);
+    for (const Leaf& l : tree.leaves) carries[l.node] = 1;
+    for (size_t i = tree.nodes.size() - static_cast<size_t>(st.twigNodes); i < tree.nodes.size();
+         ++i) {
+        if (children.count(static_cast<int32_t>(i)) == 0) EXPECT_TRUE(carries[i]) << i;
+    }
     // Without support the same leaves float (the paper's rule): most are far from the wood.
     CanopyOptions off = o;
     off.support.mode = LeafSupport::kNone;
@@ -755,6 +763,39 @@ TEST(CanopySupport, CutAtSurfaceEndsLimbsAtTheMarginAndTheBaseCanBeOpen) {
     EXPECT_LT(lowest, 0.02);  // the leaves reach down to the edge
 }
 
+TEST(CanopySupport, PruneBareLeavesNoBranchWithoutLeaves) {
+    // The lower half of the sphere bare: without pruning, template branches end there with no
+    // leaf; with it every tip carries a leaf, and the leaves are the same.
+    CanopyOptions o = supportedOptions();
+    o.leaves.openBase = 0.5;
+    auto bareTips = [](const Tree& t) {
+        std::vector<char> carries(t.nodes.size(), 0);
+        for (const Leaf& l : t.leaves) carries[l.node] = 1;
+        int bare = 0;
+        for (int32_t e : t.endpoints) bare += !carries[e];
+        return bare;
+    };
+    Rng a(37), b(37);
+    const Tree all = growCanopy(o, a);
+    o.support.pruneBare = true;
+    CanopyStats st;
+    const Tree pruned = growCanopy(o, b, &st);
+    EXPECT_GT(bareTips(all), 10);
+    EXPECT_EQ(bareTips(pruned), 0);
+    EXPECT_LT(pruned.nodes.size(), all.nodes.size());
+    ASSERT_EQ(pruned.leaves.size(), all.leaves.size());
+    for (size_t k = 0; k < all.leaves.size(); ++k) {
+        EXPECT_EQ(pruned.leaves[k].position.x, all.leaves[k].position.x);
+        const Vec3 p = pruned.nodes[pruned.leaves[k].node].position;
+        const Vec3 q = all.nodes[all.leaves[k].node].position;
+        EXPECT_EQ(distance(p, q), 0.0);  // the same carrying node, renumbered
+    }
+    // The last twigNodes nodes are still the twigs, and the tree is still rooted in order.
+    for (size_t i = 1; i < pruned.nodes.size(); ++i)
+        EXPECT_LT(pruned.nodes[i].parent, static_cast<int32_t>(i));
+    EXPECT_LE(static_cast<size_t>(st.twigNodes), pruned.nodes.size());
+}
+
 // A hand-built trunk (0, 0, 0) → (0, 2, 0); leaves of size 0 (attachment = position).
 Tree stick() {
     Tree t;
@@ -823,12 +864,17 @@ TEST(CanopySupport, LeavesBeyondReachOrTheLongestTwigAreDropped) {
     ASSERT_EQ(u.leaves.size(), 1u);
     EXPECT_EQ(u.leaves[0].node, 2);
     // Twigs never leave the region: a wall 0.15 < x < 0.25 between the trunk and a leaf at
-    // x = 0.5 stops the twig at x = 0.15; the leaf drops.
+    // x = 0.5 stops the twig at x = 0.15 and that leaf drops; the leaf at x = 0.12 hangs on the
+    // nearest twig node, x = 0.10, and the node beyond it is shed (it carries nothing).
     Tree v = stick();
     addLeaf(v, {0.5, 1.0, 0.0});
+    addLeaf(v, {0.12, 1.0, 0.0});
     auto wall = [](const Vec3& p) { return !(p.x > 0.15 + 1e-9 && p.x < 0.25); };
     EXPECT_EQ(growSupportTwigs(v, sprouts, o, wall, &grown), 1);
-    EXPECT_EQ(grown, 3);  // x = 0.05, 0.10, 0.15
+    ASSERT_EQ(grown, 2);  // x = 0.05 and 0.10 (0.15 was grown and shed)
+    ASSERT_EQ(v.leaves.size(), 1u);
+    EXPECT_EQ(v.leaves[0].node, 6);
+    EXPECT_NEAR(v.nodes[6].position.x, 0.10, 1e-12);
     for (const SkeletonNode& n : v.nodes) EXPECT_LE(n.position.x, 0.15 + 1e-9);
     // A leaf outside the region attracts no twig.
     Tree w = stick();
