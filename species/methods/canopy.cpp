@@ -805,19 +805,30 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     constexpr double kInf = std::numeric_limits<double>::infinity();
     constexpr int kRetargets = 3;  // times a marker turns to another node before giving up
 
-    // Markers: the leaves' attachment points (the middle of the card's near edge).
-    std::vector<Vec3> marker(leafCount);
+    // Markers: the leaves' attachment points (the middle of the card's near edge); the leaves
+    // of a cluster share one (consecutive leaves at the same point).
+    std::vector<Vec3> marker;
+    std::vector<int32_t> markerOf(leafCount);
     Aabb box;
     for (size_t k = 0; k < leafCount; ++k) {
         const Leaf& l = tree.leaves[k];
-        marker[k] = l.position - l.tangent * (0.5 * l.size);
-        box.extend(marker[k]);
+        const Vec3 a = l.position - l.tangent * (0.5 * l.size);
+        if (marker.empty() ||
+            !(a.x == marker.back().x && a.y == marker.back().y && a.z == marker.back().z)) {
+            marker.push_back(a);
+            box.extend(a);
+        }
+        markerOf[k] = static_cast<int32_t>(marker.size() - 1);
     }
+    const size_t markerCount = marker.size();
     for (const SkeletonNode& n : tree.nodes) box.extend(n.position);
     box.extend(box.lo - Vec3{reach, reach, reach});
     box.extend(box.hi + Vec3{reach, reach, reach});
-    // Markers are fixed: packed by cell. Nodes are added as twigs grow.
+    // Markers are fixed: packed by cell (the grid is rebuilt with the markers still waiting
+    // whenever half of them are carried). Nodes are added as twigs grow.
     PackedPointGrid markerGrid;
+    std::vector<int32_t> gridMarker(markerCount);  // grid id → marker
+    std::iota(gridMarker.begin(), gridMarker.end(), 0);
     markerGrid.assign(marker, 0.5 * reach);
     PointGrid nodeGrid(box, 0.5 * reach);
     nodeGrid.reserve(tree.nodes.size() * 2);
@@ -833,12 +844,13 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
         int32_t carrier = -1;
         double carrierD2 = kInf;
         int retargets = 0;
+        int carriedAt = -1;  // iteration
     };
-    std::vector<Marker> m(leafCount);
+    std::vector<Marker> m(markerCount);
     // A marker outside the region attracts nothing (no twig may reach it); a node may still
     // come within the kill distance of it.
-    std::vector<char> pulling(leafCount);
-    for (size_t k = 0; k < leafCount; ++k) pulling[k] = inside(marker[k]) ? 1 : 0;
+    std::vector<char> pulling(markerCount);
+    for (size_t k = 0; k < markerCount; ++k) pulling[k] = inside(marker[k]) ? 1 : 0;
     std::vector<char> canGrow(sprouts.begin(), sprouts.end());
     canGrow.resize(tree.nodes.size(), 0);
     auto better = [](double d2, int32_t id, double bestD2, int32_t bestId) {
@@ -854,7 +866,7 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
         }
         const NeighbourSearch::Tree allKd(all.begin(), all.end());
         const NeighbourSearch::Tree growKd(growing.begin(), growing.end());
-        for (size_t k = 0; k < leafCount; ++k) {
+        for (size_t k = 0; k < markerCount; ++k) {
             Marker& mk = m[k];
             const KPoint q(marker[k].x, marker[k].y, marker[k].z);
             NeighbourSearch nearest(allKd, q, 1);
@@ -885,7 +897,7 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     const int maxIterations =
         16 + static_cast<int>(std::ceil(4.0 * length(size) / step));  // a safety bound
     std::vector<int32_t> active;                                      // markers not yet carried
-    for (size_t k = 0; k < leafCount; ++k) {
+    for (size_t k = 0; k < markerCount; ++k) {
         if (m[k].carrier < 0) active.push_back(static_cast<int32_t>(k));
     }
     for (int iteration = 0; iteration < maxIterations; ++iteration) {
@@ -925,6 +937,12 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
             if (closest[i] < 0 || better(mk.d2, k, m[closest[i]].d2, closest[i])) closest[i] = k;
         }
         active.resize(alive);
+        if (2 * active.size() < gridMarker.size()) {  // pack the markers still waiting
+            gridMarker = active;
+            std::vector<Vec3> waiting;
+            for (int32_t k : active) waiting.push_back(marker[k]);
+            markerGrid.assign(waiting, 0.5 * reach);
+        }
         if (touched.empty()) break;
         std::sort(touched.begin(), touched.end());
         added.clear();
@@ -986,15 +1004,18 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
         }
         if (added.empty()) continue;  // only frozen nodes: their markers give up
 
-        // The new nodes take over the markers they are nearer to, and carry those in reach.
+        // The new nodes take over the markers they are nearer to, and carry those in reach (a
+        // marker is carried by the nearest of the nodes that first reach it).
         for (int32_t id : added) {
             const Vec3 q = tree.nodes[id].position;
-            markerGrid.forEachWithin(q, reach, [&](int32_t k, const Vec3& p) {
-                Marker& mk = m[k];
+            markerGrid.forEachWithin(q, reach, [&](int32_t g, const Vec3& p) {
+                Marker& mk = m[gridMarker[g]];
+                if (mk.carrier >= 0 && mk.carriedAt < iteration) return;
                 const double d2 = distance2(p, q);
                 if (d2 <= kill2 && better(d2, id, mk.carrierD2, mk.carrier)) {
                     mk.carrier = id;
                     mk.carrierD2 = d2;
+                    mk.carriedAt = iteration;
                 }
                 if (canGrow[id] && better(d2, id, mk.d2, mk.nearest)) {
                     mk.nearest = id;
@@ -1007,9 +1028,10 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     // Carried leaves keep their node; the rest are dropped.
     size_t kept = 0;
     for (size_t k = 0; k < leafCount; ++k) {
-        if (m[k].carrier < 0) continue;
+        const Marker& mk = m[markerOf[k]];
+        if (mk.carrier < 0) continue;
         Leaf leaf = tree.leaves[k];
-        leaf.node = m[k].carrier;
+        leaf.node = mk.carrier;
         tree.leaves[kept++] = leaf;
     }
     tree.leaves.resize(kept);

@@ -865,16 +865,17 @@ TEST(CanopySupport, LeavesBeyondReachOrTheLongestTwigAreDropped) {
     EXPECT_EQ(u.leaves[0].node, 2);
     // Twigs never leave the region: a wall 0.15 < x < 0.25 between the trunk and a leaf at
     // x = 0.5 stops the twig at x = 0.15 and that leaf drops; the leaf at x = 0.12 hangs on the
-    // nearest twig node, x = 0.10, and the node beyond it is shed (it carries nothing).
+    // first twig node to reach it (x = 0.05, 0.07 away), and the twig beyond, grown toward the
+    // other leaf, is shed (it carries nothing).
     Tree v = stick();
     addLeaf(v, {0.5, 1.0, 0.0});
     addLeaf(v, {0.12, 1.0, 0.0});
     auto wall = [](const Vec3& p) { return !(p.x > 0.15 + 1e-9 && p.x < 0.25); };
     EXPECT_EQ(growSupportTwigs(v, sprouts, o, wall, &grown), 1);
-    ASSERT_EQ(grown, 2);  // x = 0.05 and 0.10 (0.15 was grown and shed)
+    ASSERT_EQ(grown, 1);  // x = 0.05 (0.10 and 0.15 were grown and shed)
     ASSERT_EQ(v.leaves.size(), 1u);
-    EXPECT_EQ(v.leaves[0].node, 6);
-    EXPECT_NEAR(v.nodes[6].position.x, 0.10, 1e-12);
+    EXPECT_EQ(v.leaves[0].node, 5);
+    EXPECT_NEAR(v.nodes[5].position.x, 0.05, 1e-12);
     for (const SkeletonNode& n : v.nodes) EXPECT_LE(n.position.x, 0.15 + 1e-9);
     // A leaf outside the region attracts no twig.
     Tree w = stick();
