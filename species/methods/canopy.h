@@ -162,13 +162,15 @@ enum class LeafSupport { kNone, kTwigs };
 // attachment points are the markers; each attracts the nearest crown node within the radius
 // of influence `reach`; a node attracted by markers grows a twig node `step` toward the mean
 // of their unit directions; a marker is removed once a node is within the kill distance
-// `attach`, and that node carries its leaf. New nodes stay inside the envelope, and a twig is
+// `attach` (the nearest of the nodes that first come that close carries its leaf; a cluster's
+// leaves share one marker). New nodes stay inside the envelope, and a twig is
 // at most `length` long from the crown node it sprouts from (longer ones would crawl along
 // the leaf layer); a marker whose node stops growing (at its longest, blocked by the
 // envelope, or caught between markers) turns to the nearest growing node within reach, up to
 // three times, then gives up. A leaf with no wood within reach, or one the twigs cannot
-// reach, is dropped. Twigs continue the order of a tip they extend and are one order higher
-// than a node that already has children; radii follow Murray's rule over the final tree
+// reach, is dropped; a twig that carries no leaf is shed. Twigs continue the order of a tip they
+// extend and are one order higher than a node that already has children; radii follow Murray's rule
+// over the final tree
 // (`radii = "template"`: the clipped-off template still counts, as before).
 struct CanopySupportOptions {
     LeafSupport mode = LeafSupport::kNone;  // kNone: the paper's leaves (node within
@@ -227,7 +229,8 @@ struct CanopyStats {
 // sprouts[i] (one flag per node) may sprout twigs; every node may carry a leaf. A new node is
 // kept only where `inside(position)` holds, and a marker outside attracts nothing. Every leaf
 // left gets `node` = a node within `attach` of its attachment; the others are removed. New
-// nodes are appended (parents first) with radius 0. Returns the number of leaves dropped;
+// nodes are appended (parents first) with radius 0; those that carry no leaf (nor any node
+// above them) are removed again. Returns the number of leaves dropped;
 // `grown` gets the number of nodes added.
 int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
                          const CanopySupportOptions& options,

@@ -13,8 +13,8 @@ profile rho(t) in metres is drawn as f(t) = rho(t) / (t * K), with K the envelop
                                foliage (6, 7.5, 8.5 and 9 m out, 1.4-2 m thick) on a trunk
                                region 1.2 m wide between them. K = 75 m.
   canopy-stone-pine-umbrella.png  stone pine: a flat dome 7 m in radius over the top 30 %, its
-                               underside closing in to 4 m at 45 % down, then a funnel that
-                               narrows to 0.8 m at the base (where the limbs rise; the species
+                               underside closing in to 5 m at 45 % down, then a funnel that
+                               narrows to 1.6 m at the base (where the limbs rise; the species
                                leaves it bare with open_base). K = 38.5 m.
 
 Each is 64 x 128 grey (u across, row 0 at the apex), with a gentle wobble in u (a fixed-seed
@@ -65,7 +65,7 @@ def cedar(t):
 
 
 def stone_pine(t):
-    dome, under, radius, neck, base = 0.3, 0.45, 7.0, 4.0, 0.8
+    dome, under, radius, neck, base = 0.3, 0.45, 7.0, 5.0, 1.6
     if t <= dome:
         return radius * math.sin(0.5 * math.pi * t / dome)
     if t <= under:
