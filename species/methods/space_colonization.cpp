@@ -358,12 +358,12 @@ bool Grower::occupied(const Vec3& p) const {
                              [&](int32_t i) { return distance2(nodes_[i].position, p) <= rho2; });
 }
 
-// The growth direction from the summed contributions, then tropism, each normalised; on the
-// order-0 axis, then the leader's pull toward +y.
+// The growth direction from the summed contributions, then tropism (the branchlets' own on
+// orders ≥ 2 when set), each normalised; on the order-0 axis, then the leader's pull to +y.
 Vec3 Grower::finish(Vec3 v, const Vec3& fallback, int32_t order) const {
     v += fallback * o_.budDirectionWeight;
     Vec3 g = length2(v) > 1e-24 ? normalize(v) : fallback;
-    const Vec3 t = g + o_.tropism;
+    const Vec3 t = g + (order >= 2 && o_.branchletTropism ? *o_.branchletTropism : o_.tropism);
     g = length2(t) > 1e-24 ? normalize(t) : g;
     if (order == 0 && o_.leaderWeight > 0) g = normalize(g + Vec3{0, o_.leaderWeight, 0});
     return g;
@@ -655,6 +655,21 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
     const int trunk =
         std::min(o_.maxInternodes, static_cast<int>(std::floor(o_.trunkLength / L_ + 1e-9)));
     for (int k = 1; k <= trunk; ++k) addNode({0, k * L_, 0}, k - 1, 0, 0);
+    // A tree's own deformed crown may have moved out of the bole top's reach (the spec reader
+    // checks the crown as given): the bole then grows on, straight up, until its top perceives
+    // the crown — a longer bole for this instance rather than a bare pole.
+    if (crown_ != o_.crown) {
+        const double top = crown_->bounds().hi.y;
+        auto inReach = [&](const Vec3& p) {
+            return improved ? crown_->signedDistance(p) < r_
+                            : !perceive(persistent_, p, {0, 1, 0}, r_, cosTheta_).empty();
+        };
+        while (!inReach(nodes_.back().position) && nodes_.back().position.y < top &&
+               static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes) {
+            const int32_t last = static_cast<int32_t>(nodes_.size()) - 1;
+            addNode(nodes_.back().position + Vec3{0, L_, 0}, last, 0, 0);
+        }
+    }
     const double azimuth = rng_.derive("phyllotaxis").uniform(0.0, 2 * kPi);
     buds_.push_back({nodes_.back().position,
                      {0, 1, 0},

@@ -26,6 +26,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -75,6 +76,9 @@ struct SpaceColonizationOptions {
     double branchAngle = 45.0 * kPi / 180.0;   // lateral bud direction from its internode
     double phyllotaxis = 137.5 * kPi / 180.0;  // divergence between successive lateral buds
     Vec3 tropism{0, 0, 0};  // added to every growth direction (e.g. (0, −0.1, 0))
+    // The tropism of axes of order ≥ 2 (branchlets: e.g. a spruce's hanging ones, Picea's
+    // "comb" habit), when set; else `tropism` for every order.
+    std::optional<Vec3> branchletTropism;
     // ξ: the bud's own direction times ξ is added to v_opt (both variants) — a direction
     // memory that smooths the zig-zag of few markers (cf. Palubicki 2009, where a new
     // metamer's direction weighs the bud's default orientation against the optimal one).

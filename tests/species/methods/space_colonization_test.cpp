@@ -720,6 +720,33 @@ TEST(SpaceColonizationForm, LeaderStaysVerticalAndWhorlsHoldKLaterals) {
     EXPECT_TRUE(std::isnan(bent.leaderLeanDeg) || bent.leaderLeanDeg > 3.0) << bent.leaderLeanDeg;
 }
 
+TEST(SpaceColonizationForm, BranchletTropismActsOnOrderTwoAndAbove) {
+    // Unset, the branchlets follow `tropism`; set to the same vector, the tree is the same.
+    SpaceColonizationOptions o = treeOptions();
+    o.tropism = {0, 0.05, 0};
+    const Tree plain = grow(o, 4);
+    o.branchletTropism = o.tropism;
+    EXPECT_TRUE(sameTree(plain, grow(o, 4)));
+    // A hanging tropism on orders ≥ 2 turns their internodes down, not the trunk's: the first
+    // internodes of order 0 and 1 (grown before any order-2 axis exists) are unchanged.
+    o.branchletTropism = Vec3{0, -0.8, 0};
+    const Tree hanging = grow(o, 4);
+    auto meanY = [](const Tree& t, int minOrder) {
+        double y = 0;
+        int n = 0;
+        for (const SkeletonNode& node : t.nodes) {
+            if (node.parent < 0 || node.order < minOrder || node.level < 1) continue;
+            y += normalize(node.position - t.nodes[node.parent].position).y;
+            ++n;
+        }
+        return y / n;
+    };
+    EXPECT_LT(meanY(hanging, 2), meanY(plain, 2) - 0.2);
+    for (size_t i = 0; i < 12; ++i) {
+        EXPECT_TRUE(hanging.nodes[i].position == plain.nodes[i].position) << i;
+    }
+}
+
 TEST(SpaceColonizationForm, PerturbedCrownInvertsExactlyAndVariesPerTree) {
     const VolumePtr base = makePlaced(makeEllipsoid({2, 3, 2}), {{0, 4, 0}, {0, 1, 0}, {1, 1, 1}});
     Rng rng(3);
@@ -920,6 +947,19 @@ TEST(SpaceColonizationPresets, EveryPresetGrowsARootedTreeInItsCrown) {
         const auto method = instantiateSpecies(species, draw, nullptr);
         const VolumePtr crown = method->volumes().empty() ? nullptr : method->volumes()[0].second;
         const bool guided = species.table->contains("guides");
+        // A per-tree crown (envelope keys) is the crown scaled about the root by s ≤ 1.5 and
+        // radially about its centre by ≤ 1 + noise: within those bounds, not within the crown.
+        const double noise = species.table->get("envelope_noise")
+                                 ? *(*species.table)["envelope_noise"].value<double>()
+                                 : 0.0;
+        const bool perturbed = noise > 0 || species.table->contains("envelope_scale_sd");
+        Aabb reach;
+        if (crown && perturbed) {
+            const Aabb b = crown->bounds();
+            const Vec3 c = (b.lo + b.hi) * 0.5, h = (b.hi - b.lo) * (0.5 * (1 + noise));
+            reach.extend((c - h) * 1.5);
+            reach.extend((c + h) * 1.5);
+        }
         const double internode =
             species.table->get("internode") ? *(*species.table)["internode"].value<double>() : 0.1;
         const GrownTree g = growSpecies(species, 1, nullptr, true);
@@ -940,6 +980,14 @@ TEST(SpaceColonizationPresets, EveryPresetGrowsARootedTreeInItsCrown) {
         for (size_t i = 1; i < t.nodes.size(); ++i) {
             ASSERT_GE(t.nodes[i].parent, 0);
             ASSERT_LT(t.nodes[i].parent, static_cast<int32_t>(i));
+            if (crown && perturbed && t.nodes[i].level > 0) {
+                const Vec3& p = t.nodes[i].position;
+                EXPECT_TRUE(p.x >= reach.lo.x - tolerance && p.x <= reach.hi.x + tolerance &&
+                            p.y <= reach.hi.y + tolerance && p.z >= reach.lo.z - tolerance &&
+                            p.z <= reach.hi.z + tolerance)
+                    << "node " << i << " beyond the reach of every per-tree crown";
+                continue;
+            }
             if (crown && !guided && t.nodes[i].level > 0 &&
                 crown->signedDistance(t.nodes[i].position) > tolerance) {
                 ++outside;
@@ -952,7 +1000,8 @@ TEST(SpaceColonizationPresets, EveryPresetGrowsARootedTreeInItsCrown) {
         // containment is checked for unguided presets only.
         EXPECT_EQ(outside, 0);
     }
-    EXPECT_EQ(grown, 4) << "the four sc-* species (species/papers/liu-2020)";
+    EXPECT_EQ(grown, 12) << "the four sc-* species (species/papers/liu-2020) and the eight of "
+                            "the library (species/presets)";
 }
 
 }  // namespace
