@@ -32,9 +32,9 @@
 //    basipetally, the base's resource α·Q_base is split acropetally by λ (borchertHonda), and
 //    a bud given v grows ⌊v + 10⁻⁹⌋ metamers (the tolerance keeps an exact split such as
 //    2 × 1.0 from rounding down). The first metamer follows the bud's won markers; each further
-//    one is re-aimed at the live markers perceived from the shoot's new tip (no competition
-//    within an iteration: shoots grow serially in bud order), and the shoot stops early when
-//    it perceives none. Only the top node of a shoot keeps a terminal bud.
+//    one is re-aimed at those of them still there that the shoot's new tip perceives (shoots
+//    grow serially in bud order), and the shoot stops early when none is left: a shoot fills
+//    the space its bud won and no more. Only the top node of a shoot keeps a terminal bud.
 //  - Shedding: lateral branches whose Q per internode has stayed below the threshold (a
 //    fraction of the whole tree's Q per internode) for shedDelay iterations in a row are removed
 //    before the resource is distributed (the node list is compacted; markers they cleared stay
@@ -229,6 +229,7 @@ struct Step {
     bool grow = false;
     bool dies = false;
     Vec3 direction;
+    std::vector<int32_t> won;  // with allocation: the markers the bud won, for its shoot
 };
 
 // An improved-variant marker of this iteration (Liu 2020 §3, Fig. 4).
@@ -296,6 +297,7 @@ class Grower {
           r_(o.perception * o.internode),
           cosTheta_(std::cos(o.perceptionAngle)),
           crown_(treeCrown(o, rng)),
+          allocating_(o.allocation == Allocation::kBorchertHonda),
           nodeGrid_(std::max(o.occupancy, 0.5) * o.internode),
           persistent_(o.perception * o.internode),
           owner_(),
@@ -311,13 +313,14 @@ class Grower {
     std::vector<Step> improvedSteps(int iteration);
     std::vector<double> allocate(std::vector<Step>& steps);
     void compact(const std::vector<uint8_t>& shed);
-    bool shootDirection(const Bud& tip, Vec3& direction) const;
-    void growShoot(const Bud& b, Vec3 g, int metamers, int level, std::vector<Bud>& born);
+    bool shootDirection(const Bud& tip, const std::vector<int32_t>& won, Vec3& direction) const;
+    void growShoot(const Bud& b, const Step& s, int metamers, int level, std::vector<Bud>& born);
 
     const SpaceColonizationOptions& o_;
     Rng& rng_;
     const double L_, rho_, r_, cosTheta_;
     const VolumePtr crown_;                       // o_.crown, or its per-instance deformed copy
+    const bool allocating_;                       // Borchert–Honda allocation
     std::unique_ptr<detail::ShadowGrid> shadow_;  // light = "shadow" only
     std::vector<SkeletonNode> nodes_;
     HashGrid nodeGrid_;
@@ -397,6 +400,7 @@ std::vector<Step> Grower::baselineSteps() {
             if (owner_[p.marker] != static_cast<int32_t>(i)) continue;
             sum += (persistent_.position[p.marker] - b.position) / std::sqrt(p.d2);
             ++count;
+            if (allocating_) s.won.push_back(p.marker);
         }
         if (count == 0) return;  // dormant: every marker it sees went to a closer bud
         s.grow = true;
@@ -568,17 +572,25 @@ void Grower::compact(const std::vector<uint8_t>& shed) {
     buds_ = std::move(buds);
 }
 
-// The direction of a shoot's next metamer from its tip: toward the live markers the tip
-// perceives, as for a bud (no competition within a shoot). False when it perceives none.
-bool Grower::shootDirection(const Bud& tip, Vec3& direction) const {
-    const std::vector<Perceived> seen =
-        perceive(persistent_, tip.position, tip.direction, r_, cosTheta_);
-    if (seen.empty()) return false;
+// The direction of a shoot's next metamer from its tip: toward those of the markers its bud
+// won this iteration that are still there and that the tip perceives (within r, inside its
+// cone). False when none is left: the shoot ends. So a shoot never reaches beyond the space
+// its bud claimed — at most about r + ρ internodes — and turns at most as its markers lie.
+bool Grower::shootDirection(const Bud& tip, const std::vector<int32_t>& won,
+                            Vec3& direction) const {
     Vec3 sum, pull;
-    for (const Perceived& p : seen) {
-        sum += (persistent_.position[p.marker] - tip.position) / std::sqrt(p.d2);
-        pull += persistent_.pull[p.marker];
+    int count = 0;
+    const double r2 = r_ * r_;
+    for (int32_t m : won) {
+        if (!persistent_.alive[m]) continue;
+        const Vec3 v = persistent_.position[m] - tip.position;
+        const double d2 = length2(v);
+        if (d2 > r2 || !inCone(v, d2, tip.direction, cosTheta_)) continue;
+        sum += v / std::sqrt(d2);
+        pull += persistent_.pull[m];
+        ++count;
     }
+    if (count == 0) return false;
     direction = finish(normalize(sum) + pull, tip.direction, tip.order);
     return true;
 }
@@ -589,7 +601,9 @@ bool Grower::shootDirection(const Bud& tip, Vec3& direction) const {
 // bud. On a whorled order-0 axis only the top node carries laterals: whorlLaterals of them,
 // 360°/k apart. No lateral buds beyond maxOrder. With one metamer and no whorls this is the
 // papers' metamer: the terminal bud, then the lateral bud.
-void Grower::growShoot(const Bud& b, Vec3 g, int metamers, int level, std::vector<Bud>& born) {
+void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
+                       std::vector<Bud>& born) {
+    Vec3 g = s.direction;
     const bool whorled = o_.whorlLaterals > 0 && b.order == 0;
     const bool laterals = b.order + 1 <= o_.maxOrder;
     Bud tip = b;
@@ -602,7 +616,7 @@ void Grower::growShoot(const Bud& b, Vec3 g, int metamers, int level, std::vecto
         tip = {p, g, a, node, b.order, 0, 0};
         Vec3 next;
         const bool room = static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes;
-        const bool top = k + 1 == metamers || !room || !shootDirection(tip, next);
+        const bool top = k + 1 == metamers || !room || !shootDirection(tip, s.won, next);
         if (!whorled || top) a = rotate(a, g, o_.phyllotaxis);
         tip.reference = a;
         if (top) {
@@ -697,7 +711,7 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
                 const int metamers =
                     allocating ? static_cast<int>(std::floor(resource[i] + 1e-9)) : 1;
                 if (metamers >= 1) {
-                    growShoot(buds_[i], s.direction, metamers, iterations, born);
+                    growShoot(buds_[i], s, metamers, iterations, born);
                     grew = true;
                     continue;
                 }
