@@ -91,7 +91,7 @@ struct SpaceColonizationOptions {
     // won markers this iteration, else 0; the base receives v = α·Q_base; at every node the
     // resource splits between the continuing axis (Q_m) and the laterals (Q_l) by
     // v_m = v·λQ_m / (λQ_m + (1−λ)Q_l), v_l = v·(1−λ)Q_l / (λQ_m + (1−λ)Q_l); a bud given v
-    // grows a shoot of ⌊v⌋ metamers, each re-aimed at the markers it then perceives.
+    // grows a shoot of ⌊v⌋ metamers, each re-aimed at the markers its bud won that remain.
     Allocation allocation = Allocation::kNone;
     double apicalControl = 0.5;        // λ in (0, 1): 0.5 even, > 0.5 favours main axes
     double resourceCoefficient = 2.0;  // α, metamers per unit of Q reaching the base

@@ -160,7 +160,10 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
     o.phyllotaxis =
         sp.number("phyllotaxis_deg", o.phyllotaxis / kDeg, Range::closed(-360, 360)) * kDeg;
     o.tropism = sp.vec3("tropism", o.tropism);
-    if (sp.has("branchlet_tropism")) o.branchletTropism = sp.vec3("branchlet_tropism", o.tropism);
+    // Asked even when absent (it defaults to `tropism`), so a misspelling gets its suggestion.
+    const bool ownBranchletTropism = sp.has("branchlet_tropism");
+    const Vec3 branchletTropism = sp.vec3("branchlet_tropism", o.tropism);
+    if (ownBranchletTropism) o.branchletTropism = branchletTropism;
     o.budDirectionWeight =
         sp.number("bud_direction_weight", o.budDirectionWeight, Range::nonNegative());
     o.trunkLength = sp.number("trunk_length", o.trunkLength, Range::nonNegative());

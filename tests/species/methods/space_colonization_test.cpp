@@ -623,6 +623,56 @@ TEST(SpaceColonizationAllocation, ShootsOfSeveralMetamersPerIteration) {
     EXPECT_LT(bh["iterations"], plain["iterations"]);
 }
 
+TEST(SpaceColonizationAllocation, AShootFillsOnlyTheSpaceItsBudWon) {
+    // One bud at the root (+y), ρ = 0.2 m, r = 0.7 m, α = 10 (ten metamers' worth), one
+    // iteration. It wins the markers at y = 0.35 and 0.65 (within r); the one at 0.95 is beyond
+    // r at the start. Metamers at 0.1 … 0.5: the node at 0.2 removes 0.35, the node at 0.5
+    // removes 0.65, and the shoot ends there, five metamers long, although the tip at 0.3 and
+    // later perceives the marker at 0.95: it was not its bud's.
+    SpaceColonizationOptions o = baseOptions(ColonizationVariant::kBaseline);
+    o.crown = farCrown();
+    o.markers = 0;
+    o.perception = 7;
+    o.allocation = Allocation::kBorchertHonda;
+    o.resourceCoefficient = 10;
+    o.maxIterations = 1;
+    for (double y : {0.35, 0.65, 0.95}) o.guides.push_back({{0, y, 0}, {0, 0, 0}, 0.0});
+    const Tree t = grow(o, 1);
+    ASSERT_EQ(t.nodes.size(), 6u);
+    for (int i = 1; i < 6; ++i) {
+        EXPECT_NEAR(t.nodes[i].position.y, 0.1 * i, 1e-12);
+        EXPECT_EQ(t.nodes[i].parent, i - 1);
+        EXPECT_EQ(t.nodes[i].level, 1);
+    }
+    // The next iteration's bud at the shoot's top perceives the last marker and goes on.
+    o.maxIterations = 2;
+    EXPECT_GT(grow(o, 1).nodes.size(), 6u);
+}
+
+TEST(SpaceColonizationForm, ABoleOutOfItsOwnCrownsReachGrowsOnToIt) {
+    // The crown (a sphere of 0.3 m at y = 2) lies far beyond r = 0.4 m of the 0.2 m bole. As
+    // given, the spec reader rejects it; a per-tree crown that drifted out of reach instead
+    // lengthens the bole, straight up, until its top perceives the crown's markers.
+    SpaceColonizationOptions o = baseOptions(ColonizationVariant::kBaseline);
+    o.crown = makePlaced(makeSphere(0.3), {{0, 2, 0}, {0, 1, 0}, {1, 1, 1}});
+    o.markers = 400;
+    o.trunkLength = 0.2;
+    o.allocation = Allocation::kBorchertHonda;
+    EXPECT_EQ(grow(o, 3).nodes.size(), 3u);  // the crown as given: a bare bole
+    o.envelopeScaleSd = 1e-12;               // a per-tree crown, the same shape
+    const Tree t = grow(o, 3);
+    int bole = 0;
+    while (t.nodes[bole + 1].level == 0) ++bole;
+    const double top = t.nodes[bole].position.y;
+    for (int i = 1; i <= bole; ++i) {
+        EXPECT_EQ(t.nodes[i].position.x, 0.0);
+        EXPECT_NEAR(t.nodes[i].position.y, 0.1 * i, 1e-12);
+    }
+    EXPECT_GT(top, 2 - 0.3 - 0.4 - 1e-9);        // no earlier than the crown came in reach
+    EXPECT_LT(top, 2 - 0.3 - 0.4 + 0.1 + 0.05);  // one internode past at most (sampling slack)
+    EXPECT_GT(t.nodes.size(), static_cast<size_t>(bole + 20));
+}
+
 TEST(SpaceColonizationAllocation, ApicalControlFavoursTheMainAxes) {
     // λ > 0.5 gives the continuing axes more of the resource at every fork, so the order-0
     // axis (summed over three seeds) grows longer than with λ < 0.5.
