@@ -760,7 +760,7 @@ TEST(SpaceColonizationForm, LeaderStaysVerticalAndWhorlsHoldKLaterals) {
     // A sideways tropism and free growth toward the markers (ξ = 0): the leader's pull keeps
     // the top within 1° of the vertical, where without it the top leans.
     o.budDirectionWeight = 0;
-    o.tropism = {0.15, 0, 0};
+    o.tropism = {0.4, 0, 0};
     TreeStats s;
     addRealismMetrics(grow(o, 7), s);
     EXPECT_LT(s.leaderLeanDeg, 1.0);
