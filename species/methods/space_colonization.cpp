@@ -384,6 +384,14 @@ std::vector<Step> Grower::baselineSteps() {
     owner_.resize(persistent_.position.size(), -1);
     best_.resize(persistent_.position.size(), 0.0);
     resolveOwners(lists, owner_, best_);
+    // A held leader (leaderWeight > 0) is apically dominant: every marker it perceives is its
+    // own, however close another bud is, so laterals crowding round it never starve it.
+    if (o_.leaderWeight > 0) {
+        for (size_t b = 0; b < n; ++b) {
+            if (buds_[b].order != 0) continue;
+            for (const Perceived& p : lists[b]) owner_[p.marker] = static_cast<int32_t>(b);
+        }
+    }
 
     std::vector<Step> steps(n);
     forEachIndex(n, o_.threaded, [&](size_t i) {
@@ -406,6 +414,20 @@ std::vector<Step> Grower::baselineSteps() {
         s.grow = true;
         s.direction = finish(normalize(sum) + pull, b.direction, b.order);
     });
+    // A held leader keeps growing up while the crown goes on above it, even where the space
+    // round it is used up: the markers only say where laterals may go.
+    if (o_.leaderWeight > 0) {
+        for (size_t b = 0; b < n; ++b) {
+            Step& st = steps[b];
+            if (buds_[b].order != 0 || st.grow || !crown_ ||
+                !crown_->inside(buds_[b].position + Vec3{0, r_, 0})) {
+                continue;
+            }
+            st.grow = true;
+            st.dies = false;
+            st.direction = finish({0, 1, 0}, buds_[b].direction, 0);
+        }
+    }
     for (const auto& l : lists) {
         for (const Perceived& p : l) owner_[p.marker] = -1;
     }

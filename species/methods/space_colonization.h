@@ -117,8 +117,10 @@ struct SpaceColonizationOptions {
     double envelopeNoise = 0.0;    // fraction of the radius, [0, 0.9]
 
     // Excurrent form. leaderWeight: the order-0 axis grows along norm(g + w·ŷ) (g its
-    // direction as for any bud), so w ≫ 1 holds the leader vertical. whorlLaterals k > 0:
-    // the order-0 axis carries laterals only at the top node of each iteration's shoot (the
+    // direction as for any bud), so w ≫ 1 holds the leader vertical; with w > 0 the order-0
+    // bud also wins every marker it perceives (apical dominance: baseline competition), and
+    // grows on straight up without markers while the crown continues r above it. whorlLaterals k >
+    // 0: the order-0 axis carries laterals only at the top node of each iteration's shoot (the
     // annual increment), k of them 360°/k apart at branchAngle, each whorl turned by
     // phyllotaxis from the one below. maxOrder: no lateral buds beyond this branch order.
     double leaderWeight = 0.0;

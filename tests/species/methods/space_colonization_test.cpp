@@ -770,6 +770,33 @@ TEST(SpaceColonizationForm, LeaderStaysVerticalAndWhorlsHoldKLaterals) {
     EXPECT_TRUE(std::isnan(bent.leaderLeanDeg) || bent.leaderLeanDeg > 3.0) << bent.leaderLeanDeg;
 }
 
+TEST(SpaceColonizationForm, AHeldLeaderGrowsToTheTopOfItsCrown) {
+    // A 3 m cylinder crown with almost no markers (r = 0.4 m): an unheld leader stops where
+    // its markers end; a held one (leader_weight > 0) grows straight on, one metamer per
+    // iteration, until the crown no longer continues r above it: its top is at 2.6 m or above
+    // (beyond only toward markers it won).
+    SpaceColonizationOptions o = baseOptions(ColonizationVariant::kBaseline);
+    o.crown = makeCylinder(0.5, 3.0);
+    o.markers = 20;
+    o.trunkLength = 0.2;
+    o.allocation = Allocation::kBorchertHonda;
+    auto top = [](const Tree& t) {
+        double y = 0;
+        for (const SkeletonNode& n : t.nodes) {
+            if (n.order == 0) y = std::max(y, n.position.y);
+        }
+        return y;
+    };
+    EXPECT_LT(top(grow(o, 6)), 2.0);
+    o.leaderWeight = 30;
+    const Tree held = grow(o, 6);
+    EXPECT_GE(top(held), 2.6 - 1e-9);
+    EXPECT_LE(top(held), 3.0);
+    for (const SkeletonNode& n : held.nodes) {
+        if (n.order == 0) EXPECT_LT(std::hypot(n.position.x, n.position.z), 0.02);
+    }
+}
+
 TEST(SpaceColonizationForm, BranchletTropismActsOnOrderTwoAndAbove) {
     // Unset, the branchlets follow `tropism`; set to the same vector, the tree is the same.
     SpaceColonizationOptions o = treeOptions();
