@@ -793,7 +793,9 @@ TEST(SpaceColonizationForm, AHeldLeaderGrowsToTheTopOfItsCrown) {
     EXPECT_GE(top(held), 2.6 - 1e-9);
     EXPECT_LE(top(held), 3.0);
     for (const SkeletonNode& n : held.nodes) {
-        if (n.order == 0) EXPECT_LT(std::hypot(n.position.x, n.position.z), 0.02);
+        if (n.order == 0) {
+            EXPECT_LT(std::hypot(n.position.x, n.position.z), 0.02);
+        }
     }
 }
 
