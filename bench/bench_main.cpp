@@ -471,6 +471,54 @@ BENCHMARK_CAPTURE(Colonization, improved, ColonizationVariant::kImproved)
     ->Unit(benchmark::kMillisecond)
     ->MinTime(1.0);
 
+// What Palubicki 2009's Borchert–Honda allocation costs (issue 13): the baseline in the
+// Colonization crown above (400,000 markers, internodes of 0.1 m) grown to the argument's
+// internodes with allocation = none (one metamer per bud and iteration: the papers'), with
+// Borchert–Honda allocation on Q = space (λ = 0.55, α = 2), and with allocation on Q = shadow
+// plus shedding (a = 0.15, threshold 0.45: the library's broadleaves). One thread.
+static void ColonizationAllocation(benchmark::State& state) {
+    SpaceColonizationOptions o;
+    o.crown = makePlaced(makeEllipsoid({5, 4, 5}), Placement{{0, 5, 0}, {0, 1, 0}, {1, 1, 1}});
+    o.internode = 0.1;
+    o.trunkLength = 1.0;
+    o.markers = 400000;
+    o.maxIterations = 1000;
+    o.maxInternodes = static_cast<int>(state.range(1));
+    const int64_t mode = state.range(0);
+    if (mode >= 1) {
+        o.allocation = Allocation::kBorchertHonda;
+        o.apicalControl = 0.55;
+        o.resourceCoefficient = 2.0;
+    }
+    if (mode >= 2) {
+        o.light = Light::kShadow;
+        o.shadowStrength = 0.15;
+        o.shedThreshold = 0.45;
+    }
+    std::map<std::string, double> stats;
+    Tree tree;
+    uint64_t seed = 1;
+    for (auto _ : state) {
+        Rng rng(seed++);
+        stats.clear();
+        tree = growSpaceColonization(o, rng, &stats);
+        benchmark::DoNotOptimize(tree.nodes.data());
+    }
+    double height = 0.0;
+    for (const SkeletonNode& n : tree.nodes) height = std::max(height, n.position.y);
+    state.counters["internodes"] = stats["internodes"];
+    state.counters["iterations"] = stats["iterations"];
+    state.counters["shed_internodes"] = stats["shed_internodes"];
+    state.counters["height_m"] = height;
+}
+BENCHMARK(ColonizationAllocation)
+    ->ArgNames({"mode", "internodes"})
+    ->Args({0, 10000})
+    ->Args({1, 10000})
+    ->Args({2, 10000})
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(1.0);
+
 // --- the species library (issue 6) -------------------------------------------------------------
 
 // What one gallery tree costs: grow + mesh (tubes + leaf cards) + 8 views at 256² with depth

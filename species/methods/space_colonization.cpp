@@ -26,6 +26,24 @@
 //  - Radii: pipe model from the tips up, r_parentⁿ = Σ r_childⁿ; a node's radius is that of
 //    the internode ending at it.
 //
+// Trees rather than brooms (all off by default):
+//  - Borchert–Honda allocation (Palubicki 2009 §4, baseline only): after the competition, a
+//    bud's Q is 1 if it won markers, else 0 (the paper's space-colonization case); Q is summed
+//    basipetally, the base's resource α·Q_base is split acropetally by λ (borchertHonda), and
+//    a bud given v grows ⌊v + 10⁻⁹⌋ metamers (the tolerance keeps an exact split such as
+//    2 × 1.0 from rounding down). The first metamer follows the bud's won markers; each further
+//    one is re-aimed at those of them still there that the shoot's new tip perceives (shoots
+//    grow serially in bud order), and the shoot stops early when none is left: a shoot fills
+//    the space its bud won and no more. Only the top node of a shoot keeps a terminal bud.
+//  - Shedding: lateral branches whose Q per internode has stayed below the threshold (a
+//    fraction of the whole tree's Q per internode) for shedDelay iterations in a row are removed
+//    before the resource is distributed (the node list is compacted; markers they cleared stay
+//    gone). One iteration is not enough: a bud's binary Q flickers with the competition, and every
+//    young branch has iterations in which none of its buds wins a marker.
+//  - Perturbed crown: a deformed copy of the crown (PerturbedCrown), drawn from the stream
+//    "envelope", replaces it for markers and bounds.
+//  - Leader and whorls: see SpaceColonizationOptions.
+//
 // Determinism: per-bud work of an iteration (perception, marker generation from a stream
 // keyed by (bud id, iteration), directions) reads only the iteration's start state and writes
 // its own slot; everything that changes state (competition for markers, new nodes, marker
@@ -40,6 +58,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -210,6 +229,7 @@ struct Step {
     bool grow = false;
     bool dies = false;
     Vec3 direction;
+    std::vector<int32_t> won;  // with allocation: the markers the bud won, for its shoot
 };
 
 // An improved-variant marker of this iteration (Liu 2020 §3, Fig. 4).
@@ -238,6 +258,33 @@ void validate(const SpaceColonizationOptions& o) {
     if (!(o.kappa > 0) || !(o.sigma > 0)) bad("kappa and sigma must be > 0");
     if (!(o.pipeExponent > 0) || !(o.tipRadius > 0)) bad("pipe exponent and tip radius > 0");
     if (o.markers < 0 || o.maxIterations < 0 || o.maxInternodes < 0) bad("negative limit");
+    if (o.allocation == Allocation::kBorchertHonda) {
+        if (o.variant != ColonizationVariant::kBaseline) bad("allocation needs the baseline");
+        if (!(o.apicalControl > 0 && o.apicalControl < 1)) bad("apical control not in (0, 1)");
+        if (!(o.resourceCoefficient > 0)) bad("resource coefficient must be > 0");
+    }
+    if (o.light == Light::kShadow &&
+        (!(o.shadowStrength > 0) || !(o.shadowDecay > 1) || o.shadowDepth < 0)) {
+        bad("shadow strength > 0, decay > 1, depth ≥ 0");
+    }
+    if (o.shedThreshold > 0 &&
+        (o.allocation != Allocation::kBorchertHonda || o.light != Light::kShadow)) {
+        bad("shedding needs allocation with light = shadow");
+    }
+    if (!(o.shedThreshold >= 0) || o.shedDelay < 1) bad("shed threshold ≥ 0, delay ≥ 1");
+    if (!(o.envelopeScaleSd >= 0) || !(o.envelopeNoise >= 0 && o.envelopeNoise <= 0.9)) {
+        bad("envelope scale σ must be ≥ 0 and noise in [0, 0.9]");
+    }
+    if (!(o.leaderWeight >= 0) || o.whorlLaterals < 0 || o.maxOrder < 0) bad("negative form key");
+}
+
+// The crown a tree grows in: the given one, or its per-instance deformed copy.
+VolumePtr treeCrown(const SpaceColonizationOptions& o, const Rng& rng) {
+    if (!o.crown || (o.envelopeScaleSd <= 0 && o.envelopeNoise <= 0)) return o.crown;
+    Rng r = rng.derive("envelope");
+    const double scale = std::clamp(1.0 + o.envelopeScaleSd * r.normal(), 0.5, 1.5);
+    return std::make_shared<detail::PerturbedCrown>(o.crown, scale, o.envelopeNoise,
+                                                    r.derive("waves"));
 }
 
 class Grower {
@@ -249,6 +296,8 @@ class Grower {
           rho_(o.occupancy * o.internode),
           r_(o.perception * o.internode),
           cosTheta_(std::cos(o.perceptionAngle)),
+          crown_(treeCrown(o, rng)),
+          allocating_(o.allocation == Allocation::kBorchertHonda),
           nodeGrid_(std::max(o.occupancy, 0.5) * o.internode),
           persistent_(o.perception * o.internode),
           owner_(),
@@ -259,22 +308,30 @@ class Grower {
   private:
     int32_t addNode(const Vec3& p, int32_t parent, int32_t order, int32_t level);
     bool occupied(const Vec3& p) const;
-    Vec3 finish(Vec3 v, const Vec3& fallback) const;
+    Vec3 finish(Vec3 v, const Vec3& fallback, int32_t order) const;
     std::vector<Step> baselineSteps();
     std::vector<Step> improvedSteps(int iteration);
-    void growBud(const Bud& b, const Vec3& g, int level, std::vector<Bud>& born);
+    std::vector<double> allocate(std::vector<Step>& steps);
+    void compact(const std::vector<uint8_t>& shed);
+    bool shootDirection(const Bud& tip, const std::vector<int32_t>& won, Vec3& direction) const;
+    void growShoot(const Bud& b, const Step& s, int metamers, int level, std::vector<Bud>& born);
 
     const SpaceColonizationOptions& o_;
     Rng& rng_;
     const double L_, rho_, r_, cosTheta_;
+    const VolumePtr crown_;                       // o_.crown, or its per-instance deformed copy
+    const bool allocating_;                       // Borchert–Honda allocation
+    std::unique_ptr<detail::ShadowGrid> shadow_;  // light = "shadow" only
     std::vector<SkeletonNode> nodes_;
     HashGrid nodeGrid_;
     MarkerSet persistent_;
     std::vector<int32_t> owner_;  // baseline competition scratch, −1 between iterations
     std::vector<double> best_;
     std::vector<Bud> buds_;
+    std::vector<int32_t> starved_;  // shedding: iterations in a row each node's branch failed
     uint64_t nextBudId_ = 0;
     double generated_ = 0, removed_ = 0, budIterations_ = 0;
+    double shedBranches_ = 0, shedInternodes_ = 0;
 };
 
 int32_t Grower::addNode(const Vec3& p, int32_t parent, int32_t order, int32_t level) {
@@ -286,6 +343,7 @@ int32_t Grower::addNode(const Vec3& p, int32_t parent, int32_t order, int32_t le
     const auto index = static_cast<int32_t>(nodes_.size());
     nodes_.push_back(n);
     nodeGrid_.insert(index, p);
+    if (shadow_) shadow_->cast(p, +1);
     // The new node's occupancy zone: persistent markers within ρ are gone for good.
     const double rho2 = rho_ * rho_;
     persistent_.grid.eraseNear(p, rho_, [&](int32_t m) {
@@ -303,12 +361,15 @@ bool Grower::occupied(const Vec3& p) const {
                              [&](int32_t i) { return distance2(nodes_[i].position, p) <= rho2; });
 }
 
-// The growth direction from the summed contributions, then tropism, each normalised.
-Vec3 Grower::finish(Vec3 v, const Vec3& fallback) const {
+// The growth direction from the summed contributions, then tropism (the branchlets' own on
+// orders ≥ 2 when set), each normalised; on the order-0 axis, then the leader's pull to +y.
+Vec3 Grower::finish(Vec3 v, const Vec3& fallback, int32_t order) const {
     v += fallback * o_.budDirectionWeight;
     Vec3 g = length2(v) > 1e-24 ? normalize(v) : fallback;
-    const Vec3 t = g + o_.tropism;
-    return length2(t) > 1e-24 ? normalize(t) : g;
+    const Vec3 t = g + (order >= 2 && o_.branchletTropism ? *o_.branchletTropism : o_.tropism);
+    g = length2(t) > 1e-24 ? normalize(t) : g;
+    if (order == 0 && o_.leaderWeight > 0) g = normalize(g + Vec3{0, o_.leaderWeight, 0});
+    return g;
 }
 
 // Baseline (Palubicki 2009 §4; Runions 2007): perception per bud in parallel, the
@@ -323,6 +384,14 @@ std::vector<Step> Grower::baselineSteps() {
     owner_.resize(persistent_.position.size(), -1);
     best_.resize(persistent_.position.size(), 0.0);
     resolveOwners(lists, owner_, best_);
+    // A held leader (leaderWeight > 0) is apically dominant: every marker it perceives is its
+    // own, however close another bud is, so laterals crowding round it never starve it.
+    if (o_.leaderWeight > 0) {
+        for (size_t b = 0; b < n; ++b) {
+            if (buds_[b].order != 0) continue;
+            for (const Perceived& p : lists[b]) owner_[p.marker] = static_cast<int32_t>(b);
+        }
+    }
 
     std::vector<Step> steps(n);
     forEachIndex(n, o_.threaded, [&](size_t i) {
@@ -339,11 +408,26 @@ std::vector<Step> Grower::baselineSteps() {
             if (owner_[p.marker] != static_cast<int32_t>(i)) continue;
             sum += (persistent_.position[p.marker] - b.position) / std::sqrt(p.d2);
             ++count;
+            if (allocating_) s.won.push_back(p.marker);
         }
         if (count == 0) return;  // dormant: every marker it sees went to a closer bud
         s.grow = true;
-        s.direction = finish(normalize(sum) + pull, b.direction);
+        s.direction = finish(normalize(sum) + pull, b.direction, b.order);
     });
+    // A held leader keeps growing up while the crown goes on above it, even where the space
+    // round it is used up: the markers only say where laterals may go.
+    if (o_.leaderWeight > 0) {
+        for (size_t b = 0; b < n; ++b) {
+            Step& st = steps[b];
+            if (buds_[b].order != 0 || st.grow || !crown_ ||
+                !crown_->inside(buds_[b].position + Vec3{0, r_, 0})) {
+                continue;
+            }
+            st.grow = true;
+            st.dies = false;
+            st.direction = finish({0, 1, 0}, buds_[b].direction, 0);
+        }
+    }
     for (const auto& l : lists) {
         for (const Perceived& p : l) owner_[p.marker] = -1;
     }
@@ -372,7 +456,7 @@ std::vector<Step> Grower::improvedSteps(int iteration) {
         const int64_t count = detail::binomial(rng, o_.markersPerBud, within);
         for (int64_t k = 0; k < count; ++k) {
             const Vec3 p = b.position + uniformInBall(rng) * cutoff;
-            if (o_.crown && !o_.crown->inside(p)) continue;  // markers stay in the crown
+            if (crown_ && !crown_->inside(p)) continue;  // markers stay in the crown
             ++drawn[i];
             if (occupied(p)) {
                 ++dropped[i];
@@ -429,33 +513,173 @@ std::vector<Step> Grower::improvedSteps(int iteration) {
         });
         Step& s = steps[i];
         s.grow = true;
-        s.direction =
-            finish(normalize(sum) + push + pull + Vec3{0, -o_.gravityWeight, 0}, b.direction);
+        s.direction = finish(normalize(sum) + push + pull + Vec3{0, -o_.gravityWeight, 0},
+                             b.direction, b.order);
     });
     return steps;
 }
 
-// One metamer along g from bud b: a node with a terminal and a lateral bud (Palubicki 2009 §3).
-void Grower::growBud(const Bud& b, const Vec3& g, int level, std::vector<Bud>& born) {
-    const Vec3 p = b.position + g * L_;
-    const int32_t node = addNode(p, b.node, b.order, level);
-    // Phyllotaxis: the previous lateral azimuth carried onto the plane ⊥ g, then turned.
-    Vec3 a = b.reference - g * dot(b.reference, g);
-    a = length2(a) > 1e-12 ? normalize(a) : anyPerpendicular(g);
-    a = rotate(a, g, o_.phyllotaxis);
-    const Vec3 lateral = normalize(g * std::cos(o_.branchAngle) + a * std::sin(o_.branchAngle));
-    born.push_back({p, g, a, node, b.order, nextBudId_++, 0});
-    born.push_back({p, lateral, g, node, b.order + 1, nextBudId_++, 0});
+// The extended Borchert–Honda model (Palubicki 2009 §4) on this iteration's competition: a
+// bud that won markers (steps[i].grow) has Q = 1 (light = "space") or its exposure in the
+// shadow grid (light = "shadow"), any other bud Q = 0. Lateral branches that do not pay off
+// (mean exposure of their nodes) are shed first (nodes_, buds_ and `steps` compacted alike).
+// Returns each remaining bud's resource v.
+std::vector<double> Grower::allocate(std::vector<Step>& steps) {
+    const size_t n = nodes_.size();
+    std::vector<int32_t> parent(n);
+    std::vector<uint8_t> lateral(n, 0);
+    for (size_t i = 0; i < n; ++i) {
+        parent[i] = nodes_[i].parent;
+        if (parent[i] >= 0) lateral[i] = nodes_[i].order != nodes_[parent[i]].order;
+    }
+    // Q: 1 for a bud that won markers (space), or its light exposure (shadow); 0 without space.
+    std::vector<detail::AllocationBud> buds(buds_.size());
+    for (size_t i = 0; i < buds_.size(); ++i) {
+        const Bud& b = buds_[i];
+        const double q = !steps[i].grow ? 0.0 : shadow_ ? shadow_->exposure(b.position) : 1.0;
+        buds[i] = {b.node, b.order != nodes_[b.node].order, q};
+    }
+    std::vector<double> light;
+    if (o_.shedThreshold > 0) {
+        light.resize(n);
+        for (size_t i = 0; i < n; ++i) light[i] = shadow_->exposure(nodes_[i].position);
+    }
+    starved_.resize(n, 0);
+    detail::AllocationResult a =
+        detail::borchertHonda(parent, lateral, buds, light, o_.apicalControl,
+                              o_.resourceCoefficient, o_.shedThreshold, o_.shedDelay, starved_);
+    if (std::find(a.shed.begin(), a.shed.end(), 1) == a.shed.end()) return a.budResource;
+
+    std::vector<Step> keptSteps;
+    std::vector<double> keptResource;
+    for (size_t i = 0; i < buds_.size(); ++i) {
+        if (a.shed[buds_[i].node]) continue;
+        keptSteps.push_back(steps[i]);
+        keptResource.push_back(a.budResource[i]);
+    }
+    compact(a.shed);
+    steps = std::move(keptSteps);
+    return keptResource;
+}
+
+// Removes the nodes marked in `shed` (whole subtrees: a shed node's descendants are shed too)
+// and the buds on them, keeping the order of the rest.
+void Grower::compact(const std::vector<uint8_t>& shed) {
+    std::vector<int32_t> index(nodes_.size(), -1);
+    std::vector<SkeletonNode> kept;
+    kept.reserve(nodes_.size());
+    for (size_t i = 0; i < nodes_.size(); ++i) {
+        if (shed[i]) {
+            if (shadow_) shadow_->cast(nodes_[i].position, -1);
+            shedInternodes_ += 1;
+            if (nodes_[i].parent >= 0 && !shed[nodes_[i].parent]) shedBranches_ += 1;
+            continue;
+        }
+        starved_[index[i] = static_cast<int32_t>(kept.size())] = starved_[i];
+        kept.push_back(nodes_[i]);
+        if (kept.back().parent >= 0) kept.back().parent = index[kept.back().parent];
+    }
+    nodes_ = std::move(kept);
+    starved_.resize(nodes_.size());
+    nodeGrid_.clear();
+    for (size_t i = 0; i < nodes_.size(); ++i) {
+        nodeGrid_.insert(static_cast<int32_t>(i), nodes_[i].position);
+    }
+    std::vector<Bud> buds;
+    for (Bud b : buds_) {
+        if (index[b.node] < 0) continue;
+        b.node = index[b.node];
+        buds.push_back(b);
+    }
+    buds_ = std::move(buds);
+}
+
+// The direction of a shoot's next metamer from its tip: toward those of the markers its bud
+// won this iteration that are still there and that the tip perceives (within r, inside its
+// cone). False when none is left: the shoot ends. So a shoot never reaches beyond the space
+// its bud claimed — at most about r + ρ internodes — and turns at most as its markers lie.
+bool Grower::shootDirection(const Bud& tip, const std::vector<int32_t>& won,
+                            Vec3& direction) const {
+    Vec3 sum, pull;
+    int count = 0;
+    const double r2 = r_ * r_;
+    for (int32_t m : won) {
+        if (!persistent_.alive[m]) continue;
+        const Vec3 v = persistent_.position[m] - tip.position;
+        const double d2 = length2(v);
+        if (d2 > r2 || !inCone(v, d2, tip.direction, cosTheta_)) continue;
+        sum += v / std::sqrt(d2);
+        pull += persistent_.pull[m];
+        ++count;
+    }
+    if (count == 0) return false;
+    direction = finish(normalize(sum) + pull, tip.direction, tip.order);
+    return true;
+}
+
+// A shoot of up to `metamers` metamers from bud b, the first along g (Palubicki 2009 §3–4).
+// Every metamer ends in a node with a lateral bud (at branchAngle, turned about the axis by
+// the phyllotaxis angle from the previous one); the shoot's top node also gets the terminal
+// bud. On a whorled order-0 axis only the top node carries laterals: whorlLaterals of them,
+// 360°/k apart. No lateral buds beyond maxOrder. With one metamer and no whorls this is the
+// papers' metamer: the terminal bud, then the lateral bud.
+void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
+                       std::vector<Bud>& born) {
+    Vec3 g = s.direction;
+    const bool whorled = o_.whorlLaterals > 0 && b.order == 0;
+    const bool laterals = b.order + 1 <= o_.maxOrder;
+    Bud tip = b;
+    for (int k = 0; k < metamers; ++k) {
+        const Vec3 p = tip.position + g * L_;
+        const int32_t node = addNode(p, tip.node, tip.order, level);
+        // Phyllotaxis: the previous lateral azimuth carried onto the plane ⊥ g, then turned.
+        Vec3 a = tip.reference - g * dot(tip.reference, g);
+        a = length2(a) > 1e-12 ? normalize(a) : anyPerpendicular(g);
+        tip = {p, g, a, node, b.order, 0, 0};
+        Vec3 next;
+        const bool room = static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes;
+        const bool top = k + 1 == metamers || !room || !shootDirection(tip, s.won, next);
+        if (!whorled || top) a = rotate(a, g, o_.phyllotaxis);
+        tip.reference = a;
+        if (top) {
+            tip.id = nextBudId_++;
+            born.push_back(tip);
+        }
+        if (laterals && (!whorled || top)) {
+            const int count = whorled ? o_.whorlLaterals : 1;
+            for (int j = 0; j < count; ++j) {
+                const Vec3 aj = j == 0 ? a : rotate(a, g, 2 * kPi * j / count);
+                const Vec3 lateral =
+                    normalize(g * std::cos(o_.branchAngle) + aj * std::sin(o_.branchAngle));
+                born.push_back({p, lateral, g, node, b.order + 1, nextBudId_++, 0});
+            }
+        }
+        if (top) return;
+        g = next;
+    }
 }
 
 Tree Grower::grow(std::map<std::string, double>* stats) {
     const bool improved = o_.variant == ColonizationVariant::kImproved;
+    const bool allocating = o_.allocation == Allocation::kBorchertHonda;
     for (const GuideMarker& g : o_.guides) persistent_.add(g.position, g.direction * g.weight);
+    if (allocating && o_.light == Light::kShadow) {
+        // The shade grid covers everything the tree can reach: the crown, the guides and the
+        // root, with room for a pyramid's spread (depth voxels) and a step outside.
+        Aabb box = crown_ ? crown_->bounds() : Aabb{};
+        box.extend(Vec3{0, 0, 0});
+        for (const GuideMarker& g : o_.guides) box.extend(g.position);
+        const double margin = (o_.shadowDepth + 2) * L_ + r_;
+        box.lo -= Vec3{margin, margin, margin};
+        box.hi += Vec3{margin, margin, margin};
+        shadow_ = std::make_unique<detail::ShadowGrid>(box, L_, o_.shadowStrength, o_.shadowDecay,
+                                                       o_.shadowDepth);
+    }
     generated_ += static_cast<double>(o_.guides.size());
     if (!improved) {
         Rng markerRng = rng_.derive("crown-markers");
         for (int i = 0; i < o_.markers; ++i) {
-            if (auto p = o_.crown->sample(markerRng)) {
+            if (auto p = crown_->sample(markerRng)) {
                 persistent_.add(*p, {0, 0, 0});
                 generated_ += 1;
             }
@@ -467,6 +691,21 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
     const int trunk =
         std::min(o_.maxInternodes, static_cast<int>(std::floor(o_.trunkLength / L_ + 1e-9)));
     for (int k = 1; k <= trunk; ++k) addNode({0, k * L_, 0}, k - 1, 0, 0);
+    // A tree's own deformed crown may have moved out of the bole top's reach (the spec reader
+    // checks the crown as given): the bole then grows on, straight up, until its top perceives
+    // the crown — a longer bole for this instance rather than a bare pole.
+    if (crown_ != o_.crown) {
+        const double top = crown_->bounds().hi.y;
+        auto inReach = [&](const Vec3& p) {
+            return improved ? crown_->signedDistance(p) < r_
+                            : !perceive(persistent_, p, {0, 1, 0}, r_, cosTheta_).empty();
+        };
+        while (!inReach(nodes_.back().position) && nodes_.back().position.y < top &&
+               static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes) {
+            const int32_t last = static_cast<int32_t>(nodes_.size()) - 1;
+            addNode(nodes_.back().position + Vec3{0, L_, 0}, last, 0, 0);
+        }
+    }
     const double azimuth = rng_.derive("phyllotaxis").uniform(0.0, 2 * kPi);
     buds_.push_back({nodes_.back().position,
                      {0, 1, 0},
@@ -481,7 +720,9 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
            static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes) {
         ++iterations;
         budIterations_ += static_cast<double>(buds_.size());
-        const std::vector<Step> steps = improved ? improvedSteps(iterations) : baselineSteps();
+        std::vector<Step> steps = improved ? improvedSteps(iterations) : baselineSteps();
+        // Borchert–Honda: each bud's resource v (and shedding, which may drop buds).
+        const std::vector<double> resource = allocating ? allocate(steps) : std::vector<double>{};
         std::vector<Bud> kept, born;
         bool grew = false;
         int firstStarved = -1;  // improved: the first bud that just died of failures
@@ -489,9 +730,14 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
             const Step& s = steps[i];
             const bool room = static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes;
             if (s.grow && room) {
-                growBud(buds_[i], s.direction, iterations, born);
-                grew = true;
-                continue;
+                const int metamers =
+                    allocating ? static_cast<int>(std::floor(resource[i] + 1e-9)) : 1;
+                if (metamers >= 1) {
+                    growShoot(buds_[i], s, metamers, iterations, born);
+                    grew = true;
+                    continue;
+                }
+                // Too little resource this iteration: the bud waits (Palubicki 2009 §4).
             }
             if (s.dies) continue;
             Bud b = buds_[i];
@@ -545,6 +791,10 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
         (*stats)["markers_generated"] = generated_;
         (*stats)["markers_removed"] = removed_;
         (*stats)["buds_live_final"] = static_cast<double>(buds_.size());
+        if (o_.shedThreshold > 0 && allocating) {
+            (*stats)["shed_branches"] = shedBranches_;
+            (*stats)["shed_internodes"] = shedInternodes_;
+        }
     }
     return tree;
 }
@@ -582,6 +832,151 @@ int64_t binomial(Rng& rng, int64_t n, double p) {
         total += k;
     }
     return total;
+}
+
+// Palubicki et al. 2009 §4, the extended Borchert–Honda model, and branch shedding.
+AllocationResult borchertHonda(const std::vector<int32_t>& parent,
+                               const std::vector<uint8_t>& lateralNode,
+                               const std::vector<AllocationBud>& buds,
+                               const std::vector<double>& nodeLight, double lambda, double alpha,
+                               double shedThreshold, int shedDelay, std::vector<int32_t>& starved) {
+    const size_t n = parent.size();
+    AllocationResult r;
+    r.nodeQ.assign(n, 0.0);
+    r.nodeResource.assign(n, 0.0);
+    r.budResource.assign(buds.size(), 0.0);
+    r.shed.assign(n, 0);
+
+    // Shedding first: per node, the light and the internode count of its subtree
+    // (basipetally); a lateral branch whose mean light stays below the threshold goes.
+    if (shedThreshold > 0) {
+        std::vector<double> light(nodeLight.begin(), nodeLight.end()), size(n, 1.0);
+        for (size_t i = n; i-- > 1;) {
+            if (parent[i] < 0) continue;
+            light[parent[i]] += light[i];
+            size[parent[i]] += size[i];
+        }
+        for (size_t i = 1; i < n; ++i) {
+            const bool low = lateralNode[i] && light[i] < shedThreshold * size[i];
+            starved[i] = low ? starved[i] + 1 : 0;
+            if ((low && starved[i] >= shedDelay) || (parent[i] >= 0 && r.shed[parent[i]])) {
+                r.shed[i] = 1;
+            }
+        }
+    }
+
+    // Basipetally: Q_m and Q_l of every node — its buds, then its (unshed) child nodes.
+    std::vector<double> qMain(n, 0.0), qLateral(n, 0.0);
+    for (const AllocationBud& b : buds) {
+        if (!r.shed[b.node]) (b.lateral ? qLateral : qMain)[b.node] += b.q;
+    }
+    for (size_t i = n; i-- > 0;) {
+        if (r.shed[i]) continue;
+        r.nodeQ[i] = qMain[i] + qLateral[i];
+        if (parent[i] >= 0) (lateralNode[i] ? qLateral : qMain)[parent[i]] += r.nodeQ[i];
+    }
+
+    // Acropetally: v_base = α·Q_base; at each node v_m = v·λQ_m / D, v_l = v·(1−λ)Q_l / D with
+    // D = λQ_m + (1−λ)Q_l, the lateral side's share divided among its laterals by their Q.
+    std::vector<double> perQMain(n, 0.0), perQLateral(n, 0.0);  // v_m / Q_m, v_l / Q_l
+    for (size_t i = 0; i < n; ++i) {
+        if (r.shed[i]) continue;
+        const int32_t p = parent[i];
+        r.nodeResource[i] =
+            p < 0 ? alpha * r.nodeQ[i] : (lateralNode[i] ? perQLateral : perQMain)[p] * r.nodeQ[i];
+        const double d = lambda * qMain[i] + (1 - lambda) * qLateral[i];
+        if (d > 0) {
+            perQMain[i] = r.nodeResource[i] * lambda / d;
+            perQLateral[i] = r.nodeResource[i] * (1 - lambda) / d;
+        }
+    }
+    for (size_t b = 0; b < buds.size(); ++b) {
+        const AllocationBud& bud = buds[b];
+        if (r.shed[bud.node]) continue;
+        r.budResource[b] = (bud.lateral ? perQLateral : perQMain)[bud.node] * bud.q;
+    }
+    return r;
+}
+
+PerturbedCrown::PerturbedCrown(VolumePtr base, double scale, double noise, Rng rng)
+    : base_(std::move(base)), s_(scale), a_(noise) {
+    const Aabb b = base_->bounds();
+    c_ = (b.lo + b.hi) * 0.5;
+    for (int j = 0; j < kWaves; ++j) {
+        d_[j] = rng.unitVector();
+        m_[j] = rng.uniform(1.0, 2.0);
+        phi_[j] = rng.uniform(0.0, 2 * kPi);
+    }
+    const Vec3 h = (b.hi - b.lo) * (0.5 * (1 + a_));  // |1 + a·f| ≤ 1 + a about c
+    bounds_.extend((c_ - h) * s_);
+    bounds_.extend((c_ + h) * s_);
+}
+
+double PerturbedCrown::wave(const Vec3& u) const {
+    double f = 0;
+    for (int j = 0; j < kWaves; ++j) f += std::cos(kPi * m_[j] * dot(d_[j], u) + phi_[j]);
+    return f / kWaves;
+}
+
+Vec3 PerturbedCrown::image(const Vec3& p) const {
+    const Vec3 v = p - c_;
+    const double l = length(v);
+    return (l > 0 ? c_ + v * (1 + a_ * wave(v / l)) : c_) * s_;
+}
+
+Vec3 PerturbedCrown::preimage(const Vec3& q) const {
+    const Vec3 v = q / s_ - c_;
+    const double l = length(v);
+    return l > 0 ? c_ + v / (1 + a_ * wave(v / l)) : c_;
+}
+
+double PerturbedCrown::signedDistance(const Vec3& q) const {
+    return base_->signedDistance(preimage(q)) * s_ * (1 - a_);
+}
+
+std::string PerturbedCrown::describe() const { return "perturbed " + base_->describe(); }
+
+ShadowGrid::ShadowGrid(const Aabb& box, double voxel, double strength, double decay, int depth)
+    : strength_(strength), decay_(decay), depth_(depth) {
+    // At most 2^24 voxels: a coarser grid for a huge box rather than gigabytes of shade.
+    const Vec3 size = box.size();
+    voxel = std::max(voxel, std::cbrt(size.x * size.y * size.z / double(1 << 24)));
+    inv_ = 1.0 / voxel;
+    lo_ = box.lo;
+    nx_ = static_cast<int64_t>(std::ceil(size.x * inv_)) + 1;
+    ny_ = static_cast<int64_t>(std::ceil(size.y * inv_)) + 1;
+    nz_ = static_cast<int64_t>(std::ceil(size.z * inv_)) + 1;
+    shade_.assign(static_cast<size_t>(nx_ * ny_ * nz_), 0.0);
+}
+
+bool ShadowGrid::index(const Vec3& p, int64_t& i, int64_t& j, int64_t& k) const {
+    const Vec3 g = (p - lo_) * inv_;
+    if (!(g.x >= 0 && g.y >= 0 && g.z >= 0)) return false;
+    i = static_cast<int64_t>(g.x);
+    j = static_cast<int64_t>(g.y);
+    k = static_cast<int64_t>(g.z);
+    return i < nx_ && j < ny_ && k < nz_;
+}
+
+void ShadowGrid::cast(const Vec3& p, double sign) {
+    int64_t i, j, k;
+    if (!index(p, i, j, k)) return;
+    double s = sign * strength_;
+    for (int q = 0; q <= depth_ && j - q >= 0; ++q, s /= decay_) {
+        const int64_t y = j - q;
+        for (int64_t x = std::max<int64_t>(0, i - q); x <= std::min(nx_ - 1, i + q); ++x) {
+            for (int64_t z = std::max<int64_t>(0, k - q); z <= std::min(nz_ - 1, k + q); ++z) {
+                shade_[static_cast<size_t>((x * ny_ + y) * nz_ + z)] += s;
+            }
+        }
+    }
+}
+
+double ShadowGrid::exposure(const Vec3& p) const {
+    int64_t i, j, k;
+    if (!index(p, i, j, k)) return 1.0;
+    const double s = shade_[static_cast<size_t>((i * ny_ + j) * nz_ + k)];
+    return std::clamp(1.0 - s + strength_, 0.0, 1.0);
 }
 
 std::vector<int32_t> closestPerceivingBud(const std::vector<PerceivingBud>& buds,

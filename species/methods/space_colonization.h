@@ -12,12 +12,21 @@
 // direction and a weight by its distance to the stroke, adding ω·v_stroke) or from a
 // silhouette mask (plain markers around the masked pixels).
 //
+// Trees rather than brooms (off by default, so the papers' presets grow as published):
+//  - Borchert–Honda resource allocation (Palubicki 2009 §4, the extended BH model) with
+//    apical control λ: a bud's light Q is accumulated basipetally, the resource α·Q_base
+//    distributed acropetally, and a bud given v grows ⌊v⌋ metamers in one iteration;
+//  - shedding of branches whose light does not pay for their size (Palubicki 2009);
+//  - a per-instance perturbed copy of the crown (size and a low-frequency radial noise);
+//  - excurrent conifers: a leader held vertical, whorls of laterals on it, a bound on order.
+//
 // Frame: +y up, metres, radians. The root is the origin. Lengths ρ, r, κ·r are given in
 // units of the internode length.
 #pragma once
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +37,14 @@
 namespace sylva {
 
 enum class ColonizationVariant { kBaseline, kImproved };
+
+// How a bud's growth per iteration is decided: one metamer whenever it has space (Runions
+// 2007; the papers' presets), or the extended Borchert–Honda model (Palubicki 2009 §4).
+enum class Allocation { kNone, kBorchertHonda };
+
+// What a bud's Q is under allocation: space (1 when it won markers; Palubicki 2009 §4's
+// space-colonization case) or light from shadow propagation (§4, its other environment).
+enum class Light { kSpace, kShadow };
 
 // A persistent marker placed by a guide. `direction` is the stroke direction at the marker
 // (unit) for brush markers and zero for silhouette markers; `weight` is ω from the distance
@@ -59,6 +76,9 @@ struct SpaceColonizationOptions {
     double branchAngle = 45.0 * kPi / 180.0;   // lateral bud direction from its internode
     double phyllotaxis = 137.5 * kPi / 180.0;  // divergence between successive lateral buds
     Vec3 tropism{0, 0, 0};  // added to every growth direction (e.g. (0, −0.1, 0))
+    // The tropism of axes of order ≥ 2 (branchlets: e.g. a spruce's hanging ones, Picea's
+    // "comb" habit), when set; else `tropism` for every order.
+    std::optional<Vec3> branchletTropism;
     // ξ: the bud's own direction times ξ is added to v_opt (both variants) — a direction
     // memory that smooths the zig-zag of few markers (cf. Palubicki 2009, where a new
     // metamer's direction weighs the bud's default orientation against the optimal one).
@@ -66,6 +86,46 @@ struct SpaceColonizationOptions {
     double trunkLength = 0.0;   // metres grown straight up before branching starts
     double pipeExponent = 2.5;  // n in rⁿ = Σ childrenⁿ (da Vinci 2, Murray 3)
     double tipRadius = 0.004;   // metres, radius of every terminal internode
+
+    // Resource allocation (Palubicki 2009 §4; baseline variant only). Q of a bud is 1 when it
+    // won markers this iteration, else 0; the base receives v = α·Q_base; at every node the
+    // resource splits between the continuing axis (Q_m) and the laterals (Q_l) by
+    // v_m = v·λQ_m / (λQ_m + (1−λ)Q_l), v_l = v·(1−λ)Q_l / (λQ_m + (1−λ)Q_l); a bud given v
+    // grows a shoot of ⌊v⌋ metamers, each re-aimed at the markers its bud won that remain.
+    Allocation allocation = Allocation::kNone;
+    double apicalControl = 0.5;        // λ in (0, 1): 0.5 even, > 0.5 favours main axes
+    double resourceCoefficient = 2.0;  // α, metamers per unit of Q reaching the base
+    // Q under light = kShadow: a bud that won markers has Q = its exposure, max(1 − s + a, 0)
+    // with s the shade of its voxel (edge = internode), every node casting a·b^(−q) into the
+    // (2q + 1)² voxels q layers below it, q = 0 … depth (Palubicki 2009 §4, shadow
+    // propagation).
+    Light light = Light::kSpace;
+    double shadowStrength = 0.1;  // a, fraction of full light one node shades at its voxel
+    double shadowDecay = 2.0;     // b > 1, per voxel layer
+    int shadowDepth = 6;          // voxel layers
+    // Shedding (Palubicki 2009 §4; allocation with light = kShadow): a lateral branch whose
+    // mean exposure over its nodes stays below shedThreshold for shedDelay iterations in a
+    // row is cut off. 0 = never.
+    double shedThreshold = 0.0;  // fraction of full light
+    int shedDelay = 3;           // iterations
+
+    // Per-instance crown: markers (and the improved variant's bound) come from a deformed
+    // copy of `crown`, drawn per tree: scaled about the root by s ~ N(1, scaleSd) (clamped to
+    // [0.5, 1.5]) and, about the crown's centre, radially by 1 + noise·f(u), f ∈ [−1, 1] a
+    // sum of four random low-frequency waves over the direction u. 0 = the crown as given.
+    double envelopeScaleSd = 0.0;  // fraction (σ of s)
+    double envelopeNoise = 0.0;    // fraction of the radius, [0, 0.9]
+
+    // Excurrent form. leaderWeight: the order-0 axis grows along norm(g + w·ŷ) (g its
+    // direction as for any bud), so w ≫ 1 holds the leader vertical; with w > 0 the order-0
+    // bud also wins every marker it perceives (apical dominance: baseline competition), and
+    // grows on straight up without markers while the crown continues r above it. whorlLaterals k >
+    // 0: the order-0 axis carries laterals only at the top node of each iteration's shoot (the
+    // annual increment), k of them 360°/k apart at branchAngle, each whorl turned by
+    // phyllotaxis from the one below. maxOrder: no lateral buds beyond this branch order.
+    double leaderWeight = 0.0;
+    int whorlLaterals = 0;
+    int maxOrder = 1000;
 
     // Limits.
     int maxIterations = 200;

@@ -3,10 +3,12 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "core/math.h"
 #include "core/rng.h"
+#include "volumes/volume.h"
 
 namespace sylva::detail {
 
@@ -27,5 +29,89 @@ std::vector<int32_t> closestPerceivingBud(const std::vector<PerceivingBud>& buds
 // A Binomial(n, p) draw, exact and deterministic for a given rng. The improved variant
 // draws how many of a bud's markers fall within the radius where they can matter.
 int64_t binomial(Rng& rng, int64_t n, double p);
+
+// One bud as the resource allocation sees it: the skeleton node it sits on, whether it is a
+// lateral bud of that node (else the terminal bud, continuing the node's axis) and its light
+// Q (Palubicki 2009 §4).
+struct AllocationBud {
+    int32_t node = 0;
+    bool lateral = false;
+    double q = 0.0;
+};
+
+// The extended Borchert–Honda model (Palubicki 2009 §4) on a skeleton given by `parent`
+// (parent[i] < i, −1 for the root 0) and `lateralNode` (1 where node i starts a lateral axis
+// off its parent, 0 where it continues the parent's axis):
+//  - shedding (when shedThreshold > 0): a lateral branch (the subtree of a lateral node)
+//    whose mean light — Σ nodeLight over its nodes / its node (internode) count — is below
+//    shedThreshold has starved[i] raised by one (else reset to 0); at shedDelay it is cut off
+//    with its subtree (shed = 1 on every node removed, which then counts for nothing below);
+//  - basipetal: Q of a node = Σ Q of its buds and of its child nodes (nodeQ);
+//  - acropetal: the root receives α·Q_base; at every node the resource v splits between the
+//    main side (continuing child or terminal bud, Q_m) and the lateral side (lateral children
+//    and buds, Q_l = Σ of theirs) by v_m = v·λQ_m / (λQ_m + (1−λ)Q_l) and
+//    v_l = v·(1−λ)Q_l / (λQ_m + (1−λ)Q_l), each lateral taking v_l in proportion to its Q;
+//    budResource[b] is what bud b receives (0 on shed nodes).
+// `nodeLight` (one value per node) and `starved` (resized by the caller to the node count)
+// are read only when shedThreshold > 0.
+struct AllocationResult {
+    std::vector<double> nodeQ;
+    std::vector<double> nodeResource;  // resource entering each node (through its internode)
+    std::vector<double> budResource;
+    std::vector<uint8_t> shed;
+};
+AllocationResult borchertHonda(const std::vector<int32_t>& parent,
+                               const std::vector<uint8_t>& lateralNode,
+                               const std::vector<AllocationBud>& buds,
+                               const std::vector<double>& nodeLight, double lambda, double alpha,
+                               double shedThreshold, int shedDelay, std::vector<int32_t>& starved);
+
+// A deformed copy of a crown, one per tree (SpaceColonizationOptions::envelopeScaleSd,
+// envelopeNoise): image(p) = s·(c + (p − c)·(1 + a·f(u))), u the unit direction of p − c, c the
+// centre of the crown's bounds, f(u) = ¼ Σⱼ cos(π mⱼ (dⱼ·u) + φⱼ) ∈ [−1, 1] with random unit dⱼ,
+// mⱼ ∈ [1, 2] (one or two lobes across the crown) and phases φⱼ, all from `rng`. The map
+// keeps directions from c, so it inverts exactly: a point is inside when its preimage is
+// inside the crown. The signed distance is the crown's at the preimage times s·(1 − a): its
+// sign is exact (all that inside tests and rejection sampling need), its size approximate.
+class PerturbedCrown : public Volume {
+  public:
+    PerturbedCrown(VolumePtr base, double scale, double noise, Rng rng);
+    double signedDistance(const Vec3& q) const override;
+    Aabb bounds() const override { return bounds_; }
+    std::string describe() const override;
+    Vec3 image(const Vec3& p) const;  // where the crown's point p goes
+    Vec3 preimage(const Vec3& q) const;
+
+  private:
+    static constexpr int kWaves = 4;
+    double wave(const Vec3& u) const;
+    VolumePtr base_;
+    double s_, a_;
+    Vec3 c_;
+    Vec3 d_[kWaves];
+    double m_[kWaves], phi_[kWaves];
+    Aabb bounds_;
+};
+
+// Palubicki 2009 §4's shadow propagation on a voxel grid of edge `voxel` metres over `box`:
+// a node at voxel (i, j, k) adds strength·decay^(−q) to the voxels (i + p, j − q, k + p'),
+// |p|, |p'| ≤ q, for q = 0 … depth — a pyramid of shade below it. The light exposure at a
+// point is max(1 − s + strength, 0), s the shade of its voxel (full light is 1; the node's own
+// share at q = 0 is given back so that a lone node sees full light). Outside the box: no
+// shade is stored, exposure 1.
+class ShadowGrid {
+  public:
+    ShadowGrid(const Aabb& box, double voxel, double strength, double decay, int depth);
+    void cast(const Vec3& p, double sign);  // +1 adds a node's shade, −1 removes it
+    double exposure(const Vec3& p) const;
+
+  private:
+    bool index(const Vec3& p, int64_t& i, int64_t& j, int64_t& k) const;
+    Vec3 lo_;
+    double inv_, strength_, decay_;
+    int depth_;
+    int64_t nx_, ny_, nz_;
+    std::vector<double> shade_;
+};
 
 }  // namespace sylva::detail

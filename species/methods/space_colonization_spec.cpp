@@ -103,10 +103,67 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
         o.markers = static_cast<int>(sp.integer("markers", o.markers, Range::closed(1, 5e7)));
     }
 
+    // Borchert–Honda allocation and shedding (Palubicki 2009 §4): baseline only.
+    if (improved && sp.has("allocation")) {
+        sp.raw("allocation");
+        sp.fail("allocation", "applies to variant = \"baseline\" only");
+    }
+    o.allocation =
+        sp.choice("allocation", o.allocation,
+                  {{"none", Allocation::kNone}, {"borchert-honda", Allocation::kBorchertHonda}});
+    if (o.allocation == Allocation::kBorchertHonda) {
+        o.apicalControl = sp.number("apical_control", o.apicalControl, open(0, 1));
+        o.resourceCoefficient =
+            sp.number("resource_coefficient", o.resourceCoefficient, Range::positive());
+        o.light =
+            sp.choice("light", o.light, {{"space", Light::kSpace}, {"shadow", Light::kShadow}});
+        if (o.light == Light::kShadow) {
+            o.shadowStrength = sp.number("shadow_strength", o.shadowStrength, open(0, 1e300));
+            o.shadowDecay = sp.number("shadow_decay", o.shadowDecay, open(1, 1e300));
+            o.shadowDepth =
+                static_cast<int>(sp.integer("shadow_depth", o.shadowDepth, Range::closed(0, 64)));
+            o.shedThreshold = sp.number("shed_threshold", o.shedThreshold, Range::closed(0, 1));
+            o.shedDelay =
+                static_cast<int>(sp.integer("shed_delay", o.shedDelay, Range::closed(1, 1000)));
+        }
+        for (const char* k :
+             {"shadow_strength", "shadow_decay", "shadow_depth", "shed_threshold", "shed_delay"}) {
+            if (o.light == Light::kShadow || !sp.has(k)) continue;
+            sp.raw(k);
+            sp.fail(k, "applies to light = \"shadow\" only");
+        }
+    } else {
+        for (const char* k : {"apical_control", "resource_coefficient", "light", "shadow_strength",
+                              "shadow_decay", "shadow_depth", "shed_threshold", "shed_delay"}) {
+            if (!sp.has(k)) continue;
+            sp.raw(k);
+            sp.fail(k, "applies to allocation = \"borchert-honda\" only");
+        }
+    }
+
+    // The per-instance crown deforms [crown]: without one there is nothing to deform.
+    for (const char* k : {"envelope_scale_sd", "envelope_noise"}) {
+        if (o.crown || !sp.has(k)) continue;
+        sp.raw(k);
+        sp.fail(k, "needs a [crown] to deform");
+    }
+    o.envelopeScaleSd = sp.number("envelope_scale_sd", o.envelopeScaleSd, Range::closed(0, 0.5));
+    o.envelopeNoise = sp.number("envelope_noise", o.envelopeNoise, Range::closed(0, 0.9));
+
+    // Excurrent form: the leader, whorls on it, a bound on branch order.
+    o.leaderWeight = sp.number("leader_weight", o.leaderWeight, Range::nonNegative());
+    o.whorlLaterals =
+        static_cast<int>(sp.integer("whorl_laterals", o.whorlLaterals, Range::closed(0, 12)));
+    o.maxOrder = static_cast<int>(sp.integer("max_order", o.maxOrder, Range::closed(0, 1000)));
+
     o.branchAngle = sp.number("branch_angle_deg", o.branchAngle / kDeg, open(0, 180)) * kDeg;
     o.phyllotaxis =
         sp.number("phyllotaxis_deg", o.phyllotaxis / kDeg, Range::closed(-360, 360)) * kDeg;
     o.tropism = sp.vec3("tropism", o.tropism);
+    // Asked even when absent (it defaults to `tropism`), so a misspelling gets its suggestion.
+    const bool ownBranchletTropism = sp.has("branchlet_tropism");
+    const Vec3 branchletTropism = sp.vec3("branchlet_tropism", o.tropism);
+    if (ownBranchletTropism) o.branchletTropism = branchletTropism;
     o.budDirectionWeight =
         sp.number("bud_direction_weight", o.budDirectionWeight, Range::nonNegative());
     o.trunkLength = sp.number("trunk_length", o.trunkLength, Range::nonNegative());

@@ -2,7 +2,9 @@
 // growth toward markers with the exact first internode, occupancy removal with exact counts,
 // the closest-bud competition against brute force, gravity and guide strokes bending growth,
 // crown containment, tree invariants, the pipe model at every fork, determinism across
-// thread counts, limits, stats and the spec reader's errors.
+// thread counts, limits, stats and the spec reader's errors; Palubicki 2009's Borchert–Honda
+// allocation in closed form, shedding, shadow propagation, the per-instance crown, whorls and
+// the leader.
 #include "species/methods/space_colonization.h"
 
 #include <gtest/gtest.h>
@@ -22,7 +24,9 @@
 #include "core/params.h"
 #include "core/rng.h"
 #include "species/methods/space_colonization_detail.h"
+#include "species/model/realism_metrics.h"
 #include "species/model/tree.h"
+#include "species/model/tree_stats.h"
 #include "species/spec/species.h"
 #include "tests/test_support.h"
 #include "volumes/volume.h"
@@ -439,6 +443,453 @@ TEST(SpaceColonizationDeterminism, SameSeedSameTreeForAnyThreadCount) {
 }
 
 // ------------------------------------------------------------------------------------------
+// Borchert–Honda allocation and shedding (Palubicki 2009 §4), on hand-built skeletons.
+
+using detail::AllocationBud;
+using detail::borchertHonda;
+
+TEST(SpaceColonizationAllocation, TwoBudsSplitByTheClosedForm) {
+    // Root 0 — node 1 (continuing the axis); on node 1 a terminal bud (Q_m) and a lateral bud
+    // (Q_l). v_base = α(Q_m + Q_l) reaches node 1 whole (the root has only its main side), where
+    // v_m = v·λQ_m / (λQ_m + (1−λ)Q_l) and v_l = v·(1−λ)Q_l / (λQ_m + (1−λ)Q_l).
+    const std::vector<int32_t> parent = {-1, 0};
+    const std::vector<uint8_t> lateral = {0, 0};
+    std::vector<int32_t> starved(2, 0);
+    for (double lambda : {0.3, 0.5, 0.62, 0.9}) {
+        for (auto [qm, ql] : {std::pair{1.0, 1.0}, {1.0, 0.25}, {0.4, 2.0}}) {
+            SCOPED_TRACE(lambda);
+            const double alpha = 2.7;
+            const auto r = borchertHonda(parent, lateral, {{1, false, qm}, {1, true, ql}}, {},
+                                         lambda, alpha, 0.0, 3, starved);
+            const double v = alpha * (qm + ql);
+            const double d = lambda * qm + (1 - lambda) * ql;
+            EXPECT_NEAR(r.nodeQ[0], qm + ql, 1e-15);
+            EXPECT_NEAR(r.nodeResource[0], v, 1e-12);
+            EXPECT_NEAR(r.nodeResource[1], v, 1e-12);
+            EXPECT_NEAR(r.budResource[0], v * lambda * qm / d, 1e-12);
+            EXPECT_NEAR(r.budResource[1], v * (1 - lambda) * ql / d, 1e-12);
+        }
+    }
+    // λ = 0.5 and equal Q: an even split.
+    const auto even = borchertHonda(parent, lateral, {{1, false, 1.0}, {1, true, 1.0}}, {}, 0.5,
+                                    2.0, 0.0, 3, starved);
+    EXPECT_DOUBLE_EQ(even.budResource[0], 2.0);
+    EXPECT_DOUBLE_EQ(even.budResource[1], 2.0);
+}
+
+TEST(SpaceColonizationAllocation, ResourceIsConservedAndFollowsTheSkeleton) {
+    // 0 → 1 → 2 (axis), 1 → 3 (lateral axis) → 4; 2 → 5 (lateral). Buds: terminal on 2, lateral
+    // on 2, terminal and lateral on 4, lateral on 5, terminal on 5, a lateral on 1 with Q = 0.
+    const std::vector<int32_t> parent = {-1, 0, 1, 1, 3, 2};
+    const std::vector<uint8_t> lateral = {0, 0, 0, 1, 0, 1};
+    const std::vector<AllocationBud> buds = {{2, false, 1.0}, {2, true, 0.5}, {4, false, 1.0},
+                                             {4, true, 1.0},  {5, true, 0.3}, {5, false, 0.7},
+                                             {1, true, 0.0}};
+    std::vector<int32_t> starved(6, 0);
+    const double lambda = 0.6, alpha = 1.5;
+    const auto r = borchertHonda(parent, lateral, buds, {}, lambda, alpha, 0.0, 3, starved);
+    // Basipetal Q.
+    EXPECT_NEAR(r.nodeQ[5], 1.0, 1e-15);
+    EXPECT_NEAR(r.nodeQ[4], 2.0, 1e-15);
+    EXPECT_NEAR(r.nodeQ[2], 2.5, 1e-15);
+    EXPECT_NEAR(r.nodeQ[1], 4.5, 1e-15);
+    EXPECT_NEAR(r.nodeQ[0], 4.5, 1e-15);
+    // Everything the base receives reaches the buds (no node has only Q = 0 sides here).
+    double total = 0;
+    for (double v : r.budResource) total += v;
+    EXPECT_NEAR(total, alpha * 4.5, 1e-12);
+    // By hand at node 1: Q_m = 2.5 (node 2), Q_l = 2 (node 3) + 0 (its own lateral bud).
+    const double v1 = alpha * 4.5;
+    const double d1 = lambda * 2.5 + (1 - lambda) * 2.0;
+    EXPECT_NEAR(r.nodeResource[2], v1 * lambda * 2.5 / d1, 1e-12);
+    EXPECT_NEAR(r.nodeResource[3], v1 * (1 - lambda) * 2.0 / d1, 1e-12);
+    EXPECT_EQ(r.budResource[6], 0.0);
+    // At node 2: main = its terminal bud (1), lateral side = its lateral bud (0.5) + node 5
+    // (1.0), shared in proportion to Q.
+    const double v2 = r.nodeResource[2];
+    const double d2 = lambda * 1.0 + (1 - lambda) * 1.5;
+    EXPECT_NEAR(r.budResource[0], v2 * lambda * 1.0 / d2, 1e-12);
+    EXPECT_NEAR(r.budResource[1], v2 * (1 - lambda) * 0.5 / d2, 1e-12);
+    EXPECT_NEAR(r.nodeResource[5], v2 * (1 - lambda) * 1.0 / d2, 1e-12);
+    EXPECT_TRUE(std::all_of(r.shed.begin(), r.shed.end(), [](uint8_t x) { return x == 0; }));
+}
+
+TEST(SpaceColonizationAllocation, ShedsABranchThatStaysInTheShadeAfterItsDelay) {
+    // 0 → 1 → 2 (axis); lateral branch A = 3 → 4 off node 1, lateral branch B = 5 off node 2.
+    // Mean light: A (0.1 + 0.2) / 2 = 0.15, B 0.6. Threshold 0.3, delay 2: A goes at the
+    // second call, with node 4; B stays. A's buds then get nothing and its Q leaves node 1.
+    const std::vector<int32_t> parent = {-1, 0, 1, 1, 3, 2};
+    const std::vector<uint8_t> lateral = {0, 0, 0, 1, 0, 1};
+    const std::vector<double> light = {1, 1, 1, 0.1, 0.2, 0.6};
+    const std::vector<AllocationBud> buds = {{2, false, 1.0}, {4, false, 1.0}, {5, false, 1.0}};
+    std::vector<int32_t> starved(6, 0);
+    auto r = borchertHonda(parent, lateral, buds, light, 0.5, 2.0, 0.3, 2, starved);
+    EXPECT_TRUE(std::all_of(r.shed.begin(), r.shed.end(), [](uint8_t x) { return x == 0; }));
+    EXPECT_EQ(starved[3], 1);
+    EXPECT_EQ(starved[4], 0);  // not a lateral node: never a branch of its own
+    EXPECT_EQ(starved[5], 0);
+    EXPECT_NEAR(r.nodeQ[1], 3.0, 1e-15);
+    r = borchertHonda(parent, lateral, buds, light, 0.5, 2.0, 0.3, 2, starved);
+    EXPECT_EQ(r.shed, (std::vector<uint8_t>{0, 0, 0, 1, 1, 0}));
+    EXPECT_EQ(r.budResource[1], 0.0);
+    EXPECT_NEAR(r.nodeQ[1], 2.0, 1e-15);
+    EXPECT_NEAR(r.budResource[0] + r.budResource[2], 2.0 * 2.0, 1e-12);
+    // A branch lit again starts counting afresh.
+    std::vector<int32_t> again(6, 0);
+    std::vector<double> flicker = light;
+    borchertHonda(parent, lateral, buds, flicker, 0.5, 2.0, 0.3, 2, again);
+    flicker[3] = flicker[4] = 0.9;
+    borchertHonda(parent, lateral, buds, flicker, 0.5, 2.0, 0.3, 2, again);
+    EXPECT_EQ(again[3], 0);
+    r = borchertHonda(parent, lateral, buds, light, 0.5, 2.0, 0.3, 2, again);
+    EXPECT_EQ(r.shed[3], 0);
+}
+
+TEST(SpaceColonizationAllocation, ShadowPyramidHasTheClosedFormShade) {
+    // A node at the centre of voxel (5, 5, 5) of a 0.1 m grid shades the voxels q layers below
+    // it within q horizontally by a·b^(−q) (q ≤ depth). Exposure is 1 − s + a, capped at 1, for
+    // a node that casts its own a into its voxel: so a node q layers below sees 1 − a·b^(−q).
+    const double a = 0.3, b = 2.0;
+    Aabb box;
+    box.extend(Vec3{0, 0, 0});
+    box.extend(Vec3{1, 1, 1});
+    detail::ShadowGrid grid(box, 0.1, a, b, 3);
+    const Vec3 p{0.55, 0.55, 0.55};
+    grid.cast(p, +1);
+    EXPECT_DOUBLE_EQ(grid.exposure(p), 1.0);  // a lone node sees full light
+    auto below = [&](const Vec3& offset) {    // the exposure of a node placed at p + offset
+        grid.cast(p + offset, +1);
+        const double e = grid.exposure(p + offset);
+        grid.cast(p + offset, -1);
+        return e;
+    };
+    EXPECT_NEAR(below({0, -0.1, 0}), 1 - a / b, 1e-12);
+    EXPECT_NEAR(below({0.1, -0.1, -0.1}), 1 - a / b, 1e-12);
+    EXPECT_NEAR(below({-0.2, -0.2, 0.2}), 1 - a / (b * b), 1e-12);
+    EXPECT_NEAR(below({0, -0.3, 0.3}), 1 - a / (b * b * b), 1e-12);
+    EXPECT_NEAR(below({0, 0.1, 0}), 1.0, 1e-12);     // above: no shade
+    EXPECT_NEAR(below({0.1, 0, 0}), 1.0, 1e-12);     // beside, same layer
+    EXPECT_NEAR(below({0.3, -0.2, 0}), 1.0, 1e-12);  // outside the pyramid
+    EXPECT_NEAR(below({0, -0.4, 0}), 1.0, 1e-12);    // below its depth
+    // Five nodes over one: their shade adds up, the exposure stops at 0.
+    for (int i = 0; i < 4; ++i) grid.cast(p, +1);
+    EXPECT_NEAR(below({0, -0.1, 0}), 1 - 5 * a / b, 1e-12);
+    for (int i = 0; i < 5; ++i) grid.cast(p, +1);
+    EXPECT_EQ(below({0, -0.1, 0}), 0.0);
+    for (int i = 0; i < 10; ++i) grid.cast(p, -1);  // removing the nodes gives the light back
+    EXPECT_NEAR(below({0, -0.1, 0}), 1.0, 1e-12);
+    EXPECT_DOUBLE_EQ(grid.exposure({5, 5, 5}), 1.0);  // outside the grid
+}
+
+// A crown full of markers for the whole-tree tests below.
+SpaceColonizationOptions treeOptions() {
+    SpaceColonizationOptions o;
+    o.internode = 0.1;
+    o.crown = makePlaced(makeEllipsoid({1.2, 1.5, 1.2}), {{0, 1.8, 0}, {0, 1, 0}, {1, 1, 1}});
+    o.markers = 6000;
+    o.trunkLength = 0.4;
+    o.maxInternodes = 4000;
+    o.allocation = Allocation::kBorchertHonda;
+    o.apicalControl = 0.55;
+    o.resourceCoefficient = 2.0;
+    return o;
+}
+
+TEST(SpaceColonizationAllocation, ShootsOfSeveralMetamersPerIteration) {
+    // Alone at first, the bole's bud receives α·Q_base = α (Q = 1): with α = 3.5 its first
+    // shoot has ⌊3.5⌋ = 3 metamers, all of level 1, then the crown fills in fewer iterations
+    // than one metamer per bud and iteration would take.
+    SpaceColonizationOptions o = treeOptions();
+    o.resourceCoefficient = 3.5;
+    o.maxIterations = 1;
+    std::map<std::string, double> stats;
+    Tree t = grow(o, 2, &stats);
+    int level1 = 0;
+    for (const SkeletonNode& n : t.nodes) level1 += n.level == 1;
+    EXPECT_EQ(level1, 3);
+    EXPECT_EQ(t.nodes.size(), 5u + 3u);  // root, 4 bole nodes, the shoot
+    for (int i = 6; i < 8; ++i) EXPECT_EQ(t.nodes[i].parent, i - 1);  // one axis
+    // α < 1: no bud ever receives a whole metamer, so nothing grows.
+    o.resourceCoefficient = 0.9;
+    o.maxIterations = 50;
+    EXPECT_EQ(grow(o, 2).nodes.size(), 5u);
+    // Without allocation the same crown takes more iterations to fill than with it.
+    std::map<std::string, double> plain, bh;
+    o = treeOptions();
+    o.resourceCoefficient = 3;
+    grow(o, 2, &bh);
+    o.allocation = Allocation::kNone;
+    grow(o, 2, &plain);
+    EXPECT_LT(bh["iterations"], plain["iterations"]);
+}
+
+TEST(SpaceColonizationAllocation, AShootFillsOnlyTheSpaceItsBudWon) {
+    // One bud at the root (+y), ρ = 0.2 m, r = 0.7 m, α = 10 (ten metamers' worth), one
+    // iteration. It wins the markers at y = 0.35 and 0.65 (within r); the one at 0.95 is beyond
+    // r at the start. Metamers at 0.1 … 0.5: the node at 0.2 removes 0.35, the node at 0.5
+    // removes 0.65, and the shoot ends there, five metamers long, although the tip at 0.3 and
+    // later perceives the marker at 0.95: it was not its bud's.
+    SpaceColonizationOptions o = baseOptions(ColonizationVariant::kBaseline);
+    o.crown = farCrown();
+    o.markers = 0;
+    o.perception = 7;
+    o.allocation = Allocation::kBorchertHonda;
+    o.resourceCoefficient = 10;
+    o.maxIterations = 1;
+    for (double y : {0.35, 0.65, 0.95}) o.guides.push_back({{0, y, 0}, {0, 0, 0}, 0.0});
+    const Tree t = grow(o, 1);
+    ASSERT_EQ(t.nodes.size(), 6u);
+    for (int i = 1; i < 6; ++i) {
+        EXPECT_NEAR(t.nodes[i].position.y, 0.1 * i, 1e-12);
+        EXPECT_EQ(t.nodes[i].parent, i - 1);
+        EXPECT_EQ(t.nodes[i].level, 1);
+    }
+    // The next iteration's bud at the shoot's top perceives the last marker and goes on.
+    o.maxIterations = 2;
+    EXPECT_GT(grow(o, 1).nodes.size(), 6u);
+}
+
+TEST(SpaceColonizationForm, ABoleOutOfItsOwnCrownsReachGrowsOnToIt) {
+    // The crown (a sphere of 0.3 m at y = 2) lies far beyond r = 0.4 m of the 0.2 m bole. As
+    // given, the spec reader rejects it; a per-tree crown that drifted out of reach instead
+    // lengthens the bole, straight up, until its top perceives the crown's markers.
+    SpaceColonizationOptions o = baseOptions(ColonizationVariant::kBaseline);
+    o.crown = makePlaced(makeSphere(0.3), {{0, 2, 0}, {0, 1, 0}, {1, 1, 1}});
+    o.markers = 400;
+    o.trunkLength = 0.2;
+    o.allocation = Allocation::kBorchertHonda;
+    EXPECT_EQ(grow(o, 3).nodes.size(), 3u);  // the crown as given: a bare bole
+    o.envelopeScaleSd = 1e-12;               // a per-tree crown, the same shape
+    const Tree t = grow(o, 3);
+    int bole = 0;
+    while (t.nodes[bole + 1].level == 0) ++bole;
+    const double top = t.nodes[bole].position.y;
+    for (int i = 1; i <= bole; ++i) {
+        EXPECT_EQ(t.nodes[i].position.x, 0.0);
+        EXPECT_NEAR(t.nodes[i].position.y, 0.1 * i, 1e-12);
+    }
+    EXPECT_GT(top, 2 - 0.3 - 0.4 - 1e-9);        // no earlier than the crown came in reach
+    EXPECT_LT(top, 2 - 0.3 - 0.4 + 0.1 + 0.05);  // one internode past at most (sampling slack)
+    EXPECT_GT(t.nodes.size(), static_cast<size_t>(bole + 20));
+}
+
+TEST(SpaceColonizationAllocation, ApicalControlFavoursTheMainAxes) {
+    // λ > 0.5 gives the continuing axes more of the resource at every fork, so the order-0
+    // axis (summed over three seeds) grows longer than with λ < 0.5.
+    auto axis0 = [](double lambda) {
+        SpaceColonizationOptions o = treeOptions();
+        o.apicalControl = lambda;
+        double length = 0;
+        for (uint64_t seed = 1; seed <= 3; ++seed) {
+            for (const SkeletonNode& n : grow(o, seed).nodes) {
+                if (n.parent >= 0 && n.order == 0) length += o.internode;
+            }
+        }
+        return length;
+    };
+    EXPECT_GT(axis0(0.7), axis0(0.35) * 1.2);
+}
+
+TEST(SpaceColonizationAllocation, SheddingClearsTheShadedInterior) {
+    SpaceColonizationOptions o = treeOptions();
+    o.light = Light::kShadow;
+    o.shadowStrength = 0.15;
+    std::map<std::string, double> kept, shed;
+    const Tree full = grow(o, 5, &kept);
+    o.shedThreshold = 0.5;
+    const Tree thinned = grow(o, 5, &shed);
+    EXPECT_EQ(kept.count("shed_branches"), 0u);
+    EXPECT_GT(shed["shed_branches"], 10.0);
+    EXPECT_LT(thinned.nodes.size(), full.nodes.size());
+    // The compacted node list is still a rooted tree whose branch orders follow its axes.
+    for (size_t i = 1; i < thinned.nodes.size(); ++i) {
+        const int32_t p = thinned.nodes[i].parent;
+        ASSERT_GE(p, 0);
+        ASSERT_LT(p, static_cast<int32_t>(i));
+        const int32_t step = thinned.nodes[i].order - thinned.nodes[p].order;
+        EXPECT_TRUE(step == 0 || step == 1);
+        EXPECT_NEAR(distance(thinned.nodes[i].position, thinned.nodes[p].position), o.internode,
+                    1e-9);
+    }
+}
+
+TEST(SpaceColonizationForm, LeaderStaysVerticalAndWhorlsHoldKLaterals) {
+    // A conifer: the leader pulled to +y (w = 30), whorls of k = 5 at the top of each shoot.
+    // With ξ huge every bud's first internode follows the bud's own direction, so the whorl's
+    // laterals leave the stem at exactly branch_angle and 72° apart about it.
+    SpaceColonizationOptions o = treeOptions();
+    o.crown = makePlaced(makeCone(1.0, 3.0), {{0, 0.2, 0}, {0, 1, 0}, {1, 1, 1}});
+    o.trunkLength = 0.3;
+    o.markers = 8000;
+    o.leaderWeight = 30;
+    o.whorlLaterals = 5;
+    o.maxOrder = 2;
+    o.branchAngle = 70 * kDeg;
+    o.budDirectionWeight = 1e9;
+    const Tree t = grow(o, 7);
+    const ChildIndex kids(t);
+    int whorls = 0, maxOrder = 0;
+    for (size_t i = 0; i < t.nodes.size(); ++i) {
+        maxOrder = std::max(maxOrder, t.nodes[i].order);
+        if (t.nodes[i].order != 0) continue;
+        std::vector<Vec3> laterals;
+        Vec3 stem{0, 1, 0};
+        for (int c = kids.offset[i]; c < kids.offset[i + 1]; ++c) {
+            const SkeletonNode& child = t.nodes[kids.child[c]];
+            const Vec3 d = normalize(child.position - t.nodes[i].position);
+            if (child.order == 1) laterals.push_back(d);
+        }
+        if (t.nodes[i].parent >= 0) {
+            stem = normalize(t.nodes[i].position - t.nodes[t.nodes[i].parent].position);
+        }
+        ASSERT_LE(laterals.size(), 5u);
+        for (const Vec3& d : laterals) EXPECT_NEAR(angleBetween(d, stem), 70 * kDeg, 1e-6);
+        if (laterals.size() != 5) continue;
+        ++whorls;
+        // Azimuths about the stem: every pair differs by a multiple of 72°.
+        for (size_t a = 1; a < laterals.size(); ++a) {
+            const Vec3 u = normalize(laterals[0] - stem * dot(laterals[0], stem));
+            const Vec3 v = normalize(laterals[a] - stem * dot(laterals[a], stem));
+            const double turns = angleBetween(u, v) / (72 * kDeg);
+            EXPECT_NEAR(turns, std::round(turns), 1e-6);
+        }
+    }
+    EXPECT_GE(whorls, 3);
+    EXPECT_EQ(maxOrder, 2);
+
+    // A sideways tropism and free growth toward the markers (ξ = 0): the leader's pull keeps
+    // the top within 1° of the vertical, where without it the top leans.
+    o.budDirectionWeight = 0;
+    o.tropism = {0.4, 0, 0};
+    TreeStats s;
+    addRealismMetrics(grow(o, 7), s);
+    EXPECT_LT(s.leaderLeanDeg, 1.0);
+    o.leaderWeight = 0;
+    TreeStats bent;
+    addRealismMetrics(grow(o, 7), bent);
+    EXPECT_TRUE(std::isnan(bent.leaderLeanDeg) || bent.leaderLeanDeg > 3.0) << bent.leaderLeanDeg;
+}
+
+TEST(SpaceColonizationForm, AHeldLeaderGrowsToTheTopOfItsCrown) {
+    // A 3 m cylinder crown with almost no markers (r = 0.4 m): an unheld leader stops where
+    // its markers end; a held one (leader_weight > 0) grows straight on, one metamer per
+    // iteration, until the crown no longer continues r above it: its top is at 2.6 m or above
+    // (beyond only toward markers it won).
+    SpaceColonizationOptions o = baseOptions(ColonizationVariant::kBaseline);
+    o.crown = makeCylinder(0.5, 3.0);
+    o.markers = 20;
+    o.trunkLength = 0.2;
+    o.allocation = Allocation::kBorchertHonda;
+    auto top = [](const Tree& t) {
+        double y = 0;
+        for (const SkeletonNode& n : t.nodes) {
+            if (n.order == 0) y = std::max(y, n.position.y);
+        }
+        return y;
+    };
+    EXPECT_LT(top(grow(o, 6)), 2.0);
+    o.leaderWeight = 30;
+    const Tree held = grow(o, 6);
+    EXPECT_GE(top(held), 2.6 - 1e-9);
+    EXPECT_LE(top(held), 3.0);
+    for (const SkeletonNode& n : held.nodes) {
+        if (n.order == 0) {
+            EXPECT_LT(std::hypot(n.position.x, n.position.z), 0.02);
+        }
+    }
+}
+
+TEST(SpaceColonizationForm, BranchletTropismActsOnOrderTwoAndAbove) {
+    // Unset, the branchlets follow `tropism`; set to the same vector, the tree is the same.
+    SpaceColonizationOptions o = treeOptions();
+    o.tropism = {0, 0.05, 0};
+    const Tree plain = grow(o, 4);
+    o.branchletTropism = o.tropism;
+    EXPECT_TRUE(sameTree(plain, grow(o, 4)));
+    // A hanging tropism on orders ≥ 2 turns their internodes down, not the trunk's: the first
+    // internodes of order 0 and 1 (grown before any order-2 axis exists) are unchanged.
+    o.branchletTropism = Vec3{0, -0.8, 0};
+    const Tree hanging = grow(o, 4);
+    auto meanY = [](const Tree& t, int minOrder) {
+        double y = 0;
+        int n = 0;
+        for (const SkeletonNode& node : t.nodes) {
+            if (node.parent < 0 || node.order < minOrder || node.level < 1) continue;
+            y += normalize(node.position - t.nodes[node.parent].position).y;
+            ++n;
+        }
+        return y / n;
+    };
+    EXPECT_LT(meanY(hanging, 2), meanY(plain, 2) - 0.2);
+    for (size_t i = 0; i < 12; ++i) {
+        EXPECT_TRUE(hanging.nodes[i].position == plain.nodes[i].position) << i;
+    }
+}
+
+TEST(SpaceColonizationForm, PerturbedCrownInvertsExactlyAndVariesPerTree) {
+    const VolumePtr base = makePlaced(makeEllipsoid({2, 3, 2}), {{0, 4, 0}, {0, 1, 0}, {1, 1, 1}});
+    Rng rng(3);
+    const detail::PerturbedCrown crown(base, 1.2, 0.3, Rng(11));
+    for (int i = 0; i < 2000; ++i) {
+        const Aabb b = base->bounds();
+        const Vec3 size = b.size() * 1.2;
+        const Vec3 p = b.lo - size * 0.05 +
+                       Vec3{rng.uniform() * size.x, rng.uniform() * size.y, rng.uniform() * size.z};
+        const Vec3 q = crown.image(p);
+        EXPECT_NEAR(distance(crown.preimage(q), p), 0.0, 1e-9);
+        EXPECT_EQ(crown.inside(q), base->inside(p));
+        if (base->inside(p)) {
+            EXPECT_GE(q.x, crown.bounds().lo.x);
+            EXPECT_LE(q.y, crown.bounds().hi.y);
+        }
+    }
+    // Scale only: exactly the crown scaled about the root.
+    const detail::PerturbedCrown scaled(base, 0.8, 0.0, Rng(1));
+    EXPECT_TRUE(scaled.inside({0, 0.8 * 6.9, 0}));
+    EXPECT_FALSE(scaled.inside({0, 0.8 * 7.1, 0}));
+
+    // Trees of one species differ: heights over 8 seeds vary by a few percent or more with a
+    // perturbed crown, and the crown is the same for every seed without.
+    auto heights = [](double sd, double noise) {
+        SpaceColonizationOptions o = treeOptions();
+        o.markers = 3000;
+        o.envelopeScaleSd = sd;
+        o.envelopeNoise = noise;
+        std::vector<double> h;
+        for (uint64_t seed = 1; seed <= 8; ++seed) {
+            const Tree t = grow(o, seed);
+            double top = 0;
+            for (const SkeletonNode& n : t.nodes) top = std::max(top, n.position.y);
+            h.push_back(top);
+        }
+        double mean = 0, var = 0;
+        for (double x : h) mean += x / h.size();
+        for (double x : h) var += (x - mean) * (x - mean) / h.size();
+        return std::sqrt(var) / mean;
+    };
+    EXPECT_LT(heights(0, 0), 0.03);
+    EXPECT_GT(heights(0.15, 0.2), 0.05);
+}
+
+TEST(SpaceColonizationDeterminism, AllocationSheddingAndCrownsAreThreadIndependent) {
+    SpaceColonizationOptions o = treeOptions();
+    o.light = Light::kShadow;
+    o.shedThreshold = 0.4;
+    o.envelopeScaleSd = 0.1;
+    o.envelopeNoise = 0.2;
+    o.whorlLaterals = 3;
+    o.leaderWeight = 2;
+    const Tree serial = grow(o, 31);
+    o.threaded = true;
+    EXPECT_TRUE(sameTree(serial, grow(o, 31)));
+    {
+        tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
+        EXPECT_TRUE(sameTree(serial, grow(o, 31)));
+    }
+    EXPECT_FALSE(sameTree(serial, grow(o, 32)));
+}
+
+// ------------------------------------------------------------------------------------------
 // The spec reader.
 
 using sylva::test::TempDir;
@@ -482,6 +933,21 @@ TEST(SpaceColonizationSpec, BadParametersNameFileLineAndKey) {
         {"pipe_exponent = 4\n", "sc.toml:3:", "pipe_exponent"},
         {"variant = \"fancy\"\n", "sc.toml:3:", "variant: expected one of"},
         {"internode = 0.1\nmarkes = 10\n", "sc.toml:4:", "did you mean \"markers\""},
+        {"variant = \"improved\"\nallocation = \"borchert-honda\"\n",
+         "sc.toml:4:", "allocation: applies to variant = \"baseline\" only"},
+        {"apical_control = 0.6\n",
+         "sc.toml:3:", "apical_control: applies to allocation = \"borchert-honda\" only"},
+        {"allocation = \"borchert-honda\"\napical_control = 1\n",
+         "sc.toml:4:", "apical_control: expected a number in (0, 1), got 1"},
+        {"allocation = \"borchert-honda\"\nshed_threshold = 0.3\n",
+         "sc.toml:4:", "shed_threshold: applies to light = \"shadow\" only"},
+        {"allocation = \"borchert-honda\"\nlight = \"moon\"\n",
+         "sc.toml:4:", "light: expected one of"},
+        {"allocation = \"borchert-honda\"\nlight = \"shadow\"\nshadow_decay = 1\n",
+         "sc.toml:5:", "shadow_decay: expected a number > 1, got 1"},
+        {"envelope_noise = 0.95\n", "sc.toml:3:", "envelope_noise: expected a number in [0, 0.9]"},
+        {"whorl_laterals = 13\n", "sc.toml:3:", "whorl_laterals: expected an integer in [0, 12]"},
+        {"max_order = -1\n", "sc.toml:3:", "max_order"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.keys);
@@ -507,6 +973,15 @@ TEST(SpaceColonizationSpec, BadParametersNameFileLineAndKey) {
     EXPECT_NE(e.find("2 m from the crown"), std::string::npos) << e;
     EXPECT_EQ(specError("trunk_length = 1.75\n", high), "");  // top 0.3 m away: in reach
     EXPECT_EQ(specError("variant = \"improved\"\nkappa = 2\nsigma = 1.5\ngravity = 0.3\n"), "");
+    e = specError("variant = \"improved\"\nenvelope_scale_sd = 0.1\n", "");
+    EXPECT_NE(e.find("sc.toml:4:"), std::string::npos) << e;
+    EXPECT_NE(e.find("envelope_scale_sd: needs a [crown] to deform"), std::string::npos) << e;
+    EXPECT_EQ(specError("allocation = \"borchert-honda\"\napical_control = 0.6\n"
+                        "resource_coefficient = 2.5\nlight = \"shadow\"\nshadow_strength = 0.2\n"
+                        "shadow_decay = 1.5\nshadow_depth = 4\nshed_threshold = 0.3\n"
+                        "shed_delay = 2\nenvelope_scale_sd = 0.1\nenvelope_noise = 0.2\n"
+                        "leader_weight = 5\nwhorl_laterals = 4\nmax_order = 4\n"),
+              "");
 }
 
 TEST(SpaceColonizationSpec, SpeciesGrowsAndReportsItsCrown) {
@@ -551,6 +1026,19 @@ TEST(SpaceColonizationPresets, EveryPresetGrowsARootedTreeInItsCrown) {
         const auto method = instantiateSpecies(species, draw, nullptr);
         const VolumePtr crown = method->volumes().empty() ? nullptr : method->volumes()[0].second;
         const bool guided = species.table->contains("guides");
+        // A per-tree crown (envelope keys) is the crown scaled about the root by s ≤ 1.5 and
+        // radially about its centre by ≤ 1 + noise: within those bounds, not within the crown.
+        const double noise = species.table->get("envelope_noise")
+                                 ? *(*species.table)["envelope_noise"].value<double>()
+                                 : 0.0;
+        const bool perturbed = noise > 0 || species.table->contains("envelope_scale_sd");
+        Aabb reach;
+        if (crown && perturbed) {
+            const Aabb b = crown->bounds();
+            const Vec3 c = (b.lo + b.hi) * 0.5, h = (b.hi - b.lo) * (0.5 * (1 + noise));
+            reach.extend((c - h) * 1.5);
+            reach.extend((c + h) * 1.5);
+        }
         const double internode =
             species.table->get("internode") ? *(*species.table)["internode"].value<double>() : 0.1;
         const GrownTree g = growSpecies(species, 1, nullptr, true);
@@ -571,6 +1059,14 @@ TEST(SpaceColonizationPresets, EveryPresetGrowsARootedTreeInItsCrown) {
         for (size_t i = 1; i < t.nodes.size(); ++i) {
             ASSERT_GE(t.nodes[i].parent, 0);
             ASSERT_LT(t.nodes[i].parent, static_cast<int32_t>(i));
+            if (crown && perturbed && t.nodes[i].level > 0) {
+                const Vec3& p = t.nodes[i].position;
+                EXPECT_TRUE(p.x >= reach.lo.x - tolerance && p.x <= reach.hi.x + tolerance &&
+                            p.y <= reach.hi.y + tolerance && p.z >= reach.lo.z - tolerance &&
+                            p.z <= reach.hi.z + tolerance)
+                    << "node " << i << " beyond the reach of every per-tree crown";
+                continue;
+            }
             if (crown && !guided && t.nodes[i].level > 0 &&
                 crown->signedDistance(t.nodes[i].position) > tolerance) {
                 ++outside;
@@ -583,7 +1079,8 @@ TEST(SpaceColonizationPresets, EveryPresetGrowsARootedTreeInItsCrown) {
         // containment is checked for unguided presets only.
         EXPECT_EQ(outside, 0);
     }
-    EXPECT_EQ(grown, 4) << "the four sc-* species (species/papers/liu-2020)";
+    EXPECT_EQ(grown, 12) << "the four sc-* species (species/papers/liu-2020) and the eight of "
+                            "the library (species/presets)";
 }
 
 }  // namespace
