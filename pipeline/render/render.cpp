@@ -1,6 +1,6 @@
 // CPU renderer of one view: skeleton segments as tapered capsules (drawn directly, no mesh,
-// so sub-pixel twigs survive) and leaf cards as triangle pairs, z-buffered; plus silhouette
-// statistics.
+// so sub-pixel twigs survive) and leaves as the triangles of their outlines, z-buffered; plus
+// silhouette statistics.
 //
 // Segments. Each is a tapered capsule: the union of the spheres of radius r(t) (linear
 // between the node radii) about the axis points. A pixel is covered when its centre's ray
@@ -17,8 +17,10 @@
 // inside it, and back-projected points stay within radius + a pixel of the skeleton.)
 // Capsules thinner than the minimum width everywhere skip the ray test and use the axis.
 //
-// Leaves: each card is two triangles covering the pixels whose centres are inside them
-// (edges inclusive; no minimum width, so cards seen exactly edge-on vanish), with
+// Leaves: each leaf is the triangles of its shape's outline (species/model/leaf_shape.h; the
+// card: two triangles), from the same points as the mesh's leaves (leafPoints), covering the
+// pixels whose centres are inside them (edges inclusive; no minimum width, so leaves seen
+// exactly edge-on, and needles thinner than a pixel between pixel centres, vanish), with
 // perspective-correct depth (1/z linear in screen space; z linear for orthographic).
 // Geometry in front of the near plane (depth 1e-4 m) is clipped.
 //
@@ -37,6 +39,8 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+
+#include "species/model/leaf_shape.h"
 
 namespace sylva {
 
@@ -294,30 +298,33 @@ Scene buildScene(const Tree& tree, const View& view) {
         scene.triangles.push_back(t);
         addToBins(scene, t.box, id);
     };
+    // Each leaf's outline triangles, from the same points as its mesh (leafPoints).
+    std::vector<Vec3> world, inCamera;
+    std::vector<Corner> corners;
     for (const Leaf& leaf : tree.leaves) {
-        const Vec3 along = leaf.tangent * (0.5 * leaf.size);
-        const Vec3 across = cross(leaf.normal, leaf.tangent) * (0.5 * leaf.size * leaf.aspect);
-        const Vec3 quad[4] = {
-            view.toCamera(leaf.position - along - across),
-            view.toCamera(leaf.position + along - across),
-            view.toCamera(leaf.position + along + across),
-            view.toCamera(leaf.position - along + across),
-        };
+        const LeafOutline& outline = leafOutline(leaf.shape);
+        leafPoints(leaf, leafFrame(leaf), outline, world);
+        inCamera.resize(world.size());
         bool inFront = true;
-        for (const Vec3& q : quad) inFront = inFront && -q.z - kNear >= 0;
-        if (inFront) {  // the usual case: no clipping, each corner projected once
-            const Corner c[4] = {project(quad[0]), project(quad[1]), project(quad[2]),
-                                 project(quad[3])};
-            addTriangle(c[0], c[1], c[2]);
-            addTriangle(c[0], c[2], c[3]);
+        for (size_t i = 0; i < world.size(); ++i) {
+            inCamera[i] = view.toCamera(world[i]);
+            inFront = inFront && -inCamera[i].z - kNear >= 0;
+        }
+        const std::vector<uint32_t>& tri = outline.triangles;
+        if (inFront) {  // the usual case: no clipping, each point projected once
+            corners.resize(inCamera.size());
+            for (size_t i = 0; i < inCamera.size(); ++i) corners[i] = project(inCamera[i]);
+            for (size_t k = 0; k < tri.size(); k += 3) {
+                addTriangle(corners[tri[k]], corners[tri[k + 1]], corners[tri[k + 2]]);
+            }
             continue;
         }
-        for (int half = 0; half < 2; ++half) {
-            const Vec3 tri[3] = {quad[0], quad[1 + half], quad[2 + half]};
+        for (size_t k = 0; k < tri.size(); k += 3) {
+            const Vec3 t3[3] = {inCamera[tri[k]], inCamera[tri[k + 1]], inCamera[tri[k + 2]]};
             Vec3 poly[4];
-            const int n = clipNear(tri, 3, poly);
-            for (int k = 1; k + 1 < n; ++k) {  // fan
-                addTriangle(project(poly[0]), project(poly[k]), project(poly[k + 1]));
+            const int n = clipNear(t3, 3, poly);
+            for (int j = 1; j + 1 < n; ++j) {  // fan
+                addTriangle(project(poly[0]), project(poly[j]), project(poly[j + 1]));
             }
         }
     }
