@@ -128,7 +128,7 @@ LeafOutline card() {
 constexpr BetaProfile kSimple{0.8, 1.25};
 
 LeafOutline simple(int res) {
-    const auto t = stations(8 * res, {kSimple.peak()});
+    const auto t = stations(5 * res, {kSimple.peak()});
     auto w = [](double u, int) { return kSimple(u); };
     return assemble({blade({0, 0}, {1, 0}, 1.0, 0.25, w, t, t)});
 }
@@ -156,7 +156,7 @@ LeafOutline lobed(int res) {
         std::vector<double> cut{0.0};
         for (int j = 1; j < kOakLobes; ++j) cut.push_back(phase[k] + double(j) / kOakLobes);
         cut.push_back(1.0);
-        const int inner = 4 * res;
+        const int inner = 3 * res;
         for (size_t j = 0; j + 1 < cut.size(); ++j) {
             if (j > 0) side[k].push_back(cut[j]);
             for (int q = 1; q <= inner; ++q) {
@@ -226,7 +226,7 @@ LeafOutline palmate(int res) {
     // meet the disc.
     const double delta = std::asin(kMaplePetioleHalfWidth / kMapleDisc);
     std::vector<double> th{-kPi + delta, kPi - delta};
-    const auto t = stations(3 * res);
+    const auto t = stations(2 * res);
     for (size_t i = 0; i < kMapleLobes.size(); ++i) {
         const Lobe& l = kMapleLobes[i];
         th.push_back(l.angle);
