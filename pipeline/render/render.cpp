@@ -50,6 +50,7 @@ constexpr double kMinRadiusPx = 0.7072;  // just over √½: the pixel holding a
 constexpr double kNear = 1e-4;           // metres; geometry closer than this is clipped
 constexpr float kMinDepth = 1e-6f;       // drawn depths stay > 0 (0 means background)
 constexpr int kBandRows = 16;
+constexpr double kSpanMargin = 1e-6;  // pixels: a triangle's row span is widened by this
 
 // World → camera space, camera space → pixels.
 struct View {
@@ -148,6 +149,30 @@ struct Triangle {
     float zmin;
     Box box;
 };
+
+// True when the triangle's box holds at most four pixel centres and each is clearly outside
+// it (a barycentric weight below −1e-9), so drawing it would change no pixel: most leaf
+// triangles of shaped leaves are smaller than a pixel, and skipping them keeps the scene small.
+// Centres within the margin are left to drawTriangle's exact test.
+bool missesEveryCentre(const Triangle& t) {
+    if ((t.box.x1 - t.box.x0 + 1) * (t.box.y1 - t.box.y0 + 1) > 4) return false;
+    const double inv = 1.0 / t.area;
+    for (int y = t.box.y0; y <= t.box.y1; ++y) {
+        for (int x = t.box.x0; x <= t.box.x1; ++x) {
+            const double pxc = x + 0.5, pyc = y + 0.5;
+            bool outside = false;
+            for (int j = 0; j < 3 && !outside; ++j) {
+                const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+                outside = ((t.x[j2] - t.x[j1]) * (pyc - t.y[j1]) -
+                           (t.y[j2] - t.y[j1]) * (pxc - t.x[j1])) *
+                              inv <
+                          -1e-9;
+            }
+            if (!outside) return false;
+        }
+    }
+    return true;
+}
 
 // Camera-space polygon clipped to depth ≥ kNear (Sutherland–Hodgman against one plane).
 int clipNear(const Vec3* in, int n, Vec3* out) {
@@ -294,6 +319,7 @@ Scene buildScene(const Tree& tree, const View& view) {
         if (!(t.area != 0.0) || !pixelBox(lox, hix, loy, hiy, view.width, view.height, t.box)) {
             return;
         }
+        if (missesEveryCentre(t)) return;  // a sub-pixel leaf triangle between pixel centres
         const int32_t id = firstTri + static_cast<int32_t>(scene.triangles.size());
         scene.triangles.push_back(t);
         addToBins(scene, t.box, id);
@@ -464,7 +490,27 @@ void drawTriangle(const Triangle& t, const View& view, int row0, int row1, float
     for (int y = std::max(t.box.y0, row0); y <= std::min(t.box.y1, row1 - 1); ++y) {
         const double pyc = y + 0.5;
         const size_t rowOff = static_cast<size_t>(y) * w;
-        for (int x = t.box.x0; x <= t.box.x1; ++x) {
+        // The row's span: each barycentric weight is linear in x along the row, so the
+        // inside is an interval; widened by a hair so the exact test below, unchanged, still
+        // decides every pixel (slivers such as needles no longer scan their whole box).
+        double lo = t.box.x0 + 0.5, hi = t.box.x1 + 0.5;
+        for (int j = 0; j < 3; ++j) {
+            const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+            // bc[j] = (a − b (x − x[j1])) · inv ≥ 0
+            const double a = (t.x[j2] - t.x[j1]) * (pyc - t.y[j1]) * inv;
+            const double b = (t.y[j2] - t.y[j1]) * inv;
+            if (b > 0) {
+                hi = std::min(hi, t.x[j1] + a / b + kSpanMargin);
+            } else if (b < 0) {
+                lo = std::max(lo, t.x[j1] + a / b - kSpanMargin);
+            } else if (a < -kSpanMargin) {
+                lo = hi + 1;  // parallel to the row and outside: no pixel
+            }
+        }
+        if (!(lo <= hi)) continue;
+        const int xa = std::max(t.box.x0, firstCentreAtOrAfter(lo, w));
+        const int xb = std::min(t.box.x1, lastCentreAtOrBefore(hi, w));
+        for (int x = xa; x <= xb; ++x) {
             const size_t k = rowOff + x;
             if (zbuf[k] < t.zmin) continue;
             const double pxc = x + 0.5;

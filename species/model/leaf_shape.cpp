@@ -124,7 +124,7 @@ LeafOutline card() {
 // chooses between them), the base acute and the apex acuminate as in the mango ("narrow
 // oblong-elliptic or lanceolate, apex gradually acuminate, base acute": Biotik, Mangifera
 // indica). Profile t^0.8 (1 − t)^1.25: widest at t = 0.39, convex to an acute base, concave
-// into an acuminate tip. Natural aspect: any (the profile is scaled to it).
+// into an acuminate tip. Drawn at aspect 0.5; any aspect keeps the profile's form.
 constexpr BetaProfile kSimple{0.8, 1.25};
 
 LeafOutline simple(int res) {
@@ -135,11 +135,11 @@ LeafOutline simple(int res) {
 
 // Lobed: Quercus robur, "obovate to oblong, … 3 to 7 pairs of rounded lobes with sinuses
 // going halfway to midvein, very small ear-lobes at leaf base" (Virginia Tech Dendrology,
-// English oak), 6–12 cm long and 6–8 cm wide (VicFlora). An obovate envelope t^0.75
-// (1 − t)^0.45 (widest at t = 0.63, rounded apex) times 1 − d (1 − |sin(π n (t − φ))|):
-// n = 5 rounded lobes a side (four sinuses plus the terminal lobe) with sinuses reaching
-// d = 0.5 of the way to the midrib; the two sides offset by φ = ±0.025 so the lobes
-// alternate slightly. Natural aspect ≈ 0.6.
+// English oak), 6–12 cm long and 6–8 cm wide (VicFlora). An obovate envelope t^1.2 (1 − t)^0.5
+// (widest at t = 0.71, narrow base, rounded apex) times 1 − d (1 − |sin(π n (t − φ))|^½):
+// n = 5 lobes a side (four sinuses, the last lobe the apex), round-topped by the square root,
+// with notched sinuses reaching d = 0.5 of the way to the midrib; the two sides offset by
+// φ = ±0.025 so the lobes alternate slightly. Natural aspect ≈ 0.6.
 constexpr BetaProfile kOakEnvelope{1.2, 0.5};
 constexpr int kOakLobes = 5;
 constexpr double kOakSinus = 0.5, kOakPhase = 0.025;
@@ -169,15 +169,16 @@ LeafOutline lobed(int res) {
 
 // Palmate: a maple blade, "5-lobed … base cordate or with very wide sinus, lobes … acuminate"
 // (Acer platanoides, Türkiye Bitkileri), as long as broad with "basal lobes smaller than the
-// upper lobes" and pointed lobes (sugar maple, leaf-id.com); veins and lobes radiate from the
-// top of the petiole (Cappadocian maple, leaf-id.com). Five lobes radiate from that point at
-// 0°, ±60° and ±120° (θ = 0 towards the tip), each a blade of length L and half-width W with
-// the profile t^0.6 (1 − t)^1.4 (broad near its base, acuminate tip): L, W = 1, 0.36 (middle),
-// 0.85, 0.32 and 0.5, 0.2 (basal). The outline is their union with a disc of radius 0.35
-// about the centre: star-shaped about it, so r(θ) is the largest of the lobes' radial
-// functions and the disc's. Adjacent lobes meet at sinuses about 0.6 of the middle lobe's
-// length from the centre. A petiole 0.5 long and 0.024 wide (the real one is about as long as
-// the blade, shortened so the blade fills most of the card). Natural aspect ≈ 0.95.
+// upper lobes" and pointed lobes (sugar maple, leaf-id.com); "the leaf veins go star-shaped
+// from the leaf base" (Cappadocian maple, leaf-id.com). Five lobes radiate from the top of the
+// petiole at 0°, ±60° and ±122° (θ = 0 towards the tip), each a blade of length L and
+// half-width W with the profile t^0.45 (1 − t)^1.1 (broad near its base, acuminate tip):
+// L, W = 1, 0.21 (middle), 0.9, 0.2 (upper laterals) and 0.55, 0.12 (basal). The outline is
+// their union with a disc of radius 0.3 about the centre: star-shaped about it, so r(θ) is the
+// largest of the lobes' radial functions and the disc's. Adjacent lobes meet in sinuses 0.38–
+// 0.41 from the centre, about 60 % of the way in. A petiole 0.5 long and 0.024 wide (the real
+// one is about as long as the blade; shortened so the blade fills most of the card). Natural
+// aspect ≈ 0.87.
 struct Lobe {
     double angle, length, halfWidth;  // radians, blade units, blade units
 };
@@ -298,9 +299,9 @@ LeafOutline compound(int res) {
 // long and 1–2 mm broad, produced in fascicles of two" (twice as long on vigorous trees), 4–8
 // cm and "up to 2 mm wide … pointed" in other descriptions; a pine's short shoots carry "2–5
 // perennial needles" (Lamedon, Pinus). Seven needles (three and a half fascicles) fan from
-// a base 0.17 wide to tips spread over ±0.12: each a sliver 0.02 of its length wide (1.2 mm on
+// a base 0.15 wide to tips spread over ±0.13: each a sliver 0.02 of its length wide (1.2 mm on
 // a 6 cm needle), parallel-sided to 0.8 of its length and then pointed; outer needles 8 %
-// shorter. Natural aspect ≈ 0.25.
+// shorter. Natural aspect ≈ 0.26.
 constexpr int kNeedles = 7;
 constexpr double kNeedleHalfWidth = 0.01, kNeedleBaseSpacing = 0.022, kNeedleSpread = 0.13;
 
@@ -324,10 +325,10 @@ LeafOutline needles(int) {
 // plants.swtexture.com), "leaflets … 60–100 × 2.5–5 cm, base narrow, apex tapering, acute"
 // (MACFAST tree register), "80 to 100 pairs of leaflets" and a petiole of 90–150 cm (Garden
 // Flora Online). A bare petiole for the first 0.22 of the length, then 28 pairs of pinnae (a
-// third of the real number, each a triangle 0.012 wide at the rachis, 1.5 times the real
-// width, so the frond keeps its real leaf cover) at 50° to the rachis, 0.19 long mid-frond and
-// 0.3 of that at both ends (ℓ = 0.19 (0.3 + 0.7 sin πu) along the leafy part, u ∈ (0, 1)); a
-// rachis 0.024 wide tapering to 0.006. Natural aspect ≈ 0.3.
+// third of the real number, to keep to tens of triangles) at 50° to the rachis, each a
+// triangle 0.012 wide at the rachis (a mean width of 3 cm on a 5 m frond), 0.19 long
+// mid-frond and 0.3 of that at both ends (ℓ = 0.19 (0.3 + 0.7 sin πu) along the leafy part,
+// u ∈ (0, 1)); a rachis 0.024 wide tapering to 0.006. Natural aspect ≈ 0.3.
 constexpr int kPinnaPairs = 28;
 constexpr double kPetiole = 0.22, kPinnaLength = 0.19, kPinnaBase = 0.012, kPinnaAngle = 50 * kDeg;
 
