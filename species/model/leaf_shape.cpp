@@ -156,7 +156,7 @@ LeafOutline lobed(int res) {
         std::vector<double> cut{0.0};
         for (int j = 1; j < kOakLobes; ++j) cut.push_back(phase[k] + double(j) / kOakLobes);
         cut.push_back(1.0);
-        const int inner = 3 * res;
+        const int inner = 2 * res;
         for (size_t j = 0; j + 1 < cut.size(); ++j) {
             if (j > 0) side[k].push_back(cut[j]);
             for (int q = 1; q <= inner; ++q) {
@@ -227,7 +227,7 @@ LeafOutline palmate(int res) {
     // meet the disc.
     const double delta = std::asin(kMaplePetioleHalfWidth / kMapleDisc);
     std::vector<double> th{-kPi + delta, kPi - delta};
-    const auto t = stations(2 * res);
+    const auto t = stations(res);
     for (size_t i = 0; i < kMapleLobes.size(); ++i) {
         const Lobe& l = kMapleLobes[i];
         th.push_back(l.angle);
