@@ -13,6 +13,9 @@
 //  - Colonization/<variant>/<internodes>: the space-colonization method's baseline
 //    (Palubicki 2009) and improved (Liu 2020 §3) variants growing to 2k, 10k and 50k
 //    internodes in the same crown with the same marker budget, one thread (Liu 2020 Fig. 17).
+//  - ContinuousLimbs/<case>: the iterated-graph continuous-limb options (issue 13) on a tree
+//    at Table 1 scale, one thread: growth with the paper's costs and with each option, and
+//    the merging and smoothing passes alone on the grown skeleton.
 //  - SpeciesTree/<species>: every shipped species (found at run time), time per
 //    tree with its mesh and 8 views at 256² as in datasets/species-gallery.toml, one thread,
 //    no file writes; GalleryBuild: the whole gallery built and written, all cores, trees/s.
@@ -38,6 +41,7 @@
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
 #include "species/geometry/watertight.h"
+#include "species/methods/iterated_graph.h"
 #include "species/methods/space_colonization.h"
 #include "species/model/leaf_shape.h"
 #include "species/spec/species.h"
@@ -608,6 +612,81 @@ static void GalleryBuild(benchmark::State& state) {
     DatasetBuild(state, spec);
 }
 BENCHMARK(GalleryBuild)->Arg(0)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+
+// Continuous limbs (issue 13): what the options cost on a tree at Table 1 scale
+// (bench/table1.toml's volumes and levels, built here so the passes can run on their own),
+// one thread. Cases: grow with the paper's costs (`paper`), with the radial weight on the same
+// graph (`radial`), with the denser linking the library uses (`radial_link3`), with everything
+// the umbrella-thorn preset turns on (`all`: trunk, radial weight 3 on link factor 3, merging
+// 0.5 m × 0.6^k, 8 smoothing passes); and the passes alone on the paper's grown skeleton
+// (`merge`, `smooth`: the copy of the tree is not timed).
+static IteratedGraphOptions table1Options() {
+    IteratedGraphOptions o;
+    o.crown.volume = makeUnion(
+        {makeCylinder(0.5, 3.0), makePlaced(makeHemisphere(6.0), Placement{{0, 3.0, 0}})});
+    o.crown.endpointVolume = makePlaced(makeHemisphere(6.0), Placement{{0, 3.0, 0}});
+    o.crown.subgraphRadius = 3.0;
+    o.crown.shrink = 0.6;
+    const int nodes[] = {5000, 1500, 400, 100}, ends[] = {15, 15, 10, 14};
+    for (int k = 0; k < 4; ++k) {
+        IteratedGraphLevel l;
+        l.nodes = nodes[k];
+        l.endpoints = ends[k];
+        if (k == 0) l.endpointShell = 2.0;
+        if (k > 0) l.alpha = 60.0 * kPi / 180;
+        o.crown.levels.push_back(l);
+    }
+    return o;
+}
+
+static void ContinuousLimbs(benchmark::State& state, const char* which) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    const std::string c = which;
+    IteratedGraphOptions o = table1Options();
+    if (c == "radial" || c == "radial_link3" || c == "all") o.radialWeight = 3.0;
+    if (c == "radial_link3" || c == "all") o.linkFactor = 3.0;
+    if (c == "all") {
+        o.trunk.height = 3.0;
+        o.merge.distance = 0.5;
+        o.merge.shrink = 0.6;
+        o.smoothing.iterations = 8;
+    }
+    const bool pass = c == "merge" || c == "smooth";
+    Rng rng(1);
+    const Tree grown = pass ? growIteratedGraph(o, rng, false) : Tree{};
+    MergeOptions m;
+    m.distance = 0.5;
+    m.shrink = 0.6;
+    uint64_t seed = 1;
+    double nodesIn = 0, nodesOut = 0;
+    int64_t runs = 0;
+    for (auto _ : state) {
+        Tree t;
+        if (pass) {
+            state.PauseTiming();
+            t = grown;
+            state.ResumeTiming();
+            if (c == "merge") mergeParallelPaths(t, m);
+            if (c == "smooth") smoothAxes(t, 8);
+            nodesIn += static_cast<double>(grown.nodes.size());
+        } else {
+            Rng r(seed++);
+            t = growIteratedGraph(o, r, false);
+        }
+        nodesOut += static_cast<double>(t.nodes.size());
+        ++runs;
+        benchmark::DoNotOptimize(t.nodes.data());
+    }
+    const double n = static_cast<double>(std::max<int64_t>(1, runs));
+    if (pass) state.counters["nodes_in"] = nodesIn / n;
+    state.counters["nodes"] = nodesOut / n;
+}
+BENCHMARK_CAPTURE(ContinuousLimbs, paper, "paper")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(ContinuousLimbs, radial, "radial")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(ContinuousLimbs, radial_link3, "radial_link3")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(ContinuousLimbs, all, "all")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(ContinuousLimbs, merge, "merge")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(ContinuousLimbs, smooth, "smooth")->Unit(benchmark::kMillisecond);
 
 // BENCHMARK_MAIN(), plus the per-preset benchmarks registered before the run.
 int main(int argc, char** argv) {

@@ -12,6 +12,7 @@
 
 #include "pipeline/analysis/dataset_stats.h"
 #include "pipeline/analysis/merge.h"
+#include "pipeline/analysis/realism_gates.h"
 #include "pipeline/analysis/report.h"
 #include "pipeline/analysis/species_list.h"
 #include "pipeline/analysis/volume_output.h"
@@ -135,10 +136,12 @@ int runSpeciesList(std::string dir) {
 }
 
 // Summaries, species comparison and sweep table of a dataset directory (finished, partial or
-// sharded). Exit 2 when DIR is not a dataset directory or holds no complete record.
-int runStats(const std::string& dir, bool noTiming) {
+// sharded), and with a reference file the KS distances to it. Exit 2 when DIR is not a dataset
+// directory or holds no complete record, or the reference file or a skeleton is bad.
+int runStats(const std::string& dir, bool noTiming, const std::string& reference) {
     DatasetStatsOptions o;
     o.timing = !noTiming;
+    o.reference = reference;
     const DatasetStatsResult r = computeDatasetStats(dir, o);
     std::printf("%s", r.summary.c_str());
     return 0;
@@ -209,6 +212,16 @@ int main(int argc, char** argv) {
         ->required();
     stats->add_flag("--no-timing", statsNoTiming,
                     "Leave out the timing.* metrics (machine-dependent), for reproducible files");
+    std::string statsReference;
+    stats->add_option("--reference", statsReference,
+                      "Reference distributions of measured trees (e.g. "
+                      "species/reference/treeqsm-broadleaf.json): KS distance of every species' "
+                      "architecture to them -> DIR/stats/reference.{csv,json}");
+
+    std::string gatesDir;
+    auto* gates = app.add_subcommand(
+        "gates", "The realism gates of every species of a built dataset, as a Markdown table");
+    gates->add_option("DIR", gatesDir, "Dataset directory")->required();
 
     std::string speciesDir;
     auto* species = app.add_subcommand("species", "The species library");
@@ -260,7 +273,11 @@ int main(int argc, char** argv) {
         if (*volume) return runVolume(volumePath, volumeOptions, volumeOut);
         if (*speciesList) return runSpeciesList(speciesDir);
         if (*report) return runReport(reportDir);
-        if (*stats) return runStats(statsDir, statsNoTiming);
+        if (*stats) return runStats(statsDir, statsNoTiming, statsReference);
+        if (*gates) {
+            std::fputs(gatesMarkdown(evaluateGates(fs::path(gatesDir))).c_str(), stdout);
+            return 0;
+        }
     } catch (const SpecError& e) {  // file:line:col: key: what was expected
         std::fprintf(stderr, "%s\n", e.what());
         return 2;

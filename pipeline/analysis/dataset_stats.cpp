@@ -13,6 +13,8 @@
 #include <unordered_set>
 
 #include "pipeline/formats/atomic_file.h"
+#include "pipeline/formats/skeleton_reader.h"
+#include "species/model/reference_metrics.h"
 
 namespace fs = std::filesystem;
 
@@ -129,13 +131,124 @@ MetricSummary summarize(std::vector<double> v) {
     return s;
 }
 
+double quantileTableCdf(const QuantileTable& t, double x, bool left) {
+    const std::vector<double>& q = t.q;
+    size_t k;  // the segment [q[k], q[k+1]] holding x, with q[k] < q[k+1]
+    if (left) {
+        if (x <= q.front()) return 0.0;
+        if (x > q.back()) return 1.0;
+        k = static_cast<size_t>(std::lower_bound(q.begin(), q.end(), x) - q.begin()) - 1;
+    } else {
+        if (x < q.front()) return 0.0;
+        if (x >= q.back()) return 1.0;
+        k = static_cast<size_t>(std::upper_bound(q.begin(), q.end(), x) - q.begin()) - 1;
+    }
+    return t.p[k] + (t.p[k + 1] - t.p[k]) * (x - q[k]) / (q[k + 1] - q[k]);
+}
+
+double quantileTableQuantile(const QuantileTable& t, double p) {
+    const std::vector<double>& ps = t.p;
+    if (p <= ps.front()) return t.q.front();
+    if (p >= ps.back()) return t.q.back();
+    size_t k = static_cast<size_t>(std::upper_bound(ps.begin(), ps.end(), p) - ps.begin()) - 1;
+    return t.q[k] + (t.q[k + 1] - t.q[k]) * (p - ps[k]) / (ps[k + 1] - ps[k]);
+}
+
+QuantileTable sampleTable(const std::vector<double>& sorted) {
+    QuantileTable t;
+    const size_t n = sorted.size();
+    if (n == 1) {
+        t.p = {0.0, 1.0};
+        t.q = {sorted[0], sorted[0]};
+        return t;
+    }
+    t.q = sorted;
+    t.p.resize(n);
+    for (size_t i = 0; i < n; ++i) t.p[i] = static_cast<double>(i) / static_cast<double>(n - 1);
+    return t;
+}
+
+double ksDistance(const QuantileTable& a, const QuantileTable& b) {
+    double d = 0;
+    for (const QuantileTable* t : {&a, &b}) {
+        for (double x : t->q) {
+            d = std::max(d, std::fabs(quantileTableCdf(a, x) - quantileTableCdf(b, x)));
+            d = std::max(d, std::fabs(quantileTableCdf(a, x, true) - quantileTableCdf(b, x, true)));
+        }
+    }
+    return d;
+}
+
+Reference readReference(const fs::path& file) {
+    const std::string name = file.string();
+    auto fail = [&](const std::string& what) { throw DatasetStatsInputError(name + ": " + what); };
+    std::ifstream in(file, std::ios::binary);
+    std::error_code ec;
+    if (!in || fs::is_directory(file, ec)) fail("cannot read the reference file");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    nlohmann::json j = nlohmann::json::parse(ss.str(), nullptr, false);
+    if (j.is_discarded()) fail("not JSON");
+    if (!j.is_object() || !j.contains("distributions") || !j["distributions"].is_object()) {
+        fail("expected a JSON object with an object \"distributions\"");
+    }
+    Reference ref;
+    ref.name = j.contains("name") && j["name"].is_string() ? j["name"].get<std::string>()
+                                                           : file.filename().string();
+    std::string known;
+    for (const char* k : kReferenceDistributionNames)
+        known += (known.empty() ? "" : ", ") + std::string(k);
+    for (const auto& [key, v] : j["distributions"].items()) {
+        const std::string where = "distributions." + key;
+        if (std::find_if(kReferenceDistributionNames.begin(), kReferenceDistributionNames.end(),
+                         [&](const char* k) { return key == k; }) ==
+            kReferenceDistributionNames.end()) {
+            fail(where + ": unknown distribution; expected one of " + known);
+        }
+        if (!v.is_object()) fail(where + ": expected an object with arrays \"p\" and \"q\"");
+        Reference::Distribution dist;
+        for (const char* arr : {"p", "q"}) {
+            if (!v.contains(arr) || !v[arr].is_array()) {
+                fail(where + ": expected an array \"" + arr + "\"");
+            }
+            std::vector<double>& out = arr[0] == 'p' ? dist.table.p : dist.table.q;
+            for (const auto& x : v[arr]) {
+                if (!x.is_number() || !std::isfinite(x.get<double>())) {
+                    fail(where + "." + arr + ": expected finite numbers");
+                }
+                out.push_back(x.get<double>());
+            }
+        }
+        const auto &p = dist.table.p, &q = dist.table.q;
+        if (p.size() != q.size() || p.size() < 2) {
+            fail(where + ": expected as many p as q, at least two");
+        }
+        if (p.front() != 0.0 || p.back() != 1.0) fail(where + ".p: expected 0 first and 1 last");
+        for (size_t i = 1; i < p.size(); ++i) {
+            if (!(p[i] > p[i - 1])) fail(where + ".p: expected strictly increasing probabilities");
+            if (!(q[i] >= q[i - 1])) fail(where + ".q: expected non-decreasing quantiles");
+        }
+        for (const char* count : {"n", "trees"}) {
+            if (!v.contains(count)) continue;
+            if (!v[count].is_number_unsigned()) {
+                fail(where + "." + count + ": expected a count (an integer >= 0)");
+            }
+            (count[0] == 'n' ? dist.n : dist.trees) = v[count].get<size_t>();
+        }
+        ref.distributions[key] = dist;
+    }
+    if (ref.distributions.empty()) fail("\"distributions\" is empty");
+    return ref;
+}
+
 namespace {
 
 using MetricValues = std::map<std::string, std::vector<double>>;
 
 struct Record {
     int64_t index = 0;
-    std::string id, species;
+    std::string id, species, habit;
+    std::string skeleton;  // files.skeleton_ply, relative to the dataset directory ("" if none)
     std::map<std::string, double> metrics;
     std::vector<std::pair<std::string, std::string>> sweep;  // path → value (as text)
 };
@@ -202,6 +315,11 @@ void readManifest(const fs::path& path, const std::string& name, std::vector<Rec
         if (!seen.insert(r.id).second) continue;  // the same instance in two files
         r.index = j["index"].get<int64_t>();
         r.species = j["species"].get<std::string>();
+        if (j.contains("habit") && j["habit"].is_string()) r.habit = j["habit"].get<std::string>();
+        if (j.contains("files") && j["files"].is_object() && j["files"].contains("skeleton_ply") &&
+            j["files"]["skeleton_ply"].is_string()) {
+            r.skeleton = j["files"]["skeleton_ply"].get<std::string>();
+        }
         if (j.contains("stats")) flatten(j["stats"], "", r.metrics);
         if (options.timing && j.contains("timing") && j["timing"].is_object()) {
             flatten(j["timing"], "timing", r.metrics);
@@ -254,6 +372,99 @@ nlohmann::json optJson(const std::optional<double>& x) {
     return x ? nlohmann::json(*x) : nlohmann::json(nullptr);
 }
 
+// Every species' reference distributions pooled over its instances' skeletons, against the
+// reference: fills res.reference and returns the text of reference.csv and reference.json and
+// the lines of the printed summary. Bad input (a listed skeleton missing or malformed, no
+// skeleton at all) throws before anything is written.
+struct ReferenceFiles {
+    std::string csv, json, summary;
+};
+ReferenceFiles compareWithReference(const fs::path& dir, const fs::path& file, const Reference& ref,
+                                    const std::vector<Record>& records, DatasetStatsResult& res) {
+    std::map<std::string, ReferenceValues> pooled;
+    std::map<std::string, size_t> read;
+    std::map<std::string, std::string> habit;
+    for (const Record& r : records) {
+        if (!habit.count(r.species)) habit[r.species] = r.habit;
+        if (r.skeleton.empty()) continue;
+        const fs::path path = dir / r.skeleton;
+        std::ifstream in(path, std::ios::binary);
+        if (!in) {
+            throw DatasetStatsInputError(path.string() +
+                                         ": cannot read (the manifest lists it as skeleton_ply)");
+        }
+        std::stringstream ss;
+        ss << in.rdbuf();
+        ReferenceValues values;
+        try {
+            values = referenceValues(readSkeletonPly(ss.str(), path.string()));
+        } catch (const DatasetStatsInputError&) {
+            throw;
+        } catch (const InputError& e) {  // readSkeletonPly's message names the file
+            throw DatasetStatsInputError(e.what());
+        } catch (const std::invalid_argument& e) {
+            throw DatasetStatsInputError(path.string() + ": " + e.what());
+        }
+        ReferenceValues& pool = pooled[r.species];
+        for (int k = 0; k < kReferenceDistributions; ++k) {
+            pool[k].insert(pool[k].end(), values[k].begin(), values[k].end());
+        }
+        ++read[r.species];
+    }
+    if (read.empty()) {
+        throw DatasetStatsInputError(dir.string() +
+                                     ": --reference needs the instances' skeleton.ply, and the "
+                                     "manifest lists none (outputs.skeleton = [\"ply\"])");
+    }
+
+    ReferenceFiles f;
+    f.csv = "species,habit,distribution,instances,n,d,median,reference_n,reference_median\n";
+    nlohmann::json j;
+    j["reference"] = {{"file", file.string()}, {"name", ref.name}};
+    j["d"] =
+        "sup |F_species - F_reference|: F_species linear between the pooled values' order "
+        "statistics (type 7), F_reference linear between the reference's quantiles";
+    j["species"] = nlohmann::json::object();
+    f.summary = "reference " + ref.name + ": KS distance D per species and distribution\n";
+    for (const std::string& sp : res.species) {
+        nlohmann::json dj = nlohmann::json::object();
+        std::string line = "  " + sp + ":";
+        for (int k = 0; k < kReferenceDistributions; ++k) {
+            const std::string name = kReferenceDistributionNames[k];
+            auto it = ref.distributions.find(name);
+            if (it == ref.distributions.end()) continue;
+            std::vector<double> v = pooled[sp][k];
+            std::sort(v.begin(), v.end());
+            DatasetStatsResult::ReferenceComparison c;
+            c.instances = read[sp];
+            c.n = v.size();
+            if (!v.empty()) {
+                c.d = ksDistance(sampleTable(v), it->second.table);
+                c.median = quantileType7(v, 0.5);
+            }
+            res.reference[sp][name] = c;
+            const double refMedian = quantileTableQuantile(it->second.table, 0.5);
+            f.csv += csvField(sp) + "," + csvField(habit[sp]) + "," + name + "," +
+                     std::to_string(c.instances) + "," + std::to_string(c.n) + "," + num(c.d) +
+                     "," + num(c.median) + "," + std::to_string(it->second.n) + "," +
+                     num(refMedian) + "\n";
+            dj[name] = {{"n", c.n},
+                        {"d", optJson(c.d)},
+                        {"median", optJson(c.median)},
+                        {"reference_n", it->second.n},
+                        {"reference_median", refMedian}};
+            char buf[96];
+            std::snprintf(buf, sizeof buf, " %s %s", name.c_str(),
+                          c.d ? num(std::round(*c.d * 100) / 100).c_str() : "-");
+            line += buf;
+        }
+        j["species"][sp] = {{"habit", habit[sp]}, {"instances", read[sp]}, {"distributions", dj}};
+        f.summary += line + "\n";
+    }
+    f.json = j.dump(2) + "\n";
+    return f;
+}
+
 }  // namespace
 
 DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOptions& options) {
@@ -261,6 +472,8 @@ DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOp
     if (!fs::is_directory(dir, ec)) {
         throw DatasetStatsInputError(dir.string() + ": not a directory");
     }
+    std::optional<Reference> reference;
+    if (!options.reference.empty()) reference = readReference(options.reference);
     // manifest.jsonl first, then the shards in index order.
     std::vector<std::pair<std::pair<int, int>, fs::path>> shards;
     static const std::regex shardName(R"(manifest\.shard-(\d+)-of-(\d+)\.jsonl)");
@@ -433,12 +646,22 @@ DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOp
         }
     }
 
+    std::optional<ReferenceFiles> referenceFiles;
+    if (reference) {
+        referenceFiles = compareWithReference(dir, options.reference, *reference, records, res);
+    }
+
     writeFileAtomic(res.outDir / "species.csv", speciesCsv);
     writeFileAtomic(res.outDir / "species.json", sj.dump(2) + "\n");
     writeFileAtomic(res.outDir / "compare.csv", compareCsv);
     writeFileAtomic(res.outDir / "sweep.csv", sweepCsv);
-    summary << "-> " << res.outDir.string()
-            << "/{species.csv,species.json,compare.csv,sweep.csv}\n";
+    if (referenceFiles) {
+        writeFileAtomic(res.outDir / "reference.csv", referenceFiles->csv);
+        writeFileAtomic(res.outDir / "reference.json", referenceFiles->json);
+        summary << referenceFiles->summary;
+    }
+    summary << "-> " << res.outDir.string() << "/{species.csv,species.json,compare.csv,sweep.csv"
+            << (referenceFiles ? ",reference.csv,reference.json" : "") << "}\n";
     res.summary = summary.str();
     return res;
 }

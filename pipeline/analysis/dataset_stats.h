@@ -2,7 +2,10 @@
 // two-sample Kolmogorov–Smirnov test and the 1-D Wasserstein distance between every pair of
 // species, and each metric per swept value. Reads the manifest(s) only (never modifies them), so
 // it works on a finished dataset, one still building or killed (a torn last line is ignored) and
-// on shards written into one directory.
+// on shards written into one directory. With a reference file (`--reference FILE`, e.g.
+// species/reference/treeqsm-broadleaf.json) it also reads every instance's skeleton.ply and
+// gives the KS distance of each species' architecture distributions (reference_metrics.h) to the
+// measured trees' quantile tables.
 #pragma once
 
 #include <cstddef>
@@ -44,6 +47,48 @@ KsResult ksTwoSample(const std::vector<double>& a, const std::vector<double>& b)
 // samples `a`, `b` (both non-empty).
 double wasserstein1(const std::vector<double>& a, const std::vector<double>& b);
 
+// A distribution as a quantile table: probabilities p (p[0] = 0 < … < p.back() = 1) and their
+// quantiles q (non-decreasing), so q[0] is the minimum and q.back() the maximum.
+struct QuantileTable {
+    std::vector<double> p, q;
+};
+
+// The CDF of a quantile table: piecewise linear through the points (q_k, p_k), 0 below q[0] and 1
+// from q.back(); where q repeats (a point mass) it jumps, right-continuous. `left` gives the
+// limit from the left, F(x−).
+double quantileTableCdf(const QuantileTable& t, double x, bool left = false);
+
+// The quantile q(p) of a table, linear in p between its points.
+double quantileTableQuantile(const QuantileTable& t, double p);
+
+// The table of an ascending, non-empty sample: p_i = i/(n−1), q_i = x₍ᵢ₎, i.e. the CDF whose
+// quantile function is type 7 (quantileType7); one value is a jump from 0 to 1 at it. It differs
+// from the empirical step CDF by at most 1/(n−1).
+QuantileTable sampleTable(const std::vector<double>& sorted);
+
+// Kolmogorov–Smirnov distance sup_x |F_a(x) − F_b(x)| between the CDFs of two tables, exactly:
+// the difference is linear between the union of their knots, so the sup is reached at a knot,
+// from the left or from the right.
+double ksDistance(const QuantileTable& a, const QuantileTable& b);
+
+// A reference file: quantile tables of the distributions in kReferenceDistributionNames.
+struct Reference {
+    std::string name;  // the file's "name", else its file name
+    struct Distribution {
+        QuantileTable table;
+        size_t n = 0;      // values the table was made from ("n"; 0 when absent)
+        size_t trees = 0;  // trees they came from ("trees"; 0 when absent)
+    };
+    std::map<std::string, Distribution> distributions;
+};
+
+// Reads a reference JSON file: {"name": …, "distributions": {NAME: {"p": [...], "q": [...],
+// "n": …, "trees": …}, …}} with NAME among kReferenceDistributionNames (docs/metrics.md).
+// Throws DatasetStatsInputError "FILE: what is wrong" when the file is missing, not JSON, names an
+// unknown distribution or holds a table that is not one (p from 0 to 1 strictly increasing, q
+// non-decreasing, as many of each, at least two, every number finite).
+Reference readReference(const std::filesystem::path& file);
+
 // A summary of one metric's values.
 struct MetricSummary {
     size_t count = 0;
@@ -61,6 +106,9 @@ struct DatasetStatsOptions {
     int topMetrics = 3;
     // The printed summary lists at most this many pairs (compare.csv has them all).
     size_t maxPairsListed = 20;
+    // A reference file (readReference): also write reference.csv and reference.json, the KS
+    // distance of every species' pooled distributions to it. Empty: none.
+    std::filesystem::path reference;
 };
 
 struct DatasetStatsResult {
@@ -72,12 +120,21 @@ struct DatasetStatsResult {
     size_t ignoredPartialLines = 0;
     std::vector<std::string> manifests;  // files read (names relative to DIR)
     std::string summary;                 // the short text the CLI prints
+    // With options.reference: species → distribution → one row of reference.csv.
+    struct ReferenceComparison {
+        size_t instances = 0;             // the species' instances whose skeleton was read
+        size_t n = 0;                     // values pooled over them
+        std::optional<double> d, median;  // KS distance and type-7 median; none when n = 0
+    };
+    std::map<std::string, std::map<std::string, ReferenceComparison>> reference;
 };
 
 // Reads DIR/manifest.jsonl and every DIR/manifest.shard-*.jsonl (records deduplicated by id,
 // first file wins, ordered by instance index), writes DIR/stats/species.csv, species.json,
-// compare.csv and sweep.csv atomically. Throws DatasetStatsInputError on bad input (before
-// writing anything) and std::runtime_error on I/O failure.
+// compare.csv and sweep.csv atomically, and with options.reference reference.csv and
+// reference.json from the instances' skeleton.ply files. Throws DatasetStatsInputError on bad
+// input (before writing anything: also a bad reference file, a listed skeleton that is missing
+// or malformed, or no skeleton.ply in the manifest) and std::runtime_error on I/O failure.
 DatasetStatsResult computeDatasetStats(const std::filesystem::path& dir,
                                        const DatasetStatsOptions& options = {});
 

@@ -170,6 +170,7 @@ struct GraphJob {
     double decrement = -1.0;  // light mode: decrement handed to this graph; < 0: use the rule
     uint64_t key = 0;         // stream key
     bool taproot = false;     // root-system level 0: taproot + lateral endpoints
+    double minY = -std::numeric_limits<double>::infinity();  // graph nodes below are dropped
 };
 
 // A graph's contribution: the nodes on least-cost paths, parents first.
@@ -344,6 +345,22 @@ void solveGraph(const IteratedGraphOptions& o, const std::vector<Vec3>& pos, int
         costs[e] = w * (o.lengthExponent == 1.0 ? len : std::pow(len, o.lengthExponent));
     }
     fillGraph(n, edges, costs, scratch.graph, scratch.fill);
+    if (o.radialWeight > 0) {
+        // Straighter growth: the step u → v (outward, as the search runs from R) costs more
+        // the further it turns from the ray from R through its midpoint.
+        WeightedGraph& g = scratch.graph;
+        for (int u = 0; u < n; ++u) {
+            for (int32_t k = g.offset[u]; k < g.offset[u + 1]; ++k) {
+                const Vec3& a = pos[u];
+                const Vec3& b = pos[g.target[k]];
+                const Vec3 step = b - a;
+                const Vec3 ray = (a + b) * 0.5 - pos[0];
+                const double len = std::sqrt(length2(step) * length2(ray));
+                const double c = len > 0 ? dot(step, ray) / len : 1.0;
+                g.cost[k] *= 1.0 + o.radialWeight * (1.0 - c);
+            }
+        }
+    }
     leastCostTree(scratch.graph, 0, dist, pred);
 }
 
@@ -418,8 +435,15 @@ GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
     pos.reserve(level.nodes + job.endpoints + 2);
     pos.push_back(job.rootPos);
     poissonSample(*job.volume, po, nodeRng, pos);
-    const int firstEndpoint = static_cast<int>(pos.size());
     out.graphNodes = level.nodes;
+    if (job.minY > -std::numeric_limits<double>::infinity()) {
+        // A trunk (TrunkOptions): no graph node beside the bole, below the trunk top.
+        pos.erase(std::remove_if(pos.begin() + 1, pos.end(),
+                                 [&](const Vec3& p) { return p.y < job.minY; }),
+                  pos.end());
+        out.graphNodes = static_cast<int64_t>(pos.size()) - 1;
+    }
+    const int firstEndpoint = static_cast<int>(pos.size());
 
     Rng endRng = rng.derive("endpoints");
     Rng weightRng = rng.derive("weights");
@@ -536,6 +560,24 @@ void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const Roo
     first.lifespan = initialLifespan;
     first.key = 0;
     first.taproot = roots != nullptr;
+    if (roots == nullptr && o.trunk.height > 0) {
+        // TrunkOptions: a straight bole of nodes about the level-0 spacing apart from the
+        // root up to the trunk top T, where the level-0 graph is rooted instead.
+        const double h = o.trunk.height;
+        const double spacing = levelSpacing(o, sys.levels[0], *sys.volume);
+        const int segments = std::max(1, static_cast<int>(std::ceil(h / spacing - 1e-9)));
+        for (int k = 1; k <= segments; ++k) {
+            SkeletonNode node;
+            node.position = first.rootPos + Vec3{0, h * k / segments, 0};
+            node.parent = first.rootNode;
+            node.level = 1;
+            node.part = part;
+            first.rootNode = static_cast<int32_t>(tree.nodes.size());
+            tree.nodes.push_back(node);
+        }
+        first.rootPos = tree.nodes[first.rootNode].position;
+        first.minY = first.rootPos.y;
+    }
     std::vector<GraphJob> jobs{first};
     std::vector<EndpointRecord> allEndpoints;
     std::vector<EndpointRecord> lastEndpoints;
@@ -637,6 +679,151 @@ void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const Roo
 
 }  // namespace
 
+int64_t mergeParallelPaths(Tree& tree, const MergeOptions& options) {
+    std::vector<SkeletonNode>& nodes = tree.nodes;
+    const int32_t n = static_cast<int32_t>(nodes.size());
+    if (n < 3 || !(options.distance > 0)) return 0;
+    Aabb box;
+    for (const SkeletonNode& v : nodes) box.extend(v.position);
+    PointGrid grid(box, options.distance);
+    grid.reserve(n);
+    // alias[v]: the kept node v is snapped onto (v itself when kept); parent[v]: v's kept
+    // parent, defined for kept nodes. Every kept node's parent has a smaller index, so the
+    // kept nodes form a rooted tree with parents first whatever is merged.
+    std::vector<int32_t> alias(n), parent(n, -1);
+    alias[0] = 0;
+    grid.insert(0, nodes[0].position);
+    const double cosMax = std::cos(options.maxAngle);
+    // A kept node's direction over its last two segments (less noisy than one zig-zag edge).
+    auto direction = [&](int32_t v) {
+        int32_t a = v;
+        for (int k = 0; k < 2 && parent[a] >= 0; ++k) a = parent[a];
+        return nodes[v].position - nodes[a].position;
+    };
+    auto isAncestorOrSelf = [&](int32_t u, int32_t v) {
+        for (int32_t a = v; a >= 0; a = parent[a]) {
+            if (a == u) return true;
+        }
+        return false;
+    };
+    int64_t merged = 0;
+    for (int32_t v = 1; v < n; ++v) {
+        int32_t p = alias[nodes[v].parent];
+        if (p != nodes[v].parent) {
+            // The parent was snapped onto another path, perhaps ahead of v: hang v from the
+            // last node of that path behind it, so the path never turns back (no hook).
+            while (parent[p] >= 0 && dot(nodes[v].position - nodes[p].position,
+                                         nodes[p].position - nodes[parent[p]].position) < 0) {
+                p = parent[p];
+            }
+        }
+        alias[v] = v;
+        parent[v] = p;  // provisional: direction(v) below reads it
+        const Vec3 dv = direction(v);
+        const double reach =
+            options.distance * std::pow(options.shrink, std::max(0, nodes[v].level - 1));
+        int32_t best = -1;
+        double bestD = std::numeric_limits<double>::infinity();
+        grid.forEachWithin(nodes[v].position, reach, [&](int32_t u, const Vec3& q) {
+            if (nodes[u].part != nodes[v].part) return;
+            const double d = distance2(q, nodes[v].position);
+            if (d > bestD || (d == bestD && u > best)) return;
+            const Vec3 du = direction(u);
+            const double len = std::sqrt(length2(du) * length2(dv));
+            if (!(len > 0) || dot(du, dv) < cosMax * len) return;  // not side by side
+            if (isAncestorOrSelf(u, p)) return;                    // the path's own past
+            best = u;
+            bestD = d;
+        });
+        if (best >= 0) {
+            alias[v] = best;
+            parent[v] = -1;
+            ++merged;
+        } else {
+            grid.insert(v, nodes[v].position);
+        }
+    }
+    if (merged == 0) return 0;
+    // A kept node whose children were all snapped elsewhere is a stub where a path left the
+    // older one and came back: it goes too (children before parents, so chains of them go).
+    std::vector<char> wasTip(n, 1), hasChild(n, 0);
+    for (int32_t v = 1; v < n; ++v) wasTip[nodes[v].parent] = 0;
+    for (int32_t v = n - 1; v > 0; --v) {
+        if (alias[v] != v) continue;
+        if (!hasChild[v] && !wasTip[v]) {
+            alias[v] = -1;  // removed
+            ++merged;
+            continue;
+        }
+        hasChild[parent[v]] = 1;
+    }
+    std::vector<int32_t> index(n, -1);
+    std::vector<SkeletonNode> kept;
+    kept.reserve(n - merged);
+    for (int32_t v = 0; v < n; ++v) {
+        if (alias[v] != v) continue;
+        index[v] = static_cast<int32_t>(kept.size());
+        SkeletonNode node = nodes[v];
+        node.parent = v == 0 ? -1 : index[parent[v]];
+        kept.push_back(node);
+    }
+    // Endpoints snapped onto another path are gone with their node (its twig joined that path).
+    std::vector<int32_t> endpoints;
+    for (int32_t e : tree.endpoints) {
+        if (index[e] >= 0) endpoints.push_back(index[e]);
+    }
+    tree.endpoints = std::move(endpoints);
+    nodes = std::move(kept);
+    return merged;
+}
+
+void smoothAxes(Tree& tree, int iterations) {
+    std::vector<SkeletonNode>& nodes = tree.nodes;
+    const int32_t n = static_cast<int32_t>(nodes.size());
+    if (iterations <= 0 || n < 3) return;
+    const ChildIndex children(tree);
+    // The continuing child at every node: the longest path below it (assignBranchOrder's
+    // rule, so an axis is what gets one branch order), ties to the lower index.
+    std::vector<double> downstream(n, 0.0);
+    for (int32_t i = n - 1; i > 0; --i) {
+        const int32_t p = nodes[i].parent;
+        downstream[p] =
+            std::max(downstream[p], distance(nodes[p].position, nodes[i].position) + downstream[i]);
+    }
+    std::vector<int32_t> next(n, -1);
+    for (int32_t i = 1; i < n; ++i) {  // the root is every axis's fixed start, never inside one
+        double best = -1.0;
+        for (int32_t k = children.offset[i]; k < children.offset[i + 1]; ++k) {
+            const int32_t c = children.child[k];
+            const double len = distance(nodes[i].position, nodes[c].position) + downstream[c];
+            if (len > best) {
+                best = len;
+                next[i] = c;
+            }
+        }
+    }
+    // Axes start at every node that does not continue its parent's axis; in index order, so
+    // a fork (on an earlier axis) has moved before the axes leaving it are smoothed.
+    std::vector<int32_t> axis;
+    std::vector<Vec3> a, b;
+    for (int32_t s = 1; s < n; ++s) {
+        const int32_t p = nodes[s].parent;
+        if (p != 0 && next[p] == s) continue;
+        axis.assign(1, p);
+        for (int32_t v = s; v >= 0; v = next[v]) axis.push_back(v);
+        const size_t m = axis.size();
+        if (m < 3) continue;
+        a.resize(m);
+        for (size_t k = 0; k < m; ++k) a[k] = nodes[axis[k]].position;
+        b = a;
+        for (int it = 0; it < iterations; ++it) {
+            for (size_t k = 1; k + 1 < m; ++k) b[k] = a[k] * 0.5 + (a[k - 1] + a[k + 1]) * 0.25;
+            std::swap(a, b);
+        }
+        for (size_t k = 1; k + 1 < m; ++k) nodes[axis[k]].position = a[k];
+    }
+}
+
 Tree growIteratedGraph(const IteratedGraphOptions& options, Rng& rng, bool threaded,
                        IteratedGraphStats* statsOut) {
     Tree tree;
@@ -650,6 +837,10 @@ Tree growIteratedGraph(const IteratedGraphOptions& options, Rng& rng, bool threa
         growSystem(options, options.roots.system, &options.roots, kRootPart, rng.derive("roots"),
                    threaded, tree, stats);
     }
+
+    // Continuous limbs (issue 13): bundles merged, then every axis smoothed, before radii.
+    if (options.merge.distance > 0) stats.mergedNodes = mergeParallelPaths(tree, options.merge);
+    smoothAxes(tree, options.smoothing.iterations);
 
     // Thickness (§3.2): w = (d')^ζ / (i + 1), d' the distance to the branch tip along the
     // path, taken at the middle of each node's incoming segment so tips keep a radius.

@@ -81,9 +81,47 @@ struct RootOptions {
     double lateralDistance = 0.5;  // lateral endpoints lie within this distance of the taproot
 };
 
+// Continuous limbs (issue 13; not in the papers). The paper's paths turn at every graph edge,
+// wander with the random weights, run side by side as bundles and may leave the root as
+// several stems. Each option below is off by default, so the papers' trees are unchanged.
+
+// A single trunk (bole): level-0 paths of the crown start at a trunk node T = (0, h, 0),
+// joined to the root by a straight chain of nodes, instead of at the root; the level-0 graph
+// keeps only nodes at or above h, so no path can run down beside the bole.
+struct TrunkOptions {
+    double height = 0.0;  // h, metres; 0 = off (paths start at the root, as in the paper)
+};
+
+// Merging of paths that run side by side (parallel bundles → one limb). Nodes are visited in
+// creation order (older paths first); a node within `distance` of a kept node of another
+// path whose direction is within `maxAngle` of its own is snapped onto it: its children hang
+// from that node instead, so the later path follows the older one until they part.
+// A kept node's parent that was snapped ahead of it is replaced by the last node behind it
+// on the path it was snapped onto, so a path never turns back where it rejoins.
+struct MergeOptions {
+    double distance = 0.0;               // metres, for nodes of levels[0]; 0 = off
+    double shrink = 1.0;                 // the distance × shrink^k for nodes of levels[k]
+    double maxAngle = 30.0 * kPi / 180;  // radians: directions (over two segments) this close
+};
+
+// Smoothing of each axis — a chain from its first node (the root, or the fork it leaves) to
+// its tip, following at every fork the child with the longest path below it (the child that
+// keeps the branch order). Laplacian (umbrella) smoothing with λ = 1/2,
+// p_i ← p_i/2 + (p_(i−1) + p_(i+1))/4, with the axis's first node and its tip fixed: a
+// zig-zag between neighbours is removed in one pass, bends over n nodes after about n²
+// passes. Forks on an axis move with it (they are interior nodes of their parent axis) and
+// the lateral axes leaving them are smoothed afterwards from the moved fork, so there is no
+// kink at a fork either. Axes are smoothed parents first.
+struct SmoothingOptions {
+    int iterations = 0;  // passes; 0 = off
+};
+
 struct IteratedGraphOptions {
     GraphSystem crown;
     RootOptions roots;
+    TrunkOptions trunk;
+    MergeOptions merge;
+    SmoothingOptions smoothing;
 
     // Graph construction (maketree step 1). The paper uses one d for rejection and linking,
     // which would leave no edges at all (every pair of nodes is ≥ d apart); we keep the
@@ -98,6 +136,13 @@ struct IteratedGraphOptions {
     double edgeWeightA = 0.5;  // uniform: low bound; normal: mean
     double edgeWeightB = 1.5;  // uniform: high bound; normal: sigma (clamped at 0.01)
     double lengthExponent = 1.0;
+    // Straighter growth (issue 13; 0 = the paper): the cost of the step u → v away from the
+    // graph root R is multiplied by 1 + radialWeight·(1 − cos θ), θ the angle between v − u and
+    // the direction from R to the step's midpoint. Outward steps along a ray from R cost the
+    // paper's weight, sideways steps up to 1 + w times more, backward ones 1 + 2w: least-cost
+    // paths approach straight rays from R (from the trunk top with [trunk], along v_g in
+    // sub-graphs) instead of wandering with the random weights.
+    double radialWeight = 0.0;
 
     // Lifespan (§3.3.3): fixed decrement L − 1, or stochastic: terminate with probability
     // terminateProbability, otherwise decrement by a uniform amount in (0, L).
@@ -118,6 +163,7 @@ struct IteratedGraphStats {
     int64_t graphs = 0;
     int64_t bridgingEdges = 0;  // edges added to join a component holding an endpoint to
                                 // the root's (closest node pair), when the graph was split
+    int64_t mergedNodes = 0;    // nodes snapped onto an older path (MergeOptions)
 };
 
 // Grows one tree. `threaded`: build the sub-graphs of a level in parallel (TBB); the result
@@ -143,6 +189,15 @@ struct WeightedGraph {
 // Edges (i < j) with costs into CSR form.
 WeightedGraph makeGraph(int n, const std::vector<std::pair<int32_t, int32_t>>& edges,
                         const std::vector<double>& costs);
+// Continuous-limb post-processing (applied by growIteratedGraph when enabled, before radii).
+// Snaps nodes of later paths onto older paths running side by side (MergeOptions); the result
+// is a rooted tree again (parents before children), and nodes left without children that
+// were not tips (stubs where a path left an older one and came back) are removed. Endpoints
+// merged away leave tree.endpoints. Returns the number of nodes removed.
+int64_t mergeParallelPaths(Tree& tree, const MergeOptions& options);
+// Laplacian smoothing of every axis with its first node and tip fixed (SmoothingOptions).
+void smoothAxes(Tree& tree, int iterations);
+
 // Single-source least-cost search (Dijkstra, binary heap). Returns cost per node (infinity
 // if unreachable) and the predecessor (−1 for the source and unreached nodes).
 void leastCostTree(const WeightedGraph& g, int source, std::vector<double>& dist,

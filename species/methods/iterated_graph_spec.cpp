@@ -97,6 +97,7 @@ class IteratedGraphMethod : public GrowthMethod {
         stats["graph_endpoints"] = static_cast<double>(s.graphEndpoints);
         stats["graphs"] = static_cast<double>(s.graphs);
         stats["bridging_edges"] = static_cast<double>(s.bridgingEdges);
+        if (o_.merge.distance > 0) stats["merged_nodes"] = static_cast<double>(s.mergedNodes);
         return t;
     }
 
@@ -140,6 +141,7 @@ std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& sp) {
             "edge_weight", {o.edgeWeightA, o.edgeWeightB},
             o.edgeWeightKind == EdgeWeightKind::kNormal ? Range::nonNegative() : Range::positive());
         o.lengthExponent = g->number("length_exponent", o.lengthExponent, Range::closed(0, 4));
+        o.radialWeight = g->number("radial_weight", o.radialWeight, Range::closed(0, 100));
         o.crown.subgraphRadius =
             g->number("subgraph_radius", o.crown.subgraphRadius, Range::positive());
         o.crown.shrink = g->number("shrink", o.crown.shrink, Range::leftOpen(0, 2));
@@ -168,6 +170,21 @@ std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& sp) {
         o.light.endpoints = l->boolean("endpoints", o.light.endpoints);
         o.light.lifespan = l->boolean("lifespan", o.light.lifespan);
         l->finish();
+    }
+    if (auto t = sp.optionalTable("trunk")) {
+        o.trunk.height = t->number("height", o.trunk.height, Range::nonNegative());
+        t->finish();
+    }
+    if (auto m = sp.optionalTable("merge")) {
+        o.merge.distance = m->number("distance", o.merge.distance, Range::nonNegative());
+        o.merge.shrink = m->number("shrink", o.merge.shrink, Range::leftOpen(0, 1));
+        o.merge.maxAngle = m->degrees("max_angle_deg", o.merge.maxAngle, Range::closed(0, 90));
+        m->finish();
+    }
+    if (auto m = sp.optionalTable("smoothing")) {
+        o.smoothing.iterations = static_cast<int>(
+            m->integer("iterations", o.smoothing.iterations, Range::closed(0, 10000)));
+        m->finish();
     }
     std::vector<Params> levelTables;
     o.crown.levels = parseLevels(sp, "levels", &levelTables);

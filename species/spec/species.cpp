@@ -6,6 +6,8 @@
 #include <sstream>
 
 #include "species/geometry/leaves.h"
+#include "species/model/form.h"
+#include "species/spec/form_spec.h"
 #include "species/spec/leaves_spec.h"
 
 namespace sylva {
@@ -29,6 +31,7 @@ struct SpeciesCache {
     struct Entry {
         std::shared_ptr<const GrowthMethod> method;
         LeafOptions leaves;
+        FormOptions form;
     };
     std::mutex mutex;
     std::map<std::string, Entry> entries;  // keyed by the sweep point's overrides, as text
@@ -71,7 +74,8 @@ SpeciesFile loadSpecies(const std::string& path) {
 }
 
 std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
-                                                 const Overrides* overrides, LeafOptions* leaves) {
+                                                 const Overrides* overrides, LeafOptions* leaves,
+                                                 FormOptions* form) {
     Params p(*species.table, species.path, "", &draw, overrides);
     p.documentAs("species");
     p.string("name", "");
@@ -85,6 +89,8 @@ std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, Dra
     }
     LeafOptions l = m->placesOwnLeaves() ? LeafOptions{} : readLeaves(p);
     if (leaves) *leaves = l;
+    const FormOptions f = readForm(p);
+    if (form) *form = f;
     p.finish();
     return m;
 }
@@ -93,6 +99,7 @@ GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides
                       bool threaded) {
     std::shared_ptr<const GrowthMethod> method;
     LeafOptions leaves;
+    FormOptions form;
     GrownTree out;
     if (species.cache) {
         std::lock_guard<std::mutex> lock(species.cache->mutex);
@@ -100,6 +107,7 @@ GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides
         if (it != species.cache->entries.end()) {
             method = it->second.method;
             leaves = it->second.leaves;
+            form = it->second.form;
             ++species.cache->counts.hits;
         } else {
             ++species.cache->counts.misses;
@@ -108,17 +116,18 @@ GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides
     if (!method) {
         DrawContext draw;
         draw.seed = hashCombine(seed, 0x9a7a);  // parameter draws: their own stream
-        method = instantiateSpecies(species, draw, overrides, &leaves);
+        method = instantiateSpecies(species, draw, overrides, &leaves, &form);
         out.sampled = std::move(draw.sampled);
         // Nothing drawn: every instance of this sweep point parses to the same method.
         if (out.sampled.empty() && !draw.perInstance && species.cache) {
             std::lock_guard<std::mutex> lock(species.cache->mutex);
             species.cache->entries.emplace(overridesKey(overrides),
-                                           SpeciesCache::Entry{method, leaves});
+                                           SpeciesCache::Entry{method, leaves, form});
         }
     }
     Rng rng(seed);
     out.tree = method->grow(rng, threaded, out.methodStats);
+    applyForm(out.tree, form, Rng(seed).derive("form"));  // before leaves: they sit on the result
     if (out.tree.leaves.empty()) {
         Rng leafRng = Rng(seed).derive("leaves");  // its own stream: leaves never move branches
         placeLeaves(out.tree, leaves, leafRng);

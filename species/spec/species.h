@@ -44,9 +44,11 @@ struct GrownTree {
 // The method for one instance: distributions drawn from `seed` (or, with draw = false, their
 // centres, for validation), `overrides` applied. Every key is checked. Throws SpecError.
 struct LeafOptions;
+struct FormOptions;
 std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
                                                  const Overrides* overrides,
-                                                 LeafOptions* leaves = nullptr);
+                                                 LeafOptions* leaves = nullptr,
+                                                 FormOptions* form = nullptr);
 
 // How often growSpecies took a species' method from its cache (hits: a species without
 // distributions, per sweep point) or parsed it (misses).

@@ -624,6 +624,20 @@ TEST(CliGrow, WritesFilesAndIsDeterministicPerSeed) {
     EXPECT_TRUE(tempFilesUnder(t.path()).empty());
 }
 
+// `sylva gates DIR`: the realism gates table of a built dataset on stdout; no dataset: exit 2.
+TEST(CliGates, PrintsOneRowPerSpeciesAndRejectsADirectoryWithoutManifest) {
+    TempDir t;
+    buildOk(kDataset, t / "d", t.path());
+    const RunResult ok = run({"gates", (t / "d").string()}, t.path());
+    EXPECT_EQ(ok.code, 0) << describe(ok);
+    EXPECT_EQ(ok.out.rfind("| species | habit | n | ground |", 0), 0u) << ok.out;
+    EXPECT_NE(ok.out.find("| `tiny` | tree | "), std::string::npos) << ok.out;
+    const RunResult bad = run({"gates", (t / "nothing").string()}, t.path());
+    EXPECT_EQ(bad.code, 2);
+    EXPECT_NE(bad.err.find("sylva: gates: "), std::string::npos) << bad.err;
+    EXPECT_NE(bad.err.find("no manifest.jsonl"), std::string::npos) << bad.err;
+}
+
 // --- 7. validate -----------------------------------------------------------------------------
 
 TEST(CliValidate, EveryShippedSpecIsValid) {
@@ -677,6 +691,51 @@ TEST(CliStatsReport, BadDirectoriesExitTwoWithOneLine) {
     fs::remove_all(t / "ds" / "report");
     expectBadInput({"report", (t / "ds").string()}, "the manifest has no record");
     EXPECT_FALSE(fs::exists(t / "ds" / "report" / "index.html"));
+}
+
+// `sylva stats DIR --reference FILE`: reference.csv/json with a D for every species and
+// distribution of the shipped reference; a missing or malformed reference file is one line,
+// exit 2, and nothing is written.
+TEST(CliStatsReference, TinyDatasetAgainstTheShippedReference) {
+    TempDir t;
+    buildOk(kDataset, t / "ds", t.path());
+    const std::string ref = (kSource / "species" / "reference" / "treeqsm-broadleaf.json").string();
+    RunResult r = run({"stats", (t / "ds").string(), "--no-timing", "--reference", ref}, t.path());
+    ASSERT_EQ(r.code, 0) << describe(r);
+    EXPECT_NE(r.out.find("reference treeqsm-broadleaf: "), std::string::npos) << r.out;
+    const std::vector<std::string> lines = readLines(t / "ds" / "stats" / "reference.csv");
+    ASSERT_EQ(lines.size(), 1u + 2 * 7) << slurp(t / "ds" / "stats" / "reference.csv");
+    EXPECT_EQ(lines[0],
+              "species,habit,distribution,instances,n,d,median,reference_n,reference_median");
+    for (size_t i = 1; i < lines.size(); ++i) {
+        // Every tiny tree forks: each species has values and a D in [0, 1] for each.
+        std::vector<std::string> f;
+        std::stringstream ss(lines[i]);
+        for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+        ASSERT_EQ(f.size(), 9u) << lines[i];
+        EXPECT_EQ(f[3], "12") << lines[i];  // instances: 2 sweep points × 6
+        EXPECT_GT(std::stoi(f[4]), 0) << lines[i];
+        const double d = std::stod(f[5]);
+        EXPECT_TRUE(d >= 0 && d <= 1) << lines[i];
+    }
+    auto j = nlohmann::json::parse(slurp(t / "ds" / "stats" / "reference.json"));
+    EXPECT_EQ(j["reference"]["name"], "treeqsm-broadleaf");
+    EXPECT_EQ(j["species"]["tiny"]["habit"], "tree");
+    EXPECT_EQ(j["species"]["tiny"]["distributions"].size(), 7u);
+
+    fs::remove_all(t / "ds" / "stats");
+    spit(t / "bad.json", R"({"distributions": {"radius_ratio": {"p": [0, 1], "q": [1, 0]}}})");
+    for (const auto& [file, message] : std::vector<std::pair<std::string, std::string>>{
+             {(t / "missing.json").string(), "missing.json: cannot read the reference file"},
+             {(t / "bad.json").string(),
+              "bad.json: distributions.radius_ratio.q: expected non-decreasing quantiles"}}) {
+        RunResult bad = run({"stats", (t / "ds").string(), "--reference", file}, t.path());
+        EXPECT_EQ(bad.code, 2) << describe(bad);
+        EXPECT_EQ(bad.err.rfind("sylva: stats: ", 0), 0u) << describe(bad);
+        EXPECT_NE(bad.err.find(message), std::string::npos) << describe(bad);
+        EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << describe(bad);
+        EXPECT_FALSE(fs::exists(t / "ds" / "stats"));
+    }
 }
 
 }  // namespace

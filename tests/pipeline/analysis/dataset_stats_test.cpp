@@ -14,6 +14,8 @@
 
 #include "pipeline/build/build.h"
 #include "pipeline/build/dataset.h"
+#include "pipeline/formats/skeleton_writers.h"
+#include "species/model/reference_metrics.h"
 #include "tests/test_support.h"
 
 namespace {
@@ -270,6 +272,228 @@ TEST(DatasetStats, MissingOrEmptyDirectoryIsBadInput) {
     EXPECT_NE(message().find("manifest.jsonl:1: not a manifest record"), std::string::npos)
         << message();
     EXPECT_FALSE(fs::exists(t.path() / "stats"));
+}
+
+// --- comparison with a reference (sylva stats --reference) -----------------------------------
+
+const fs::path kReferenceFile =
+    fs::path(SYLVA_SOURCE_DIR) / "species" / "reference" / "treeqsm-broadleaf.json";
+
+QuantileTable uniformTable(double lo, double hi, int steps = 50) {
+    QuantileTable t;
+    for (int k = 0; k <= steps; ++k) {
+        t.p.push_back(static_cast<double>(k) / steps);
+        t.q.push_back(lo + (hi - lo) * k / steps);
+    }
+    return t;
+}
+
+TEST(ReferenceStats, QuantileTableCdfIsPiecewiseLinearWithJumpsAtRepeatedQuantiles) {
+    const QuantileTable t{{0, 0.5, 1}, {0, 1, 3}};
+    EXPECT_EQ(quantileTableCdf(t, -1), 0);
+    EXPECT_EQ(quantileTableCdf(t, 0), 0);
+    EXPECT_DOUBLE_EQ(quantileTableCdf(t, 0.5), 0.25);
+    EXPECT_DOUBLE_EQ(quantileTableCdf(t, 1), 0.5);
+    EXPECT_DOUBLE_EQ(quantileTableCdf(t, 2), 0.75);
+    EXPECT_EQ(quantileTableCdf(t, 3), 1);
+    EXPECT_EQ(quantileTableCdf(t, 9), 1);
+    EXPECT_DOUBLE_EQ(quantileTableQuantile(t, 0.25), 0.5);
+    EXPECT_DOUBLE_EQ(quantileTableQuantile(t, 0.75), 2);
+    EXPECT_EQ(quantileTableQuantile(t, 1), 3);
+    // Half the mass at 1: F jumps from 0 to 0.5 there (right-continuous), then rises to 1 at 2.
+    const QuantileTable mass{{0, 0.5, 1}, {1, 1, 2}};
+    EXPECT_EQ(quantileTableCdf(mass, 1, true), 0);
+    EXPECT_EQ(quantileTableCdf(mass, 1), 0.5);
+    EXPECT_DOUBLE_EQ(quantileTableCdf(mass, 1.5), 0.75);
+    EXPECT_DOUBLE_EQ(quantileTableCdf(mass, 1.5, true), 0.75);
+    EXPECT_EQ(quantileTableCdf(mass, 2, true), 1);
+    // A sample's table: p_i = i/(n−1); one value is a jump from 0 to 1.
+    const QuantileTable s = sampleTable({1, 2, 2, 5});
+    EXPECT_EQ(s.p, (std::vector<double>{0, 1.0 / 3, 2.0 / 3, 1}));
+    EXPECT_DOUBLE_EQ(quantileTableQuantile(s, 0.5), 2);  // = quantileType7
+    const QuantileTable one = sampleTable({4});
+    EXPECT_EQ(quantileTableCdf(one, 4, true), 0);
+    EXPECT_EQ(quantileTableCdf(one, 4), 1);
+}
+
+TEST(ReferenceStats, KsDistanceToAQuantileTableByHand) {
+    // A sample equal to the reference's quantiles (evenly spaced p) has the same CDF: D = 0, for
+    // every distribution of the shipped reference (radius_exponent has point masses at 0.5, 6).
+    const Reference ref = readReference(kReferenceFile);
+    for (const auto& [name, d] : ref.distributions) {
+        EXPECT_EQ(ksDistance(sampleTable(d.table.q), d.table), 0.0) << name;
+    }
+    // Uniform on [0.2, 1.2] against uniform on [0, 1]: F_ref − F = 0.2 on [0.2, 1].
+    const QuantileTable u = uniformTable(0, 1);
+    std::vector<double> shifted;
+    for (int i = 0; i <= 100; ++i) shifted.push_back(0.2 + i / 100.0);
+    EXPECT_NEAR(ksDistance(sampleTable(shifted), u), 0.2, 1e-12);
+    EXPECT_NEAR(ksDistance(u, sampleTable(shifted)), 0.2, 1e-12);
+    // One value 0.6: F jumps 0 → 1 where F_ref = 0.6, so D = max(0.6, 0.4).
+    EXPECT_NEAR(ksDistance(sampleTable({0.6}), u), 0.6, 1e-12);
+    // {0.25, 0.25, 0.75}: F = 0.5 + (x − 0.25) on [0.25, 0.75] (a jump of 1/2 at 0.25), so
+    // F − F_ref = 0.25 there, and 0.25 just below 0.25 too.
+    EXPECT_NEAR(ksDistance(sampleTable({0.25, 0.25, 0.75}), u), 0.25, 1e-12);
+    // Disjoint supports: 1.
+    EXPECT_EQ(ksDistance(sampleTable({2, 3}), u), 1.0);
+}
+
+TEST(ReferenceStats, TheShippedReferenceHoldsEveryDistribution) {
+    const Reference ref = readReference(kReferenceFile);
+    EXPECT_EQ(ref.name, "treeqsm-broadleaf");
+    ASSERT_EQ(ref.distributions.size(), static_cast<size_t>(kReferenceDistributions));
+    for (const char* name : kReferenceDistributionNames) {
+        const Reference::Distribution& d = ref.distributions.at(name);
+        EXPECT_EQ(d.table.p.size(), 51u) << name;  // every 2 %
+        EXPECT_GE(d.n, 800u) << name;
+        EXPECT_GE(d.trees, 30u) << name;
+    }
+    // Radius ratios lie below TreeQSM's cap; angles within [0, 180].
+    EXPECT_LT(ref.distributions.at("radius_ratio").table.q.back(), kReferenceCapRatio);
+    EXPECT_GE(ref.distributions.at("branch_angle_deg").table.q.front(), 0.0);
+    EXPECT_LE(ref.distributions.at("branch_angle_deg").table.q.back(), 180.0);
+}
+
+TEST(ReferenceStats, BadReferenceFilesAreOneLineInputErrors) {
+    TempDir t;
+    const fs::path f = t.path() / "ref.json";
+    auto message = [&](const std::string& text) {
+        spit(f, text);
+        try {
+            readReference(f);
+        } catch (const DatasetStatsInputError& e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    const std::string pre = f.string() + ": ";
+    const std::string ok = R"("p": [0, 0.5, 1], "q": [0, 1, 2])";
+    EXPECT_EQ(message("{\"distributions\": {\"radius_ratio\": {" + ok + "}}}"), "no error");
+    EXPECT_EQ(message("{oops"), pre + "not JSON");
+    EXPECT_EQ(message("[]"), pre + "expected a JSON object with an object \"distributions\"");
+    EXPECT_EQ(message(R"({"distributions": {}})"), pre + "\"distributions\" is empty");
+    EXPECT_EQ(message("{\"distributions\": {\"radius_ratios\": {" + ok + "}}}"),
+              pre +
+                  "distributions.radius_ratios: unknown distribution; expected one of "
+                  "radius_ratio, radius_exponent, branch_angle_deg, tip_path_ratio, "
+                  "branch_length_order1, branch_length_order2, branch_length_order3");
+    EXPECT_EQ(message(R"({"distributions": {"radius_ratio": {"p": [0, 1]}}})"),
+              pre + "distributions.radius_ratio: expected an array \"q\"");
+    EXPECT_EQ(message(R"({"distributions": {"radius_ratio": {"p": [0, 1], "q": [0, "x"]}}})"),
+              pre + "distributions.radius_ratio.q: expected finite numbers");
+    EXPECT_EQ(message(R"({"distributions": {"radius_ratio": {"p": [0, 1], "q": [0, 1, 2]}}})"),
+              pre + "distributions.radius_ratio: expected as many p as q, at least two");
+    EXPECT_EQ(message(R"({"distributions": {"radius_ratio": {"p": [0.1, 1], "q": [0, 1]}}})"),
+              pre + "distributions.radius_ratio.p: expected 0 first and 1 last");
+    EXPECT_EQ(
+        message(
+            R"({"distributions": {"radius_ratio": {"p": [0, 0.5, 0.5, 1], "q": [0, 1, 1, 2]}}})"),
+        pre + "distributions.radius_ratio.p: expected strictly increasing probabilities");
+    EXPECT_EQ(message(R"({"distributions": {"radius_ratio": {"p": [0, 0.5, 1], "q": [0, 2, 1]}}})"),
+              pre + "distributions.radius_ratio.q: expected non-decreasing quantiles");
+    EXPECT_EQ(message("{\"distributions\": {\"radius_ratio\": {" + ok + ", \"n\": -3}}}"),
+              pre + "distributions.radius_ratio.n: expected a count (an integer >= 0)");
+    fs::remove(f);
+    EXPECT_EQ(message("").find(pre), 0u);  // spit recreated it empty: not JSON
+    EXPECT_THROW(readReference(t.path() / "missing.json"), DatasetStatsInputError);
+    EXPECT_THROW(readReference(t.path()), DatasetStatsInputError);  // a directory
+}
+
+// A trunk of 1 m forking into a continuing limb and an order-1 branch at 45° of radius
+// `lateral` (the parent's radius is 0.25; radii exact in skeleton.ply's floats).
+Tree forkTree(double lateral) {
+    Tree t;
+    test::addNode(t, -1, {0, 0, 0}, 0.25);
+    test::addNode(t, 0, {0, 1, 0}, 0.25);
+    test::addNode(t, 1, {0, 2, 0}, 0.2);
+    test::addNode(t, 1, {0.5, 1.5, 0}, lateral, 1);
+    return t;
+}
+
+TEST(ReferenceStats, SpeciesPooledOverTheirInstancesSkeletons) {
+    TempDir t;
+    const fs::path dir = t.path() / "ds";
+    fs::create_directories(dir / "trees");
+    spit(dir / "trees" / "a0.ply", skeletonPly(forkTree(0.125)));
+    spit(dir / "trees" / "a1.ply", skeletonPly(forkTree(0.1875)));
+    spit(
+        dir / "manifest.jsonl",
+        R"({"id":"a-0","index":0,"species":"a","habit":"tree","files":{"skeleton_ply":"trees/a0.ply"}})"
+        "\n"
+        R"({"id":"a-1","index":1,"species":"a","habit":"tree","files":{"skeleton_ply":"trees/a1.ply"}})"
+        "\n"
+        R"({"id":"b-0","index":2,"species":"b","stats":{"h":1}})"
+        "\n");
+    // The reference: radius ratios uniform on [0, 1], branch angles uniform on [0°, 180°].
+    const fs::path ref = t.path() / "ref.json";
+    spit(ref, R"({"name": "test", "distributions": {
+        "radius_ratio": {"p": [0, 1], "q": [0, 1], "n": 100},
+        "branch_angle_deg": {"p": [0, 0.5, 1], "q": [0, 90, 180]}}})");
+    DatasetStatsOptions o;
+    o.timing = false;
+    o.reference = ref;
+    const DatasetStatsResult r = computeDatasetStats(dir, o);
+    // a: ratios {0.5, 0.75}: F = uniform on [0.5, 0.75], so D = F_ref(0.5) = 0.5, median 0.625.
+    // Angles {45, 45}: a jump from 0 to 1 at 45° where F_ref = 0.25: D = 0.75.
+    const auto& ra = r.reference.at("a").at("radius_ratio");
+    EXPECT_EQ(ra.instances, 2u);
+    EXPECT_EQ(ra.n, 2u);
+    ASSERT_TRUE(ra.d && ra.median);
+    EXPECT_EQ(*ra.d, 0.5);
+    EXPECT_EQ(*ra.median, 0.625);
+    const auto& aa = r.reference.at("a").at("branch_angle_deg");
+    EXPECT_EQ(aa.n, 2u);
+    ASSERT_TRUE(aa.d);
+    EXPECT_NEAR(*aa.d, 0.75, 1e-6);
+    // Only the distributions the reference holds; b has no skeleton: no values, no D.
+    EXPECT_EQ(r.reference.at("a").size(), 2u);
+    const auto& rb = r.reference.at("b").at("radius_ratio");
+    EXPECT_EQ(rb.instances, 0u);
+    EXPECT_EQ(rb.n, 0u);
+    EXPECT_FALSE(rb.d);
+    const std::string csv = slurp(dir / "stats" / "reference.csv");
+    EXPECT_EQ(csv.rfind("species,habit,distribution,instances,n,d,median,reference_n,"
+                        "reference_median\n"
+                        "a,tree,radius_ratio,2,2,0.5,0.625,100,0.5\n",
+                        0),
+              0u)
+        << csv;
+    EXPECT_NE(csv.find("\na,tree,branch_angle_deg,2,2,0.75"), std::string::npos) << csv;
+    EXPECT_NE(csv.find("\nb,,radius_ratio,0,0,,,100,0.5\nb,,branch_angle_deg,0,0,,,0,90\n"),
+              std::string::npos)
+        << csv;
+    const std::string json = slurp(dir / "stats" / "reference.json");
+    EXPECT_NE(json.find("\"name\": \"test\""), std::string::npos);
+    EXPECT_NE(r.summary.find("  a: radius_ratio 0.5 branch_angle_deg 0.75"), std::string::npos)
+        << r.summary;
+    EXPECT_NE(r.summary.find("  b: radius_ratio - branch_angle_deg -"), std::string::npos)
+        << r.summary;
+
+    // Bad input, before anything is written: a listed skeleton missing or malformed, no
+    // skeleton listed at all, a bad reference file.
+    auto message = [&](const fs::path& reference) {
+        fs::remove_all(dir / "stats");
+        DatasetStatsOptions bad = o;
+        bad.reference = reference;
+        try {
+            computeDatasetStats(dir, bad);
+        } catch (const DatasetStatsInputError& e) {
+            EXPECT_FALSE(fs::exists(dir / "stats"));
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    EXPECT_EQ(message(t.path() / "none.json"),
+              (t.path() / "none.json").string() + ": cannot read the reference file");
+    spit(dir / "trees" / "a1.ply", "ply\nformat ascii 1.0\nend_header\n");
+    EXPECT_EQ(message(ref), (dir / "trees" / "a1.ply").string() +
+                                ": expected format binary_little_endian, got ascii");
+    fs::remove(dir / "trees" / "a1.ply");
+    EXPECT_EQ(message(ref), (dir / "trees" / "a1.ply").string() +
+                                ": cannot read (the manifest lists it as skeleton_ply)");
+    spit(dir / "manifest.jsonl", R"({"id":"b-0","index":2,"species":"b","stats":{"h":1}})"
+                                 "\n");
+    EXPECT_NE(message(ref).find("the manifest lists none"), std::string::npos);
 }
 
 }  // namespace

@@ -1,0 +1,363 @@
+#!/usr/bin/env python3
+"""Reference distributions of broadleaf tree architecture from published TreeQSM models.
+
+A recipe, not run in CI: it writes species/reference/treeqsm-broadleaf.json (quantile tables
+that `sylva stats DIR --reference FILE` compares a dataset's species with). The QSM files are
+not in the repository; bring them here from the public repositories in TREES (cited in
+species/reference/README.md): clone each (TobyDJackson/treeRchitecture, zoeschindler/qsm2r,
+aidanmorales/rTwig, lmterryn/ITSMe from GitHub) and write every .mat file it ever committed
+(treeRchitecture keeps most of its trees only in its history) to DATA/<repository>/ under its
+path with '/' replaced by '_', the newest version of a path last:
+
+    extract() {  # extract REPO_GIT_DIR OUT_DIR
+        mkdir -p "$2"
+        git -C "$1" rev-list --all --reverse | while read c; do git -C "$1" ls-tree -r $c; done |
+            awk '$4 ~ /[.]mat$/ {print $3, $4}' | awk '!seen[$0]++' | while read blob path; do
+                git -C "$1" cat-file blob $blob > "$2/$(echo $path | tr / _)" || true; done
+    }
+    for r in treeRchitecture qsm2r rTwig ITSMe; do extract $r DATA/$r; done
+
+then
+    /usr/bin/python3 scripts/reference_from_treeqsm.py DATA \
+        --out species/reference/treeqsm-broadleaf.json --markdown TABLE.md
+
+Needs numpy and scipy (Debian: python3-numpy python3-scipy; scipy.io.loadmat reads the .mat
+files). TreeQSM's cylinder fields (treeqsm.m): radius, length (m), start (xyz, z up), axis
+(unit), parent (1-based index of the parent cylinder, 0 for none), extension (the cylinder
+continuing the same branch, 0 for none), branch (index of the cylinder's branch), BranchOrder
+(0 stem, 1 branches from the stem, ...), PositionInBranch (1 for a branch's first cylinder).
+TreeQSM 2.0 files store the same as Rad, Len, Sta, Axe, CPar, CExt and BoC = (branch, order,
+position in branch).
+
+Definitions (the same as species/model/reference_metrics.cpp applies to a sylva skeleton;
+docs/metrics.md "Reference distributions"):
+  fork            a cylinder with >= 2 child cylinders (cylinders naming it as parent); its
+                  *laterals* are the children that begin another branch (branch differs), the
+                  *extension* the child continuing its branch.
+  capped fork     TreeQSM caps a branch's cylinders at 0.95 x the radius of the cylinder it
+                  leaves (cylinders.m, adjustments: MaxR = 0.95*parcyl.radius): a fork with a
+                  lateral of ratio >= 0.949 is left out of (a) and (b).
+  (a) radius_ratio        per lateral of an uncapped fork: r_lateral / r_parent.
+  (b) radius_exponent     per uncapped fork: n in [0.5, 6] with r_parent^n = sum r_child^n over
+                          every child (bisection, as sylva's radiusExponent); only forks with
+                          0 < r_child < r_parent for every child.
+  (c) branch_angle_deg    per order-1 branch: angle between the axis of the stem cylinder it
+                          leaves and the axis of its first cylinder.
+  (d) tip_path_ratio      per tip (a cylinder without children): the length along the
+                          cylinders from the base (start of the first cylinder) to the tip's end,
+                          over the tree height. A child leaves its parent at the projection of
+                          its start on the parent's axis, not at the parent's end.
+  (e) branch_length_order{1,2,3}  per branch of that order: the sum of its cylinders' lengths
+                          over the tree height.
+  tree height     highest cylinder end (or start) above the base, along z.
+
+Pooling: every tree has the same total weight (a tree's values weigh 1/n_tree each), so the
+large high-resolution models do not outweigh the rest (one walnut has 1,128 forks, the median
+tropical model 50); a tree joins a distribution only with >= MIN_VALUES values of it.
+Quantiles of the weighted distribution interpolate linearly between the sorted values at
+cumulative-weight midpoints (numpy's linear / R's type 7 for equal weights).
+"""
+import argparse
+import json
+import math
+import os
+import sys
+
+import numpy as np
+import scipy.io as sio
+
+# Every tree of the reference: (source, path under DATA/<source>/, variable, species, note).
+# treeRchitecture: Jackson et al.'s tropical broadleaf QSMs (LPG01: Lope, Gabon; SEP09:
+# Sepilok, Sabah), wood models (*_wood, *wnb). The four LPG01_<n>.mat without _wood are the same
+# trees (same base) modelled again with 3-5 times the cylinder length, presumably before the
+# leaves were separated from the wood; they are left out.
+_TR = ["example_data_LPG01_%d_wood.mat" % i
+       for i in (0, 1, 4, 5, 7, 8, 9, 10, 26, 27, 29, 30, 31, 34, 35, 37, 38, 39, 40, 42)]
+_TR += ["example_data_SEP09_%dwnb.mat" % i
+        for i in (3, 5, 6, 8, 9, 11, 12, 13, 98, 99, 100, 101, 102, 103, 104, 105, 106, 800, 801,
+                  802, 803, 804, 805)]
+TREES = [("treeRchitecture", f, "qsm", "tropical broadleaf (Gabon, Malaysian Borneo)", "")
+         for f in _TR]
+TREES += [
+    ("qsm2r", "inst_extdata_QSM_Juglans_regia_S.mat", "OptQSM", "Juglans regia", ""),
+    ("qsm2r", "inst_extdata_QSM_Juglans_regia_M.mat", "OptQSM", "Juglans regia", ""),
+    ("rTwig", "inst_extdata_QSM.mat", "OptQSM", "Gymnocladus dioicus", ""),
+    # ITSMe's example and test QSMs: one model per distinct tree (the repeated models of the
+    # same tree — buttressed_tree_*_qsm_2/3, the QSMs arrays, qsm_tree_v230*, qsms_* — the
+    # trunk-only qsm_trunk, the TreeQSM 2.0 qsm_tree_v200 and single_qsm/tree_1, a trunk with
+    # two stubs and one fork, are left out).
+    ("ITSMe", "inst_extdata_example_qsm_1_1.mat", "QSM", "broadleaf", ""),
+    ("ITSMe", "tests_buttressed_trees_buttressed_tree_1_qsm_1.mat", "QSM", "tropical broadleaf",
+     "buttressed"),
+    ("ITSMe", "tests_buttressed_trees_buttressed_tree_2_qsm_1.mat", "QSM", "tropical broadleaf",
+     "buttressed"),
+    ("ITSMe", "tests_non_buttressed_trees_single_qsm_tree_2_qsm.mat", "QSM", "broadleaf", ""),
+    ("ITSMe", "tests_qsms_qsm_tree_v240.mat", "QSM", "broadleaf", ""),
+]
+
+SOURCES = {
+    "treeRchitecture": ("TobyDJackson/treeRchitecture",
+                        "Jackson et al. 2021, Biotropica 53(1):110-120; Verbeeck et al. 2019, "
+                        "Front. For. Glob. Change 2:43"),
+    "qsm2r": ("zoeschindler/qsm2r", "Schindler 2023, qsm2r, doi:10.5281/zenodo.14871356"),
+    "rTwig": ("aidanmorales/rTwig", "Morales & MacFarlane 2024, Forestry 98(3):394-409, "
+                                    "doi:10.1093/forestry/cpae046"),
+    "ITSMe": ("lmterryn/ITSMe", "Terryn et al. 2020, ISPRS J. Photogramm. Remote Sens. "
+                                "168:170-181"),
+}
+MIN_VALUES = 5  # a tree joins a distribution with at least this many values of it
+CAP_RATIO = 0.949  # TreeQSM's 0.95 cap on a branch's radius relative to its parent cylinder
+DISTRIBUTIONS = [
+    ("radius_ratio", "-", "r_lateral / r_parent at uncapped forks, per lateral child"),
+    ("radius_exponent", "-", "n in [0.5, 6] with r_parent^n = sum r_child^n, per uncapped fork"),
+    ("branch_angle_deg", "deg", "angle between the stem and an order-1 branch's first segment"),
+    ("tip_path_ratio", "-", "path length from the base to a tip / tree height, per tip"),
+    ("branch_length_order1", "-", "length of an order-1 branch / tree height"),
+    ("branch_length_order2", "-", "length of an order-2 branch / tree height"),
+    ("branch_length_order3", "-", "length of an order-3 branch / tree height"),
+]
+
+
+class Qsm:
+    """Cylinders of one TreeQSM model as numpy arrays (0-based parent, -1 for none)."""
+
+    def __init__(self, radius, length, start, axis, parent, branch, order):
+        self.radius = np.asarray(radius, float).ravel()
+        self.length = np.asarray(length, float).ravel()
+        self.start = np.atleast_2d(np.asarray(start, float))
+        axis = np.atleast_2d(np.asarray(axis, float))
+        self.axis = axis / np.linalg.norm(axis, axis=1)[:, None]
+        self.parent = np.asarray(parent, int).ravel() - 1
+        self.branch = np.asarray(branch, int).ravel()
+        self.order = np.asarray(order, int).ravel()
+        n = len(self.radius)
+        assert all(len(a) == n for a in (self.length, self.start, self.axis, self.parent,
+                                          self.branch, self.order))
+
+
+def load_qsm(path, var):
+    m = sio.loadmat(path, squeeze_me=True, struct_as_record=False)
+    if var in m:
+        q = m[var]
+        if isinstance(q, np.ndarray):
+            q = q.ravel()[0]
+        c = q.cylinder
+        return Qsm(c.radius, c.length, c.start, c.axis, c.parent, c.branch, c.BranchOrder)
+    if "Rad" in m:  # TreeQSM 2.0
+        boc = np.atleast_2d(m["BoC"])
+        return Qsm(m["Rad"], m["Len"], m["Sta"], m["Axe"], m["CPar"], boc[:, 0], boc[:, 1])
+    raise SystemExit("%s: no variable %r (has %s)" % (path, var,
+                     ", ".join(k for k in m if not k.startswith("__"))))
+
+
+def radius_exponent(rp, children):
+    """sylva's radiusExponent (species/model/tree_metrics.cpp): NaN unless rp > 0, >= 2
+    children, 0 < r < rp for each; roots outside [0.5, 6] clamp to the ends."""
+    if not rp > 0 or len(children) < 2 or any(not (0 < r < rp) for r in children):
+        return math.nan
+    f = lambda n: sum((r / rp) ** n for r in children) - 1.0
+    lo, hi = 0.5, 6.0
+    if f(lo) <= 0:
+        return lo
+    if f(hi) >= 0:
+        return hi
+    for _ in range(100):
+        if hi - lo <= 1e-13:
+            break
+        mid = 0.5 * (lo + hi)
+        if f(mid) > 0:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def measure(q):
+    """The reference distributions of one tree, plus its counts."""
+    n = len(q.radius)
+    kids = [[] for _ in range(n)]
+    roots = []
+    for j in range(n):
+        p = q.parent[j]
+        if p < 0:
+            roots.append(j)
+        else:
+            kids[p].append(j)
+    end = q.start + q.axis * q.length[:, None]
+    base = q.start[roots[0]]
+    height = max(end[:, 2].max(), q.start[:, 2].max()) - base[2]
+    out = {k: [] for k, _, _ in DISTRIBUTIONS}
+    forks = capped = 0
+    for c in range(n):
+        if len(kids[c]) < 2:
+            continue
+        forks += 1
+        rp = q.radius[c]
+        lateral = [j for j in kids[c] if q.branch[j] != q.branch[c]]
+        ratios = [q.radius[j] / rp for j in lateral]
+        if any(r >= CAP_RATIO for r in ratios):
+            capped += 1
+            continue
+        out["radius_ratio"] += ratios
+        e = radius_exponent(rp, [q.radius[j] for j in kids[c]])
+        if math.isfinite(e):
+            out["radius_exponent"].append(e)
+    # (c) first-order branch angles: a branch's first cylinder leaving a stem cylinder.
+    for j in range(n):
+        p = q.parent[j]
+        if p >= 0 and q.order[j] == 1 and q.order[p] == 0 and q.branch[j] != q.branch[p]:
+            cosang = float(np.clip(np.dot(q.axis[p], q.axis[j]), -1.0, 1.0))
+            out["branch_angle_deg"].append(math.degrees(math.acos(cosang)))
+    # (d) path length from the base to every tip (parents precede children in TreeQSM, but do
+    # not rely on it: walk in topological order).
+    dist = np.zeros(n)
+    stack = list(roots)
+    while stack:
+        c = stack.pop()
+        for j in kids[c]:
+            along = float(np.dot(q.start[j] - q.start[c], q.axis[c]))
+            dist[j] = dist[c] + min(max(along, 0.0), q.length[c])
+            stack.append(j)
+    for c in range(n):
+        if not kids[c]:
+            out["tip_path_ratio"].append((dist[c] + q.length[c]) / height)
+    # (e) branch lengths by order.
+    blen = {}
+    for j in range(n):
+        key = (q.branch[j], q.order[j])
+        blen[key] = blen.get(key, 0.0) + q.length[j]
+    for (b, o), l in sorted(blen.items()):
+        if 1 <= o <= 3:
+            out["branch_length_order%d" % o].append(l / height)
+    counts = {"cylinders": n, "forks": forks, "capped_forks": capped, "height_m": height,
+              "branches": len(blen)}
+    return out, counts
+
+
+def weighted_quantiles(groups, probs):
+    """Quantiles of the pooled values where each group (tree) weighs 1 in total."""
+    vals, wts = [], []
+    for g in groups:
+        if len(g):
+            vals += list(g)
+            wts += [1.0 / len(g)] * len(g)
+    order = np.argsort(vals, kind="stable")
+    v = np.asarray(vals)[order]
+    w = np.asarray(wts)[order]
+    if len(v) == 1:
+        return [float(v[0])] * len(probs)
+    c = np.cumsum(w) - 0.5 * w
+    c = (c - c[0]) / (c[-1] - c[0])
+    return [float(x) for x in np.interp(probs, c, v)]
+
+
+def compact_json(x, indent=""):
+    """JSON with one key per line but every list of numbers on one line."""
+    inner = indent + "  "
+    if isinstance(x, dict):
+        items = ["%s%s: %s" % (inner, json.dumps(k), compact_json(v, inner)) for k, v in x.items()]
+        return "{\n" + ",\n".join(items) + "\n" + indent + "}"
+    if isinstance(x, list) and not all(isinstance(v, (int, float)) for v in x):
+        return "[\n" + ",\n".join(inner + compact_json(v, inner) for v in x) + "\n" + indent + "]"
+    return json.dumps(x)
+
+
+def markdown_table(dists):
+    """Quantiles as rows (min, 2 %, 5 %, 10 % ... 95 %, 98 %, max), distributions as columns."""
+    rows = [0.0, 0.02] + [round(0.05 * k, 2) for k in range(1, 20)] + [0.98, 1.0]
+    keys = [k for k, _, _ in DISTRIBUTIONS]
+    out = "| p | " + " | ".join("`%s`" % k for k in keys) + " |\n"
+    out += "|---|" + "---:|" * len(keys) + "\n"
+    out += "| n (trees) | " + " | ".join("%d (%d)" % (dists[k]["n"], dists[k]["trees"])
+                                         for k in keys) + " |\n"
+    for p in rows:
+        label = "min" if p == 0 else ("max" if p == 1 else "%g %%" % (100 * p))
+        vals = []
+        for k in keys:
+            x = float(np.interp(p, dists[k]["p"], dists[k]["q"]))
+            vals.append(("%.1f" if k == "branch_angle_deg" else "%.3f") % x)
+        out += "| %s | %s |\n" % (label, " | ".join(vals))
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("data", help="directory with treeRchitecture/, qsm2r/, rTwig/, ITSMe/")
+    ap.add_argument("--out", help="write the reference JSON here")
+    ap.add_argument("--step", type=float, default=0.02, help="quantile step (default 0.02)")
+    ap.add_argument("--per-tree", help="write a CSV of per-tree counts and medians here")
+    ap.add_argument("--markdown", help="write the quantile table of docs/metrics.md here")
+    args = ap.parse_args()
+
+    probs = [round(k * args.step, 10) for k in range(int(round(1 / args.step)) + 1)]
+    per = {k: [] for k, _, _ in DISTRIBUTIONS}
+    sources = {}
+    rows = []
+    for source, name, var, species, note in TREES:
+        path = os.path.join(args.data, source, name)
+        if not os.path.exists(path):
+            raise SystemExit("%s: missing (see the recipe at the top of this script)" % path)
+        values, counts = measure(load_qsm(path, var))
+        for k in per:
+            per[k].append(values[k])
+        s = sources.setdefault(source, {"trees": 0, "cylinders": 0, "forks": 0,
+                                        "capped_forks": 0, "species": []})
+        s["trees"] += 1
+        for k in ("cylinders", "forks", "capped_forks"):
+            s[k] += counts[k]
+        if species not in s["species"]:
+            s["species"].append(species)
+        row = {"source": source, "file": name, **counts}
+        for k in per:
+            row[k + "_n"] = len(values[k])
+            row[k + "_median"] = float(np.median(values[k])) if values[k] else math.nan
+        rows.append(row)
+
+    dists = {}
+    for key, unit, definition in DISTRIBUTIONS:
+        groups = [g for g in per[key] if len(g) >= MIN_VALUES]
+        allv = [x for g in groups for x in g]
+        qs = weighted_quantiles(groups, probs)
+        dists[key] = {"unit": unit, "definition": definition, "n": len(allv),
+                      "trees": len(groups), "min": min(allv), "max": max(allv),
+                      "p": probs, "q": [round(x, 6) for x in qs]}
+        print("%-22s n=%6d trees=%2d  q05 %.3f  q25 %.3f  q50 %.3f  q75 %.3f  q95 %.3f  "
+              "[%.3f, %.3f]" % (key, len(allv), len(groups), *[np.interp(p, probs, qs) for p in
+                                (0.05, 0.25, 0.5, 0.75, 0.95)], min(allv), max(allv)))
+    for src, s in sources.items():
+        print("%-16s trees %3d  cylinders %6d  forks %5d (capped %d)" %
+              (src, s["trees"], s["cylinders"], s["forks"], s["capped_forks"]))
+
+    if args.per_tree:
+        keys = list(rows[0].keys())
+        with open(args.per_tree, "w") as f:
+            f.write(",".join(keys) + "\n")
+            for r in rows:
+                f.write(",".join(("%.6g" % r[k]) if isinstance(r[k], float) else str(r[k])
+                                 for k in keys) + "\n")
+    if args.markdown:
+        with open(args.markdown, "w") as f:
+            f.write(markdown_table(dists))
+    if args.out:
+        ref = {
+            "name": "treeqsm-broadleaf",
+            "description": "Broadleaf tree architecture from published TreeQSM models "
+                           "(terrestrial laser scans); see README.md for the sources",
+            "derivation": "scripts/reference_from_treeqsm.py",
+            "weighting": "every tree weighs 1 (each of its values 1/n_tree); a tree joins a "
+                         "distribution with at least %d values of it" % MIN_VALUES,
+            "quantiles": "p: probabilities (0 = min, 1 = max), q: quantiles of the "
+                         "tree-weighted pooled values, linear between cumulative-weight "
+                         "midpoints",
+            "cap_ratio": CAP_RATIO,
+            "trees": len(TREES),
+            "sources": [{"repository": SOURCES[src][0], "paper": SOURCES[src][1], **s}
+                        for src, s in sources.items()],
+            "distributions": dists,
+        }
+        with open(args.out, "w") as f:
+            f.write(compact_json(ref) + "\n")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
