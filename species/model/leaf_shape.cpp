@@ -298,12 +298,13 @@ LeafOutline compound(int res) {
 // Needles: a tuft of pine needles on a short shoot. Pinus sylvestris needles are "2.5–5 cm
 // long and 1–2 mm broad, produced in fascicles of two" (twice as long on vigorous trees), 4–8
 // cm and "up to 2 mm wide … pointed" in other descriptions; a pine's short shoots carry "2–5
-// perennial needles" (Lamedon, Pinus). Seven needles (three and a half fascicles) fan from
-// a base 0.15 wide to tips spread over ±0.13: each a sliver 0.02 of its length wide (1.2 mm on
-// a 6 cm needle), parallel-sided to 0.8 of its length and then pointed; outer needles 8 %
-// shorter. Natural aspect ≈ 0.26.
+// perennial needles" (Lamedon, Pinus). Seven needles (three and a half fascicles) bundled at
+// a base 0.1 wide fan out to tips spread over ±0.16: each a thin kite (two triangles), 0.03 of
+// its length wide at 0.4 of it (1.8 mm on a 6 cm needle), narrow into the sheath and pointed
+// at the tip; outer needles 8 % shorter. Natural aspect ≈ 0.32.
 constexpr int kNeedles = 7;
-constexpr double kNeedleHalfWidth = 0.01, kNeedleBaseSpacing = 0.022, kNeedleSpread = 0.13;
+constexpr double kNeedleHalfWidth = 0.015, kNeedleWidest = 0.4, kNeedleBaseSpacing = 0.017,
+                 kNeedleSpread = 0.16;
 
 LeafOutline needles(int) {
     std::vector<std::vector<Vec2>> parts;
@@ -314,9 +315,8 @@ LeafOutline needles(int) {
         const Vec2 tip{1.0 - 0.08 * u * u, u * kNeedleSpread};
         const Vec2 d = tip - base;
         const Vec2 dir = d * (1.0 / length(d)), l{-dir.y, dir.x};
-        const Vec2 shoulder = base + d * 0.8;
-        parts.push_back({base - l * kNeedleHalfWidth, shoulder - l * kNeedleHalfWidth, tip,
-                         shoulder + l * kNeedleHalfWidth, base + l * kNeedleHalfWidth});
+        const Vec2 widest = base + d * kNeedleWidest;
+        parts.push_back({base, widest - l * kNeedleHalfWidth, tip, widest + l * kNeedleHalfWidth});
     }
     return assemble(parts);
 }
