@@ -7,7 +7,7 @@
 // Why ear clipping: lobed, palmate (with its petiole), compound and frond outlines are not
 // star-shaped about any one point (sinuses and leaflets hide parts of the edge from every
 // interior point), so a fan would overlap itself; ear clipping triangulates any simple polygon.
-// It is O(n²)–O(n³) per polygon but runs once per shape (outlines have at most ~45 points).
+// It is O(n²)–O(n³) per polygon but runs once per shape (no polygon has more than 30 points).
 //
 // Proportions (the botanical sources are cited at each shape):
 //   simple    ovate-lanceolate blade, widest below the middle, acute base, acuminate tip
