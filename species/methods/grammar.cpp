@@ -30,7 +30,8 @@ struct Pending {
     int order;
     uint64_t key;
     bool even;
-    double evenAngle;  // slot angle when even, radians
+    double evenAngle;    // slot angle when even, radians
+    int distichousSide;  // 0 or 1 for a distichous sibling, −1 otherwise
 };
 
 // Uniform Catmull–Rom through c[0..m-1] at global parameter t ∈ [0, m−1]; phantom ends by
@@ -81,6 +82,7 @@ int GrammarOptions::state(const std::string& name) {
     rules.emplace_back();
     particles.emplace_back();
     fruit.emplace_back();
+    roots.emplace_back();
     return static_cast<int>(states.size()) - 1;
 }
 
@@ -124,7 +126,8 @@ struct Derivation {
 
 // Jain §3.1.1: applies `state`'s rule for the stem `parentStem` (−1: the start rule) and
 // queues its outputs; the alternative is drawn from the parent's own keyed stream, and the
-// "even" siblings of one application share a random offset (our extension).
+// "even" siblings of one application share a random offset (our extension), the "distichous"
+// ones alternate sides.
 void expand(Derivation& d, int state, int parentStem, int level, int order, uint64_t key) {
     const GrammarOptions& o = d.o;
     const std::vector<GrammarAlternative>& alts = o.rules[state];
@@ -144,7 +147,7 @@ void expand(Derivation& d, int state, int parentStem, int level, int order, uint
         if (!o.stop[s] && o.geometry(state, s).evenSpread) ++evenCount;
     }
     const double evenOffset = d.rng.derive(hashCombine(key, kEvenTag)).uniform(0.0, 2 * kPi);
-    int evenSlot = 0;
+    int evenSlot = 0, distichousSlot = 0;
     bool continued = false;
     for (size_t i = 0; i < out.size(); ++i) {
         const int s = out[i];
@@ -160,8 +163,12 @@ void expand(Derivation& d, int state, int parentStem, int level, int order, uint
         if (continues) continued = true;
         p.order = parentStem < 0 ? 0 : (continues ? order : order + 1);
         p.key = hashCombine(key, i + 1);
-        p.even = o.geometry(state, s).evenSpread;
+        const GrammarGeometry& g = o.geometry(state, s);
+        p.even = g.evenSpread;
         p.evenAngle = p.even ? evenOffset + 2 * kPi * evenSlot++ / evenCount : 0.0;
+        // Our extension: distichous siblings alternate between the two sides of the parent
+        // (drawStem), the first side alternating by level.
+        p.distichousSide = g.distichous ? (distichousSlot++ + level) % 2 : -1;
         d.queue.push_back(p);
     }
 }
@@ -184,10 +191,10 @@ Attachment attachment(const Derivation& d, int parentStem, double position) {
 // The stem's control points: a circular arc from `base` along `dir` turning toward −y
 // (tropism > 0) or +y, never past the vertical; then displaced by smooth value noise
 // ∝ curve · length (Jain §3.1.2's noisy spline). `tau` returns the turn actually used.
-std::vector<Vec3> controlPoints(const Derivation& d, const GrammarGeometry& g, const Vec3& base,
-                                const Vec3& dir, double len, double curve, const Vec3& noiseOrigin,
-                                double& tau) {
-    tau = g.tropism;
+std::vector<Vec3> controlPoints(const Derivation& d, const GrammarGeometry& g, double tropism,
+                                const Vec3& base, const Vec3& dir, double len, double curve,
+                                const Vec3& noiseOrigin, double& tau) {
+    tau = tropism;
     Vec3 bendAxis{0, 0, 0};
     if (tau != 0.0) {
         const Vec3 toward = tau > 0 ? Vec3{0, -1, 0} : Vec3{0, 1, 0};
@@ -224,19 +231,79 @@ std::vector<Vec3> controlPoints(const Derivation& d, const GrammarGeometry& g, c
     return ctrl;
 }
 
-// Samples the spline into the stem's skeleton nodes (every `segmentLength`, at least two per
-// control span when it bends), widths linear from begin to end, the reference normal carried
-// by parallel transport.
-StemCurve sampleStem(Derivation& d, const std::vector<Vec3>& ctrl, int segments,
-                     const Attachment& at, const Vec3& dir, const Vec3& refN, int order, int level,
-                     GrammarStem& st) {
+// Our extension (issue 13): a shoot stem stepping down below the clearance h has each
+// downward step dy damped by the height left, dy' = dy·y/h — integrated over the step,
+// y ← y·exp(dy/h) — so the stem bends toward the horizontal as it nears the ground and never
+// reaches y = 0 (a stem already at or below it goes no lower). Steps up are kept. Returns the
+// new height.
+double descend(double y, double dy, double h) {
+    if (dy >= 0 || y + dy >= h) return y + dy;
+    if (y > h) {
+        dy += y - h;  // the part of the step above h is kept
+        y = h;
+    }
+    return y <= 0 ? y : y * std::exp(dy / h);
+}
+
+// The stem's points before they become nodes: the spline sampled at `segments` + 1 even
+// parameter values (index 0 the attachment), with its derivative.
+struct StemSamples {
+    std::vector<Vec3> point, der;
+};
+
+StemSamples sampleSpline(const std::vector<Vec3>& ctrl, int segments, const Vec3& base) {
     const int m = static_cast<int>(ctrl.size());
-    StemCurve sc;
-    Vec3 prevN = refN;
+    StemSamples ss;
     for (int i = 0; i <= segments; ++i) {
         Vec3 pos, der;
         catmullRom(ctrl, static_cast<double>(i) * (m - 1) / segments, pos, der);
-        if (i == 0) pos = at.base;
+        if (i == 0) pos = base;
+        ss.point.push_back(pos);
+        ss.der.push_back(der);
+    }
+    return ss;
+}
+
+// Ground clearance on a shoot stem's samples (see descend): the heights re-integrated step by
+// step from the attachment, the derivative's y scaled as its step was.
+void clearGround(StemSamples& ss, double h) {
+    Vec3 prevOld = ss.point[0];
+    for (size_t i = 1; i < ss.point.size(); ++i) {
+        const Vec3 old = ss.point[i];
+        const double dy = old.y - prevOld.y;
+        const double y = descend(ss.point[i - 1].y, dy, h);
+        if (dy < 0 && y - ss.point[i - 1].y != dy) ss.der[i].y *= (y - ss.point[i - 1].y) / dy;
+        ss.point[i].y = y;
+        prevOld = old;
+    }
+}
+
+// A root reaching the ground: the samples cut where they first meet y = 0, the last point on
+// it. Returns whether they reach it (from an attachment above the ground).
+bool cutAtGround(StemSamples& ss) {
+    if (ss.point[0].y <= 0) return false;
+    for (size_t i = 1; i < ss.point.size(); ++i) {
+        if (ss.point[i].y > 0) continue;
+        const Vec3 a = ss.point[i - 1], b = ss.point[i];
+        const double f = a.y / (a.y - b.y);
+        ss.point[i] = a + (b - a) * f;
+        ss.point[i].y = 0.0;
+        ss.point.resize(i + 1);
+        ss.der.resize(i + 1);
+        return true;
+    }
+    return false;
+}
+
+// Turns the samples into the stem's skeleton nodes (widths linear from begin to end, the
+// reference normal carried by parallel transport).
+StemCurve addNodes(Derivation& d, const StemSamples& ss, const Attachment& at, const Vec3& dir,
+                   const Vec3& refN, int order, int level, uint8_t part, GrammarStem& st) {
+    const int segments = static_cast<int>(ss.point.size()) - 1;
+    StemCurve sc;
+    Vec3 prevN = refN;
+    for (int i = 0; i <= segments; ++i) {
+        const Vec3 pos = ss.point[i], der = ss.der[i];
         const Vec3 t = length(der) > 1e-12 ? normalize(der) : dir;
         Vec3 nn = prevN - t * dot(prevN, t);  // parallel transport of the reference
         nn = length(nn) > 1e-9 ? normalize(nn) : anyPerpendicular(t);
@@ -250,6 +317,7 @@ StemCurve sampleStem(Derivation& d, const std::vector<Vec3>& ctrl, int segments,
             sn.parent = i == 1 ? at.node : static_cast<int32_t>(d.tree.nodes.size()) - 1;
             sn.order = order;
             sn.level = level;
+            sn.part = part;
             node = static_cast<int32_t>(d.tree.nodes.size());
             d.tree.nodes.push_back(sn);
             st.nodes.push_back(node);
@@ -261,6 +329,19 @@ StemCurve sampleStem(Derivation& d, const std::vector<Vec3>& ctrl, int segments,
         sc.node.push_back(node);
     }
     return sc;
+}
+
+// Our extension (phyllotaxis = "distichous"): the azimuth that puts a sibling on side 0 or 1
+// of its parent in the plane through the parent's axis closest to the horizontal — the two
+// ranks of a flat spray (a vertical parent: 90° and 270° from its reference normal).
+double distichousAngle(const Attachment& at, int side) {
+    const Vec3 across = cross(at.tangent, Vec3{0, 1, 0});
+    double base = 0.5 * kPi;
+    if (length(across) > 1e-6) {
+        const Vec3 h = normalize(across);
+        base = std::atan2(dot(cross(at.normal, h), at.tangent), dot(at.normal, h));
+    }
+    return base + kPi * side;
 }
 
 // Jain §3.1.2: draws the stem of one queued output with its transition's geometry — length
@@ -282,25 +363,40 @@ void drawStem(Derivation& d, const Pending& pd) {
     const double curve = r.uniform(g.curveLo, g.curveHi);
     const Vec3 noiseOrigin{r.uniform(0, 1000), r.uniform(0, 1000), r.uniform(0, 1000)};
 
-    const double len = baseLength * std::pow(g.reduceLength, c);
-    const double azimuth =
-        (pd.even ? pd.evenAngle : 0.0) + azimuthDraw * std::pow(g.reduceAngle.x, c);
-    const double tilt = tiltDraw * std::pow(g.reduceAngle.y, c);
+    const double len = baseLength * std::pow(g.reduceLength, c) * o.lengthScale;
+    double azimuth = (pd.even ? pd.evenAngle : 0.0) + azimuthDraw * std::pow(g.reduceAngle.x, c);
+    double tilt = tiltDraw * std::pow(g.reduceAngle.y, c);
     const double roll = rollDraw * std::pow(g.reduceAngle.z, c);
 
+    // Our extensions: aerial roots (a root state's stems and all drawn from them) and the
+    // straight leader (every order-0 shoot stem straight up).
+    const GrammarRoots& rt = o.roots[pd.state];
+    const bool root = rt.enabled || (pd.parentStem >= 0 && d.stems[pd.parentStem].root);
+    const double pillarWidth = rt.enabled ? r.uniform(rt.pillarWidthLo, rt.pillarWidthHi) : 0.0;
+    const bool vertical = rt.enabled && rt.form == RootForm::kVertical;
+    const bool straight = o.straightLeader && pd.order == 0 && !root;
+    double tropism = g.tropism, bend = curve;
+    if (straight || vertical) tilt = tropism = bend = 0.0;
+
     const Attachment at = attachment(d, pd.parentStem, position);
+    if (pd.distichousSide >= 0) azimuth += distichousAngle(at, pd.distichousSide);
     // Intrinsic Euler angles: azimuth about the parent's tangent, tilt away from it, roll
     // about the new axis.
     const Vec3 side = rotate(at.normal, at.tangent, azimuth);
-    const Vec3 dir = normalize(at.tangent * std::cos(tilt) + side * std::sin(tilt));
-    const Vec3 refN =
-        rotate(normalize(at.tangent * -std::sin(tilt) + side * std::cos(tilt)), dir, roll);
+    Vec3 dir = normalize(at.tangent * std::cos(tilt) + side * std::sin(tilt));
+    Vec3 refN = rotate(normalize(at.tangent * -std::sin(tilt) + side * std::cos(tilt)), dir, roll);
+    if (straight || vertical) {
+        dir = straight ? Vec3{0, 1, 0} : Vec3{0, -1, 0};
+        refN = rotate(normalize(side - dir * dot(side, dir)), dir, roll);
+        if (!(length(refN) > 1e-9)) refN = anyPerpendicular(dir);
+    }
 
     double tau = 0.0;
-    const std::vector<Vec3> ctrl = controlPoints(d, g, at.base, dir, len, curve, noiseOrigin, tau);
+    const std::vector<Vec3> ctrl =
+        controlPoints(d, g, tropism, at.base, dir, len, bend, noiseOrigin, tau);
     const int m = static_cast<int>(ctrl.size());
     int segments = std::max(1, static_cast<int>(std::ceil(len / o.segmentLength - 1e-9)));
-    if (curve > 0 || tau > 0) segments = std::max(segments, 2 * (m - 1));
+    if (bend > 0 || tau > 0) segments = std::max(segments, 2 * (m - 1));
 
     GrammarStem st;
     st.state = pd.state;
@@ -314,7 +410,17 @@ void drawStem(Derivation& d, const Pending& pd) {
     st.parentTangent = at.tangent;
     st.widthBegin = at.width * g.reduceWidthBegin;
     st.widthEnd = at.width * g.reduceWidthEnd;
-    StemCurve sc = sampleStem(d, ctrl, segments, at, dir, refN, pd.order, c, st);
+    st.root = root;
+    StemSamples ss = sampleSpline(ctrl, segments, at.base);
+    if (rt.enabled) {
+        st.rooted = cutAtGround(ss);
+        if (st.rooted && pillarWidth > 0) st.widthBegin = st.widthEnd = pillarWidth;
+        ++d.stats.roots;
+        d.stats.rooted += st.rooted;
+    } else if (!root && o.groundClearance > 0) {
+        clearGround(ss, o.groundClearance);
+    }
+    StemCurve sc = addNodes(d, ss, at, dir, refN, pd.order, c, root ? kRootPart : kShootPart, st);
 
     d.tree.endpoints.push_back(st.nodes.back());
     d.stats.depthReached = std::max(d.stats.depthReached, c + 1);
@@ -362,10 +468,21 @@ void emitParticles(Derivation& d, size_t si, const HeightRange& y) {
     const int classes = static_cast<int>(season.classes.size());
     if (!(pp.enabled && st.level >= pp.minLevel && classes > 0 && season.density > 0)) return;
     const Rng stream = d.rng.derive(hashCombine(st.key, kLeafTag));
-    for (int k = 0; k < pp.count; ++k) {
+    // Our extension: `per_metre` more leaves per metre of the leafy stretch of the stem's
+    // sampled curve, all of them then spread evenly along it (stratified: one in each of n
+    // equal sub-intervals) so they cover the stem without gaps or clumps.
+    int n = pp.count;
+    if (pp.perMetre > 0) {
+        double arc = 0.0;
+        for (size_t i = 1; i < sc.point.size(); ++i) arc += distance(sc.point[i - 1], sc.point[i]);
+        n += static_cast<int>(std::lround(pp.perMetre * arc * (pp.alongHi - pp.alongLo)));
+    }
+    for (int k = 0; k < n; ++k) {
         Rng lr = stream.derive(static_cast<uint64_t>(k));
         if (lr.uniform() >= season.density) continue;
-        const double a = lr.uniform(pp.alongLo, pp.alongHi);
+        const double a = pp.perMetre > 0
+                             ? pp.alongLo + (pp.alongHi - pp.alongLo) * (k + lr.uniform()) / n
+                             : lr.uniform(pp.alongLo, pp.alongHi);
         // Around the stem: anywhere ("spiral"), or alternately on the two sides of the stem's
         // plane (leaflets of a pinnate frond, distichous leaves).
         const double uPsi = lr.uniform();

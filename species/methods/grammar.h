@@ -10,8 +10,8 @@
 // [particles.*], [fruit.*] and [seasons.*], with units, defaults and ranges, is documented in
 // docs/methods/grammar.md (tests/project/spec_keys_test.cpp checks it against the reader,
 // grammar_spec.cpp); the defaults are the structs' below. Worked example:
-// species/papers/jain-2021/grammar-fir.toml. The generic [leaves] table is rejected for grammar species
-// (leaves are per state here).
+// species/papers/jain-2021/grammar-fir.toml. The generic [leaves] table is rejected for grammar
+// species (leaves are per state here).
 //
 // ---------------------------------------------------------------------------------------------
 // Conventions
@@ -38,6 +38,10 @@
 //   leaves the lightest, and between two class centres the two mix in proportion.
 //   Class numbers: 0–3 greens dark → light, 4 dark red, 5 red, 6 orange, 7 yellow, 8 fruit,
 //   9 flower.
+// - Our extensions for realistic species (issue 13), each off by default: a per-instance
+//   length scale, a ground clearance that bends descending shoot stems level above y = 0, a
+//   straight vertical leader, leaves per metre of stem, and root states whose stems are
+//   aerial roots (part = root) that end on the ground and thicken into pillars there.
 // ---------------------------------------------------------------------------------------------
 #pragma once
 
@@ -64,6 +68,7 @@ struct GrammarGeometry {
     double rollLo = 0.0, rollHi = 0.0;
     Vec3 reduceAngle{1, 1, 1};  // r_a for (azimuth, tilt, roll)
     bool evenSpread = false;    // phyllotaxis = "even"
+    bool distichous = false;    // phyllotaxis = "distichous" (our extension): two ranks
     double positionLo = 1.0, positionHi = 1.0;
     double reduceWidthBegin = 1.0;  // r_wb
     double reduceWidthEnd = 0.7;    // r_we
@@ -89,6 +94,28 @@ struct GrammarParticles {
     double alongLo = 0.0, alongHi = 1.0;
     int minLevel = 0;
     bool twoRows = false;  // arrangement = "two-rows" (else "spiral")
+    // Our extension: leaves per metre of the leafy stretch (`along`) of the stem's sampled
+    // curve, added to `count` (rounded to the nearest integer); with it, leaves are spread
+    // evenly along the stretch (one per equal sub-interval, jittered) instead of uniformly.
+    double perMetre = 0.0;  // leaves / m; 0: `count` only (Jain's rule)
+};
+
+// How a root state's stems run (our extension; Jain §4 shows the banyan's aerial roots but
+// gives no rule for them).
+enum class RootForm {
+    kVertical,  // straight down from the attachment (gravitropic aerial / prop roots)
+    kArching,   // along the transition's geometry (tilt, tropism, curve): stilt roots
+};
+
+// The stems of a root state are aerial roots: part of the root system (SkeletonNode::part =
+// kRootPart, with every stem drawn from them), never bent by the ground clearance. A root
+// whose drawn length reaches the ground ends exactly at y = 0 (cut where it meets it) and is
+// *rooted*: it thickens into a pillar of the drawn width along its whole length; a shorter one
+// hangs free with the transition's widths.
+struct GrammarRoots {
+    bool enabled = false;
+    RootForm form = RootForm::kVertical;
+    double pillarWidthLo = 0.0, pillarWidthHi = 0.0;  // metres (diameter); 0: no thickening
 };
 
 // Fruit / flower cards on the stems of one state.
@@ -120,6 +147,11 @@ struct GrammarOptions {
     int maxStems = 50000;
     double trunkWidthLo = 0.2, trunkWidthHi = 0.2;  // W, metres (diameter)
     double segmentLength = 0.1;                     // metres
+    // Our extensions (issue 13), each off by default so Jain's grammars grow as before:
+    double lengthScale = 1.0;      // × every stem's length t_l (a distribution: per instance)
+    double groundClearance = 0.0;  // metres; > 0: a shoot stem descending below this height
+                                   // bends toward the horizontal and never reaches y = 0
+    bool straightLeader = false;   // order-0 stems straight up (+y): no tilt, curve, tropism
     Season season = Season::kSummer;
     std::array<GrammarSeason, 4> seasons = defaultSeasons();
 
@@ -127,6 +159,7 @@ struct GrammarOptions {
     std::map<std::pair<int, int>, GrammarGeometry> transition;  // (from, to) → geometry
     std::vector<GrammarParticles> particles;                    // per state
     std::vector<GrammarFruit> fruit;                            // per state
+    std::vector<GrammarRoots> roots;                            // per state
 
     static constexpr int kMaxLevels = 64;
 
@@ -148,6 +181,8 @@ struct GrammarStem {
     Vec3 direction;              // initial direction (unit), after the Euler angles
     Vec3 parentTangent;          // parent's tangent at the attachment (+y for the start rule)
     double widthBegin = 0.0, widthEnd = 0.0;  // metres
+    bool root = false;                        // part of the root system (a root state's stem)
+    bool rooted = false;                      // a root that reaches the ground (ends at y = 0)
 };
 
 struct GrammarStats {
@@ -157,6 +192,8 @@ struct GrammarStats {
     int64_t truncated = 0;   // states not expanded because of D or max_stems
     int64_t leaves = 0;
     int64_t fruit = 0;
+    int64_t roots = 0;   // stems of root states (aerial roots)
+    int64_t rooted = 0;  // of them, those reaching the ground
 };
 
 // Grows one tree. Deterministic in rng's seed; independent of thread count (serial).

@@ -36,7 +36,7 @@ struct GeometryTable {
     std::optional<std::pair<double, double>> length, azimuth, tilt, roll, position, curve;
     std::optional<double> reduceLength, reduceWidthBegin, reduceWidthEnd, tropism;
     std::optional<Vec3> reduceAngle;
-    std::optional<bool> even;
+    std::optional<std::string> phyllotaxis;
     std::optional<int> controlPoints;
 };
 
@@ -67,7 +67,7 @@ GeometryTable readGeometry(Params& p) {
     if (auto t = number("tropism_deg", Range::closed(-180, 180))) g.tropism = *t * kDeg;
     if (p.has("reduce_angle")) g.reduceAngle = p.vec3("reduce_angle", {1, 1, 1}, Range::positive());
     if (p.has("phyllotaxis"))
-        g.even = p.choice("phyllotaxis", "random", {"random", "even"}) == "even";
+        g.phyllotaxis = p.choice("phyllotaxis", "random", {"random", "even", "distichous"});
     if (p.has("control_points")) {
         g.controlPoints = static_cast<int>(p.integer("control_points", Range::closed(2, 32)));
     }
@@ -94,7 +94,10 @@ void apply(const GeometryTable& t, GrammarGeometry& g) {
     if (t.reduceWidthEnd) g.reduceWidthEnd = *t.reduceWidthEnd;
     if (t.tropism) g.tropism = *t.tropism;
     if (t.reduceAngle) g.reduceAngle = *t.reduceAngle;
-    if (t.even) g.evenSpread = *t.even;
+    if (t.phyllotaxis) {
+        g.evenSpread = *t.phyllotaxis == "even";
+        g.distichous = *t.phyllotaxis == "distichous";
+    }
     if (t.controlPoints) g.controlPoints = *t.controlPoints;
 }
 
@@ -143,6 +146,8 @@ class GrammarMethod : public GrowthMethod {
         stats["truncated"] = static_cast<double>(s.truncated);
         stats["leaves"] = static_cast<double>(s.leaves);
         stats["fruit"] = static_cast<double>(s.fruit);
+        stats["roots"] = static_cast<double>(s.roots);
+        stats["rooted_roots"] = static_cast<double>(s.rooted);
         return t;
     }
 
@@ -188,6 +193,9 @@ void readGrammarTable(Params& sp, GrammarOptions& o) {
         std::tie(o.trunkWidthLo, o.trunkWidthHi) =
             g->interval("trunk_width", {o.trunkWidthLo, o.trunkWidthHi}, Range::positive());
         o.segmentLength = g->number("segment_length", o.segmentLength, Range::positive());
+        o.lengthScale = g->number("length_scale", o.lengthScale, Range::leftOpen(0, 10));
+        o.groundClearance = g->number("ground_clearance", o.groundClearance, Range::nonNegative());
+        o.straightLeader = g->boolean("straight_leader", o.straightLeader);
         o.maxStems = static_cast<int>(g->integer("max_stems", o.maxStems, Range::closed(1, 1e7)));
         o.season = g->choice("season", o.season,
                              {{"spring", Season::kSpring},
@@ -390,7 +398,11 @@ void readParticles(Params& sp, const std::set<std::string>& known, GrammarOption
         Params p = parts.table(name);
         GrammarParticles& pp = o.particles[s];
         pp.enabled = true;
-        pp.count = static_cast<int>(p.integer("count", Range::closed(0, 100000)));
+        pp.perMetre = p.number("per_metre", pp.perMetre, Range::closed(0, 100000));
+        if (!p.has("count") && !p.has("per_metre")) {
+            p.failHere("missing \"count\" (leaves per stem) or \"per_metre\" (leaves per metre)");
+        }
+        pp.count = static_cast<int>(p.integer("count", 0, Range::closed(0, 100000)));
         std::tie(pp.sizeLo, pp.sizeHi) =
             p.interval("size", {pp.sizeLo, pp.sizeHi}, Range::positive());
         pp.aspect = p.number("aspect", pp.aspect, Range::leftOpen(0, 10));
@@ -442,6 +454,28 @@ void readFruit(Params& sp, const std::set<std::string>& known, GrammarOptions& o
     fruits.finish();
 }
 
+// [roots.<state>]: the stems of that state (and all drawn from them) are roots: aerial or
+// prop roots reaching down to the ground, pillars once rooted (our extension).
+void readRoots(Params& sp, const std::set<std::string>& known, GrammarOptions& o) {
+    if (!sp.has("roots")) return;
+    const std::vector<std::string> names = keysOf(sp, "roots");
+    Params roots = sp.table("roots");
+    roots.keysAreUserNames();  // state names
+    for (const std::string& name : names) {
+        const int s = stemState(o, roots, known, name, name);
+        if (s == o.start) roots.fail(name, "the start state draws no stem");
+        Params p = roots.table(name);
+        GrammarRoots& r = o.roots[s];
+        r.enabled = true;
+        r.form = p.choice("form", r.form,
+                          {{"vertical", RootForm::kVertical}, {"arching", RootForm::kArching}});
+        std::tie(r.pillarWidthLo, r.pillarWidthHi) =
+            p.interval("pillar_width", {r.pillarWidthLo, r.pillarWidthHi}, Range::nonNegative());
+        p.finish();
+    }
+    roots.finish();
+}
+
 // [seasons.<season>]: overrides of the built-in season palettes.
 void readSeasons(Params& sp, GrammarOptions& o) {
     if (!sp.has("seasons")) return;
@@ -477,6 +511,7 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
     readGeometryTables(sp, known, o);
     readParticles(sp, known, o);
     readFruit(sp, known, o);
+    readRoots(sp, known, o);
     readSeasons(sp, o);
     return std::make_unique<GrammarMethod>(std::move(o));
 }

@@ -177,12 +177,29 @@ void applyForm(Tree& tree, const FormOptions& o, const Rng& rng) {
         map.leanAxis = {std::sin(psi), 0, -std::cos(psi)};
         map.lean = o.leanRad;
     }
-    std::vector<Vec3> before(tree.nodes.size());
-    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+    // An aerial root (a root-part chain hanging from a shoot node other than the base: prop
+    // roots) follows its attachment: moved with it horizontally and stretched vertically so
+    // that what stood on the ground stays on it and a vertical root stays vertical.
+    const size_t n = tree.nodes.size();
+    std::vector<int32_t> anchor(n, -1);
+    for (size_t i = 1; i < n; ++i) {
+        const SkeletonNode& node = tree.nodes[i];
+        if (isShoot(node)) continue;
+        const int32_t p = node.parent;
+        anchor[i] = !isShoot(tree.nodes[p]) ? anchor[p] : (p != 0 ? p : -1);
+    }
+    std::vector<Vec3> before(n);
+    for (size_t i = 0; i < n; ++i) {
         SkeletonNode& node = tree.nodes[i];
         before[i] = node.position;
         node.radius *= o.scale;
         node.position = isShoot(node) ? map(node.position) : node.position * o.scale;
+        if (anchor[i] >= 0) {  // its anchor, a shoot node, has a smaller index: already moved
+            const Vec3 was = before[anchor[i]] * o.scale, now = tree.nodes[anchor[i]].position;
+            const double stretch = was.y > 0 ? now.y / was.y : 1.0;
+            node.position = {now.x + node.position.x - was.x, node.position.y * stretch,
+                             now.z + node.position.z - was.z};
+        }
     }
     for (Leaf& leaf : tree.leaves) {
         if (leaf.node >= 0) {  // keeps its offset from its twig

@@ -13,8 +13,10 @@
 //  6. ground        a shoot branch that goes below y = 0 is cut where it meets the ground
 //
 // Leaves carried by a node (Leaf::node ≥ 0) keep their offset from it (turned with the lean),
-// so they stay on their twigs; free leaves (node −1) move as points. Root-system nodes
-// (part == kRootPart) are only scaled. Frame: +y up, metres, the root node at the origin.
+// so they stay on their twigs; free leaves (node −1) move as points. The root system below the
+// base (part == kRootPart) is only scaled; aerial roots hanging from a shoot node (prop roots)
+// move with it horizontally and stretch vertically, so a root standing on the ground stays on
+// it and a vertical one stays vertical. Frame: +y up, metres, the root node at the origin.
 #pragma once
 
 #include "core/rng.h"

@@ -410,6 +410,284 @@ TEST(Grammar, ValueNoiseIsSmoothAndBounded) {
     EXPECT_EQ(valueNoise3({2, 3, 4}, 1), valueNoise3({2, 3, 4}, 1));
 }
 
+// --- our extensions (issue 13): roots, ground clearance, straight leader, leaf density --------
+
+// s → (a); a → (h); h → (r × 6): a 5 m vertical trunk, a horizontal 6 m limb, six roots hanging
+// from it. Root lengths alternate by draw between 3 m (hang free) and 7 m (reach the ground).
+GrammarOptions propRoots(RootForm form) {
+    GrammarOptions o;
+    o.start = o.state("s");
+    const int a = o.state("a"), h = o.state("h"), r = o.state("r"), t = o.state("t");
+    o.stop[t] = true;
+    o.rules[o.start] = {{{a}, 1.0}};
+    o.rules[a] = {{{h}, 1.0}};
+    o.rules[h] = {{std::vector<int>(6, r), 1.0}};
+    o.rules[r] = {{{t}, 1.0}};
+    o.trunkWidthLo = o.trunkWidthHi = 0.6;
+    o.segmentLength = 0.25;
+    GrammarGeometry trunk;
+    trunk.lengthLo = trunk.lengthHi = 5.0;
+    o.transition[{o.start, a}] = trunk;
+    GrammarGeometry limb;
+    limb.lengthLo = limb.lengthHi = 6.0;
+    limb.tiltLo = limb.tiltHi = 90 * kDeg;
+    limb.curveLo = limb.curveHi = 0.05;
+    o.transition[{a, h}] = limb;
+    GrammarGeometry root;
+    root.lengthLo = 3.0;
+    root.lengthHi = 7.0;  // ≥ 5.3 m reaches the ground from a limb at ≈ 5 m
+    root.positionLo = 0.2;
+    root.positionHi = 1.0;
+    root.tiltLo = root.tiltHi = 120 * kDeg;  // arching: out and down from the limb
+    root.tropism = 90 * kDeg;
+    root.curveLo = root.curveHi = 0.05;  // ignored by vertical roots
+    root.reduceWidthBegin = 0.3;
+    root.reduceWidthEnd = 0.2;
+    o.transition[{h, r}] = root;
+    o.roots[r].enabled = true;
+    o.roots[r].form = form;
+    o.roots[r].pillarWidthLo = o.roots[r].pillarWidthHi = 0.25;
+    return o;
+}
+
+TEST(Grammar, VerticalPropRootsReachTheGroundStraightAndThicken) {
+    int rootedSeen = 0, hangingSeen = 0;
+    for (uint64_t seed = 1; seed <= 6; ++seed) {
+        const GrammarOptions o = propRoots(RootForm::kVertical);
+        Rng rng(seed);
+        GrammarStats stats;
+        std::vector<GrammarStem> stems;
+        const Tree t = growGrammar(o, rng, &stats, &stems);
+        EXPECT_EQ(stats.roots, 6);
+        int rooted = 0;
+        for (const GrammarStem& st : stems) {
+            const bool isRoot = o.states[st.state] == "r";
+            EXPECT_EQ(st.root, isRoot);
+            for (int32_t n : st.nodes) {
+                EXPECT_EQ(t.nodes[n].part, isRoot ? kRootPart : kShootPart);
+            }
+            if (!isRoot) continue;
+            const Vec3 top = t.nodes[st.baseNode].position;
+            const Vec3 end = t.nodes[st.nodes.back()].position;
+            ASSERT_GT(top.y, 4.0);
+            // Vertical: every node straight under the attachment (well within a degree).
+            for (int32_t n : st.nodes) {
+                const Vec3 d = t.nodes[n].position - top;
+                EXPECT_LT(angleBetween(d, Vec3{0, -1, 0}), 1e-9) << "seed " << seed;
+                EXPECT_GE(t.nodes[n].position.y, 0.0);
+            }
+            if (st.length >= top.y) {
+                // Rooted: ends exactly on the ground, a pillar of the key's width throughout.
+                EXPECT_TRUE(st.rooted);
+                EXPECT_EQ(end.y, 0.0);
+                for (int32_t n : st.nodes) EXPECT_DOUBLE_EQ(t.nodes[n].radius, 0.125);
+                ++rooted;
+            } else {
+                // Hanging free: its drawn length, the transition's thin widths.
+                EXPECT_FALSE(st.rooted);
+                EXPECT_NEAR(top.y - end.y, st.length, 1e-9);
+                EXPECT_NEAR(t.nodes[st.nodes.back()].radius,
+                            0.5 * 0.2 * 2 * t.nodes[st.baseNode].radius, 1e-12);
+                ++hangingSeen;
+            }
+        }
+        EXPECT_EQ(stats.rooted, rooted);
+        rootedSeen += rooted;
+    }
+    EXPECT_GT(rootedSeen, 5);
+    EXPECT_GT(hangingSeen, 5);
+}
+
+TEST(Grammar, ArchingStiltRootsFollowTheirGeometryAndStopAtTheGround) {
+    int rooted = 0;
+    for (uint64_t seed = 1; seed <= 12; ++seed) {
+        const GrammarOptions o = propRoots(RootForm::kArching);
+        Rng rng(seed);
+        std::vector<GrammarStem> stems;
+        const Tree t = growGrammar(o, rng, nullptr, &stems);
+        for (const GrammarStem& st : stems) {
+            if (!st.root) continue;
+            const Vec3 top = t.nodes[st.baseNode].position;
+            const Vec3 first = t.nodes[st.nodes.front()].position;
+            // It leaves the limb along its Euler angles (outward, not straight down) ...
+            EXPECT_GT(angleBetween(first - top, Vec3{0, -1, 0}), 10 * kDeg);
+            // ... and never goes below the ground; a rooted one ends on it.
+            for (int32_t n : st.nodes) EXPECT_GE(t.nodes[n].position.y, 0.0);
+            if (st.rooted) {
+                EXPECT_EQ(t.nodes[st.nodes.back()].position.y, 0.0);
+                for (size_t k = 0; k + 1 < st.nodes.size(); ++k) {
+                    EXPECT_GT(t.nodes[st.nodes[k]].position.y, 0.0);
+                }
+                ++rooted;
+            }
+        }
+    }
+    EXPECT_GT(rooted, 10);
+}
+
+// A trunk of 2 m and three limbs tilted 130° from it, turning further down: straight lines
+// that would dive into the ground.
+GrammarOptions drooping() {
+    GrammarOptions o;
+    o.start = o.state("s");
+    const int a = o.state("a"), b = o.state("b"), t = o.state("t");
+    o.stop[t] = true;
+    o.rules[o.start] = {{{a}, 1.0}};
+    o.rules[a] = {{{b, b, b}, 1.0}};
+    o.rules[b] = {{{t}, 1.0}};
+    o.segmentLength = 0.05;
+    GrammarGeometry trunk;
+    trunk.lengthLo = trunk.lengthHi = 2.0;
+    o.transition[{o.start, a}] = trunk;
+    GrammarGeometry limb;
+    limb.lengthLo = 4.0;
+    limb.lengthHi = 6.0;
+    limb.tiltLo = limb.tiltHi = 130 * kDeg;
+    o.transition[{a, b}] = limb;
+    return o;
+}
+
+TEST(Grammar, GroundClearanceBendsDescendingStemsAboveTheGround) {
+    const double h = 0.5;
+    for (uint64_t seed : {1u, 2u, 3u}) {
+        GrammarOptions o = drooping();
+        Rng r0(seed);
+        const Tree free = growGrammar(o, r0);
+        o.groundClearance = h;
+        Rng r1(seed);
+        const Tree held = growGrammar(o, r1);
+        ASSERT_EQ(free.nodes.size(), held.nodes.size());
+        double lowest = 1e300;
+        for (const SkeletonNode& n : free.nodes) lowest = std::min(lowest, n.position.y);
+        EXPECT_LT(lowest, -0.5) << "without clearance the limbs go into the ground";
+        // The trunk rises: unchanged. Straight limbs descending from above h: heights above h
+        // unchanged, below it y = h·exp((y₀ − h)/h) (the integral of dy' = dy·y/h); x and z
+        // unchanged.
+        for (size_t i = 0; i < free.nodes.size(); ++i) {
+            const Vec3 p0 = free.nodes[i].position, p = held.nodes[i].position;
+            const bool limb = free.nodes[i].order > 0;
+            const double expected = !limb || p0.y >= h ? p0.y : h * std::exp((p0.y - h) / h);
+            EXPECT_NEAR(p.y, expected, 1e-9) << "node " << i;
+            EXPECT_EQ(p.x, p0.x);
+            EXPECT_EQ(p.z, p0.z);
+            if (i > 0) {
+                EXPECT_GT(p.y, 0.0);
+            }
+        }
+    }
+}
+
+TEST(Grammar, StraightLeaderIsAVerticalLine) {
+    for (uint64_t seed : {1u, 2u, 3u}) {
+        GrammarOptions o = firLike(9);  // leader tilts 0–5°, curve noise 0.05–0.1
+        Rng r0(seed);
+        const Tree bent = growGrammar(o, r0);
+        o.straightLeader = true;
+        Rng r1(seed);
+        std::vector<GrammarStem> stems;
+        const Tree t = growGrammar(o, r1, nullptr, &stems);
+        double bentOff = 0.0;
+        for (const SkeletonNode& n : bent.nodes) {
+            if (n.order == 0) bentOff = std::max(bentOff, std::hypot(n.position.x, n.position.z));
+        }
+        EXPECT_GT(bentOff, 0.05) << "the test grammar's leader drifts without the key";
+        int leaderNodes = 0;
+        double top = 0.0;
+        for (const SkeletonNode& n : t.nodes) {
+            if (n.order != 0) continue;
+            EXPECT_EQ(n.position.x, 0.0);
+            EXPECT_EQ(n.position.z, 0.0);
+            top = std::max(top, n.position.y);
+            ++leaderNodes;
+        }
+        EXPECT_GT(leaderNodes, 20);
+        // Its height is the sum of the leader stems' lengths (no curve shortens it).
+        double sum = 0.0;
+        for (const GrammarStem& st : stems) sum += st.order == 0 ? st.length : 0.0;
+        EXPECT_NEAR(top, sum, 1e-9);
+        // The laterals still follow their geometry (they are not straightened).
+        int laterals = 0;
+        for (const GrammarStem& st : stems) {
+            if (st.order == 1) {
+                EXPECT_GT(angleBetween(st.direction, Vec3{0, 1, 0}), 55 * kDeg);
+                ++laterals;
+            }
+        }
+        EXPECT_GT(laterals, 10);
+    }
+}
+
+TEST(Grammar, LeavesPerMetreGiveTheExpectedCountSpreadEvenly) {
+    // One straight 3 m stem; leaves on its stretch [0.2, 1]: 5 + round(10/m × 3 m × 0.8) = 29.
+    GrammarOptions o;
+    o.start = o.state("s");
+    const int a = o.state("a"), t = o.state("t");
+    o.stop[t] = true;
+    o.rules[o.start] = {{{a}, 1.0}};
+    o.rules[a] = {{{t}, 1.0}};
+    o.fallback.lengthLo = o.fallback.lengthHi = 3.0;
+    o.trunkWidthLo = o.trunkWidthHi = 0.02;
+    GrammarParticles& p = o.particles[a];
+    p.enabled = true;
+    p.count = 5;
+    p.perMetre = 10.0;
+    p.alongLo = 0.2;
+    p.alongHi = 1.0;
+    for (uint64_t seed : {1u, 2u}) {
+        Rng rng(seed);
+        GrammarStats stats;
+        const Tree tree = growGrammar(o, rng, &stats);
+        ASSERT_EQ(tree.leaves.size(), 29u);
+        EXPECT_EQ(stats.leaves, 29);
+        // Stratified: exactly one leaf base in each of the 29 equal sub-intervals of [0.6, 3] m.
+        std::vector<int> per(29, 0);
+        for (const Leaf& l : tree.leaves) {
+            const double s = l.position.y - l.tangent.y * 0.5 * l.size;  // height on the stem
+            const int k = static_cast<int>(std::floor((s - 0.6) / (2.4 / 29)));
+            ASSERT_GE(k, 0);
+            ASSERT_LT(k, 29);
+            ++per[k];
+        }
+        for (int k = 0; k < 29; ++k) EXPECT_EQ(per[k], 1) << "interval " << k;
+    }
+}
+
+TEST(Grammar, LengthScaleScalesEveryStem) {
+    GrammarOptions o = binaryTree(5);
+    o.fallback.tiltLo = 20 * kDeg;
+    o.fallback.tiltHi = 50 * kDeg;
+    o.segmentLength = 100.0;  // one segment per stem: positions scale exactly
+    Rng r0(3);
+    const Tree a = growGrammar(o, r0);
+    o.lengthScale = 1.3;
+    Rng r1(3);
+    const Tree b = growGrammar(o, r1);
+    ASSERT_EQ(a.nodes.size(), b.nodes.size());
+    for (size_t i = 0; i < a.nodes.size(); ++i) {
+        EXPECT_NEAR(distance(b.nodes[i].position, a.nodes[i].position * 1.3), 0.0, 1e-12);
+        EXPECT_EQ(b.nodes[i].radius, a.nodes[i].radius);  // widths are not lengths
+    }
+}
+
+TEST(Grammar, RootsClearanceAndLeaderAreDeterministic) {
+    auto bytes = [](uint64_t seed) {
+        GrammarOptions o = propRoots(RootForm::kArching);
+        o.groundClearance = 0.4;
+        o.straightLeader = true;
+        Rng rng(seed);
+        const Tree t = growGrammar(o, rng);
+        std::string b;
+        for (const SkeletonNode& n : t.nodes) {
+            b.append(reinterpret_cast<const char*>(&n.position), sizeof n.position);
+            b.append(reinterpret_cast<const char*>(&n.radius), sizeof n.radius);
+            b.push_back(static_cast<char>(n.part));
+        }
+        return b;
+    };
+    EXPECT_EQ(bytes(4), bytes(4));
+    EXPECT_NE(bytes(4), bytes(5));
+}
+
 // --- species files -------------------------------------------------------------------------
 
 const char* kHeader = "name = \"g\"\nmethod = \"grammar\"\n";
@@ -470,6 +748,19 @@ TEST(GrammarSpec, BadGrammarsNameFileLineAndKey) {
         {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\n[geometry.a]\n"
               "tilt_dg = [1, 2]\n",
          "g.toml:9:", "did you mean \"tilt_deg\""},
+        {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\n[particles.a]\n"
+              "size = [0.1, 0.2]\n",
+         "g.toml:8:", "missing \"count\" (leaves per stem) or \"per_metre\""},
+        {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\n[roots.a]\n"
+              "form = \"hanging\"\n",
+         "g.toml:9:", "roots.a.form: expected one of"},
+        {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\n[roots.a]\n"
+              "pillar_width = [0.4, 0.2]\n",
+         "g.toml:9:", "pillar_width: expected lo ≤ hi"},
+        {ok + "[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\n[roots.t]\n",
+         "g.toml:8:", "\"t\" is a stop state"},
+        {ok + "ground_clearance = -1\n[rules]\ns = [{ out = [\"a\"] }]\na = [{ out = [\"t\"] }]\n",
+         "g.toml:5:", "grammar.ground_clearance"},
     };
     for (const Case& c : cases) {
         const std::string e = specError(c.body);
@@ -533,6 +824,42 @@ TEST(GrammarSpec, PresetsBuildDeterministicallyAndFast) {
         }
     }
     EXPECT_GE(found, 1);
+}
+
+// The library's grammar species (species/presets/): the same tree threaded or not, no shoot
+// node below the ground (their ground_clearance, before the form stage's prune), and the
+// banyan's prop roots, labelled as roots, hanging straight down and ending on the ground.
+TEST(GrammarSpec, LibrarySpeciesGrowAboveTheGround) {
+    const fs::path presets = fs::path(SYLVA_SOURCE_DIR) / "species/presets";
+    int grammar = 0, rootedProps = 0;
+    for (const auto& e : fs::directory_iterator(presets)) {
+        if (e.path().extension() != ".toml") continue;
+        const SpeciesFile sp = loadSpecies(e.path().string());
+        if (sp.method != "grammar") continue;
+        SCOPED_TRACE(sp.name);
+        ++grammar;
+        const GrownTree a = growSpecies(sp, 7, nullptr, false);
+        const GrownTree b = growSpecies(sp, 7, nullptr, true);
+        ASSERT_EQ(a.tree.nodes.size(), b.tree.nodes.size());
+        for (size_t i = 0; i < a.tree.nodes.size(); ++i) {
+            ASSERT_EQ(a.tree.nodes[i].position, b.tree.nodes[i].position);
+        }
+        const ChildIndex children(a.tree);
+        for (size_t i = 1; i < a.tree.nodes.size(); ++i) {
+            const SkeletonNode& n = a.tree.nodes[i];
+            if (n.part == kShootPart) {
+                EXPECT_GE(n.position.y, 0.0) << "shoot node " << i;
+                continue;
+            }
+            // A prop root: straight under its parent, above the ground, ending on it if rooted.
+            const Vec3 step = n.position - a.tree.nodes[n.parent].position;
+            EXPECT_LT(angleBetween(step, Vec3{0, -1, 0}), 1.0 * kDeg) << "root node " << i;
+            EXPECT_GE(n.position.y, 0.0);
+            if (children.count(static_cast<int>(i)) == 0 && n.position.y == 0.0) ++rootedProps;
+        }
+    }
+    EXPECT_GE(grammar, 17);
+    EXPECT_GT(rootedProps, 0) << "the banyan's prop roots reach the ground";
 }
 
 // A dataset sweep over grammar.max_depth with same_seed = true is a growth series: one seed

@@ -128,6 +128,27 @@ TEST(Form, LeanTiltsTheShootAboutTheBase) {
     EXPECT_GT(distance(s1.nodes[1].position, s3.nodes[1].position), 0.01);
 }
 
+TEST(Form, PropRootsFollowTheirLimbAndStayOnTheGround) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0});
+    const int32_t top = addNode(t, 0, {0, 4, 0});
+    const int32_t limb = addNode(t, top, {3, 4, 0}, 0.05, 1);
+    const int32_t r1 = addNode(t, limb, {3, 2, 0}, 0.05, 2, kRootPart);
+    const int32_t r2 = addNode(t, r1, {3, 0, 0}, 0.05, 2, kRootPart);
+    FormOptions o;
+    o.leanRad = 8.0 * kPi / 180.0;
+    o.scale = 1.5;
+    applyForm(t, o, Rng(11));
+    const Vec3 a = t.nodes[limb].position;
+    EXPECT_NEAR(length(a), 1.5 * 5.0, 1e-12);  // the limb tip moved with the lean
+    for (int32_t r : {r1, r2}) {               // still straight under it
+        EXPECT_NEAR(t.nodes[r].position.x, a.x, 1e-12);
+        EXPECT_NEAR(t.nodes[r].position.z, a.z, 1e-12);
+    }
+    EXPECT_NEAR(t.nodes[r1].position.y, a.y / 2, 1e-12);  // halfway down, as before
+    EXPECT_EQ(t.nodes[r2].position.y, 0.0);               // and still on the ground
+}
+
 TEST(Form, AsymmetryStretchesTheCrownAlongOneDirection) {
     Tree t;
     addNode(t, -1, {0, 0, 0});
