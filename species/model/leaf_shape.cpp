@@ -265,7 +265,8 @@ LeafOutline palmate(int res) {
 // alike, 7–15 leaflets of 4.5–7.5 × 1.5–2.5 cm on a 14–30 cm rachis (Azadirachta indica,
 // NGC campus flora). Five pairs and a terminal leaflet: a petiole to the first pair at 0.22 of
 // the length, pairs 0.12 apart at 55° to the rachis, leaflets 0.26 long (the lowest pair 0.8 of
-// that) and 0.3 as wide as long, profile t^1 (1 − t)^1.3 (attenuate base, acuminate tip).
+// that) and 0.3 as wide as long, profile t^1 (1 − t)^1.3 (attenuate base, acuminate tip),
+// sampled at a third and two thirds of its length (six points, four triangles a leaflet).
 // The rachis is a quad 0.016 wide tapering to 0.008 under the terminal leaflet. Natural
 // aspect ≈ 0.5.
 constexpr BetaProfile kLeaflet{1.0, 1.3};
@@ -277,7 +278,8 @@ LeafOutline compound(int res) {
     const double xT = 1.0 - kLeafletLength;  // the terminal leaflet's base
     const double r0 = 0.008, r1 = 0.004;     // rachis half-widths at the base and at xT
     auto rachis = [&](double x) { return r0 + (r1 - r0) * x / xT; };
-    const auto t = stations(2 * res, {kLeaflet.peak()});
+    std::vector<double> t;  // evenly spaced: two points a side give a lanceolate leaflet
+    for (int k = 1; k <= 2 * res; ++k) t.push_back(double(k) / (2 * res + 1));
     auto w = [](double u, int) { return kLeaflet(u); };
     std::vector<std::vector<Vec2>> parts;
     parts.push_back({{0, -r0}, {xT, -r1}, {xT, r1}, {0, r0}});

@@ -161,14 +161,17 @@ TEST(LeafShape, SimpleBladeConvergesToItsClosedForm) {
 }
 
 TEST(LeafShape, CurvedOutlinesConvergeAsTheirResolutionGrows) {
-    // The shipped outlines are within a few per cent of the curves they sample (the
-    // compound's leaflets, 8 points each, 5.4 % under).
-    for (LeafShape s :
-         {LeafShape::kSimple, LeafShape::kLobed, LeafShape::kPalmate, LeafShape::kCompound}) {
+    // The shipped outlines are within a few per cent of the curves they sample (the lobed blade
+    // 5 % under, the compound's leaflets, six points each, 9 % under).
+    const std::pair<LeafShape, double> within[] = {{LeafShape::kSimple, 0.04},
+                                                   {LeafShape::kLobed, 0.06},
+                                                   {LeafShape::kPalmate, 0.04},
+                                                   {LeafShape::kCompound, 0.1}};
+    for (const auto& [s, tolerance] : within) {
         SCOPED_TRACE(static_cast<int>(s));
         const double fine = buildLeafOutline(s, 16).area, finer = buildLeafOutline(s, 32).area;
         EXPECT_NEAR(fine, finer, 2e-3 * finer);
-        EXPECT_NEAR(leafOutline(s).area, finer, 0.06 * finer);
+        EXPECT_NEAR(leafOutline(s).area, finer, tolerance * finer);
     }
 }
 
@@ -182,7 +185,7 @@ TEST(LeafShape, ShippedAreasAndTriangleCountsAreTheDocumentedOnes) {
     const Expected table[] = {
         {LeafShape::kCard, 1.0, 2},        {LeafShape::kSimple, 0.630, 12},
         {LeafShape::kLobed, 0.548, 28},    {LeafShape::kPalmate, 0.286, 25},
-        {LeafShape::kCompound, 0.276, 68}, {LeafShape::kNeedles, 0.317, 14},
+        {LeafShape::kCompound, 0.266, 46}, {LeafShape::kNeedles, 0.317, 14},
         {LeafShape::kFrond, 0.166, 58},
     };
     for (const Expected& e : table) {
