@@ -589,6 +589,13 @@ static void SpeciesTree(benchmark::State& state, const std::string& file) {
     state.counters["render_ms"] = renderMs / n;
 }
 
+// What leaf support costs: the paper's canopy-maple with twigs grown to every leaf (compare
+// SpeciesTree/canopy-maple).
+BENCHMARK_CAPTURE(SpeciesTree, canopy_maple_twigs,
+                  std::string(SYLVA_SOURCE_DIR "/bench/canopy-maple-twigs.toml"))
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(1.0);
+
 // One SpeciesTree benchmark per shipped species file, in name order.
 static void registerSpeciesTrees() {
     for (const fs::path& f : shippedSpeciesFiles()) {

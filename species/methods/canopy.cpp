@@ -11,9 +11,12 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <utility>
+
+#include "volumes/point_grid.h"
 
 namespace sylva {
 
@@ -256,6 +259,14 @@ double envelopeRatio(const CanopyEnvelope& e, const Vec3& p) {
     return ratio;
 }
 
+double envelopeDepth(const CanopyEnvelope& e, const Vec3& p) {
+    const Vec2 a = e.angles(p);
+    const Vec3 s = e.surfacePoint(a.x, a.y);
+    if (e.domain() == CanopyDomain::kEllipsoid) return length(s) - length(p);
+    // Cone: angles() clamps θ to the apex above it, where the surface radius is 0.
+    return std::hypot(s.x, s.z) - std::hypot(p.x, p.z);
+}
+
 CanopySurfaceSampler::CanopySurfaceSampler(const CanopyEnvelope& e) {
     // Surface points at the cell corners: φ_i = 2πi/U (wrapping), θ_j = πj/V.
     std::vector<Vec3> p(size_t(kCellsPhi) * (kCellsTheta + 1));
@@ -476,22 +487,48 @@ FittedTemplate fitTemplate(const Tree& t, const CanopyOptions& o, double trunkTo
 }
 
 // Shesh §3.5: a segment whose end lies beyond the envelope (ratio > 1 + threshold) is cut,
-// and so is everything above it. Parents precede children, so one pass suffices.
-Tree clipTemplate(const FittedTemplate& f, const CanopyOptions& o) {
+// and so is everything above it. Parents precede children, so one pass suffices. With a leaf
+// margin, a crown node less than the margin inside the surface is cut too. With cutAtSurface,
+// the segment is shortened to where it leaves (bisection) instead of dropped — "ideally one
+// must determine where the branch would intersect the canopy surface to clip it" (§3.5).
+// `bole` (if given) gets the kept nodes' bole flags.
+Tree clipTemplate(const FittedTemplate& f, const CanopyOptions& o,
+                  std::vector<char>* bole = nullptr) {
     const std::vector<SkeletonNode>& nodes = f.tree.nodes;
     const double limit = 1.0 + o.branches.clipThreshold;
+    const double margin = o.branches.leafMargin;
+    auto keeps = [&](const Vec3& p) {
+        const Vec3 local = p - o.position;
+        if (envelopeRatio(*o.envelope, local) > limit) return false;
+        return !(margin > 0.0 && envelopeDepth(*o.envelope, local) < margin);
+    };
     std::vector<int32_t> map(nodes.size(), -1);
     Tree out;
     for (size_t i = 0; i < nodes.size(); ++i) {
         const SkeletonNode& n = nodes[i];
+        SkeletonNode kept = n;
+        bool cut = false;
         if (i > 0) {
             if (map[n.parent] < 0) continue;
-            if (!f.bole[i] && envelopeRatio(*o.envelope, n.position - o.position) > limit) continue;
+            if (!f.bole[i] && !keeps(n.position)) {
+                if (!o.branches.cutAtSurface) continue;
+                // The last point of the segment still kept (the parent is).
+                const Vec3 a = out.nodes[map[n.parent]].position;
+                double lo = 0.0, hi = 1.0;
+                for (int k = 0; k < 30; ++k) {
+                    const double mid = 0.5 * (lo + hi);
+                    (keeps(a + (n.position - a) * mid) ? lo : hi) = mid;
+                }
+                if (lo * distance(a, n.position) < 1e-3) continue;
+                kept.position = a + (n.position - a) * lo;
+                cut = true;
+            }
         }
-        SkeletonNode kept = n;
         kept.parent = i > 0 ? map[n.parent] : -1;
-        map[i] = static_cast<int32_t>(out.nodes.size());
         out.nodes.push_back(kept);
+        if (bole) bole->push_back(f.bole[i]);
+        // A cut node ends its branch: nothing above it is kept.
+        map[i] = cut ? -1 : static_cast<int32_t>(out.nodes.size() - 1);
     }
     return out;
 }
@@ -519,7 +556,13 @@ void placeCanopyLeaves(Tree& tree, const CanopyOptions& o, const CanopySurfaceSa
     std::vector<Vec2> angles(lo.count);
     tree.leaves.reserve(size_t(lo.count) * lo.cluster);
     for (int k = 0; k < lo.count; ++k) {
-        const Vec2 a = sampler.sample(positions);
+        Vec2 a = sampler.sample(positions);
+        // An open base: positions below the leafy part are drawn again (the rest of the
+        // surface stays uniform by area).
+        for (int tries = 0; lo.openBase > 0.0 && a.y > kPi * (1.0 - lo.openBase) && tries < 1000;
+             ++tries) {
+            a = sampler.sample(positions);
+        }
         angles[k] = a;
         const Vec3 s = env.surfacePoint(a.x, a.y);
         // Inward toward the centre (ellipsoid) or the axis at the same height (cone).
@@ -534,6 +577,11 @@ void placeCanopyLeaves(Tree& tree, const CanopyOptions& o, const CanopySurfaceSa
             leaf.position = at;
             leaf.normal = n0;
             leaf.tangent = randomPerpendicular(n0, positions);
+            // Supported leaves point out of the crown from their base (the attachment, where
+            // a twig will reach them): the same card, its near edge on the inner side.
+            if (o.support.mode != LeafSupport::kNone && dot(leaf.tangent, outward) < 0.0) {
+                leaf.tangent = -leaf.tangent;
+            }
             leaf.size = positions.uniform(lo.sizeMin, lo.sizeMax);
             leaf.aspect = lo.aspect;
             leaf.shape = lo.shape;
@@ -544,7 +592,9 @@ void placeCanopyLeaves(Tree& tree, const CanopyOptions& o, const CanopySurfaceSa
         // its end, evenly in angle from a random start.
         const Vec3 twig = normalize(outward + positions.unitVector() * 0.5);
         const Vec3 e1 = randomPerpendicular(twig, positions), e2 = cross(twig, e1);
-        const Vec3 end = at + twig * lo.twig;
+        // Supported: the twig ends at the position (its leaves' attachment, where the grown
+        // twigs reach them, stays inside the canopy) instead of starting there.
+        const Vec3 end = o.support.mode != LeafSupport::kNone ? at : at + twig * lo.twig;
         for (int j = 0; j < lo.cluster; ++j) {
             const double psi = 2 * kPi * j / lo.cluster;
             const Vec3 side = e1 * std::cos(psi) + e2 * std::sin(psi);
@@ -627,7 +677,372 @@ int64_t attachLeaves(Tree& tree, double supportDistance) {
     return unsupported;
 }
 
+// Support: crown segments longer than `maxLength` are cut into equal pieces, so twigs can
+// sprout along them and a leaf beside a segment has a node near it. The pieces take the
+// child's order, level and radius (Murray's rule gives a chain one radius); the bole is left
+// whole. `sprouts` and `own` (per node) follow the nodes; inserted nodes get 0 own flow.
+Tree subdivideCrown(const Tree& t, double maxLength, std::vector<char>& sprouts,
+                    std::vector<double>& own) {
+    Tree out;
+    std::vector<char> outSprouts;
+    std::vector<double> outOwn;
+    std::vector<int32_t> map(t.nodes.size(), -1);
+    for (size_t i = 0; i < t.nodes.size(); ++i) {
+        SkeletonNode n = t.nodes[i];
+        if (i > 0) {
+            const int32_t parent = map[n.parent];
+            const Vec3 from = t.nodes[n.parent].position;
+            const double len = distance(from, n.position);
+            const int pieces =
+                sprouts[i] ? std::max(1, static_cast<int>(std::ceil(len / maxLength))) : 1;
+            int32_t at = parent;
+            for (int k = 1; k < pieces; ++k) {
+                SkeletonNode mid = n;
+                mid.position = from + (n.position - from) * (double(k) / pieces);
+                mid.parent = at;
+                at = static_cast<int32_t>(out.nodes.size());
+                out.nodes.push_back(mid);
+                outSprouts.push_back(sprouts[i]);
+                outOwn.push_back(0.0);
+            }
+            n.parent = at;
+        }
+        map[i] = static_cast<int32_t>(out.nodes.size());
+        out.nodes.push_back(n);
+        outSprouts.push_back(sprouts[i]);
+        outOwn.push_back(own[i]);
+    }
+    out.leaves = t.leaves;
+    sprouts.swap(outSprouts);
+    own.swap(outOwn);
+    return out;
+}
+
+// Murray's rule with a flow of the node's own (Murray 1927; Shesh §3.4): r_iⁿ = own_i +
+// Σ r_childⁿ, and a tip max(own_i, r_tipⁿ). own ≡ 0 is murrayRadii; own = what a template
+// node lost to clipping keeps the template's radii where nothing was added.
+void flowRadii(Tree& tree, const std::vector<double>& own, double tipRadius, double exponent) {
+    const size_t n = tree.nodes.size();
+    std::vector<double> sum(n, 0.0);
+    std::vector<char> hasChild(n, 0);
+    const double tipFlow = std::pow(tipRadius, exponent);
+    for (size_t i = n; i-- > 0;) {
+        SkeletonNode& node = tree.nodes[i];
+        const double o = i < own.size() ? own[i] : 0.0;
+        if (!hasChild[i]) {
+            node.radius = o > tipFlow ? std::pow(o, 1.0 / exponent) : tipRadius;
+        } else {
+            node.radius = std::pow(sum[i] + o, 1.0 / exponent);
+        }
+        if (node.parent >= 0) {
+            sum[node.parent] += std::pow(node.radius, exponent);
+            hasChild[node.parent] = 1;
+        }
+    }
+}
+
+void setEndpoints(Tree& tree) {
+    const ChildIndex children(tree);
+    tree.endpoints.clear();
+    for (int32_t i = 1; i < static_cast<int32_t>(tree.nodes.size()); ++i) {
+        if (children.count(i) == 0) tree.endpoints.push_back(i);
+    }
+}
+
+Tree finish(Tree tree, CanopyStats& st, CanopyStats* stats) {
+    st.leaves = static_cast<int64_t>(tree.leaves.size());
+    st.unsupportedLeafFraction =
+        st.leaves > 0 ? static_cast<double>(st.unsupportedLeaves) / st.leaves : 0.0;
+    if (stats) *stats = st;
+    return tree;
+}
+
+// Removes the nodes i ≥ `from` (but not those with keep[i]) that carry no leaf, neither
+// themselves nor any node above them; parents precede children, so one backward pass marks
+// and one forward pass compacts. Leaf nodes are renumbered; `survivors` (if given) gets the
+// old index of every node left. Returns the node count.
+size_t shedBare(Tree& tree, size_t from, const std::vector<char>* keep,
+                std::vector<int32_t>* survivors = nullptr) {
+    std::vector<char> bears(tree.nodes.size(), 0);
+    for (size_t i = 0; i < std::min(from, tree.nodes.size()); ++i) bears[i] = 1;
+    if (keep) {
+        for (size_t i = 0; i < keep->size(); ++i) bears[i] |= (*keep)[i];
+    }
+    for (const Leaf& l : tree.leaves) bears[l.node] = 1;
+    for (size_t i = tree.nodes.size(); i-- > 1;) {
+        if (bears[i]) bears[tree.nodes[i].parent] = 1;
+    }
+    std::vector<int32_t> remap(tree.nodes.size(), -1);
+    if (survivors) survivors->clear();
+    size_t next = 0;
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+        if (!bears[i]) continue;
+        SkeletonNode n = tree.nodes[i];
+        if (n.parent >= 0) n.parent = remap[n.parent];
+        remap[i] = static_cast<int32_t>(next);
+        tree.nodes[next++] = n;
+        if (survivors) survivors->push_back(static_cast<int32_t>(i));
+    }
+    tree.nodes.resize(next);
+    for (Leaf& l : tree.leaves) l.node = remap[l.node];
+    return next;
+}
+
 }  // namespace
+
+// --- leaf support ------------------------------------------------------------------------------
+
+int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
+                         const CanopySupportOptions& o,
+                         const std::function<bool(const Vec3&)>& inside, int64_t* grown) {
+    if (grown) *grown = 0;
+    const size_t leafCount = tree.leaves.size();
+    if (leafCount == 0) return 0;
+    if (tree.nodes.empty()) {
+        tree.leaves.clear();
+        return static_cast<int64_t>(leafCount);
+    }
+    const size_t firstGrown = tree.nodes.size();  // grown nodes follow
+    const double reach = o.reach, step = o.step, kill2 = o.attach * o.attach;
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    constexpr int kRetargets = 3;  // times a marker turns to another node before giving up
+
+    // Markers: the leaves' attachment points (the middle of the card's near edge); the leaves
+    // of a cluster share one (consecutive leaves at the same point).
+    std::vector<Vec3> marker;
+    std::vector<int32_t> markerOf(leafCount);
+    Aabb box;
+    for (size_t k = 0; k < leafCount; ++k) {
+        const Leaf& l = tree.leaves[k];
+        const Vec3 a = l.position - l.tangent * (0.5 * l.size);
+        if (marker.empty() ||
+            !(a.x == marker.back().x && a.y == marker.back().y && a.z == marker.back().z)) {
+            marker.push_back(a);
+            box.extend(a);
+        }
+        markerOf[k] = static_cast<int32_t>(marker.size() - 1);
+    }
+    const size_t markerCount = marker.size();
+    for (const SkeletonNode& n : tree.nodes) box.extend(n.position);
+    box.extend(box.lo - Vec3{reach, reach, reach});
+    box.extend(box.hi + Vec3{reach, reach, reach});
+    // Markers are fixed: packed by cell (the grid is rebuilt with the markers still waiting
+    // whenever half of them are carried). Nodes are added as twigs grow.
+    PackedPointGrid markerGrid;
+    std::vector<int32_t> gridMarker(markerCount);  // grid id → marker
+    std::iota(gridMarker.begin(), gridMarker.end(), 0);
+    markerGrid.assign(marker, 0.5 * reach);
+    PointGrid nodeGrid(box, 0.5 * reach);
+    nodeGrid.reserve(tree.nodes.size() * 2);
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+        nodeGrid.insert(static_cast<int32_t>(i), tree.nodes[i].position);
+    }
+
+    // Per marker: the nearest node that may grow (within reach) and, once one is within the
+    // kill distance, the node that carries it. Ties go to the lower index (determinism).
+    struct Marker {
+        int32_t nearest = -1;
+        double d2 = kInf;
+        int32_t carrier = -1;
+        double carrierD2 = kInf;
+        int retargets = 0;
+        int carriedAt = -1;  // iteration
+    };
+    std::vector<Marker> m(markerCount);
+    // A marker outside the region attracts nothing (no twig may reach it); a node may still
+    // come within the kill distance of it.
+    std::vector<char> pulling(markerCount);
+    for (size_t k = 0; k < markerCount; ++k) pulling[k] = inside(marker[k]) ? 1 : 0;
+    std::vector<char> canGrow(sprouts.begin(), sprouts.end());
+    canGrow.resize(tree.nodes.size(), 0);
+    auto better = [](double d2, int32_t id, double bestD2, int32_t bestId) {
+        return d2 < bestD2 || (d2 == bestD2 && id < bestId);
+    };
+    {
+        // The nearest node, and the nearest that may grow, by kd-tree (CGAL).
+        std::vector<IndexedPoint> all, growing;
+        for (size_t i = 0; i < tree.nodes.size(); ++i) {
+            const Vec3& p = tree.nodes[i].position;
+            all.emplace_back(KPoint(p.x, p.y, p.z), static_cast<int32_t>(i));
+            if (canGrow[i]) growing.push_back(all.back());
+        }
+        const NeighbourSearch::Tree allKd(all.begin(), all.end());
+        const NeighbourSearch::Tree growKd(growing.begin(), growing.end());
+        for (size_t k = 0; k < markerCount; ++k) {
+            Marker& mk = m[k];
+            const KPoint q(marker[k].x, marker[k].y, marker[k].z);
+            NeighbourSearch nearest(allKd, q, 1);
+            if (nearest.begin() != nearest.end() && nearest.begin()->second <= kill2) {
+                mk.carrier = nearest.begin()->first.second;
+                mk.carrierD2 = nearest.begin()->second;
+                continue;
+            }
+            if (growing.empty()) continue;
+            NeighbourSearch grower(growKd, q, 1);
+            if (grower.begin() != grower.end() && grower.begin()->second <= reach * reach) {
+                mk.nearest = grower.begin()->first.second;
+                mk.d2 = grower.begin()->second;
+            }
+        }
+    }
+
+    std::vector<int32_t> childCount(tree.nodes.size(), 0);
+    std::vector<double> path(tree.nodes.size(), 0.0);  // twig length from the sprouting node
+    for (size_t i = 1; i < tree.nodes.size(); ++i) ++childCount[tree.nodes[i].parent];
+    std::vector<int32_t> firstTwig(tree.nodes.size(), -1), nextTwig(tree.nodes.size(), -1);
+    std::vector<Vec3> pull(tree.nodes.size());         // Σ unit directions to the markers
+    std::vector<int32_t> pulls(tree.nodes.size(), 0);  // markers attracted
+    std::vector<int32_t> closest(tree.nodes.size(), -1);
+    std::vector<int32_t> touched, added;
+    const double duplicate2 = 0.25 * step * step;  // a twig child this close is the same twig
+    const Vec3 size = box.size();
+    const int maxIterations =
+        16 + static_cast<int>(std::ceil(4.0 * length(size) / step));  // a safety bound
+    std::vector<int32_t> active;                                      // markers not yet carried
+    for (size_t k = 0; k < markerCount; ++k) {
+        if (m[k].carrier < 0) active.push_back(static_cast<int32_t>(k));
+    }
+    for (int iteration = 0; iteration < maxIterations; ++iteration) {
+        // Runions et al. 2007, §3: every marker pulls its nearest node.
+        touched.clear();
+        size_t alive = 0;
+        for (int32_t k : active) {
+            Marker& mk = m[k];
+            if (mk.carrier >= 0) continue;
+            active[alive++] = k;
+            if (mk.nearest < 0 || !pulling[k]) continue;
+            // Its node stopped growing (at its longest, blocked by the envelope, or caught
+            // between markers): the marker turns to the nearest node that still grows, a few
+            // times, then gives up rather than pull twig after twig from the nodes around.
+            if (!canGrow[mk.nearest]) {
+                mk.nearest = -1;
+                mk.d2 = kInf;
+                if (mk.retargets++ < kRetargets) {
+                    nodeGrid.forEachWithin(marker[k], reach, [&](int32_t id, const Vec3& p) {
+                        const double d2 = distance2(p, marker[k]);
+                        if (canGrow[id] && better(d2, id, mk.d2, mk.nearest)) {
+                            mk.nearest = id;
+                            mk.d2 = d2;
+                        }
+                    });
+                }
+                if (mk.nearest < 0) {
+                    pulling[k] = 0;
+                    continue;
+                }
+            }
+            const int32_t i = mk.nearest;
+            const Vec3 d = marker[k] - tree.nodes[i].position;
+            const double len = length(d);
+            if (pulls[i]++ == 0) touched.push_back(i);
+            if (len > 0.0) pull[i] += d * (1.0 / len);
+            if (closest[i] < 0 || better(mk.d2, k, m[closest[i]].d2, closest[i])) closest[i] = k;
+        }
+        active.resize(alive);
+        if (2 * active.size() < gridMarker.size()) {  // pack the markers still waiting
+            gridMarker = active;
+            std::vector<Vec3> waiting;
+            for (int32_t k : active) waiting.push_back(marker[k]);
+            markerGrid.assign(waiting, 0.5 * reach);
+        }
+        if (touched.empty()) break;
+        std::sort(touched.begin(), touched.end());
+        added.clear();
+        for (int32_t i : touched) {
+            const Vec3 p = tree.nodes[i].position;
+            auto fits = [&](const Vec3& q) {
+                if (!inside(q)) return false;
+                for (int32_t c = firstTwig[i]; c >= 0; c = nextTwig[c]) {
+                    if (distance2(tree.nodes[c].position, q) < duplicate2) return false;
+                }
+                return true;
+            };
+            const Vec3 toClosest = marker[closest[i]] - p;
+            Vec3 q{0, 0, 0};
+            bool ok = false;
+            if (length(pull[i]) > 1e-6 * pulls[i]) {
+                // Liu et al. 2020, §3: v = norm(v_markers + λ v_g), gravity v_g = (0, −1, 0):
+                // drooping twigs.
+                Vec3 v = normalize(pull[i]);
+                if (o.droop > 0.0) {
+                    v = v + Vec3{0, -o.droop, 0};
+                    v = length(v) > 1e-9 ? normalize(v) : normalize(pull[i]);
+                }
+                q = p + v * step;
+                ok = fits(q);
+            }
+            if (!ok && length(toClosest) > 0.0) {  // opposite pulls cancel: the nearest marker
+                q = p + normalize(toClosest) * step;
+                ok = fits(q);
+            }
+            pull[i] = Vec3{0, 0, 0};
+            pulls[i] = 0;
+            closest[i] = -1;
+            if (!ok) {
+                canGrow[i] = 0;  // it cannot grow toward its markers: another node may
+                continue;
+            }
+            SkeletonNode n;
+            n.position = q;
+            n.parent = i;
+            n.order = tree.nodes[i].order + (childCount[i] > 0 ? 1 : 0);
+            n.level = n.order;
+            n.part = tree.nodes[i].part;
+            const int32_t id = static_cast<int32_t>(tree.nodes.size());
+            tree.nodes.push_back(n);
+            ++childCount[i];
+            childCount.push_back(0);
+            path.push_back(path[i] + step);
+            // A twig is at most `reach` long: beyond, it would crawl along the leaf layer.
+            canGrow.push_back(path.back() + step <= o.length * (1 + 1e-9) ? 1 : 0);
+            nextTwig.push_back(firstTwig[i]);
+            firstTwig[i] = id;
+            firstTwig.push_back(-1);
+            pull.push_back(Vec3{0, 0, 0});
+            pulls.push_back(0);
+            closest.push_back(-1);
+            nodeGrid.insert(id, q);
+            added.push_back(id);
+        }
+        if (added.empty()) continue;  // only frozen nodes: their markers give up
+
+        // The new nodes take over the markers they are nearer to, and carry those in reach (a
+        // marker is carried by the nearest of the nodes that first reach it).
+        for (int32_t id : added) {
+            const Vec3 q = tree.nodes[id].position;
+            markerGrid.forEachWithin(q, reach, [&](int32_t g, const Vec3& p) {
+                Marker& mk = m[gridMarker[g]];
+                if (mk.carrier >= 0 && mk.carriedAt < iteration) return;
+                const double d2 = distance2(p, q);
+                if (d2 <= kill2 && better(d2, id, mk.carrierD2, mk.carrier)) {
+                    mk.carrier = id;
+                    mk.carrierD2 = d2;
+                    mk.carriedAt = iteration;
+                }
+                if (canGrow[id] && better(d2, id, mk.d2, mk.nearest)) {
+                    mk.nearest = id;
+                    mk.d2 = d2;
+                }
+            });
+        }
+    }
+
+    // Carried leaves keep their node; the rest are dropped.
+    size_t kept = 0;
+    for (size_t k = 0; k < leafCount; ++k) {
+        const Marker& mk = m[markerOf[k]];
+        if (mk.carrier < 0) continue;
+        Leaf leaf = tree.leaves[k];
+        leaf.node = mk.carrier;
+        tree.leaves[kept++] = leaf;
+    }
+    tree.leaves.resize(kept);
+
+    // Twigs that carry no leaf are shed (a shoot without leaves dies back).
+    const size_t nodes = shedBare(tree, firstGrown, nullptr);
+    if (grown) *grown = static_cast<int64_t>(nodes - firstGrown);
+    return static_cast<int64_t>(leafCount - kept);
+}
 
 Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
                 const CanopySurfaceSampler* sampler) {
@@ -659,34 +1074,74 @@ Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
     if (o.branches.murrayOn == MurrayOn::kTemplate) {
         murrayRadii(fitted.tree, o.branches.tipRadius, o.branches.murrayExponent);
     }
-    Tree tree = clipTemplate(fitted, o);
-    if (o.branches.murrayOn == MurrayOn::kClipped) {
-        murrayRadii(tree, o.branches.tipRadius, o.branches.murrayExponent);
-    }
-    st.keptSegments = static_cast<int64_t>(tree.nodes.size()) - 1;
-    {
-        const ChildIndex children(tree);
-        for (int32_t i = 1; i < static_cast<int32_t>(tree.nodes.size()); ++i) {
-            if (children.count(i) == 0) tree.endpoints.push_back(i);
+    if (o.support.mode == LeafSupport::kNone) {
+        Tree tree = clipTemplate(fitted, o);
+        if (o.branches.murrayOn == MurrayOn::kClipped) {
+            murrayRadii(tree, o.branches.tipRadius, o.branches.murrayExponent);
         }
+        st.keptSegments = static_cast<int64_t>(tree.nodes.size()) - 1;
+        setEndpoints(tree);
+        // Leaves: their own stream, so changing them never moves a branch.
+        if (o.leaves.count > 0) {
+            Rng leafRng = rng.derive("leaves");
+            if (sampler) {
+                placeCanopyLeaves(tree, o, *sampler, leafRng);
+            } else {
+                const CanopySurfaceSampler own(*o.envelope);
+                placeCanopyLeaves(tree, o, own, leafRng);
+            }
+            st.unsupportedLeaves = attachLeaves(tree, o.leaves.supportDistance);
+        }
+        return finish(std::move(tree), st, stats);
     }
 
-    // Leaves: their own stream, so changing them never moves a branch.
+    // Leaf support: the template clipped (with its leaf margin), its crown segments cut to the
+    // kill distance, the leaves placed, twigs grown to them, then Murray's rule over it all.
+    std::vector<char> bole;
+    Tree tree = clipTemplate(fitted, o, &bole);
+    st.keptSegments = static_cast<int64_t>(tree.nodes.size()) - 1;
+    const double n = o.branches.murrayExponent;
+    std::vector<double> own(tree.nodes.size(), 0.0);
+    if (o.branches.murrayOn == MurrayOn::kTemplate) {
+        // What each kept node carried in the template beyond its kept children: the flow of
+        // the branches clipped off it (a kept tip: all of its own).
+        for (size_t i = 0; i < tree.nodes.size(); ++i) own[i] = std::pow(tree.nodes[i].radius, n);
+        for (size_t i = 1; i < tree.nodes.size(); ++i) {
+            own[tree.nodes[i].parent] -= std::pow(tree.nodes[i].radius, n);
+        }
+        for (double& f : own) f = std::max(0.0, f);
+    }
+    std::vector<char> sprouts(bole.size());
+    for (size_t i = 0; i < bole.size(); ++i) sprouts[i] = !bole[i];
+    tree = subdivideCrown(tree, o.support.sproutSpacing, sprouts, own);
     if (o.leaves.count > 0) {
         Rng leafRng = rng.derive("leaves");
         if (sampler) {
             placeCanopyLeaves(tree, o, *sampler, leafRng);
         } else {
-            const CanopySurfaceSampler own(*o.envelope);
-            placeCanopyLeaves(tree, o, own, leafRng);
+            const CanopySurfaceSampler samplerOwn(*o.envelope);
+            placeCanopyLeaves(tree, o, samplerOwn, leafRng);
         }
-        st.unsupportedLeaves = attachLeaves(tree, o.leaves.supportDistance);
     }
-    st.leaves = static_cast<int64_t>(tree.leaves.size());
-    st.unsupportedLeafFraction =
-        st.leaves > 0 ? static_cast<double>(st.unsupportedLeaves) / st.leaves : 0.0;
-    if (stats) *stats = st;
-    return tree;
+    const CanopyEnvelope& env = *o.envelope;
+    const Vec3 centre = o.position;
+    st.droppedLeaves = growSupportTwigs(
+        tree, sprouts, o.support,
+        [&](const Vec3& p) { return envelopeRatio(env, p - centre) <= 1.0 + 1e-9; }, &st.twigNodes);
+    if (o.support.pruneBare) {
+        // Self-pruning: crown branches that carry no leaf die (the bole stays); `own` follows.
+        std::vector<char> keep(sprouts.size());
+        for (size_t i = 0; i < sprouts.size(); ++i) keep[i] = !sprouts[i];  // the bole
+        const size_t crown = own.size();  // nodes before the twigs (which all carry leaves)
+        std::vector<int32_t> survivors;
+        shedBare(tree, 1, &keep, &survivors);
+        std::vector<double> ownKept;
+        for (int32_t i : survivors) ownKept.push_back(size_t(i) < crown ? own[i] : 0.0);
+        own.swap(ownKept);
+    }
+    flowRadii(tree, own, o.branches.tipRadius, n);
+    setEndpoints(tree);
+    return finish(std::move(tree), st, stats);
 }
 
 }  // namespace sylva

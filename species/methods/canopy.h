@@ -7,7 +7,11 @@
 //   branches (§3.4–3.5): a template from a small bracketed L-system with radii by Murray's
 //            rule, scaled so it "outgrows" the canopy, then clipped: a segment whose end lies
 //            beyond the envelope's radius in its direction (by more than a threshold) is cut,
-//            with everything above it.
+//            with everything above it;
+//   support  (issue 13, not in the paper; off by default): the template clipped a leaf-layer
+//            margin inside the envelope, and twigs grown from it to the leaves by space
+//            colonization, so every leaf is carried by wood (or dropped) — see
+//            CanopySupportOptions.
 //
 // Frame: +y up, metres, radians. The tree stands at the origin; the envelope's own frame is
 // shifted by `position` (its centre for the ellipsoid, its base centre for the cone).
@@ -26,6 +30,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -98,6 +103,12 @@ void murrayRadii(Tree& tree, double tipRadius, double exponent = 3.0);
 // apex and 1 − y/ky below the base. ≤ 1 inside.
 double envelopeRatio(const CanopyEnvelope& envelope, const Vec3& local);
 
+// How far inside the surface `local` lies, metres, measured as envelopeRatio measures: along
+// the ray from the centre (ellipsoid: |surfacePoint(angles(p))| − |p|) or horizontally from
+// the axis at the point's height (cone: the surface's distance from the axis minus the
+// point's; above the apex the surface radius is 0). Negative outside.
+double envelopeDepth(const CanopyEnvelope& envelope, const Vec3& local);
+
 // Area-uniform points on the envelope's surface (§3.2 leaf positions): a 256 × 128 grid of
 // cells over (φ, θ), each weighted by the area of its quad of surface points; within a cell
 // φ is uniform and θ follows the linear change of the cell's width, so pole cells (triangles)
@@ -134,11 +145,54 @@ struct CanopyBranchOptions {
     double murrayExponent = 3.0;
     MurrayOn murrayOn = MurrayOn::kClipped;  // radii of the clipped tree or of the template
     bool randomYaw = true;                   // turn the template about the vertical per tree
+    // Metres. > 0: a crown node is also cut where it lies less than this far inside the surface
+    // (envelopeDepth), so no template wood reaches into the leaf layer and no stub pokes out
+    // through the leaves. 0: the paper's threshold rule alone.
+    double leafMargin = 0.0;
+    // True: a segment that leaves the envelope (or enters the leaf margin) is shortened to where
+    // it does instead of dropped with its end node (§3.5's "ideally …" surface clipping).
+    bool cutAtSurface = false;
+};
+
+enum class LeafSupport { kNone, kTwigs };
+
+// Leaf support (issue 13). Shesh's leaves float: "our trees are not guaranteed to support all
+// leaves" (§1), and §5 proposes fitting the branches to the canopy "by taking a growth-based
+// approach". kTwigs does that with space colonization (Runions et al. 2007, §3): the leaves'
+// attachment points are the markers; each attracts the nearest crown node within the radius
+// of influence `reach`; a node attracted by markers grows a twig node `step` toward the mean
+// of their unit directions; a marker is removed once a node is within the kill distance
+// `attach` (the nearest of the nodes that first come that close carries its leaf; a cluster's
+// leaves share one marker). New nodes stay inside the envelope, and a twig is
+// at most `length` long from the crown node it sprouts from (longer ones would crawl along
+// the leaf layer); a marker whose node stops growing (at its longest, blocked by the
+// envelope, or caught between markers) turns to the nearest growing node within reach, up to
+// three times, then gives up. A leaf with no wood within reach, or one the twigs cannot
+// reach, is dropped; a twig that carries no leaf is shed. Twigs continue the order of a tip they
+// extend and are one order higher than a node that already has children; radii follow Murray's rule
+// over the final tree
+// (`radii = "template"`: the clipped-off template still counts, as before).
+struct CanopySupportOptions {
+    LeafSupport mode = LeafSupport::kNone;  // kNone: the paper's leaves (node within
+                                            // leaves.supportDistance, else −1)
+    double reach = 1.0;                     // radius of influence d_i, metres
+    double length = 2.0;     // longest twig (path from the crown node it sprouts from), metres
+    double step = 0.08;      // twig segment length D, metres
+    double attach = 0.12;    // kill distance d_k, metres (step ≤ attach ≤ reach)
+    bool pruneBare = false;  // crown branches of the template that carry no leaf are removed
+                             // too (self-pruning of shaded or bare limbs; the bole stays)
+    double droop = 0.0;      // λ: weight of gravity in a twig's direction (Liu et al. 2020), ≥ 0
+    double sproutSpacing = 0.3;  // crown segments cut into pieces ≤ this, metres, so twigs can
+                                 // sprout along them (the bole is left whole)
 };
 
 struct CanopyLeafOptions : LeafCardOptions {  // size, shape and orientation of the cards
     int count = 10000;   // leaf positions (§4: "each tree … has 10000 leaves")
     double depth = 0.0;  // each position pulled inward by uniform [0, depth] of its radius
+    // Fraction of the polar range θ ∈ [0, π] left bare at the bottom: no leaf with
+    // θ > π (1 − openBase) (ellipsoid: a cap around the lowest point, where the trunk enters
+    // an open crown base; cone: the lowest part of the flank). 0: leaves everywhere (§3.2).
+    double openBase = 0.0;
     int cluster = 1;     // leaves per position, fanned around a short twig (Fig. 4(a): 5)
     double twig = 0.06;  // twig length of a cluster, metres
     std::vector<double> colourFractions{1.0};  // share of positions per colour entry
@@ -154,6 +208,7 @@ struct CanopyOptions {
     std::vector<BranchTemplate> templates;
     CanopyBranchOptions branches;
     CanopyLeafOptions leaves;
+    CanopySupportOptions support;
 };
 
 struct CanopyStats {
@@ -165,7 +220,21 @@ struct CanopyStats {
     int64_t leaves = 0;
     int64_t unsupportedLeaves = 0;
     double unsupportedLeafFraction = 0.0;
+    int64_t twigNodes = 0;      // support: nodes grown (the last ones of the tree)
+    int64_t droppedLeaves = 0;  // support: leaves no twig reached (removed)
 };
+
+// Space colonization of twigs toward the leaves (see CanopySupportOptions), on any tree: the
+// markers are the leaves' attachment points (centre − tangent · size / 2). Nodes i with
+// sprouts[i] (one flag per node) may sprout twigs; every node may carry a leaf. A new node is
+// kept only where `inside(position)` holds, and a marker outside attracts nothing. Every leaf
+// left gets `node` = a node within `attach` of its attachment; the others are removed. New
+// nodes are appended (parents first) with radius 0; those that carry no leaf (nor any node
+// above them) are removed again. Returns the number of leaves dropped;
+// `grown` gets the number of nodes added.
+int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
+                         const CanopySupportOptions& options,
+                         const std::function<bool(const Vec3&)>& inside, int64_t* grown = nullptr);
 
 // The trunk top actually used (resolves trunkHeight < 0), metres.
 double canopyTrunkHeight(const CanopyOptions& options);

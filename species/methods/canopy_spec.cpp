@@ -37,6 +37,10 @@ class CanopyMethod : public GrowthMethod {
         stats["trunk_height"] = s.trunkHeight;
         stats["unsupported_leaves"] = static_cast<double>(s.unsupportedLeaves);
         stats["unsupported_leaf_fraction"] = s.unsupportedLeafFraction;
+        if (o_.support.mode != LeafSupport::kNone) {
+            stats["twig_nodes"] = static_cast<double>(s.twigNodes);
+            stats["dropped_leaves"] = static_cast<double>(s.droppedLeaves);
+        }
         return t;
     }
 
@@ -184,6 +188,8 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
             br->choice("radii", bo.murrayOn,
                        {{"clipped", MurrayOn::kClipped}, {"template", MurrayOn::kTemplate}});
         bo.randomYaw = br->boolean("random_yaw", bo.randomYaw);
+        bo.leafMargin = br->number("leaf_margin", bo.leafMargin, Range::nonNegative());
+        bo.cutAtSurface = br->boolean("cut_at_surface", bo.cutAtSurface);
         // The trunk top must be inside the canopy, or every crown segment would be cut.
         const double top = canopyTrunkHeight(o);
         const Vec3 local = Vec3{o.position.x, top, o.position.z} - o.position;
@@ -201,6 +207,31 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
                               " m: raise canopy.position above the ground");
     }
 
+    if (auto su = sp.optionalTable("support")) {
+        CanopySupportOptions& so = o.support;
+        so.mode = su->choice("mode", so.mode,
+                             {{"none", LeafSupport::kNone}, {"twigs", LeafSupport::kTwigs}});
+        so.reach = su->number("reach", so.reach, Range::positive());
+        so.length = su->number("length", so.length, Range::positive());
+        so.step = su->number("step", so.step, Range::positive());
+        so.attach = su->number("attach", so.attach, Range::positive());
+        so.sproutSpacing = su->number("sprout_spacing", so.sproutSpacing, Range::positive());
+        so.droop = su->number("droop", so.droop, Range::closed(0, 2));
+        so.pruneBare = su->boolean("prune_bare", so.pruneBare);
+        // Runions et al. 2007: a twig must not step past the marker it grows to (d_k ≥ D), and
+        // a marker must attract the node that will reach it (d_k ≤ d_i).
+        if (so.attach < so.step) {
+            su->fail(su->has("attach") ? "attach" : "step",
+                     "attach (" + num(so.attach) + " m) must be at least step (" + num(so.step) +
+                         " m): a twig would step past its leaf");
+        }
+        if (so.attach > so.reach) {
+            su->fail("attach", "attach (" + num(so.attach) + " m) must not exceed reach (" +
+                                   num(so.reach) + " m)");
+        }
+        su->finish();
+    }
+
     std::vector<Params> ts = sp.tableArray("templates");
     if (ts.empty()) sp.fail("templates", "expected at least one [[templates]] table");
     for (Params& t : ts) o.templates.push_back(parseTemplate(t));
@@ -209,6 +240,7 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
         CanopyLeafOptions& lo = o.leaves;
         lo.count = static_cast<int>(l->integer("count", lo.count, Range::closed(0, 1e6)));
         lo.depth = l->number("depth", lo.depth, Range::closed(0, 1));
+        lo.openBase = l->number("open_base", lo.openBase, Range::closed(0, 0.9));
         readLeafCards(*l, lo);
         lo.cluster = static_cast<int>(l->integer("cluster", lo.cluster, Range::closed(1, 20)));
         lo.twig = l->number("twig", lo.twig, Range::nonNegative());

@@ -1,6 +1,7 @@
 // The canopy method (Shesh et al. §3): L-system expansion and turtle, Murray radii, the
 // envelope clipping test, area-uniform leaves on the envelope, sun orientation, support,
-// template choice, determinism and the spec reader.
+// template choice, determinism, leaf support (twigs to the leaves, the leaf margin) and the
+// spec reader.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -13,6 +14,8 @@
 #include <vector>
 
 #include "species/methods/canopy.h"
+#include "species/model/realism_metrics.h"
+#include "species/model/tree_metrics.h"
 #include "species/spec/species.h"
 #include "tests/test_support.h"
 
@@ -548,6 +551,367 @@ TEST(CanopyGrow, SameSeedSameTreeOtherSeedOtherTree) {
     EXPECT_TRUE(same(a, growCanopy(o, rng, nullptr, &sampler)));
 }
 
+// --- leaf support -----------------------------------------------------------------------------
+
+// A sphere of radius 1.5 m, 3 m up, with 1,500 leaves; twigs grown to them.
+CanopyOptions supportedOptions(double margin = 0.2) {
+    CanopyOptions o = baseOptions(plainEnvelope({1.5, 1.5, 1.5}), {0, 3, 0});
+    o.templates = {bushTemplate(4)};
+    o.leaves.count = 1500;
+    o.leaves.sizeMin = 0.06;
+    o.leaves.sizeMax = 0.1;
+    o.branches.leafMargin = margin;
+    o.support.mode = LeafSupport::kTwigs;
+    o.support.reach = 1.2;
+    o.support.step = 0.06;
+    o.support.attach = 0.1;
+    return o;
+}
+
+std::vector<Vec3> attachments(const Tree& t) {
+    std::vector<Vec3> out;
+    for (const Leaf& l : t.leaves) out.push_back(l.position - l.tangent * (0.5 * l.size));
+    return out;
+}
+
+TEST(CanopySupport, EveryLeafIsCarriedWithinTheAttachDistance) {
+    const CanopyOptions o = supportedOptions();
+    Rng rng(31);
+    CanopyStats st;
+    const Tree tree = growCanopy(o, rng, &st);
+    EXPECT_GT(st.twigNodes, 100);
+    EXPECT_EQ(st.unsupportedLeaves, 0);
+    EXPECT_EQ(static_cast<int64_t>(tree.leaves.size()) + st.droppedLeaves, 1500);
+    EXPECT_LT(st.droppedLeaves, 15);  // the sphere is well inside the reach of its template
+    // The carrying node is within the kill distance of the attachment, so the wood is too.
+    const std::vector<Vec3> at = attachments(tree);
+    const std::vector<double> wood = woodDistances(tree, at);
+    double worst = 0.0;
+    for (size_t k = 0; k < tree.leaves.size(); ++k) {
+        const Leaf& l = tree.leaves[k];
+        ASSERT_GE(l.node, 0);
+        ASSERT_LT(l.node, static_cast<int32_t>(tree.nodes.size()));
+        EXPECT_LE(distance(tree.nodes[l.node].position, at[k]), o.support.attach + 1e-12);
+        EXPECT_LE(wood[k], o.support.attach + 1e-12);
+        worst = std::max(worst, wood[k]);
+    }
+    EXPECT_GT(worst, 0.0);
+    // Every grown twig carries a leaf at its tip (twigs that reach none are shed).
+    const ChildIndex children(tree);
+    std::vector<char> carries(tree.nodes.size(), 0);
+    for (const Leaf& l : tree.leaves) carries[l.node] = 1;
+    for (size_t i = tree.nodes.size() - static_cast<size_t>(st.twigNodes); i < tree.nodes.size();
+         ++i) {
+        if (children.count(static_cast<int32_t>(i)) == 0) {
+            EXPECT_TRUE(carries[i]) << i;
+        }
+    }
+    // Without support the same leaves float (the paper's rule): most are far from the wood.
+    CanopyOptions off = o;
+    off.support.mode = LeafSupport::kNone;
+    off.branches.leafMargin = 0.0;
+    Rng again(31);
+    const Tree bare = growCanopy(off, again);
+    const std::vector<double> far = woodDistances(bare, attachments(bare));
+    EXPECT_GT(quantile(far, 0.95), 2 * o.support.attach);
+}
+
+TEST(CanopySupport, NoWoodBeyondTheEnvelopeOrInsideTheLeafMargin) {
+    const double r = 1.5, margin = 0.2;
+    CanopyOptions o = supportedOptions(margin);
+    // The trunk top well inside (its default, 0.9 r below the centre, lies in the margin band,
+    // and the first limbs leave it through the band).
+    o.branches.trunkHeight = 2.0;
+    Rng rng(32);
+    CanopyStats st;
+    const Tree tree = growCanopy(o, rng, &st);
+    const size_t firstTwig = tree.nodes.size() - static_cast<size_t>(st.twigNodes);
+    const std::vector<char> bole = boleOf(tree, canopyTrunkHeight(o));
+    double deepest = 0.0;  // the template's closest approach to the surface
+    for (size_t i = 0; i < tree.nodes.size(); ++i) {
+        const double d = distance(tree.nodes[i].position, o.position);
+        if (i >= firstTwig) {
+            EXPECT_LE(d, r + 1e-9) << i;  // twigs stay inside the envelope
+        } else if (!bole[i]) {
+            EXPECT_LE(d, r - margin + 1e-9) << i;  // the template stops below the leaf layer
+            deepest = std::max(deepest, d);
+        }
+    }
+    EXPECT_GT(deepest, r - margin - 0.2);  // the template reaches up to the margin
+    // The tips' tubes too: no tip pokes out through the sphere.
+    for (int32_t e : tree.endpoints) {
+        const SkeletonNode& n = tree.nodes[e];
+        EXPECT_LE(distance(n.position, o.position) + n.radius, r + o.branches.tipRadius);
+    }
+    // Without the margin the clipped template pokes beyond r − margin (the paper's rule keeps
+    // nodes up to (1 + threshold) r).
+    CanopyOptions paper = o;
+    paper.support.mode = LeafSupport::kNone;
+    paper.branches.leafMargin = 0.0;
+    Rng again(32);
+    double out = 0.0;
+    for (const SkeletonNode& n : growCanopy(paper, again).nodes)
+        out = std::max(out, distance(n.position, o.position));
+    EXPECT_GT(out, r);
+}
+
+TEST(CanopySupport, TwigsHaveOrdersAndMurrayRadii) {
+    for (MurrayOn radii : {MurrayOn::kClipped, MurrayOn::kTemplate}) {
+        CanopyOptions o = supportedOptions();
+        o.branches.murrayOn = radii;
+        Rng rng(33);
+        CanopyStats st;
+        const Tree tree = growCanopy(o, rng, &st);
+        const size_t firstTwig = tree.nodes.size() - static_cast<size_t>(st.twigNodes);
+        const ChildIndex children(tree);
+        for (size_t i = firstTwig; i < tree.nodes.size(); ++i) {
+            const SkeletonNode& n = tree.nodes[i];
+            const int32_t po = tree.nodes[n.parent].order;
+            EXPECT_TRUE(n.order == po || n.order == po + 1) << i;
+            EXPECT_EQ(n.level, n.order);
+            EXPECT_LT(n.parent, static_cast<int32_t>(i));
+        }
+        // At most one child of a node continues its order.
+        for (int32_t i = 0; i < static_cast<int32_t>(tree.nodes.size()); ++i) {
+            int same = 0;
+            for (int k = children.offset[i]; k < children.offset[i + 1]; ++k)
+                same += tree.nodes[children.child[k]].order == tree.nodes[i].order;
+            EXPECT_LE(same, 1) << i;
+        }
+        // Murray's rule: tips have the tip radius (clipped radii) and every fork carries its
+        // children (equality for clipped radii; template radii add the clipped-off flow).
+        for (int32_t i = 0; i < static_cast<int32_t>(tree.nodes.size()); ++i) {
+            const double r = tree.nodes[i].radius;
+            if (children.count(i) == 0) {
+                if (radii == MurrayOn::kClipped) {
+                    EXPECT_EQ(r, o.branches.tipRadius);
+                }
+                EXPECT_GE(r, o.branches.tipRadius * (1 - 1e-12));
+                continue;
+            }
+            double sum = 0.0;
+            for (int k = children.offset[i]; k < children.offset[i + 1]; ++k)
+                sum += std::pow(tree.nodes[children.child[k]].radius, 3);
+            if (radii == MurrayOn::kClipped) {
+                EXPECT_NEAR(std::pow(r, 3), sum, 1e-9 * sum) << i;
+            } else {
+                EXPECT_GE(std::pow(r, 3), sum * (1 - 1e-9)) << i;
+            }
+        }
+        // Endpoints are the tips.
+        size_t tips = 0;
+        for (int32_t i = 1; i < static_cast<int32_t>(tree.nodes.size()); ++i)
+            tips += children.count(i) == 0;
+        EXPECT_EQ(tree.endpoints.size(), tips);
+    }
+}
+
+TEST(CanopySupport, WithoutLeavesTheRadiiAreThoseOfTheClippedTemplate) {
+    // No leaves, no twigs: cutting segments into pieces changes no radius, and "template"
+    // radii keep the whole template's thickness exactly.
+    for (MurrayOn radii : {MurrayOn::kClipped, MurrayOn::kTemplate}) {
+        CanopyOptions o = supportedOptions(0.0);
+        o.leaves.count = 0;
+        o.branches.murrayOn = radii;
+        CanopyOptions off = o;
+        off.support.mode = LeafSupport::kNone;
+        Rng a(34), b(34);
+        CanopyStats st;
+        const Tree with = growCanopy(o, a, &st), without = growCanopy(off, b);
+        EXPECT_EQ(st.twigNodes, 0);
+        EXPECT_GT(with.nodes.size(), without.nodes.size());  // the crown was cut into pieces
+        EXPECT_NEAR(with.nodes[0].radius, without.nodes[0].radius, 1e-12);
+        EXPECT_EQ(with.endpoints.size(), without.endpoints.size());
+    }
+}
+
+TEST(CanopySupport, CutAtSurfaceEndsLimbsAtTheMarginAndTheBaseCanBeOpen) {
+    const double r = 1.5, margin = 0.2;
+    CanopyOptions o = supportedOptions(margin);
+    o.branches.trunkHeight = 2.0;
+    o.leaves.count = 0;
+    o.support.mode = LeafSupport::kNone;
+    Rng a(35), b(35);
+    CanopyStats dropped, cut;
+    const Tree whole = growCanopy(o, a, &dropped);
+    o.branches.cutAtSurface = true;
+    const Tree shortened = growCanopy(o, b, &cut);
+    // Same template, same cuts: a segment leaving the inner sphere ends on it instead of
+    // vanishing, so there are more segments and the farthest tips lie on r − margin.
+    EXPECT_GT(cut.keptSegments, dropped.keptSegments);
+    auto farthest = [&](const Tree& t) {  // over the crown (the bole stands below the sphere)
+        const std::vector<char> bole = boleOf(t, 2.0);
+        double far = 0.0;
+        for (size_t i = 0; i < t.nodes.size(); ++i)
+            if (!bole[i]) far = std::max(far, distance(t.nodes[i].position, o.position));
+        return far;
+    };
+    const double farWhole = farthest(whole), farCut = farthest(shortened);
+    EXPECT_LE(farCut, r - margin + 1e-9);
+    EXPECT_GT(farCut, r - margin - 1e-6);
+    EXPECT_LT(farWhole, r - margin - 1e-3);
+    // An open base: no leaf in the bottom 20 % of θ, and as many leaves as asked.
+    CanopyOptions open = supportedOptions(margin);
+    open.support.mode = LeafSupport::kNone;
+    open.leaves.openBase = 0.2;
+    Rng c(36);
+    const Tree t = growCanopy(open, c);
+    ASSERT_EQ(t.leaves.size(), 1500u);
+    double lowest = kPi;
+    for (const Leaf& l : t.leaves) {
+        const Vec3 d = l.position - open.position;
+        const double theta = std::acos(std::clamp(d.y / length(d), -1.0, 1.0));
+        EXPECT_LE(theta, 0.8 * kPi + 1e-9);
+        lowest = std::min(lowest, 0.8 * kPi - theta);
+    }
+    EXPECT_LT(lowest, 0.02);  // the leaves reach down to the edge
+}
+
+TEST(CanopySupport, PruneBareLeavesNoBranchWithoutLeaves) {
+    // The lower half of the sphere bare: without pruning, template branches end there with no
+    // leaf; with it every tip carries a leaf, and the leaves are the same.
+    CanopyOptions o = supportedOptions();
+    o.leaves.openBase = 0.5;
+    auto bareTips = [](const Tree& t) {
+        std::vector<char> carries(t.nodes.size(), 0);
+        for (const Leaf& l : t.leaves) carries[l.node] = 1;
+        int bare = 0;
+        for (int32_t e : t.endpoints) bare += !carries[e];
+        return bare;
+    };
+    Rng a(37), b(37);
+    const Tree all = growCanopy(o, a);
+    o.support.pruneBare = true;
+    CanopyStats st;
+    const Tree pruned = growCanopy(o, b, &st);
+    EXPECT_GT(bareTips(all), 10);
+    EXPECT_EQ(bareTips(pruned), 0);
+    EXPECT_LT(pruned.nodes.size(), all.nodes.size());
+    ASSERT_EQ(pruned.leaves.size(), all.leaves.size());
+    for (size_t k = 0; k < all.leaves.size(); ++k) {
+        EXPECT_EQ(pruned.leaves[k].position.x, all.leaves[k].position.x);
+        const Vec3 p = pruned.nodes[pruned.leaves[k].node].position;
+        const Vec3 q = all.nodes[all.leaves[k].node].position;
+        EXPECT_EQ(distance(p, q), 0.0);  // the same carrying node, renumbered
+    }
+    // The last twigNodes nodes are still the twigs, and the tree is still rooted in order.
+    for (size_t i = 1; i < pruned.nodes.size(); ++i)
+        EXPECT_LT(pruned.nodes[i].parent, static_cast<int32_t>(i));
+    EXPECT_LE(static_cast<size_t>(st.twigNodes), pruned.nodes.size());
+}
+
+// A hand-built trunk (0, 0, 0) → (0, 2, 0); leaves of size 0 (attachment = position).
+Tree stick() {
+    Tree t;
+    for (int k = 0; k <= 4; ++k) {
+        SkeletonNode n;
+        n.position = {0, 0.5 * k, 0};
+        n.parent = k - 1;
+        t.nodes.push_back(n);
+    }
+    return t;
+}
+
+void addLeaf(Tree& t, Vec3 p) {
+    Leaf l;
+    l.position = p;
+    l.size = 0.0;
+    t.leaves.push_back(l);
+}
+
+TEST(CanopySupport, LeavesBeyondReachOrTheLongestTwigAreDropped) {
+    CanopySupportOptions o;
+    o.mode = LeafSupport::kTwigs;
+    o.reach = 1.0;
+    o.length = 1.0;
+    o.step = 0.05;
+    o.attach = 0.1;
+    const std::vector<char> sprouts(5, 1);
+    auto anywhere = [](const Vec3&) { return true; };
+    Tree t = stick();
+    // A ring around the top (opposite pulls cancel at the trunk: it grows toward the nearest);
+    // a row out from the trunk's middle at 0.8, 1.08 (a twig of at most length = 1 m ends
+    // within attach of it), 1.5 and 2.2 m (beyond length + attach); a lone leaf 3 m out; a leaf at
+    // the trunk.
+    for (int k = 0; k < 8; ++k) {
+        const double a = 2 * kPi * k / 8;
+        addLeaf(t, {0.6 * std::cos(a), 2.0, 0.6 * std::sin(a)});
+    }
+    for (double z : {0.8, 1.08, 1.5, 2.2}) addLeaf(t, {0, 1.0, z});
+    addLeaf(t, {-3.0, 1.0, 0.0});
+    addLeaf(t, {0.05, 0.5, 0.0});  // within attach of the trunk: no twig needed
+    int64_t grown = 0;
+    EXPECT_EQ(growSupportTwigs(t, sprouts, o, anywhere, &grown), 3);
+    ASSERT_EQ(t.leaves.size(), 11u);
+    EXPECT_EQ(static_cast<int64_t>(t.nodes.size()), 5 + grown);
+    for (const Leaf& l : t.leaves) {
+        EXPECT_NE(l.position.x, -3.0);
+        EXPECT_LT(l.position.z, 1.1);
+        ASSERT_GE(l.node, 0);
+        EXPECT_LE(distance(t.nodes[l.node].position, l.position), o.attach + 1e-12);
+    }
+    EXPECT_EQ(t.leaves.back().node, 1);  // the leaf at the trunk hangs on it
+    // Every new node is one step from its parent, and no twig is longer than `length`.
+    std::vector<double> path(t.nodes.size(), 0.0);
+    for (size_t i = 5; i < t.nodes.size(); ++i) {
+        const int32_t p = t.nodes[i].parent;
+        EXPECT_NEAR(distance(t.nodes[i].position, t.nodes[p].position), o.step, 1e-12);
+        path[i] = path[p] + o.step;
+        EXPECT_LE(path[i], o.length + 1e-9);
+    }
+    // Nodes that may not sprout grow nothing: a leaf beyond the kill distance drops.
+    Tree u = stick();
+    addLeaf(u, {0.5, 1.0, 0.0});
+    addLeaf(u, {0.05, 1.0, 0.0});
+    EXPECT_EQ(growSupportTwigs(u, std::vector<char>(5, 0), o, anywhere, &grown), 1);
+    EXPECT_EQ(grown, 0);
+    ASSERT_EQ(u.leaves.size(), 1u);
+    EXPECT_EQ(u.leaves[0].node, 2);
+    // Twigs never leave the region: a wall 0.15 < x < 0.25 between the trunk and a leaf at
+    // x = 0.5 stops the twig at x = 0.15 and that leaf drops; the leaf at x = 0.12 hangs on the
+    // first twig node to reach it (x = 0.05, 0.07 away), and the twig beyond, grown toward the
+    // other leaf, is shed (it carries nothing).
+    Tree v = stick();
+    addLeaf(v, {0.5, 1.0, 0.0});
+    addLeaf(v, {0.12, 1.0, 0.0});
+    auto wall = [](const Vec3& p) { return !(p.x > 0.15 + 1e-9 && p.x < 0.25); };
+    EXPECT_EQ(growSupportTwigs(v, sprouts, o, wall, &grown), 1);
+    ASSERT_EQ(grown, 1);  // x = 0.05 (0.10 and 0.15 were grown and shed)
+    ASSERT_EQ(v.leaves.size(), 1u);
+    EXPECT_EQ(v.leaves[0].node, 5);
+    EXPECT_NEAR(v.nodes[5].position.x, 0.05, 1e-12);
+    for (const SkeletonNode& n : v.nodes) EXPECT_LE(n.position.x, 0.15 + 1e-9);
+    // A leaf outside the region attracts no twig.
+    Tree w = stick();
+    addLeaf(w, {0.5, 1.0, 0.0});
+    EXPECT_EQ(growSupportTwigs(
+                  w, sprouts, o, [](const Vec3& p) { return p.x < 0.4; }, &grown),
+              1);
+    EXPECT_EQ(grown, 0);
+}
+
+TEST(CanopySupport, SameSeedSameSupportedTree) {
+    CanopyOptions o = supportedOptions();
+    o.envelope = lumpyEnvelope();
+    o.position = {0, 4, 0};
+    o.leaves.cluster = 3;
+    auto grow = [&](uint64_t seed) {
+        Rng rng(seed);
+        return growCanopy(o, rng);
+    };
+    const Tree a = grow(41), b = grow(41), c = grow(42);
+    ASSERT_EQ(a.nodes.size(), b.nodes.size());
+    ASSERT_EQ(a.leaves.size(), b.leaves.size());
+    for (size_t i = 0; i < a.nodes.size(); ++i) {
+        EXPECT_EQ(a.nodes[i].position.x, b.nodes[i].position.x);
+        EXPECT_EQ(a.nodes[i].position.y, b.nodes[i].position.y);
+        EXPECT_EQ(a.nodes[i].radius, b.nodes[i].radius);
+        EXPECT_EQ(a.nodes[i].parent, b.nodes[i].parent);
+    }
+    for (size_t i = 0; i < a.leaves.size(); ++i) EXPECT_EQ(a.leaves[i].node, b.leaves[i].node);
+    EXPECT_NE(a.nodes.size(), c.nodes.size());
+}
+
 // --- spec reader ------------------------------------------------------------------------------
 
 using sylva::test::TempDir;
@@ -608,6 +972,14 @@ TEST(CanopySpec, BadParametersNameFileLineAndKey) {
         {"[leaves]\nper_tip = 4\n", "leaves.per_tip: unknown key"},
         {"[branches]\ntrunk_height = 1.0\n", "branches.trunk_height: the trunk top"},
         {"[branches]\nfit = \"squash\"\n", "branches.fit: expected one of"},
+        {"[branches]\nleaf_margin = -0.1\n", "branches.leaf_margin: expected a number"},
+        {"[support]\nmode = \"twigs\"\nreach = 1.2\nstep = 0.1\nattach = 0.15\n", ""},
+        {"[support]\nmode = \"grow\"\n", "support.mode: expected one of"},
+        {"[support]\nmode = \"twigs\"\nstep = 0.2\n",
+         "c.toml:15:8: support.step: attach (0.12 m) must be at least step (0.2 m)"},
+        {"[support]\nmode = \"twigs\"\nattach = 0.05\n", "support.attach: attach (0.05 m)"},
+        {"[support]\nreach = 0.1\nattach = 0.11\n",
+         "support.attach: attach (0.11 m) must not exceed reach (0.1 m)"},
     };
     for (const Case& c : cases) {
         const std::string e = specError(c.extra);
