@@ -2,6 +2,8 @@
 //  - Table1Tree: one iterated-graph tree at the scale of Xu & Mould 2012 Table 1
 //    (~350k graph nodes, ~34k endpoints), on 1 thread and on all cores.
 //  - MeshTree / WatertightTree / RenderView: per-tree meshing and per-view rendering.
+//  - LeafShapeMesh / LeafShapeRender: a leafy tree's leaf mesh and one view, cards vs each
+//    leaf shape.
 //  - WriteViewFile: one view's silhouette PNG, label PNG and depth EXR, per file.
 //  - DatasetBuild: the whole demo dataset (1,000 trees with meshes and 8 views, files
 //    written) and an ez-tree-sized one, trees per second.
@@ -41,6 +43,7 @@
 #include "species/geometry/watertight.h"
 #include "species/methods/iterated_graph.h"
 #include "species/methods/space_colonization.h"
+#include "species/model/leaf_shape.h"
 #include "species/spec/species.h"
 #include "species/spec/volume_spec.h"
 
@@ -148,6 +151,56 @@ static void RenderViewLarge(benchmark::State& state) {
     state.counters["segments"] = static_cast<double>(tree.nodes.size() - 1);
 }
 BENCHMARK(RenderViewLarge)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
+
+// Leaf shapes: Jain 2021's guava (species/papers/jain-2021/grammar-guava.toml, seed 1, about
+// 4,900 particle leaves) with every leaf given one shape (Arg: LeafShape, 0 card … 6 frond;
+// the label names it): its leaf mesh per tree, and one 512×512 view with depth and labels on
+// one thread (the views cycle through 8 cameras around the tree).
+static Tree guavaWithShape(LeafShape shape) {
+    static const Tree guava =
+        growSpecies(loadSpecies(SYLVA_SOURCE_DIR "/species/papers/jain-2021/grammar-guava.toml"), 1,
+                    nullptr, false)
+            .tree;
+    Tree t = guava;
+    for (Leaf& leaf : t.leaves) leaf.shape = shape;
+    return t;
+}
+
+static void LeafShapeMesh(benchmark::State& state) {
+    const LeafShape shape = static_cast<LeafShape>(state.range(0));
+    const Tree tree = guavaWithShape(shape);
+    Mesh m;
+    for (auto _ : state) {
+        m = leafMesh(tree);
+        benchmark::DoNotOptimize(m.indices.data());
+    }
+    state.SetLabel(leafShapeWords()[state.range(0)].first);
+    state.counters["leaves"] = static_cast<double>(tree.leaves.size());
+    state.counters["leaf_triangles"] = static_cast<double>(m.triangleCount());
+}
+BENCHMARK(LeafShapeMesh)->DenseRange(0, 6)->Unit(benchmark::kMillisecond);
+
+static void LeafShapeRender(benchmark::State& state) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    const LeafShape shape = static_cast<LeafShape>(state.range(0));
+    const Tree tree = guavaWithShape(shape);
+    ViewOptions vo;
+    vo.count = 8;
+    vo.width = vo.height = 512;
+    vo.randomAzimuth = false;
+    Rng rng(1);
+    const std::vector<Camera> cams = makeCameras(tree, vo, rng);
+    size_t k = 0;
+    for (auto _ : state) {
+        ViewImage v = renderView(tree, cams[k++ % cams.size()], true, true);
+        benchmark::DoNotOptimize(v.silhouette.data());
+    }
+    std::vector<ViewImage> views;
+    for (const Camera& c : cams) views.push_back(renderView(tree, c, false, true));
+    state.SetLabel(leafShapeWords()[state.range(0)].first);
+    state.counters["leaf_pixel_fraction"] = leafPixelFraction(views);
+}
+BENCHMARK(LeafShapeRender)->DenseRange(0, 6)->Unit(benchmark::kMillisecond);
 
 // Writing one view's files to a RAM disk (/dev/shm when present): the silhouette PNG, the
 // label PNG and the depth EXR (Arg 0, 1, 2), per file.

@@ -1,6 +1,6 @@
 // CPU renderer of one view: skeleton segments as tapered capsules (drawn directly, no mesh,
-// so sub-pixel twigs survive) and leaf cards as triangle pairs, z-buffered; plus silhouette
-// statistics.
+// so sub-pixel twigs survive) and leaves as the triangles of their outlines, z-buffered; plus
+// silhouette statistics.
 //
 // Segments. Each is a tapered capsule: the union of the spheres of radius r(t) (linear
 // between the node radii) about the axis points. A pixel is covered when its centre's ray
@@ -17,8 +17,10 @@
 // inside it, and back-projected points stay within radius + a pixel of the skeleton.)
 // Capsules thinner than the minimum width everywhere skip the ray test and use the axis.
 //
-// Leaves: each card is two triangles covering the pixels whose centres are inside them
-// (edges inclusive; no minimum width, so cards seen exactly edge-on vanish), with
+// Leaves: each leaf is the triangles of its shape's outline (species/model/leaf_shape.h; the
+// card: two triangles), from the same points as the mesh's leaves (leafPoints), covering the
+// pixels whose centres are inside them (edges inclusive; no minimum width, so leaves seen
+// exactly edge-on, and needles thinner than a pixel between pixel centres, vanish), with
 // perspective-correct depth (1/z linear in screen space; z linear for orthographic).
 // Geometry in front of the near plane (depth 1e-4 m) is clipped.
 //
@@ -38,6 +40,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "species/model/leaf_shape.h"
+
 namespace sylva {
 
 namespace {
@@ -46,6 +50,7 @@ constexpr double kMinRadiusPx = 0.7072;  // just over √½: the pixel holding a
 constexpr double kNear = 1e-4;           // metres; geometry closer than this is clipped
 constexpr float kMinDepth = 1e-6f;       // drawn depths stay > 0 (0 means background)
 constexpr int kBandRows = 16;
+constexpr double kSpanMargin = 1e-6;  // pixels: a triangle's row span is widened by this
 
 // World → camera space, camera space → pixels.
 struct View {
@@ -144,6 +149,30 @@ struct Triangle {
     float zmin;
     Box box;
 };
+
+// True when the triangle's box holds at most four pixel centres and each is clearly outside
+// it (a barycentric weight below −1e-9), so drawing it would change no pixel: most leaf
+// triangles of shaped leaves are smaller than a pixel, and skipping them keeps the scene small.
+// Centres within the margin are left to drawTriangle's exact test.
+bool missesEveryCentre(const Triangle& t) {
+    if ((t.box.x1 - t.box.x0 + 1) * (t.box.y1 - t.box.y0 + 1) > 4) return false;
+    const double inv = 1.0 / t.area;
+    for (int y = t.box.y0; y <= t.box.y1; ++y) {
+        for (int x = t.box.x0; x <= t.box.x1; ++x) {
+            const double pxc = x + 0.5, pyc = y + 0.5;
+            bool outside = false;
+            for (int j = 0; j < 3 && !outside; ++j) {
+                const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+                outside = ((t.x[j2] - t.x[j1]) * (pyc - t.y[j1]) -
+                           (t.y[j2] - t.y[j1]) * (pxc - t.x[j1])) *
+                              inv <
+                          -1e-9;
+            }
+            if (!outside) return false;
+        }
+    }
+    return true;
+}
 
 // Camera-space polygon clipped to depth ≥ kNear (Sutherland–Hodgman against one plane).
 int clipNear(const Vec3* in, int n, Vec3* out) {
@@ -290,34 +319,38 @@ Scene buildScene(const Tree& tree, const View& view) {
         if (!(t.area != 0.0) || !pixelBox(lox, hix, loy, hiy, view.width, view.height, t.box)) {
             return;
         }
+        if (missesEveryCentre(t)) return;  // a sub-pixel leaf triangle between pixel centres
         const int32_t id = firstTri + static_cast<int32_t>(scene.triangles.size());
         scene.triangles.push_back(t);
         addToBins(scene, t.box, id);
     };
+    // Each leaf's outline triangles, from the same points as its mesh (leafPoints).
+    std::vector<Vec3> world, inCamera;
+    std::vector<Corner> corners;
     for (const Leaf& leaf : tree.leaves) {
-        const Vec3 along = leaf.tangent * (0.5 * leaf.size);
-        const Vec3 across = cross(leaf.normal, leaf.tangent) * (0.5 * leaf.size * leaf.aspect);
-        const Vec3 quad[4] = {
-            view.toCamera(leaf.position - along - across),
-            view.toCamera(leaf.position + along - across),
-            view.toCamera(leaf.position + along + across),
-            view.toCamera(leaf.position - along + across),
-        };
+        const LeafOutline& outline = leafOutline(leaf.shape);
+        leafPoints(leaf, leafFrame(leaf), outline, world);
+        inCamera.resize(world.size());
         bool inFront = true;
-        for (const Vec3& q : quad) inFront = inFront && -q.z - kNear >= 0;
-        if (inFront) {  // the usual case: no clipping, each corner projected once
-            const Corner c[4] = {project(quad[0]), project(quad[1]), project(quad[2]),
-                                 project(quad[3])};
-            addTriangle(c[0], c[1], c[2]);
-            addTriangle(c[0], c[2], c[3]);
+        for (size_t i = 0; i < world.size(); ++i) {
+            inCamera[i] = view.toCamera(world[i]);
+            inFront = inFront && -inCamera[i].z - kNear >= 0;
+        }
+        const std::vector<uint32_t>& tri = outline.triangles;
+        if (inFront) {  // the usual case: no clipping, each point projected once
+            corners.resize(inCamera.size());
+            for (size_t i = 0; i < inCamera.size(); ++i) corners[i] = project(inCamera[i]);
+            for (size_t k = 0; k < tri.size(); k += 3) {
+                addTriangle(corners[tri[k]], corners[tri[k + 1]], corners[tri[k + 2]]);
+            }
             continue;
         }
-        for (int half = 0; half < 2; ++half) {
-            const Vec3 tri[3] = {quad[0], quad[1 + half], quad[2 + half]};
+        for (size_t k = 0; k < tri.size(); k += 3) {
+            const Vec3 t3[3] = {inCamera[tri[k]], inCamera[tri[k + 1]], inCamera[tri[k + 2]]};
             Vec3 poly[4];
-            const int n = clipNear(tri, 3, poly);
-            for (int k = 1; k + 1 < n; ++k) {  // fan
-                addTriangle(project(poly[0]), project(poly[k]), project(poly[k + 1]));
+            const int n = clipNear(t3, 3, poly);
+            for (int j = 1; j + 1 < n; ++j) {  // fan
+                addTriangle(project(poly[0]), project(poly[j]), project(poly[j + 1]));
             }
         }
     }
@@ -457,7 +490,27 @@ void drawTriangle(const Triangle& t, const View& view, int row0, int row1, float
     for (int y = std::max(t.box.y0, row0); y <= std::min(t.box.y1, row1 - 1); ++y) {
         const double pyc = y + 0.5;
         const size_t rowOff = static_cast<size_t>(y) * w;
-        for (int x = t.box.x0; x <= t.box.x1; ++x) {
+        // The row's span: each barycentric weight is linear in x along the row, so the
+        // inside is an interval; widened by a hair so the exact test below, unchanged, still
+        // decides every pixel (slivers such as needles no longer scan their whole box).
+        double lo = t.box.x0 + 0.5, hi = t.box.x1 + 0.5;
+        for (int j = 0; j < 3; ++j) {
+            const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+            // bc[j] = (a − b (x − x[j1])) · inv ≥ 0
+            const double a = (t.x[j2] - t.x[j1]) * (pyc - t.y[j1]) * inv;
+            const double b = (t.y[j2] - t.y[j1]) * inv;
+            if (b > 0) {
+                hi = std::min(hi, t.x[j1] + a / b + kSpanMargin);
+            } else if (b < 0) {
+                lo = std::max(lo, t.x[j1] + a / b - kSpanMargin);
+            } else if (a < -kSpanMargin) {
+                lo = hi + 1;  // parallel to the row and outside: no pixel
+            }
+        }
+        if (!(lo <= hi)) continue;
+        const int xa = std::max(t.box.x0, firstCentreAtOrAfter(lo, w));
+        const int xb = std::min(t.box.x1, lastCentreAtOrBefore(hi, w));
+        for (int x = xa; x <= xb; ++x) {
             const size_t k = rowOff + x;
             if (zbuf[k] < t.zmin) continue;
             const double pxc = x + 0.5;

@@ -1,4 +1,4 @@
-// A CPU renderer of one view: the skeleton's tapered capsules and the leaf cards, z-buffered
+// A CPU renderer of one view: the skeleton's tapered capsules and the leaves, z-buffered
 // into a silhouette, a depth map and a label image; plus silhouette statistics.
 #pragma once
 
@@ -40,8 +40,9 @@ struct ViewImage {
 };
 
 // Renders one view: every skeleton segment as a tapered capsule (its screen radius at least
-// √½ px, so sub-pixel twigs still appear as unbroken lines) and every leaf card as two triangles,
-// z-buffered. Deterministic whatever the thread count.
+// √½ px, so sub-pixel twigs still appear as unbroken lines) and every leaf as the triangles of
+// its outline (the same triangles as the mesh's leaves), z-buffered. Deterministic whatever the
+// thread count.
 ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, bool wantLabels);
 
 // Silhouette statistics.

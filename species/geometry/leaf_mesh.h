@@ -1,4 +1,5 @@
-// Leaf cards as triangles. Frame: +y up, metres.
+// Leaves as triangles: each leaf's outline (species/model/leaf_shape.h) on its card, both
+// faces. Frame: +y up, metres.
 #pragma once
 
 #include "species/geometry/mesh.h"
@@ -6,8 +7,10 @@
 
 namespace sylva {
 
-// Leaf cards: one quad (two triangles, both faces) per leaf, centred on the leaf position,
-// spanning `size` along the leaf's tangent and size·aspect across, facing its normal.
+// Per leaf, the outline of its shape (the card: one quad) placed on the card — `size` along
+// the leaf's tangent, size·aspect across, facing its normal — as two faces: the outline's
+// points twice (front normal +leaf.normal, back −leaf.normal) and its triangles twice (the
+// back ones reversed). The renderer draws the same triangles (leafPoints).
 Mesh leafMesh(const Tree& tree);
 
 }  // namespace sylva

@@ -45,6 +45,7 @@ void placeLeaves(Tree& tree, const LeafOptions& o, Rng& rng) {
             Leaf leaf;
             leaf.size = rng.uniform(o.sizeMin, o.sizeMax);
             leaf.aspect = o.aspect;
+            leaf.shape = o.shape;
             // The blade points away from the twig, half a leaf off its axis.
             Vec3 side = rng.unitVector();
             side = side - twigDir * dot(side, twigDir);

@@ -15,7 +15,8 @@ enum class LeafOrientation { kRandom, kSun };
 struct LeafCardOptions {
     double sizeMin = 0.08;  // card length, uniform in [sizeMin, sizeMax], metres
     double sizeMax = 0.14;
-    double aspect = 0.6;  // card width / length
+    double aspect = 0.6;                 // card width / length
+    LeafShape shape = LeafShape::kCard;  // the outline on the card (species/model/leaf_shape.h)
     LeafOrientation orientation = LeafOrientation::kRandom;
     Vec3 sun{0.3, 1.0, 0.2};  // towards the sun (unit after parsing)
     double sunWeight = 0.7;   // normal = normalise(w·sun + (1 − w)·random)

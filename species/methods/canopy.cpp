@@ -584,6 +584,7 @@ void placeCanopyLeaves(Tree& tree, const CanopyOptions& o, const CanopySurfaceSa
             }
             leaf.size = positions.uniform(lo.sizeMin, lo.sizeMax);
             leaf.aspect = lo.aspect;
+            leaf.shape = lo.shape;
             tree.leaves.push_back(leaf);
             continue;
         }
@@ -600,6 +601,7 @@ void placeCanopyLeaves(Tree& tree, const CanopyOptions& o, const CanopySurfaceSa
             Leaf leaf;
             leaf.size = positions.uniform(lo.sizeMin, lo.sizeMax);
             leaf.aspect = lo.aspect;
+            leaf.shape = lo.shape;
             leaf.tangent =
                 normalize(twig * std::cos(kClusterSpread) + side * std::sin(kClusterSpread));
             leaf.position = end + leaf.tangent * (0.5 * leaf.size);

@@ -501,6 +501,7 @@ void emitParticles(Derivation& d, size_t si, const HeightRange& y) {
         // Larger, older leaves low; smaller, newer leaves high (Jain §3.2).
         leaf.size = lerp(pp.sizeHi, pp.sizeLo, lerp(h, uSize, pp.randomness));
         leaf.aspect = pp.aspect;
+        leaf.shape = pp.shape;
         leaf.tangent = normalize(t * std::cos(rho) + side * std::sin(rho));
         leaf.normal = normalize(t * -std::sin(rho) + side * std::cos(rho));
         leaf.position = p + side * (0.5 * w) + leaf.tangent * (0.5 * leaf.size);

@@ -88,6 +88,7 @@ struct GrammarParticles {
     int count = 0;
     double sizeLo = 0.05, sizeHi = 0.1;  // metres
     double aspect = 0.5;
+    LeafShape shape = LeafShape::kCard;  // the outline on each card (species/model/leaf_shape.h)
     double rotationLo = 30 * (kPi / 180), rotationHi = 60 * (kPi / 180);  // radians
     double randomness = 0.5;
     double alongLo = 0.0, alongHi = 1.0;

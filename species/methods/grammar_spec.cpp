@@ -9,6 +9,7 @@
 
 #include "species/methods/grammar.h"
 #include "species/spec/growth_method.h"
+#include "species/spec/leaves_spec.h"
 
 namespace sylva {
 
@@ -405,6 +406,7 @@ void readParticles(Params& sp, const std::set<std::string>& known, GrammarOption
         std::tie(pp.sizeLo, pp.sizeHi) =
             p.interval("size", {pp.sizeLo, pp.sizeHi}, Range::positive());
         pp.aspect = p.number("aspect", pp.aspect, Range::leftOpen(0, 10));
+        pp.shape = readLeafShape(p, pp.shape);
         std::tie(pp.rotationLo, pp.rotationHi) =
             p.degreeInterval("rotation_deg", {pp.rotationLo, pp.rotationHi}, Range::closed(0, 180));
         pp.randomness = p.number("randomness", pp.randomness, Range::closed(0, 1));

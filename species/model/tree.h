@@ -22,6 +22,9 @@ struct SkeletonNode {
     uint8_t part = kShootPart;
 };
 
+// A leaf's outline on its card (species/model/leaf_shape.h): the whole card, or a leaf form.
+enum class LeafShape : uint8_t { kCard, kSimple, kLobed, kPalmate, kCompound, kNeedles, kFrond };
+
 // A leaf card (Jain et al.'s particle leaves and Shesh's canopy leaves use the same model).
 struct Leaf {
     Vec3 position;          // card centre, metres
@@ -30,7 +33,8 @@ struct Leaf {
     double size = 0.1;      // card length along the tangent, metres
     double aspect = 0.6;    // width / length
     uint8_t colour = 0;     // colour class (species-defined: e.g. 0 dark green … 3 yellow)
-    int32_t node = -1;      // skeleton node that carries it, −1 if none (canopy method)
+    LeafShape shape = LeafShape::kCard;  // the outline drawn on the card
+    int32_t node = -1;  // skeleton node that carries it, −1 if none (canopy method)
 };
 
 struct Tree {

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <limits>
 
+#include "species/model/leaf_shape.h"
+
 namespace sylva {
 
 namespace {
@@ -72,7 +74,7 @@ void addShapeMetrics(const Tree& tree, TreeStats& s) {
 
     s.leaves = static_cast<int64_t>(tree.leaves.size());
     s.leafArea = 0;
-    for (const Leaf& l : tree.leaves) s.leafArea += l.size * l.size * l.aspect;
+    for (const Leaf& l : tree.leaves) s.leafArea += leafArea(l);
 
     s.strahlerOrder = 0;
     s.strahlerBranches.clear();

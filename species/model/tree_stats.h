@@ -47,7 +47,7 @@ struct TreeStats {
     double crownDepth = 0;       // horizontal extent along the perpendicular (minor) axis, m
     double crownAsymmetry = 0;   // distance of the crown-node centroid from the trunk axis, m
     int64_t leaves = 0;
-    double leafArea = 0;  // sum of size² · aspect over the leaf cards, m²
+    double leafArea = 0;  // sum of the leaves' outline areas (size² · aspect · shape area), m²
 
     // Realism measures (realism_metrics.h; definitions in docs/metrics.md), NaN if undefined.
     double lowestShootY = 0;         // min y of the shoot system, m (≥ 0: nothing underground)

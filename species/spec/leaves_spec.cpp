@@ -2,17 +2,24 @@
 
 #include <tuple>
 
+#include "species/model/leaf_shape.h"
+
 namespace sylva {
 
 void readLeafCards(Params& l, LeafCardOptions& o) {
     std::tie(o.sizeMin, o.sizeMax) = l.interval("size", {o.sizeMin, o.sizeMax}, Range::positive());
     o.aspect = l.number("aspect", o.aspect, Range::leftOpen(0, 10));
+    o.shape = readLeafShape(l, o.shape);
     o.orientation =
         l.choice("orientation", o.orientation,
                  {{"random", LeafOrientation::kRandom}, {"sun", LeafOrientation::kSun}});
     o.sun = l.vec3("sun_direction", o.sun);
     if (length(o.sun) < 1e-12) l.fail("sun_direction", "expected a non-zero direction");
     o.sunWeight = l.number("sun_weight", o.sunWeight, Range::closed(0, 1));
+}
+
+LeafShape readLeafShape(Params& l, LeafShape fallback) {
+    return l.choice("shape", fallback, leafShapeWords());
 }
 
 LeafOptions readLeaves(Params& species) {

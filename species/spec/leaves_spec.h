@@ -8,9 +8,13 @@
 
 namespace sylva {
 
-// size, aspect, orientation, sun_direction and sun_weight of a [leaves] table, defaults from
-// `cards`.
+// size, aspect, shape, orientation, sun_direction and sun_weight of a [leaves] table, defaults
+// from `cards`.
 void readLeafCards(Params& leaves, LeafCardOptions& cards);
+
+// The `shape` key of any table of leaves ("card", "simple", "lobed", "palmate", "compound",
+// "needles", "frond"; species/model/leaf_shape.h), `fallback` when absent.
+LeafShape readLeafShape(Params& leaves, LeafShape fallback);
 
 // The species' [leaves] table (disabled options when it has none).
 LeafOptions readLeaves(Params& species);

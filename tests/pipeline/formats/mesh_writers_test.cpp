@@ -36,7 +36,12 @@ TreeMesh sampleMesh() {
     b.normal = {0, 0, 1};
     b.tangent = {0, 1, 0};
     b.colour = 1;
-    t.leaves = {a, b};
+    Leaf c = b;  // shaped leaves: their outlines' triangles in every format
+    c.position = {0.1, 1.1, 0.05};
+    c.shape = LeafShape::kCompound;
+    Leaf d = a;
+    d.shape = LeafShape::kPalmate;
+    t.leaves = {a, b, c, d};
     TreeMesh m;
     m.wood = tubeMesh(t, TubeOptions{});
     m.leaves = leafMesh(t);

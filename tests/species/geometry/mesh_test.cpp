@@ -15,6 +15,7 @@
 #include "pipeline/formats/mesh_writers.h"
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
+#include "species/model/leaf_shape.h"
 #include "tests/test_support.h"
 
 namespace sylva {
@@ -409,6 +410,57 @@ TEST(MeshLeaf, DoubleSidedCardsOfTheRightSize) {
         }
         EXPECT_EQ(m.uvs[2 * v0 + 2], 1.0f);  // corner 1: (1, 0)
         EXPECT_EQ(m.uvs[2 * v0 + 5], 1.0f);  // corner 2: (1, 1)
+    }
+}
+
+TEST(MeshLeaf, ShapedLeavesAreTheirOutlinesOnBothFaces) {
+    Leaf leaf;
+    leaf.position = {0.5, 1.5, -0.25};
+    leaf.normal = normalize(Vec3{1, 2, 0.5});
+    leaf.tangent = normalize(cross(leaf.normal, Vec3{0, 0, 1}));
+    leaf.size = 0.25;
+    leaf.aspect = 0.45;
+    leaf.colour = 3;
+    for (const auto& [word, shape] : leafShapeWords()) {
+        SCOPED_TRACE(word);
+        leaf.shape = shape;
+        Tree t;
+        t.leaves = {leaf, leaf};
+        t.leaves[1].position = {-1, 0, 0};
+        const LeafOutline& o = leafOutline(shape);
+        const size_t n = o.points.size(), nt = o.triangleCount();
+        const Mesh m = leafMesh(t);
+        ASSERT_EQ(m.vertexCount(), 2 * 2 * n);
+        ASSERT_EQ(m.triangleCount(), 2 * 2 * nt);
+        for (size_t l = 0; l < 2; ++l) {
+            std::vector<Vec3> pts;
+            leafPoints(t.leaves[l], leafFrame(t.leaves[l]), o, pts);
+            const size_t v0 = 2 * n * l, f0 = 2 * nt * l;
+            for (size_t i = 0; i < n; ++i) {
+                // Front and back vertices sit on the outline's points; UVs are card coordinates.
+                EXPECT_LT(distance(vertexAt(m, v0 + i), pts[i]), 1e-6);
+                EXPECT_EQ(vertexAt(m, v0 + n + i), vertexAt(m, v0 + i));
+                EXPECT_EQ(m.uvs[2 * (v0 + i)], static_cast<float>(o.points[i].x + 0.5));
+                EXPECT_EQ(m.uvs[2 * (v0 + i) + 1], static_cast<float>(o.points[i].y + 0.5));
+                EXPECT_EQ(m.colour[v0 + i], 3);
+                EXPECT_EQ(m.order[v0 + n + i], -1);
+            }
+            // Front triangles face +normal and cover the leaf's area; back ones face −normal.
+            double front = 0, back = 0;
+            for (size_t f = f0; f < f0 + 2 * nt; ++f) {
+                const Vec3 a = vertexAt(m, m.indices[3 * f]), b = vertexAt(m, m.indices[3 * f + 1]),
+                           c = vertexAt(m, m.indices[3 * f + 2]);
+                const double area = 0.5 * dot(cross(b - a, c - a), leaf.normal);
+                (f < f0 + nt ? front : back) += area;
+                EXPECT_GT(f < f0 + nt ? area : -area, 0);
+                const uint32_t i = m.indices[3 * f];
+                EXPECT_GE(i, f < f0 + nt ? v0 : v0 + n);
+                EXPECT_LT(i, f < f0 + nt ? v0 + n : v0 + 2 * n);
+                EXPECT_NEAR(dot(normalAt(m, i), leaf.normal), f < f0 + nt ? 1.0 : -1.0, 1e-6);
+            }
+            EXPECT_NEAR(front, leafArea(leaf), 1e-6 * leafArea(leaf) + 1e-9);
+            EXPECT_NEAR(back, -leafArea(leaf), 1e-6 * leafArea(leaf) + 1e-9);
+        }
     }
 }
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "pipeline/formats/stats_json.h"
+#include "species/model/leaf_shape.h"
 #include "species/model/tree_stats.h"
 #include "tests/test_support.h"
 
@@ -197,6 +198,16 @@ TEST(TreeMetrics, LeafCountAndArea) {
     EXPECT_EQ(s.leaves, 3);
     EXPECT_NEAR(s.leafArea, 0.02 + 0.01 + 0.02, 1e-15);
     EXPECT_EQ(toJson(s).at("leaves"), 3);
+    // Shaped leaves count their outline's area, not the card's: a frond covers 0.166 of its
+    // card (species/model/leaf_shape.h), a compound leaf 0.266.
+    t.leaves[0].shape = LeafShape::kFrond;
+    t.leaves[1].shape = LeafShape::kCompound;
+    s = computeStats(t);
+    EXPECT_NEAR(s.leafArea,
+                0.02 * leafOutline(LeafShape::kFrond).area +
+                    0.01 * leafOutline(LeafShape::kCompound).area + 0.02,
+                1e-15);
+    EXPECT_NEAR(s.leafArea, 0.02 * 0.1657 + 0.01 * 0.2656 + 0.02, 1e-5);
 }
 
 TEST(TreeMetrics, RadiusExponentBisection) {
