@@ -24,21 +24,11 @@ LCG) so tiers and rims are not perfectly round. Standard library only; determini
 import math
 import os
 
+from lcg import Lcg
 from png import write_png
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 WIDTH, HEIGHT = 64, 128
-
-
-class Lcg:
-    """Numerical Recipes LCG: reproducible on every Python."""
-
-    def __init__(self, seed):
-        self.state = seed & 0xFFFFFFFF
-
-    def uniform(self, a=0.0, b=1.0):
-        self.state = (1664525 * self.state + 1013904223) & 0xFFFFFFFF
-        return a + (b - a) * self.state / 2.0**32
 
 
 def smoothstep(a, b, x):
