@@ -20,8 +20,8 @@ constexpr int kGrowPreviewSize = 1024;  // pixels
 
 // Validates the species, grows the tree of instance seed `seed` (threaded) and writes
 // skeleton.ply, skeleton.swc, preview.png (one view in label colours, kGrowPreviewSize
-// pixels square), preview_wood.png (the same view without leaves) and stats.json (the manifest's stats,
-// method counters, drawn parameters and grow_ms) into `dir`, or out/grow/<species> when
+// pixels square), preview_wood.png (the same view without leaves) and stats.json (the manifest's
+// stats, method counters, drawn parameters and grow_ms) into `dir`, or out/grow/<species> when
 // `dir` is empty. Throws SpecError on a bad species.
 GrowOneResult growOne(const std::string& speciesPath, uint64_t seed,
                       const std::filesystem::path& dir);
