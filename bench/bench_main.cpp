@@ -479,6 +479,22 @@ SYLVA_VOLUME_BENCH(crown_refinement);
 // that could not matter are skipped, see space_colonization.cpp). One thread. Peak RSS is the
 // process's (monotone), so run one case per process to compare memory; the counters give the
 // method's own sizes (markers, internodes, iterations, height).
+// Grows a tree per iteration (seeds 1, 2, …) and leaves the last one and its counters in
+// `tree` and `stats`; returns the last tree's height, metres.
+static double growColonizationTrees(benchmark::State& state, const SpaceColonizationOptions& o,
+                                    Tree& tree, std::map<std::string, double>& stats) {
+    uint64_t seed = 1;
+    for (auto _ : state) {
+        Rng rng(seed++);
+        stats.clear();
+        tree = growSpaceColonization(o, rng, &stats);
+        benchmark::DoNotOptimize(tree.nodes.data());
+    }
+    double height = 0.0;
+    for (const SkeletonNode& n : tree.nodes) height = std::max(height, n.position.y);
+    return height;
+}
+
 static void Colonization(benchmark::State& state, ColonizationVariant variant) {
     SpaceColonizationOptions o;
     o.variant = variant;
@@ -492,16 +508,8 @@ static void Colonization(benchmark::State& state, ColonizationVariant variant) {
     o.threaded = false;
     std::map<std::string, double> stats;
     Tree tree;
-    uint64_t seed = 1;
     static const double rssBefore = peakRssMiB();  // at the first Colonization case's start
-    for (auto _ : state) {
-        Rng rng(seed++);
-        stats.clear();
-        tree = growSpaceColonization(o, rng, &stats);
-        benchmark::DoNotOptimize(tree.nodes.data());
-    }
-    double height = 0.0;
-    for (const SkeletonNode& n : tree.nodes) height = std::max(height, n.position.y);
+    const double height = growColonizationTrees(state, o, tree, stats);
     state.counters["internodes"] = stats["internodes"];
     state.counters["iterations"] = stats["iterations"];
     state.counters["markers_generated"] = stats["markers_generated"];
@@ -550,15 +558,7 @@ static void ColonizationAllocation(benchmark::State& state) {
     }
     std::map<std::string, double> stats;
     Tree tree;
-    uint64_t seed = 1;
-    for (auto _ : state) {
-        Rng rng(seed++);
-        stats.clear();
-        tree = growSpaceColonization(o, rng, &stats);
-        benchmark::DoNotOptimize(tree.nodes.data());
-    }
-    double height = 0.0;
-    for (const SkeletonNode& n : tree.nodes) height = std::max(height, n.position.y);
+    const double height = growColonizationTrees(state, o, tree, stats);
     state.counters["internodes"] = stats["internodes"];
     state.counters["iterations"] = stats["iterations"];
     state.counters["shed_internodes"] = stats["shed_internodes"];
