@@ -34,7 +34,6 @@ std::string hex64(uint64_t v) {
 
 std::string meshBytes(const TreeMesh& m, const std::string& format) {
     if (format == "glb") return meshGlb(m);
-    if (format == "obj") return meshObj(m);
     return meshPly(m);
 }
 
@@ -102,13 +101,20 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
 
     if (o.ply) put("skeleton_ply", "skeleton.ply", skeletonPly(w.grown.tree));
     if (o.swc) put("skeleton_swc", "skeleton.swc", skeletonSwc(w.grown.tree));
-    for (const std::string& f : o.meshFormats) put("mesh_" + f, "mesh." + f, meshBytes(w.mesh, f));
+    // A mesh in each format; an OBJ with its materials beside it (<stem>_mtl, <stem>.mtl).
+    auto putMesh = [&](const std::string& stem, const TreeMesh& m, const std::string& f) {
+        if (f == "obj") {
+            put(stem + "_mtl", stem + ".mtl", meshMtl(m));
+            put(stem + "_obj", stem + ".obj", meshObj(m, stem + ".mtl"));
+        } else {
+            put(stem + "_" + f, stem + "." + f, meshBytes(m, f));
+        }
+    };
+    for (const std::string& f : o.meshFormats) putMesh("mesh", w.mesh, f);
     if (o.watertight) {
         TreeMesh wt;
         wt.wood = w.watertight;
-        for (const std::string& f : o.meshFormats) {
-            put("watertight_" + f, "watertight." + f, meshBytes(wt, f));
-        }
+        for (const std::string& f : o.meshFormats) putMesh("watertight", wt, f);
         if (o.vdb) noteFile("watertight_vdb", rel / "watertight.vdb");
     }
     if (o.preview) {

@@ -271,9 +271,15 @@ TEST(CliBuild, SameOutputWithOneAndTwoThreads) {
             const fs::path f = t / "t1" / v.get<std::string>();
             EXPECT_TRUE(k == "views" ? fs::is_directory(f) : fs::is_regular_file(f)) << k << v;
         }
-        // skeleton ply + swc; mesh and watertight in ply, glb, obj; the views directory,
-        // transforms.json, points.ply and contact.png.
-        EXPECT_EQ(j["files"].size(), 12u) << j["files"].dump();
+        // skeleton ply + swc; mesh and watertight in ply, glb, obj with its mtl; the views
+        // directory, transforms.json, points.ply and contact.png.
+        EXPECT_EQ(j["files"].size(), 14u) << j["files"].dump();
+        for (const std::string stem : {"mesh", "watertight"}) {
+            ASSERT_TRUE(j["files"].contains(stem + "_mtl")) << j["files"].dump();
+            EXPECT_NE(slurp(t / "t1" / j["files"][stem + "_obj"].get<std::string>())
+                          .find("\nmtllib " + stem + ".mtl\n"),
+                      std::string::npos);
+        }
         if (j["species"] == "tiny-var") {
             EXPECT_TRUE(j["params"].contains("levels[0].endpoints"));
         }
