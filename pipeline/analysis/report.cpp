@@ -65,6 +65,43 @@ std::string metricUnit(const std::string& m) {
     return "";
 }
 
+std::string metricTheme(const std::string& m, bool perView) {
+    auto starts = [&](const char* p) { return m.rfind(p, 0) == 0; };
+    static const std::set<std::string> kSize = {"height_m",
+                                                "total_length_m",
+                                                "root_depth_m",
+                                                "lowest_shoot_y_m",
+                                                "nodes",
+                                                "segments",
+                                                "endpoints",
+                                                "below_ground_fraction",
+                                                "mesh_vertices",
+                                                "mesh_triangles",
+                                                "wood_triangles",
+                                                "watertight_vertices",
+                                                "watertight_triangles"};
+    static const std::set<std::string> kBranching = {"forks",
+                                                     "highest_order",
+                                                     "strahler_order",
+                                                     "bifurcation_ratio_mean",
+                                                     "fork_angle_mean_deg",
+                                                     "fork_angle_std_deg",
+                                                     "radius_exponent_median",
+                                                     "radius_exponent_iqr",
+                                                     "radius_exponent_forks",
+                                                     "tortuosity_mean",
+                                                     "tortuosity_max",
+                                                     "stems_at_base",
+                                                     "leader_lean_deg"};
+    if (starts("timing.")) return "timing";
+    if (m == "leaves" || starts("leaf_")) return "leaves";  // leaf_pixel_fraction too
+    if (starts("crown_")) return "crown";
+    if (perView || m == "silhouette_coverage" || m == "fractal_dimension") return "views";
+    if (kSize.count(m)) return "size";
+    if (kBranching.count(m)) return "branching";
+    return "method";
+}
+
 std::vector<std::string> relativeLinks(const std::string& html) {
     static const std::regex re(R"re((?:src|href)\s*=\s*"([^"]*)")re");
     std::vector<std::string> out;
@@ -290,75 +327,112 @@ double jitter(size_t i) {
 const char* kPalette[] = {"#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e",
                           "#e6ab02", "#a6761d", "#666666", "#1f78b4", "#b2df8a"};
 
-// Horizontal box plot, one row per species: whiskers q05–q95, box q25–q75, median line, mean
-// diamond, and the individual instances as a jittered strip.
-std::string boxPlotSvg(const std::string& metric, const std::vector<std::string>& species,
-                       const std::map<std::string, std::vector<double>>& values,
-                       const std::set<std::string>& perView) {
+const char* speciesColour(size_t index) {
+    return kPalette[index % (sizeof kPalette / sizeof *kPalette)];
+}
+
+// Below this many values a species' row shows its instances and median only: the quartiles
+// and q05/q95 whiskers of two or three values are not worth drawing.
+constexpr size_t kMinInstancesForBox = 5;
+
+// Width of the species label column of every box plot (SVG user units), from the longest
+// name at ~7 units per character of the 11-unit font (a little over its widest lower-case
+// average), so that all plots of a page align.
+double speciesLabelWidth(const std::vector<std::string>& species) {
+    size_t longest = 0;
+    for (const auto& s : species) longest = std::max(longest, s.size());
+    return std::clamp(7.0 * static_cast<double>(longest), 36.0, 160.0);
+}
+
+// One grid cell: the metric as the caption and a horizontal box plot with a row per species
+// that has values of it (a species without one gets no row; the caption's note names it):
+// whiskers q05–q95, box q25–q75, median line, mean diamond, and the individual instances as a
+// jittered strip. The SVG scales with its cell (viewBox, width 100%).
+std::string boxPlotFigure(const std::string& metric, const std::vector<std::string>& species,
+                          const std::map<std::string, std::vector<double>>& values,
+                          const std::set<std::string>& perView, double labelWidth) {
+    std::vector<size_t> rows;  // indices into `species`: colours stay the species' own
+    std::vector<std::string> missing;
     double lo = INFINITY, hi = -INFINITY;
-    for (const auto& s : species) {
-        auto it = values.find(s);
-        if (it == values.end()) continue;
+    for (size_t i = 0; i < species.size(); ++i) {
+        auto it = values.find(species[i]);
+        if (it == values.end() || it->second.empty()) {
+            missing.push_back(species[i]);
+            continue;
+        }
+        rows.push_back(i);
         for (double v : it->second) lo = std::min(lo, v), hi = std::max(hi, v);
     }
-    std::vector<double> ticks = niceTicks(lo, hi, 6);
-    const double x0 = 170, x1 = 700, top = 12, row = 28;
-    const double height = top + row * static_cast<double>(species.size()) + 46;
+    std::vector<double> ticks = niceTicks(lo, hi, 4);
+    // x1 leaves half of the widest tick label ("20000", "0.0004") to the right of the axis.
+    const double W = 360, x0 = labelWidth + 12, x1 = W - 22, top = 6, row = 24;
+    const double yAxis = top + row * static_cast<double>(rows.size()) + 2;
+    const double height = yAxis + 20;
     double d0 = ticks.front(), d1 = ticks.back();
     auto X = [&](double v) { return x0 + (v - d0) / (d1 - d0) * (x1 - x0); };
     std::ostringstream o;
-    o << "<svg class=\"plot\" xmlns=\"http://www.w3.org/2000/svg\" width=\"720\" height=\""
-      << px(height) << "\" viewBox=\"0 0 720 " << px(height) << "\" role=\"img\" aria-label=\""
-      << esc(metric) << "\">\n";
-    double yAxis = top + row * static_cast<double>(species.size()) + 4;
+    o << "<figure class=\"plot\" data-metric=\"" << esc(metric) << "\"><figcaption>"
+      << esc(axisTitle(metric, perView));
+    if (!missing.empty()) {
+        o << " <span class=\"missing\">· no value for ";
+        for (size_t i = 0; i < missing.size(); ++i) o << (i ? ", " : "") << esc(missing[i]);
+        o << "</span>";
+    }
+    o << "</figcaption>\n<svg class=\"plot\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W
+      << "\" height=\"" << px(height) << "\" viewBox=\"0 0 " << W << " " << px(height)
+      << "\" role=\"img\" aria-label=\"" << esc(metric) << "\">\n";
     for (double t : ticks) {
         o << "<line x1=\"" << px(X(t)) << "\" x2=\"" << px(X(t)) << "\" y1=\"" << px(top - 4)
           << "\" y2=\"" << px(yAxis) << "\" class=\"grid\"/>"
           << "<line x1=\"" << px(X(t)) << "\" x2=\"" << px(X(t)) << "\" y1=\"" << px(yAxis)
-          << "\" y2=\"" << px(yAxis + 5) << "\" class=\"axis\"/>"
-          << "<text x=\"" << px(X(t)) << "\" y=\"" << px(yAxis + 17)
+          << "\" y2=\"" << px(yAxis + 4) << "\" class=\"axis\"/>"
+          << "<text x=\"" << px(X(t)) << "\" y=\"" << px(yAxis + 15)
           << "\" text-anchor=\"middle\" class=\"tick\">" << num(t, 6) << "</text>\n";
     }
     o << "<line x1=\"" << px(x0) << "\" x2=\"" << px(x1) << "\" y1=\"" << px(yAxis) << "\" y2=\""
       << px(yAxis) << "\" class=\"axis\"/>\n";
-    o << "<text x=\"" << px((x0 + x1) / 2) << "\" y=\"" << px(yAxis + 36)
-      << "\" text-anchor=\"middle\" class=\"label\">" << esc(axisTitle(metric, perView))
-      << "</text>\n";
-    for (size_t r = 0; r < species.size(); ++r) {
-        const std::string colour = kPalette[r % (sizeof kPalette / sizeof *kPalette)];
-        double yc = top + row * (static_cast<double>(r) + 0.5);
-        o << "<text x=\"" << px(x0 - 8) << "\" y=\"" << px(yc + 4)
-          << "\" text-anchor=\"end\" class=\"tick\">" << esc(species[r]) << "</text>\n";
-        auto it = values.find(species[r]);
-        if (it == values.end() || it->second.empty()) continue;
-        Summary s = plotSummary(it->second);
-        o << "<g><title>" << esc(species[r]) << ": n " << s.n << ", mean " << num(s.mean) << ", sd "
-          << num(s.sd) << ", q05 " << num(s.q05) << ", q25 " << num(s.q25) << ", median "
-          << num(s.q50) << ", q75 " << num(s.q75) << ", q95 " << num(s.q95) << "</title>\n";
-        o << "<line x1=\"" << px(X(s.q05)) << "\" x2=\"" << px(X(s.q95)) << "\" y1=\"" << px(yc)
-          << "\" y2=\"" << px(yc) << "\" stroke=\"" << colour << "\"/>";
-        for (double w : {s.q05, s.q95}) {
-            o << "<line x1=\"" << px(X(w)) << "\" x2=\"" << px(X(w)) << "\" y1=\"" << px(yc - 5)
-              << "\" y2=\"" << px(yc + 5) << "\" stroke=\"" << colour << "\"/>";
+    for (size_t r = 0; r < rows.size(); ++r) {
+        const std::string& name = species[rows[r]];
+        const std::string colour = speciesColour(rows[r]);
+        const std::vector<double>& v = values.at(name);
+        const double yc = top + row * (static_cast<double>(r) + 0.5);
+        const Summary s = plotSummary(v);
+        o << "<g data-species=\"" << esc(name) << "\"><title>" << esc(name) << ": n " << s.n
+          << ", mean " << num(s.mean) << ", sd " << num(s.sd) << ", q05 " << num(s.q05) << ", q25 "
+          << num(s.q25) << ", median " << num(s.q50) << ", q75 " << num(s.q75) << ", q95 "
+          << num(s.q95) << "</title>\n";
+        o << "<text x=\"" << px(x0 - 6) << "\" y=\"" << px(yc + 4)
+          << "\" text-anchor=\"end\" class=\"tick\">" << esc(name) << "</text>\n";
+        const bool box = s.n >= kMinInstancesForBox;
+        if (box) {
+            o << "<line x1=\"" << px(X(s.q05)) << "\" x2=\"" << px(X(s.q95)) << "\" y1=\"" << px(yc)
+              << "\" y2=\"" << px(yc) << "\" stroke=\"" << colour << "\"/>";
+            for (double w : {s.q05, s.q95}) {
+                o << "<line x1=\"" << px(X(w)) << "\" x2=\"" << px(X(w)) << "\" y1=\"" << px(yc - 4)
+                  << "\" y2=\"" << px(yc + 4) << "\" stroke=\"" << colour << "\"/>";
+            }
+            o << "<rect x=\"" << px(X(s.q25)) << "\" y=\"" << px(yc - 8) << "\" width=\""
+              << px(std::max(1.0, X(s.q75) - X(s.q25))) << "\" height=\"16\" fill=\"" << colour
+              << "\" fill-opacity=\"0.25\" stroke=\"" << colour << "\"/>";
         }
-        o << "<rect x=\"" << px(X(s.q25)) << "\" y=\"" << px(yc - 9) << "\" width=\""
-          << px(std::max(1.0, X(s.q75) - X(s.q25))) << "\" height=\"18\" fill=\"" << colour
-          << "\" fill-opacity=\"0.25\" stroke=\"" << colour << "\"/>";
-        o << "<line x1=\"" << px(X(s.q50)) << "\" x2=\"" << px(X(s.q50)) << "\" y1=\"" << px(yc - 9)
-          << "\" y2=\"" << px(yc + 9) << "\" stroke=\"" << colour << "\" stroke-width=\"2.5\"/>\n";
+        o << "<line x1=\"" << px(X(s.q50)) << "\" x2=\"" << px(X(s.q50)) << "\" y1=\"" << px(yc - 8)
+          << "\" y2=\"" << px(yc + 8) << "\" stroke=\"" << colour << "\" stroke-width=\"2.5\"/>\n";
         // The strip: every instance when there are few, else only those past the whiskers.
-        const auto& v = it->second;
         for (size_t i = 0; i < v.size(); ++i) {
             if (v.size() > 300 && v[i] >= s.q05 && v[i] <= s.q95) continue;
-            o << "<circle cx=\"" << px(X(v[i])) << "\" cy=\"" << px(yc + 6.0 * jitter(i))
-              << "\" r=\"1.6\" fill=\"" << colour << "\" fill-opacity=\"0.55\"/>";
+            o << "<circle cx=\"" << px(X(v[i])) << "\" cy=\"" << px(yc + 5.0 * jitter(i))
+              << "\" r=\"" << (box ? "1.6" : "2.6") << "\" fill=\"" << colour
+              << "\" fill-opacity=\"" << (box ? "0.55" : "0.8") << "\"/>";
         }
-        double xm = X(s.mean);
-        o << "\n<path d=\"M" << px(xm) << " " << px(yc - 5) << " L" << px(xm + 4) << " " << px(yc)
-          << " L" << px(xm) << " " << px(yc + 5) << " L" << px(xm - 4) << " " << px(yc)
-          << " Z\" fill=\"#fff\" stroke=\"#000\"/></g>\n";
+        if (box) {
+            const double xm = X(s.mean);
+            o << "\n<path d=\"M" << px(xm) << " " << px(yc - 5) << " L" << px(xm + 4) << " "
+              << px(yc) << " L" << px(xm) << " " << px(yc + 5) << " L" << px(xm - 4) << " "
+              << px(yc) << " Z\" fill=\"#fff\" stroke=\"#000\"/>";
+        }
+        o << "</g>\n";
     }
-    o << "</svg>\n";
+    o << "</svg></figure>\n";
     return o.str();
 }
 
@@ -449,21 +523,53 @@ std::string sweepSvg(const std::string& species, const std::string& path, const 
 }
 
 const char* kCss = R"css(
-body { font: 14px/1.45 system-ui, sans-serif; margin: 24px auto; max-width: 1180px; color: #222; }
+body { font: 14px/1.45 system-ui, sans-serif; margin: 24px auto; padding: 0 20px;
+       max-width: 1480px; color: #222; }
 h1 { margin-bottom: 0.2em; } h2 { border-bottom: 1px solid #ccc; margin-top: 1.8em; }
+h3 { margin: 1.4em 0 0.4em; } h3 .note { font-weight: normal; font-size: 13px; }
 table { border-collapse: collapse; margin: 0.6em 0; }
 td, th { border: 1px solid #ddd; padding: 3px 8px; text-align: right; }
 th { background: #f3f3f3; } td.l, th.l { text-align: left; }
 tr.top td { font-weight: bold; } td.strong { background: #ffe08a; }
-.facts td:first-child { text-align: left; color: #555; }
+td.few { color: #888; font-style: italic; }
+tr.group th { background: #e8eef3; text-align: left; }
+.facts td:first-child { text-align: left; color: #555; } .facts td.l { max-width: 24em; }
+.row > div { flex: 1 1 560px; min-width: 0; }
+.row { display: flex; flex-wrap: wrap; gap: 0 28px; align-items: flex-start; }
 .sheets { display: flex; flex-wrap: wrap; gap: 16px; }
 .sheets figure { margin: 0; } .sheets img { max-width: 560px; border: 1px solid #ccc; image-rendering: pixelated; }
-.plots { display: flex; flex-wrap: wrap; gap: 8px; }
-svg.plot { background: #fff; border: 1px solid #eee; }
+.plots { display: grid; grid-template-columns: repeat(auto-fill, minmax(320px, 1fr)); gap: 10px; }
+figure.plot { margin: 0; padding: 6px 8px 4px; border: 1px solid #e4e4e4; border-radius: 4px;
+              background: #fff; min-width: 0; }
+figure.plot figcaption { font-size: 13px; font-weight: 600; margin-bottom: 2px;
+                         overflow-wrap: anywhere; }
+figure.plot .missing { font-weight: normal; color: #888; }
+svg.plot { display: block; width: 100%; height: auto; background: #fff; }
+.plots > svg.plot { border: 1px solid #e4e4e4; border-radius: 4px; }
 svg .grid { stroke: #eee; } svg .axis { stroke: #444; }
 svg text { font: 11px system-ui, sans-serif; fill: #333; } svg text.label { font-size: 12px; }
+.legend { display: flex; flex-wrap: wrap; gap: 4px 16px; margin: 0.4em 0; }
+.legend span::before { content: ""; display: inline-block; width: 11px; height: 11px;
+                       margin-right: 5px; vertical-align: -1px; background: var(--c); }
+details > summary { cursor: pointer; color: #333; margin: 0.4em 0; }
 .note { color: #666; }
 )css";
+
+// The plot groups in page order: id (metricTheme), heading, what the group holds.
+struct Theme {
+    const char* id;
+    const char* title;
+    const char* note;
+};
+const Theme kThemes[] = {
+    {"size", "Size", "height, extent, length, skeleton and mesh counts"},
+    {"branching", "Branching", "forks, orders, angles, radius exponents, tortuosity, stems, lean"},
+    {"crown", "Crown", "crown base, height, width, depth, hull volume, asymmetry"},
+    {"leaves", "Leaves", "leaf count, area, triangles, support, share of the views' pixels"},
+    {"views", "Views", "measured on the rendered silhouettes: the mean over an instance's views"},
+    {"method", "Method counters", "the growth methods' own counters (docs/methods/)"},
+    {"timing", "Timing", "per instance and stage, in milliseconds"},
+};
 
 // Everything the page is made of, read once: dataset.json, the manifest's records, species in
 // dataset.json order (then any others in manifest order), each metric's values per species.
@@ -478,6 +584,9 @@ struct ReportData {
     // metric -> species -> values; constant metrics are listed, not plotted.
     std::map<std::string, std::map<std::string, std::vector<double>>> values;
     std::vector<std::string> metrics, constant, timing;
+    // theme id -> the metrics plotted under it (metrics, then timing), in name order.
+    std::map<std::string, std::vector<std::string>> byTheme;
+    double labelWidth = 36;  // of the box plots' species column
     bool anySweep = false;
 };
 
@@ -525,9 +634,18 @@ ReportData readReportData(const fs::path& dir) {
         } else if (hi > lo) {
             d.metrics.push_back(m);
         } else {
-            d.constant.push_back(m + " = " + num(lo));
+            // A method's counter is constant for the species that have it, not for the dataset.
+            std::string only;
+            if (bySpecies.size() < d.species.size()) {
+                for (const auto& [sp, v] : bySpecies) only += (only.empty() ? "" : ", ") + sp;
+                only = " (" + only + " only)";
+            }
+            d.constant.push_back(m + " = " + num(lo) + only);
         }
     }
+    for (const auto& m : d.metrics) d.byTheme[metricTheme(m, d.perView.count(m) > 0)].push_back(m);
+    for (const auto& m : d.timing) d.byTheme["timing"].push_back(m);
+    d.labelWidth = speciesLabelWidth(d.species);
     d.anySweep =
         std::any_of(d.recs.begin(), d.recs.end(), [](const Record& r) { return !r.sweep.empty(); });
     return d;
@@ -546,15 +664,21 @@ void writeHead(std::ostream& h, const ReportData& d, const fs::path& dir) {
     if (fs::exists(dir / "manifest.jsonl"))
         h << " and <a href=\"../manifest.jsonl\">manifest.jsonl</a>";
     h << ". Sections: <a href=\"#facts\">facts</a> · <a href=\"#sheets\">contact sheets</a> · <a "
-         "href=\"#summary\">summary</a> · <a href=\"#distributions\">distributions</a> · <a "
-         "href=\"#compare\">comparison</a>";
+         "href=\"#distributions\">distributions</a> (";
+    bool first = true;
+    for (const Theme& t : kThemes) {
+        if (!d.byTheme.count(t.id)) continue;
+        h << (first ? "" : ", ") << "<a href=\"#theme-" << t.id << "\">" << t.title << "</a>";
+        first = false;
+    }
+    h << ") · <a href=\"#compare\">comparison</a>";
     if (d.anySweep) h << " · <a href=\"#sweeps\">sweeps</a>";
-    h << "</p>\n";
+    h << " · <a href=\"#summary\">summary table</a></p>\n";
 }
 
 // The dataset's facts (dataset.json), the mean timings per species and the species table.
 void writeFacts(std::ostream& h, const ReportData& d) {
-    h << "<h2 id=\"facts\">Dataset</h2>\n<table class=\"facts\">\n";
+    h << "<h2 id=\"facts\">Dataset</h2>\n<div class=\"row\">\n<table class=\"facts\">\n";
     auto fact = [&](const std::string& k, const std::string& v) {
         h << "<tr><td>" << esc(k) << "</td><td class=\"l\">" << esc(v) << "</td></tr>\n";
     };
@@ -586,7 +710,7 @@ void writeFacts(std::ostream& h, const ReportData& d) {
             v += (v.empty() ? "" : ", ") + k + " " + scalar(x);
         fact("versions", v);
     }
-    h << "</table>\n";
+    h << "</table>\n<div>\n";  // beside the facts: timings and the species table
     if (!d.timing.empty()) {
         h << "<table><tr><th class=\"l\">species</th>";
         for (const auto& t : d.timing) h << "<th>mean " << esc(t.substr(7)) << "</th>";
@@ -620,6 +744,7 @@ void writeFacts(std::ostream& h, const ReportData& d) {
         }
         h << "</table>\n";
     }
+    h << "</div>\n</div>\n";
 }
 
 // The species contact sheets, linked relatively (../contact/<species>.png).
@@ -639,50 +764,70 @@ void writeContactSheets(std::ostream& h, const ReportData& d, const fs::path& di
     h << "</div>\n";
 }
 
-// mean ± sd (median) of every plotted metric per species, and the constant metrics.
+// mean ± sd (median) of every plotted metric per species, grouped by theme, and the constant
+// metrics; folded (a <details>), the plots above hold the same.
 void writeSummaryTable(std::ostream& h, const ReportData& d) {
-    h << "<h2 id=\"summary\">Per-species summary</h2>\n<p class=\"note\">mean ± sd (median) of "
-         "each metric; array metrics (one value per view) are averaged over the views first.</p>\n"
+    h << "<h2 id=\"summary\">Per-species summary</h2>\n<details>\n<summary>The table: mean ± sd "
+         "(median) of each metric per species (– : the species has no value of it); array "
+         "metrics (one value per view) are averaged over the views first.</summary>\n"
          "<table><tr><th class=\"l\">metric</th>";
     for (const auto& s : d.species)
         h << "<th>" << esc(s) << " (n " << d.perSpeciesCount.at(s) << ")</th>";
     h << "</tr>\n";
-    for (const auto& m : d.metrics) {
-        h << "<tr><td class=\"l\">" << esc(axisTitle(m, d.perView)) << "</td>";
-        for (const auto& s : d.species) {
-            auto it = d.values.at(m).find(s);
-            if (it == d.values.at(m).end()) {
-                h << "<td>–</td>";
-                continue;
+    for (const Theme& t : kThemes) {
+        auto group = d.byTheme.find(t.id);
+        if (group == d.byTheme.end() || std::string(t.id) == "timing") continue;
+        h << "<tr class=\"group\"><th colspan=\"" << d.species.size() + 1 << "\">" << t.title
+          << "</th></tr>\n";
+        for (const auto& m : group->second) {
+            h << "<tr><td class=\"l\">" << esc(axisTitle(m, d.perView)) << "</td>";
+            for (const auto& s : d.species) {
+                auto it = d.values.at(m).find(s);
+                if (it == d.values.at(m).end()) {
+                    h << "<td>–</td>";
+                    continue;
+                }
+                Summary x = plotSummary(it->second);
+                h << "<td>" << num(x.mean) << " ± " << num(x.sd, 3) << " (" << num(x.q50)
+                  << ")</td>";
             }
-            Summary x = plotSummary(it->second);
-            h << "<td>" << num(x.mean) << " ± " << num(x.sd, 3) << " (" << num(x.q50) << ")</td>";
+            h << "</tr>\n";
         }
-        h << "</tr>\n";
     }
-    h << "</table>\n";
+    h << "</table>\n</details>\n";
     if (!d.constant.empty()) {
-        h << "<p class=\"note\">Constant over the whole dataset (not plotted): ";
+        h << "<p class=\"note\">Constant over the dataset, or over the species that have it "
+             "(not plotted): ";
         for (size_t i = 0; i < d.constant.size(); ++i) h << (i ? ", " : "") << esc(d.constant[i]);
         h << ".</p>\n";
     }
 }
 
-// A box plot per metric, timings last; returns the number of plots.
+// A box plot per metric in a grid per theme, timings last; returns the number of plots.
 size_t writeDistributions(std::ostream& h, const ReportData& d) {
     size_t plots = 0;
     h << "<h2 id=\"distributions\">Distributions</h2>\n<p class=\"note\">Box: q25–q75; thick "
          "line: median; whiskers: q05–q95; diamond: mean; dots: instances (only those past the "
-         "whiskers above 300 per species).</p>\n<div class=\"plots\">\n";
-    for (const auto& m : d.metrics) {
-        h << boxPlotSvg(m, d.species, d.values.at(m), d.perView);
-        ++plots;
-    }
-    for (const auto& m : d.timing) {
-        h << boxPlotSvg(m, d.species, d.values.at(m), d.perView);
-        ++plots;
+         "whiskers above 300 per species; a species with fewer than "
+      << kMinInstancesForBox
+      << " values shows its instances and median only). A species without a value of a metric "
+         "(a method's own counter, a null) has no row in its plot.</p>\n<div class=\"legend\">";
+    for (size_t i = 0; i < d.species.size(); ++i) {
+        h << "<span style=\"--c: " << speciesColour(i) << "\">" << esc(d.species[i]) << " (n "
+          << d.perSpeciesCount.at(d.species[i]) << ")</span>";
     }
     h << "</div>\n";
+    for (const Theme& t : kThemes) {
+        auto group = d.byTheme.find(t.id);
+        if (group == d.byTheme.end()) continue;
+        h << "<h3 id=\"theme-" << t.id << "\">" << t.title << " <span class=\"note\">— " << t.note
+          << "</span></h3>\n<div class=\"plots\">\n";
+        for (const auto& m : group->second) {
+            h << boxPlotFigure(m, d.species, d.values.at(m), d.perView, d.labelWidth);
+            ++plots;
+        }
+        h << "</div>\n";
+    }
     return plots;
 }
 
@@ -694,16 +839,20 @@ void writeComparison(std::ostream& h, const ReportData& d) {
     } else {
         h << "<p class=\"note\">For every pair of species, the five metrics that separate them "
              "best (two-sample Kolmogorov–Smirnov D, largest first, ties broken by |mean "
-             "difference| / pooled sd; p asymptotic). Bold: the "
-             "strongest; highlighted: D ≥ 0.5. W1: Wasserstein-1 distance, in the metric's "
-             "unit.</p>\n<table><tr><th class=\"l\">species a</th><th class=\"l\">species "
-             "b</th><th class=\"l\">metric</th><th>mean a</th><th>mean b</th><th>KS D</th>"
-             "<th>p</th><th>W1</th></tr>\n";
+             "difference| / pooled sd). Bold: the strongest; highlighted: D ≥ 0.5. p: the KS "
+             "p-value, given only when both species have at least "
+          << kMinInstancesForP
+          << " values of the metric (\"too few instances\" otherwise: D and W1 then describe "
+             "the instances at hand, not the species). W1: Wasserstein-1 distance, in the "
+             "metric's unit.</p>\n<table><tr><th class=\"l\">species a</th><th class=\"l\">"
+             "species b</th><th class=\"l\">metric</th><th>n a / b</th><th>mean a</th><th>mean "
+             "b</th><th>KS D</th><th>p</th><th>W1</th></tr>\n";
         for (size_t a = 0; a < d.species.size(); ++a) {
             for (size_t b = a + 1; b < d.species.size(); ++b) {
                 struct Row {
                     std::string m;
                     double d, w, ma, mb, p, effect;
+                    size_t na, nb;
                 };
                 std::vector<Row> rows;
                 for (const auto& m : d.metrics) {
@@ -714,12 +863,12 @@ void writeComparison(std::ostream& h, const ReportData& d) {
                     std::sort(xa.begin(), xa.end());
                     std::sort(xb.begin(), xb.end());
                     const KsResult ks = ksTwoSample(xa, xb);
-                    const double d = ks.d;
                     Summary sa = plotSummary(ia->second), sb = plotSummary(ib->second);
                     double pooled = std::sqrt(0.5 * (sa.sd * sa.sd + sb.sd * sb.sd));
                     double effect = pooled > 0 ? std::fabs(sa.mean - sb.mean) / pooled
                                                : (sa.mean != sb.mean ? INFINITY : 0.0);
-                    rows.push_back({m, d, wasserstein1(xa, xb), sa.mean, sb.mean, ks.p, effect});
+                    rows.push_back({m, ks.d, wasserstein1(xa, xb), sa.mean, sb.mean, ks.p, effect,
+                                    xa.size(), xb.size()});
                 }
                 std::stable_sort(rows.begin(), rows.end(), [](const Row& x, const Row& y) {
                     return x.d != y.d ? x.d > y.d : x.effect > y.effect;
@@ -728,13 +877,15 @@ void writeComparison(std::ostream& h, const ReportData& d) {
                 for (size_t i = 0; i < rows.size(); ++i) {
                     const Row& r = rows[i];
                     std::string u = metricUnit(r.m);
+                    const bool few = std::min(r.na, r.nb) < kMinInstancesForP;
                     h << "<tr" << (i == 0 ? " class=\"top\"" : "") << "><td class=\"l\">"
                       << esc(d.species[a]) << "</td><td class=\"l\">" << esc(d.species[b])
-                      << "</td><td class=\"l\">" << esc(r.m) << "</td><td>" << num(r.ma)
-                      << "</td><td>" << num(r.mb) << "</td><td"
-                      << (r.d >= 0.5 ? " class=\"strong\"" : "") << ">" << num(r.d, 3)
-                      << "</td><td>" << num(r.p, 2) << "</td><td>" << num(r.w)
-                      << (u.empty() ? "" : " " + esc(u)) << "</td></tr>\n";
+                      << "</td><td class=\"l\">" << esc(r.m) << "</td><td>" << r.na << " / " << r.nb
+                      << "</td><td>" << num(r.ma) << "</td><td>" << num(r.mb) << "</td><td"
+                      << (r.d >= 0.5 ? " class=\"strong\"" : "") << ">" << num(r.d, 3) << "</td>"
+                      << (few ? "<td class=\"few\">too few instances</td>"
+                              : "<td>" + num(r.p, 2) + "</td>")
+                      << "<td>" << num(r.w) << (u.empty() ? "" : " " + esc(u)) << "</td></tr>\n";
                 }
             }
         }
@@ -838,13 +989,13 @@ ReportResult writeReport(const fs::path& dir) {
     writeHead(h, d, dir);
     writeFacts(h, d);
     writeContactSheets(h, d, dir);
-    writeSummaryTable(h, d);
     result.plots += writeDistributions(h, d);
     writeComparison(h, d);
     if (d.anySweep) {
         result.sweepPlots = writeSweeps(h, d);
         result.plots += result.sweepPlots;
     }
+    writeSummaryTable(h, d);
     h << "</body>\n</html>\n";
     const std::string html = h.str();
     const fs::path reportDir = dir / "report";

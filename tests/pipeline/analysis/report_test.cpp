@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -30,26 +31,28 @@ void writeText(const fs::path& p, const std::string& s) {
     std::ofstream(p, std::ios::binary) << s;
 }
 
-// Two species of 8 instances. height_m: alpha 1..8, beta 11..18 (fully separated: KS D = 1,
-// W1 = 10 m). crown_width_m: 1..8 in both (D = 0). root_depth_m: 0 everywhere (constant).
-// silhouette_coverage: two views. nodes: 100 + 10·x in both (x = 1, 2 alternating). Sweep (when
+// Two species of n instances (8 unless said). height_m: alpha 1..n, beta 11..10+n (fully
+// separated: KS D = 1, W1 = 10 m). crown_width_m: 1..n in both (D = 0). root_depth_m: 0
+// everywhere (constant). silhouette_coverage: two views. nodes: 100 + 10·x in both (x = 1, 2
+// alternating). graph_nodes: alpha only (a method's counter), 50 + k. stems: alpha only, 1
+// (constant for alpha). grow_rate: null in every record (no species has it). Sweep (when
 // `sweep`): alpha instances alternate levels[0].x = 1, 2; beta has no sweep key.
-void writeDataset(const fs::path& dir, bool sweep) {
+void writeDataset(const fs::path& dir, bool sweep, int n = 8) {
     json info = {{"name", "synthetic <set>"},
                  {"seed", 11},
                  {"description", "report test"},
-                 {"counts", {{"built", 16}, {"failed", 0}}},
+                 {"counts", {{"built", 2 * n}, {"failed", 0}}},
                  {"versions", {{"sylva", "0.1.0"}}},
                  {"wall_seconds", 2.5},
                  {"trees_per_second", 6.4},
                  {"species",
-                  {{{"name", "alpha"}, {"method", "m"}, {"count", 8}},
-                   {{"name", "beta"}, {"method", "m"}, {"count", 8}}}}};
+                  {{{"name", "alpha"}, {"method", "m"}, {"count", n}},
+                   {{"name", "beta"}, {"method", "m"}, {"count", n}}}}};
     writeText(dir / "dataset.json", info.dump(2));
     std::string lines;
-    for (int i = 0; i < 16; ++i) {
-        bool alpha = i < 8;
-        int k = i % 8 + 1;
+    for (int i = 0; i < 2 * n; ++i) {
+        bool alpha = i < n;
+        int k = i % n + 1;
         int x = k % 2 ? 1 : 2;
         json r = {{"id", (alpha ? "alpha-" : "beta-") + std::to_string(k)},
                   {"index", i},
@@ -59,8 +62,13 @@ void writeDataset(const fs::path& dir, bool sweep) {
                     {"crown_width_m", k},
                     {"root_depth_m", 0.0},
                     {"silhouette_coverage", {0.1 * k, 0.1 * k + 0.2}},
-                    {"nodes", 100 + 10 * x}}},
+                    {"nodes", 100 + 10 * x},
+                    {"grow_rate", nullptr}}},
                   {"timing", {{"grow_ms", 1.0 + k}}}};
+        if (alpha) {
+            r["stats"]["graph_nodes"] = 50 + k;
+            r["stats"]["stems"] = 1;
+        }
         if (sweep && alpha) r["sweep"] = {{"levels[0].x", std::to_string(x)}};
         lines += r.dump() + "\n";
     }
@@ -107,8 +115,9 @@ TEST(Report, HtmlOfAKnownDataset) {
     EXPECT_EQ(r.index, tmp.path() / "report" / "index.html");
     EXPECT_EQ(r.instances, 16u);  // the torn line is skipped
     EXPECT_EQ(r.species, 2u);
-    // height_m, crown_width_m, silhouette_coverage, nodes; root_depth_m is constant.
-    EXPECT_EQ(r.metrics, 4u);
+    // height_m, crown_width_m, silhouette_coverage, nodes, graph_nodes; root_depth_m and stems
+    // are constant, grow_rate has no value.
+    EXPECT_EQ(r.metrics, 5u);
     std::string html = slurpFile(r.index);
     ASSERT_FALSE(html.empty());
     EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
@@ -117,22 +126,23 @@ TEST(Report, HtmlOfAKnownDataset) {
     EXPECT_EQ(html.find("<script"), std::string::npos);                // no scripts
     EXPECT_EQ(countOf(html, "<svg"), r.plots);
     EXPECT_EQ(countOf(html, "</svg>"), r.plots);
-    // 4 metric plots + 1 timing plot + sweep plots (alpha over levels[0].x: only nodes varies
+    // 5 metric plots + 1 timing plot + sweep plots (alpha over levels[0].x: only nodes varies
     // between the sweep points... and the metrics that differ by chance between 1 and 2).
     EXPECT_GE(r.sweepPlots, 1u);
     EXPECT_LE(r.sweepPlots, 4u);
-    EXPECT_EQ(r.plots, 5u + r.sweepPlots);
+    EXPECT_EQ(r.plots, 6u + r.sweepPlots);
     EXPECT_NE(html.find("id=\"sweeps\""), std::string::npos);
     EXPECT_NE(html.find("alpha · levels[0].x"), std::string::npos);
     EXPECT_NE(html.find("alpha: nodes"), std::string::npos);  // nodes = 100 + 10 x: all variance
     EXPECT_NE(html.find("height_m [m]"), std::string::npos);  // axis title with unit
     EXPECT_NE(html.find("silhouette_coverage (mean over views)"), std::string::npos);
-    EXPECT_NE(html.find("root_depth_m = 0"), std::string::npos);
+    EXPECT_NE(html.find("root_depth_m = 0,"), std::string::npos);
+    EXPECT_NE(html.find("stems = 1 (alpha only)"), std::string::npos);
     EXPECT_NE(html.find("6.4 trees/s"), std::string::npos);
     EXPECT_NE(html.find("2.5 s"), std::string::npos);
     // The strongest separating metric of alpha–beta is height_m (D = 1, W1 = 10 m).
     EXPECT_NE(html.find("<tr class=\"top\"><td class=\"l\">alpha</td><td class=\"l\">beta</td>"
-                        "<td class=\"l\">height_m</td><td>4.5</td><td>14.5</td><td "
+                        "<td class=\"l\">height_m</td><td>8 / 8</td><td>4.5</td><td>14.5</td><td "
                         "class=\"strong\">1</td>"),
               std::string::npos);
     EXPECT_NE(html.find("<td>10 m</td>"), std::string::npos);
@@ -153,10 +163,103 @@ TEST(Report, NoSweepSectionWithoutSweepsAndErrors) {
     writeDataset(tmp.path(), false);
     ReportResult r = writeReport(tmp.path());
     EXPECT_EQ(r.sweepPlots, 0u);
-    EXPECT_EQ(r.plots, 5u);
+    EXPECT_EQ(r.plots, 6u);
     std::string html = slurpFile(r.index);
     EXPECT_EQ(html.find("id=\"sweeps\""), std::string::npos);
     fs::remove(tmp.path() / "manifest.jsonl");
     EXPECT_THROW(writeReport(tmp.path()), InputError);  // no record: bad input, exit 2
     EXPECT_THROW(writeReport(tmp.path() / "nowhere"), InputError);
+}
+
+namespace {
+
+// The HTML of the plot figure of `metric` (from its <figure to its </figure>), "" if none.
+std::string figureOf(const std::string& html, const std::string& metric) {
+    const size_t at = html.find("<figure class=\"plot\" data-metric=\"" + metric + "\"");
+    if (at == std::string::npos) return "";
+    return html.substr(at, html.find("</figure>", at) - at);
+}
+
+}  // namespace
+
+TEST(ReportHelpers, MetricThemes) {
+    EXPECT_EQ(metricTheme("height_m"), "size");
+    EXPECT_EQ(metricTheme("mesh_triangles"), "size");
+    EXPECT_EQ(metricTheme("fork_angle_mean_deg"), "branching");
+    EXPECT_EQ(metricTheme("radius_exponent_median"), "branching");
+    EXPECT_EQ(metricTheme("crown_hull_volume_m3"), "crown");
+    EXPECT_EQ(metricTheme("leaves"), "leaves");
+    EXPECT_EQ(metricTheme("leaf_pixel_fraction"), "leaves");
+    EXPECT_EQ(metricTheme("silhouette_coverage"), "views");
+    EXPECT_EQ(metricTheme("anything_per_view", true), "views");
+    EXPECT_EQ(metricTheme("graph_nodes"), "method");  // a growth method's counter
+    EXPECT_EQ(metricTheme("timing.grow_ms"), "timing");
+}
+
+// Plots sit in one grid per theme, each under its heading, themes in page order; a species
+// without a value of a metric has no row in its plot; a metric no species has is not plotted.
+TEST(Report, PlotsGroupedByThemeWithoutAbsentSpecies) {
+    sylva::test::TempDir tmp;
+    writeDataset(tmp.path(), false);
+    ReportResult r = writeReport(tmp.path());
+    const std::string html = slurpFile(r.index);
+    size_t last = 0;
+    for (const char* theme : {"size", "crown", "views", "method", "timing"}) {
+        const size_t at = html.find("<h3 id=\"theme-" + std::string(theme) + "\">");
+        ASSERT_NE(at, std::string::npos) << theme;
+        EXPECT_GT(at, last) << theme << " out of order";
+        last = at;
+        EXPECT_EQ(html.compare(html.find('\n', at) + 1, 20, "<div class=\"plots\">\n"), 0) << theme;
+    }
+    EXPECT_EQ(html.find("id=\"theme-branching\""), std::string::npos);  // no such metric here
+    EXPECT_EQ(html.find("id=\"theme-leaves\""), std::string::npos);
+    // Each plot under its theme: height_m after the size heading, before the crown heading.
+    const size_t height = html.find("data-metric=\"height_m\"");
+    EXPECT_GT(height, html.find("id=\"theme-size\""));
+    EXPECT_LT(height, html.find("id=\"theme-crown\""));
+    EXPECT_GT(html.find("data-metric=\"graph_nodes\""), html.find("id=\"theme-method\""));
+
+    const std::string both = figureOf(html, "height_m");
+    EXPECT_NE(both.find("data-species=\"alpha\""), std::string::npos);
+    EXPECT_NE(both.find("data-species=\"beta\""), std::string::npos);
+    EXPECT_EQ(both.find("no value"), std::string::npos);
+    const std::string alphaOnly = figureOf(html, "graph_nodes");
+    ASSERT_FALSE(alphaOnly.empty());
+    EXPECT_NE(alphaOnly.find("data-species=\"alpha\""), std::string::npos);
+    EXPECT_EQ(alphaOnly.find("data-species=\"beta\""), std::string::npos);  // no empty row
+    EXPECT_EQ(alphaOnly.find(">beta<"), std::string::npos);                 // nor its label
+    EXPECT_NE(alphaOnly.find("no value for beta"), std::string::npos);
+    EXPECT_EQ(countOf(alphaOnly, "<rect"), 1u);  // one box: alpha's
+    // grow_rate is null everywhere: no plot, no row, no mention.
+    EXPECT_EQ(html.find("grow_rate"), std::string::npos);
+    // The summary table: graph_nodes has – for beta.
+    EXPECT_NE(
+        html.find("<tr><td class=\"l\">graph_nodes</td><td>54.5 ± 2.45 (54.5)</td><td>–</td>"),
+        std::string::npos);
+}
+
+// With 8 instances per species the KS p-value is shown; with 3, "too few instances" instead
+// (and the n of each side), in every comparison row; fewer than 5 values draw no box.
+TEST(Report, TooFewInstancesForAPValue) {
+    sylva::test::TempDir tmp;
+    writeDataset(tmp.path(), false, 8);
+    std::string html = slurpFile(writeReport(tmp.path()).index);
+    EXPECT_EQ(html.find("too few instances</td>"), std::string::npos);
+    const double p8 = ksTwoSample({1, 2, 3, 4, 5, 6, 7, 8}, {11, 12, 13, 14, 15, 16, 17, 18}).p;
+    char p8Text[32];
+    std::snprintf(p8Text, sizeof p8Text, "<td>%.2g</td>", p8);
+    EXPECT_NE(html.find(std::string("</td>") + p8Text + "<td>10 m</td>"), std::string::npos)
+        << p8Text;
+
+    sylva::test::TempDir few;
+    writeDataset(few.path(), false, 3);
+    html = slurpFile(writeReport(few.path()).index);
+    const size_t table = html.find("id=\"compare\"");
+    ASSERT_NE(table, std::string::npos);
+    const std::string compare = html.substr(table, html.find("</table>", table) - table);
+    const size_t rows = countOf(compare, "<tr") - 1;  // less the header
+    EXPECT_GE(rows, 3u);
+    EXPECT_EQ(countOf(compare, "<td class=\"few\">too few instances</td>"), rows);
+    EXPECT_NE(compare.find("<td>3 / 3</td>"), std::string::npos);
+    EXPECT_EQ(countOf(figureOf(html, "height_m"), "<rect"), 0u);  // instances and median only
 }
