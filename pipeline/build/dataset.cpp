@@ -236,6 +236,7 @@ void readViews(Params& v, ViewOptions& vo) {
     }
     vo.margin = v.number("margin", vo.margin, Range::closed(0.5, 10));
     vo.depth = v.boolean("depth", vo.depth);
+    vo.depthPng = v.boolean("depth_png", vo.depthPng);
     vo.labels = v.boolean("labels", vo.labels);
     vo.pointCloud = v.boolean("point_cloud", vo.pointCloud);
     if (vo.pointCloud && !vo.depth) v.fail("point_cloud", "needs depth = true");

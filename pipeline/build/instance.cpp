@@ -71,7 +71,8 @@ void renderStage(InstanceWork& w, const OutputOptions& o) {
     w.cameras = makeCameras(w.grown.tree, o.views, camRng);
     w.views.reserve(w.cameras.size());
     for (const Camera& c : w.cameras) {
-        w.views.push_back(renderView(w.grown.tree, c, o.views.depth || o.views.pointCloud,
+        w.views.push_back(renderView(w.grown.tree, c,
+                                     o.views.depth || o.views.depthPng || o.views.pointCloud,
                                      o.views.labels || o.views.pointCloud));
     }
     w.renderMs = msSince(t0);
@@ -124,30 +125,37 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
 
     nlohmann::json coverage = nlohmann::json::array(), fractal = nlohmann::json::array();
     if (!w.views.empty()) {
-        std::vector<std::string> images, depths, labels;
+        ViewFiles vf;
+        if (o.views.depthPng) vf.integerDepthScale = integerDepthScale(w.views);
         for (size_t k = 0; k < w.views.size(); ++k) {
             const ViewImage& v = w.views[k];
             char stem[32];
             std::snprintf(stem, sizeof stem, "views/%03zu", k);
-            images.push_back(std::string(stem) + ".png");
-            writeGreyPng(out / rel / images.back(), v.width, v.height, v.silhouette);
-            count(rel / images.back());
+            vf.images.push_back(std::string(stem) + ".png");
+            writeGreyPng(out / rel / vf.images.back(), v.width, v.height, v.silhouette);
+            count(rel / vf.images.back());
             if (o.views.depth) {
-                depths.push_back(std::string(stem) + "_depth.exr");
-                writeDepthExr(out / rel / depths.back(), v.width, v.height, v.depth);
-                count(rel / depths.back());
+                vf.depthExr.push_back(std::string(stem) + "_depth.exr");
+                writeDepthExr(out / rel / vf.depthExr.back(), v.width, v.height, v.depth);
+                count(rel / vf.depthExr.back());
+            }
+            if (o.views.depthPng) {
+                vf.depthPng.push_back(std::string(stem) + "_depth.png");
+                writeDepthPng(out / rel / vf.depthPng.back(), v.width, v.height, v.depth,
+                              vf.integerDepthScale);
+                count(rel / vf.depthPng.back());
             }
             if (o.views.labels) {
-                labels.push_back(std::string(stem) + "_label.png");
-                writeGreyPng(out / rel / labels.back(), v.width, v.height, v.labels);
-                count(rel / labels.back());
+                vf.labels.push_back(std::string(stem) + "_label.png");
+                writeGreyPng(out / rel / vf.labels.back(), v.width, v.height, v.labels);
+                count(rel / vf.labels.back());
             }
             coverage.push_back(silhouetteCoverage(v));
             fractal.push_back(boxCountingDimension(v));
         }
         files["views"] = (rel / "views").generic_string();
         put("transforms", "transforms.json",
-            transformsJson(w.cameras, images, depths, labels).dump(2) + "\n");
+            transformsJson(w.cameras, vf, ngpPlacement(w.grown.tree)).dump(2) + "\n");
         if (o.views.pointCloud) put("points_ply", "points.ply", pointCloudPly(w.cameras, w.views));
         if (o.views.contactSheet) {
             int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(w.views.size()))));

@@ -34,8 +34,9 @@ void appendToString(png_structp png, png_bytep data, png_size_t length) {
 void noFlush(png_structp) {}
 
 // libpng reports errors by longjmp; nothing with a destructor lives across setjmp here.
-bool pngEncode(int width, int height, int channels, const uint8_t* pixels, std::string& out,
-               std::string& error) {
+// pixels: rows of width × channels samples of bitDepth (8, or 16 as native uint16).
+bool pngEncode(int width, int height, int channels, int bitDepth, const uint8_t* pixels,
+               std::string& out, std::string& error) {
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
     if (!png) {
         error = "libpng: cannot create a write struct";
@@ -48,9 +49,9 @@ bool pngEncode(int width, int height, int channels, const uint8_t* pixels, std::
         return false;
     }
     png_set_write_fn(png, &out, appendToString, noFlush);
-    png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8,
-                 channels == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
-                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height),
+                 bitDepth, channels == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY,
+                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
     png_set_compression_level(png, 1);
     png_set_compression_strategy(png, Z_RLE);
@@ -58,8 +59,12 @@ bool pngEncode(int width, int height, int channels, const uint8_t* pixels, std::
     // as much as compressing a 256² silhouette (≈ 170 vs 100 µs); Z_RLE never uses the hash.
     png_set_compression_mem_level(png, 6);
     png_write_info(png, info);
+    // PNG stores 16-bit samples big-endian: libpng swaps native little-endian ones.
+    const uint16_t probe = 1;
+    if (bitDepth == 16 && *reinterpret_cast<const uint8_t*>(&probe) == 1) png_set_swap(png);
+    const size_t rowBytes = static_cast<size_t>(width) * channels * (bitDepth / 8);
     for (int y = 0; y < height; ++y) {
-        png_write_row(png, pixels + static_cast<size_t>(y) * width * channels);
+        png_write_row(png, pixels + static_cast<size_t>(y) * rowBytes);
     }
     png_write_end(png, nullptr);
     png_destroy_write_struct(&png, &info);
@@ -131,7 +136,7 @@ std::string encodeGreyPng(int width, int height, const uint8_t* pixels) {
     std::string out;
     out.reserve(static_cast<size_t>(width) * height / 8 + 256);
     std::string error;
-    if (!pngEncode(width, height, 1, pixels, out, error)) throw std::runtime_error(error);
+    if (!pngEncode(width, height, 1, 8, pixels, out, error)) throw std::runtime_error(error);
     return out;
 }
 
@@ -140,7 +145,18 @@ std::string encodeRgbPng(int width, int height, const uint8_t* rgb) {
     std::string out;
     out.reserve(static_cast<size_t>(width) * height / 4 + 256);
     std::string error;
-    if (!pngEncode(width, height, 3, rgb, out, error)) throw std::runtime_error(error);
+    if (!pngEncode(width, height, 3, 8, rgb, out, error)) throw std::runtime_error(error);
+    return out;
+}
+
+std::string encodeGrey16Png(int width, int height, const uint16_t* pixels) {
+    checkSize(width, height, "encodeGrey16Png");
+    std::string out;
+    out.reserve(static_cast<size_t>(width) * height / 2 + 256);
+    std::string error;
+    if (!pngEncode(width, height, 1, 16, reinterpret_cast<const uint8_t*>(pixels), out, error)) {
+        throw std::runtime_error(error);
+    }
     return out;
 }
 

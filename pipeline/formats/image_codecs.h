@@ -3,6 +3,8 @@
 // encodeGreyPng: 8-bit greyscale PNG through libpng, zlib level 1 with the Z_RLE strategy,
 //   memLevel 6 and no row filter. Silhouettes and label images are long runs of a few values:
 //   this encodes a 256² silhouette in ≈ 0.1 ms (OIIO's writer: ≈ 0.2 ms) and about 40% smaller.
+// encodeGrey16Png: the same for 16-bit greyscale (samples big-endian in the file, as PNG
+//   requires; given here as native uint16 values). Depth maps for instant-ngp.
 //
 // encodeFloatExr: a single-part scanline OpenEXR 2.0 file, one FLOAT (32-bit) channel,
 //   RLE compression, one scanline per chunk, increasing y, data window = display window =
@@ -17,6 +19,11 @@
 //   runs of 3–128 equal bytes as (count − 1, byte) and other stretches of ≤ 128 bytes as
 //   (−count, bytes…); a chunk that would not shrink is stored raw. Files read back through
 //   OpenEXR (OIIO) bit-exactly (tests/image_codecs_test.cpp).
+//   The channel is named "Y" (luminance) by default: the one single-channel name that OpenCV
+//   (imgcodecs grfmt_exr.cpp: R/G/B make a colour image, a lone "Y" a grey one; 4.6 reads a
+//   lone "Z" as all zeros and other names not at all), Blender (imbuf openexr_api.cpp: "Y"
+//   is broadcast to grey RGB; older versions load a "Z" channel as a hidden z-buffer and show
+//   black) and OpenImageIO (any name) all read as the value.
 #pragma once
 
 #include <cstdint>
@@ -29,7 +36,9 @@ namespace sylva {
 std::string encodeGreyPng(int width, int height, const uint8_t* pixels);
 // The same PNG encoding for 8-bit RGB: 3 bytes per pixel (r, g, b), row-major.
 std::string encodeRgbPng(int width, int height, const uint8_t* rgb);
+// 16-bit greyscale: one uint16 per pixel, row-major.
+std::string encodeGrey16Png(int width, int height, const uint16_t* pixels);
 std::string encodeFloatExr(int width, int height, const float* pixels,
-                           const std::string& channel = "Z");
+                           const std::string& channel = "Y");
 
 }  // namespace sylva

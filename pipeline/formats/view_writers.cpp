@@ -8,15 +8,26 @@
 //   and fl_x = fl_y = pixels per metre (nerfstudio has no orthographic model: such files
 //   need a reader that honours the flag). Intrinsics go into every frame as well when the
 //   cameras do not share them.
-//   frames[]: file_path, transform_matrix (4 rows, camera-to-world, OpenGL convention:
-//   columns right, up, back = −forward, eye; world +y up, metres), depth_file_path and
-//   label_file_path when given, azimuth_deg, elevation_deg. Keys sorted (nlohmann default).
-//   Depth EXRs hold metres along the view axis (z-depth, not ray length), 0 = background:
-//   with nerfstudio pass `nerfstudio-data --depth-unit-scale-factor 1.0` (its default 1e-3
-//   expects millimetres).
-// Depth EXR: one FLOAT channel "Z", RLE compression (lossless); PNGs: 8-bit grey. Both are
-//   encoded in memory (pipeline/formats/image_codecs.h, which gives the formats and the measured
-//   reasons) and written with writeFileAtomic; identical pixels give identical bytes.
+//   instant-ngp's placement (src/nerf_loader.cu): scale and offset (camera.h ngpPlacement:
+//   the tree's bounding sphere centred in its unit cube), aabb_scale = 1 (the scene is the
+//   tree on an empty background: nothing to reconstruct outside the cube), up = [0, 1, 0]
+//   (its viewer's up; its default is +z), integer_depth_scale with depth PNGs.
+//   nerfstudio: orientation_override "none" (its default re-orients the poses to +z up).
+//   frames[]: file_path and mask_path (both the silhouette; nerfstudio samples rays only
+//   where the mask is non-zero), transform_matrix (4 rows, camera-to-world, OpenGL
+//   convention: columns right, up, back = −forward, eye; world +y up, metres),
+//   depth_file_path (EXR, nerfstudio), depth_path (PNG, instant-ngp) and label_file_path when
+//   written, azimuth_deg, elevation_deg. Keys sorted (nlohmann default).
+//   Depth in both files is z-depth: metres along the camera's optical axis (−z in camera
+//   space), not the length of the ray, 0 = background. nerfstudio (depth-nerfacto's
+//   is_euclidean_depth = false multiplies it by the ray direction's norm) and instant-ngp
+//   (target = |d| × depth for d = ((u − cx)/f, (v − cy)/f, 1)) both expect z-depth. With
+//   nerfstudio pass `--depth-unit-scale-factor 1.0` (its default 1e-3 expects millimetres).
+// Depth EXR: one FLOAT channel "Y", RLE compression (lossless): image_codecs.h says why "Y".
+// Depth PNG: 16-bit grey, depth / integer_depth_scale rounded (see view_writers.h).
+// PNGs: 8-bit grey. All encoded in memory (pipeline/formats/image_codecs.h, which gives the
+//   formats and the measured reasons) and written with writeFileAtomic; identical pixels give
+//   identical bytes.
 // Point cloud PLY: binary little-endian, vertex = float x, y, z (world metres), uchar label
 //   (as the label images: 1 + branch order shoot wood, 254 root wood, 255 leaf; 1 when the view
 //   has no label image), uchar view (camera index); views in order, then rows top to bottom,
@@ -31,6 +42,7 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <mutex>
@@ -145,17 +157,20 @@ std::vector<uint8_t> readChannel0(const fs::path& path, int& w, int& h) {
 
 }  // namespace
 
-nlohmann::json transformsJson(const std::vector<Camera>& cameras,
-                              const std::vector<std::string>& imagePaths,
-                              const std::vector<std::string>& depthPaths,
-                              const std::vector<std::string>& labelPaths) {
+nlohmann::json transformsJson(const std::vector<Camera>& cameras, const ViewFiles& files,
+                              const NgpPlacement& placement) {
     const size_t n = cameras.size();
-    if (imagePaths.size() != n || (!depthPaths.empty() && depthPaths.size() != n) ||
-        (!labelPaths.empty() && labelPaths.size() != n)) {
+    auto matches = [n](const std::vector<std::string>& v) { return v.empty() || v.size() == n; };
+    if (files.images.size() != n || !matches(files.depthExr) || !matches(files.depthPng) ||
+        !matches(files.labels)) {
         throw std::invalid_argument("transformsJson: " + std::to_string(n) + " cameras but " +
-                                    std::to_string(imagePaths.size()) + " images, " +
-                                    std::to_string(depthPaths.size()) + " depth maps, " +
-                                    std::to_string(labelPaths.size()) + " label images");
+                                    std::to_string(files.images.size()) + " images, " +
+                                    std::to_string(files.depthExr.size()) + " depth EXRs, " +
+                                    std::to_string(files.depthPng.size()) + " depth PNGs, " +
+                                    std::to_string(files.labels.size()) + " label images");
+    }
+    if (!files.depthPng.empty() && !(files.integerDepthScale > 0)) {
+        throw std::invalid_argument("transformsJson: depth PNGs need a positive depth scale");
     }
     nlohmann::json j;
     j["camera_model"] = "OPENCV";
@@ -163,13 +178,21 @@ nlohmann::json transformsJson(const std::vector<Camera>& cameras,
     bool shared = true;
     for (const Camera& c : cameras) shared = shared && sameIntrinsics(c, cameras.front());
     if (n > 0) putIntrinsics(j, cameras.front());
+    j["aabb_scale"] = 1;
+    j["scale"] = placement.scale;
+    j["offset"] = {placement.offset.x + 0.0, placement.offset.y + 0.0, placement.offset.z + 0.0};
+    j["up"] = {0.0, 1.0, 0.0};
+    j["orientation_override"] = "none";
+    if (!files.depthPng.empty()) j["integer_depth_scale"] = files.integerDepthScale;
     nlohmann::json frames = nlohmann::json::array();
     for (size_t i = 0; i < n; ++i) {
         nlohmann::json f;
-        f["file_path"] = imagePaths[i];
+        f["file_path"] = files.images[i];
+        f["mask_path"] = files.images[i];
         f["transform_matrix"] = matrixRows(cameras[i]);
-        if (!depthPaths.empty()) f["depth_file_path"] = depthPaths[i];
-        if (!labelPaths.empty()) f["label_file_path"] = labelPaths[i];
+        if (!files.depthExr.empty()) f["depth_file_path"] = files.depthExr[i];
+        if (!files.depthPng.empty()) f["depth_path"] = files.depthPng[i];
+        if (!files.labels.empty()) f["label_file_path"] = files.labels[i];
         f["azimuth_deg"] = cameras[i].azimuthDeg;
         f["elevation_deg"] = cameras[i].elevationDeg;
         if (!shared) putIntrinsics(f, cameras[i]);
@@ -186,7 +209,48 @@ void writeGreyPng(const fs::path& path, int width, int height, const std::vector
 
 void writeDepthExr(const fs::path& path, int width, int height, const std::vector<float>& depth) {
     checkSize(width, height, depth.size(), "writeDepthExr");
-    writeFileAtomic(path, encodeFloatExr(width, height, depth.data(), "Z"));
+    writeFileAtomic(path, encodeFloatExr(width, height, depth.data(), "Y"));
+}
+
+double integerDepthScale(const std::vector<ViewImage>& views) {
+    double farthest = 0.0;
+    for (const ViewImage& v : views) {
+        for (float d : v.depth) {
+            if (d > 0 && std::isfinite(d)) farthest = std::max(farthest, static_cast<double>(d));
+        }
+    }
+    // 1, 2, 5 × 10^k mm: the finest step at which the farthest hit rounds to ≤ 65535 units
+    // (each step the nearest double to its decimal value: 0.001, 0.002, 0.005, 0.01, …).
+    for (double decade = 1;; decade *= 10) {
+        for (double step : {1.0, 2.0, 5.0}) {
+            const double scale = step * decade / 1000.0;
+            if (farthest / scale < 65535.5) return scale;
+        }
+    }
+}
+
+std::vector<uint16_t> depthToUnits(const std::vector<float>& depth, double scale) {
+    if (!(scale > 0)) throw std::invalid_argument("depthToUnits: the scale must be positive");
+    std::vector<uint16_t> units(depth.size(), 0);
+    for (size_t k = 0; k < depth.size(); ++k) {
+        const float d = depth[k];
+        if (!(d > 0)) continue;  // background (0) and anything not a hit
+        const double v = std::floor(static_cast<double>(d) / scale + 0.5);
+        if (!(v <= 65535)) {
+            throw std::invalid_argument("depthToUnits: depth " + std::to_string(d) +
+                                        " m exceeds 65535 units of " + std::to_string(scale) +
+                                        " m");
+        }
+        units[k] = static_cast<uint16_t>(std::max(1.0, v));  // a hit never reads as "no hit"
+    }
+    return units;
+}
+
+void writeDepthPng(const fs::path& path, int width, int height, const std::vector<float>& depth,
+                   double scale) {
+    checkSize(width, height, depth.size(), "writeDepthPng");
+    const std::vector<uint16_t> units = depthToUnits(depth, scale);
+    writeFileAtomic(path, encodeGrey16Png(width, height, units.data()));
 }
 
 std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<ViewImage>& views) {

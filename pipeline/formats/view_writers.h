@@ -15,18 +15,38 @@
 
 namespace sylva {
 
-// transforms.json (nerfstudio / instant-ngp) for the views of one instance; file paths
-// relative to the instance directory.
-nlohmann::json transformsJson(const std::vector<Camera>& cameras,
-                              const std::vector<std::string>& imagePaths,
-                              const std::vector<std::string>& depthPaths,
-                              const std::vector<std::string>& labelPaths);
+// The files of an instance's views, paths relative to the instance directory, one per camera
+// (an empty list: not written).
+struct ViewFiles {
+    std::vector<std::string> images;    // silhouettes: file_path, and mask_path (nerfstudio)
+    std::vector<std::string> depthExr;  // depth_file_path (nerfstudio: float metres)
+    std::vector<std::string> depthPng;  // depth_path (instant-ngp: uint16 × integer_depth_scale)
+    std::vector<std::string> labels;    // label_file_path
+    double integerDepthScale = 0.0;     // metres per PNG unit, with depthPng
+};
+
+// transforms.json (nerfstudio / instant-ngp) for the views of one instance; `placement` gives
+// instant-ngp's scale and offset (camera.h ngpPlacement).
+nlohmann::json transformsJson(const std::vector<Camera>& cameras, const ViewFiles& files,
+                              const NgpPlacement& placement);
 
 // Writers (atomic: temp name + rename).
 void writeGreyPng(const std::filesystem::path& path, int width, int height,
                   const std::vector<uint8_t>& pixels);
 void writeDepthExr(const std::filesystem::path& path, int width, int height,
                    const std::vector<float>& depth);
+
+// 16-bit depth PNGs (instant-ngp's depth_path): value v ↔ depth v × integer_depth_scale metres,
+// 0 = no hit. The scale (metres per unit) is 0.001 — millimetres, nerfstudio's default depth
+// unit — when every depth of the instance rounds to at most 65535 mm (65.535 m), else the
+// smallest of 2, 5, 10, 20, 50, … mm that holds the farthest hit (2 mm: 131 m, 5 mm: 327 m);
+// the rounding error is at most half a unit.
+double integerDepthScale(const std::vector<ViewImage>& views);
+// round(depth / scale) (halves up), 0 where depth is not > 0, at least 1 where it is. Throws
+// std::invalid_argument when a depth needs more than 65535 units.
+std::vector<uint16_t> depthToUnits(const std::vector<float>& depth, double scale);
+void writeDepthPng(const std::filesystem::path& path, int width, int height,
+                   const std::vector<float>& depth, double scale);
 // Depth maps back-projected to world points: binary PLY with float x y z, uchar label,
 // uchar view.
 std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<ViewImage>& views);

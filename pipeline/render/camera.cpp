@@ -24,9 +24,9 @@ void setColumn(Camera& c, int j, const Vec3& v) {
     c.cameraToWorld[2][j] = v.z;
 }
 
-// Centre and radius of a sphere holding every node sphere and every leaf-card corner: the
-// centre of their axis-aligned box and the largest distance from it.
-void boundingSphere(const Tree& tree, Vec3& centre, double& radius) {
+}  // namespace
+
+BoundingSphere treeBoundingSphere(const Tree& tree) {
     Aabb box;
     for (const SkeletonNode& n : tree.nodes) {
         const double r = std::max(0.0, n.radius);
@@ -43,22 +43,28 @@ void boundingSphere(const Tree& tree, Vec3& centre, double& radius) {
         }
     };
     forEachCorner([&](const Vec3& p) { box.extend(p); });
+    BoundingSphere sphere;
     if (box.empty() ||
         !std::isfinite(box.lo.x + box.lo.y + box.lo.z + box.hi.x + box.hi.y + box.hi.z)) {
-        centre = {0, 0, 0};
-        radius = 1.0;
-        return;
+        return sphere;  // the origin, radius 1
     }
-    centre = box.center();
+    sphere.centre = box.center();
     double r = 0.0;
     for (const SkeletonNode& n : tree.nodes) {
-        r = std::max(r, distance(n.position, centre) + std::max(0.0, n.radius));
+        r = std::max(r, distance(n.position, sphere.centre) + std::max(0.0, n.radius));
     }
-    forEachCorner([&](const Vec3& p) { r = std::max(r, distance(p, centre)); });
-    radius = r > 0 ? r : 1.0;  // a single point: frame a 1 m sphere around it
+    forEachCorner([&](const Vec3& p) { r = std::max(r, distance(p, sphere.centre)); });
+    sphere.radius = r > 0 ? r : 1.0;  // a single point: frame a 1 m sphere around it
+    return sphere;
 }
 
-}  // namespace
+NgpPlacement ngpPlacement(const Tree& tree) {
+    const BoundingSphere sphere = treeBoundingSphere(tree);
+    NgpPlacement p;
+    p.scale = 1.0 / (2.0 * kNgpCubeMargin * sphere.radius);
+    p.offset = Vec3{0.5, 0.5, 0.5} - sphere.centre * p.scale;
+    return p;
+}
 
 double Camera::fx() const {
     if (orthographic) return orthoHeight > 0 ? height / orthoHeight : 0.0;
@@ -122,9 +128,9 @@ std::vector<Camera> makeCameras(const Tree& tree, const ViewOptions& options, Rn
         throw std::invalid_argument("views: margin must be positive");
     }
 
-    Vec3 centre;
-    double radius = 1.0;
-    boundingSphere(tree, centre, radius);
+    const BoundingSphere sphere = treeBoundingSphere(tree);
+    const Vec3 centre = sphere.centre;
+    const double radius = sphere.radius;
     const double framed = radius * options.margin;
     const double aspect = static_cast<double>(options.width) / options.height;
 

@@ -22,7 +22,8 @@ struct ViewOptions {
     double fovDeg = 40.0;           // vertical field of view (perspective)
     int width = 256, height = 256;  // pixels
     double margin = 1.05;           // bounding sphere radius × margin fills the frame
-    bool depth = false;             // depth EXR per view
+    bool depth = false;             // depth EXR per view (float metres; nerfstudio, Blender)
+    bool depthPng = false;          // 16-bit depth PNG per view (instant-ngp)
     bool labels = false;            // label PNG per view
     bool pointCloud = false;        // labelled point cloud PLY per instance (needs depth)
     bool contactSheet = true;       // all views tiled, per instance
@@ -52,5 +53,29 @@ struct Camera {
 // looking at the centre of the bounding sphere of skeleton (with radii) and leaves, at a
 // distance that frames that sphere. rng is used only for a random azimuth offset.
 std::vector<Camera> makeCameras(const Tree& tree, const ViewOptions& options, Rng& rng);
+
+// The sphere makeCameras frames: centre of the axis-aligned box of every node sphere and
+// leaf-card corner, radius the largest distance from it to any of them (metres; a tree with
+// no extent gets radius 1).
+struct BoundingSphere {
+    Vec3 centre;
+    double radius = 1.0;
+};
+BoundingSphere treeBoundingSphere(const Tree& tree);
+
+// How instant-ngp's loader (src/nerf_loader.cu, nerf_matrix_to_ngp) places the scene: a
+// transforms.json position p (metres, sylva's axes) becomes p · scale + offset, whose axes it
+// then cycles (x, y, z) → (y, z, x); the scene is the unit cube [0, 1]³ (× aabb_scale about
+// its centre, 0.5). ngpPlacement centres the tree's bounding sphere at (0.5, 0.5, 0.5) and
+// scales its diameter × kNgpCubeMargin to 1: every point of the tree lands inside the cube
+// (the box of the sphere holds it), with a 2.4% margin on each side, and the cameras, which
+// aim at the sphere's centre, see the cube's centre at their image centre. Depth maps scale
+// with the same factor in the loader (depth × integer_depth_scale × scale).
+constexpr double kNgpCubeMargin = 1.05;
+struct NgpPlacement {
+    double scale = 1.0;  // cube units per metre
+    Vec3 offset;         // cube units, in sylva's axes (added before the axis cycle)
+};
+NgpPlacement ngpPlacement(const Tree& tree);
 
 }  // namespace sylva

@@ -26,7 +26,7 @@ void writeBytes(const fs::path& p, const std::string& bytes) {
 }
 
 // Decodes an EXR through OIIO (OpenEXR) and checks it is one FLOAT channel `channel`.
-std::vector<float> readExr(const fs::path& p, int w, int h, const std::string& channel = "Z") {
+std::vector<float> readExr(const fs::path& p, int w, int h, const std::string& channel = "Y") {
     auto in = OIIO::ImageInput::open(p.string());
     EXPECT_TRUE(in) << OIIO::geterror();
     if (!in) return {};

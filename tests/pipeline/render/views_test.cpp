@@ -573,12 +573,14 @@ TEST(ViewTransforms, NerfstudioFields) {
         o.width = 320;
         o.height = 240;
         const auto cams = makeCameras(t, o, rng);
-        std::vector<std::string> images, depths, labels;
+        ViewFiles files;
         for (int k = 0; k < 8; ++k) {
-            images.push_back("views/" + std::to_string(k) + ".png");
-            depths.push_back("views/" + std::to_string(k) + "_depth.exr");
+            files.images.push_back("views/" + std::to_string(k) + ".png");
+            files.depthExr.push_back("views/" + std::to_string(k) + "_depth.exr");
         }
-        const nlohmann::json j = transformsJson(cams, images, depths, labels);
+        const std::vector<std::string>& images = files.images;
+        const std::vector<std::string>& depths = files.depthExr;
+        const nlohmann::json j = transformsJson(cams, files, ngpPlacement(t));
         EXPECT_EQ(j.at("camera_model"), "OPENCV");
         EXPECT_EQ(j.at("w"), 320);
         EXPECT_EQ(j.at("h"), 240);
@@ -616,7 +618,9 @@ TEST(ViewTransforms, NerfstudioFields) {
             EXPECT_NEAR(length(col(2) - normalize(eye - centre)), 0.0, 1e-12);
             EXPECT_EQ(m[3], nlohmann::json({0, 0, 0, 1}));
         }
-        EXPECT_THROW(transformsJson(cams, {"a.png"}, {}, {}), std::invalid_argument);
+        ViewFiles one;
+        one.images = {"a.png"};
+        EXPECT_THROW(transformsJson(cams, one, ngpPlacement(t)), std::invalid_argument);
     }
 }
 
@@ -715,7 +719,7 @@ TEST(ViewWriters, PngAndExrRoundTrip) {
         auto in = OIIO::ImageInput::open(exr.string());
         ASSERT_TRUE(in);
         EXPECT_EQ(in->spec().nchannels, 1);
-        EXPECT_EQ(in->spec().channelnames.at(0), "Z");
+        EXPECT_EQ(in->spec().channelnames.at(0), "Y");
         EXPECT_EQ(in->spec().format, OIIO::TypeDesc::FLOAT);
         std::vector<float> back(w * h);
         ASSERT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, back.data()));
