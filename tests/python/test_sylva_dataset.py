@@ -1,13 +1,32 @@
 #!/usr/bin/python3
-"""Test of python/sylva_dataset.py: builds tests/data/tiny_dataset.toml with the given sylva
-executable and checks that the loader reads back exactly what was written (counts against the
-manifest's stats, mask coverage against silhouette_coverage, cameras against the views), plus
-the PNG decoder on every row filter and the PLY reader's general (mixed list length) path.
+"""Test of the sylva_dataset package (python/) from a clean install, as a user gets it.
 
-Usage: test_sylva_dataset.py SYLVA_EXE [SOURCE_DIR]
-Exit 77 (ctest SKIP) when numpy is missing.
+The driver (Debian's /usr/bin/python3, standard library only):
+  1. builds tests/data/tiny_dataset.toml with the given sylva executable (24 trees, every output);
+  2. makes a virtual environment (python3 -m venv --system-site-packages, so Debian's numpy,
+     OpenImageIO and torch are visible) in a temporary directory;
+  3. installs a copy of python/ into it (pip --no-build-isolation --no-index: offline, Debian's
+     setuptools) and runs this file's checks with the venv's interpreter (--checks): only the
+     installed package is importable, so a module left out of the package fails here;
+  4. reinstalls python/ itself in editable mode (pip install -e, the documented command) and
+     checks that every module imports from the source tree.
+
+The checks read the dataset back and compare with the files and with independent readers:
+counts, dtypes and shapes against the manifest's stats; skeleton positions against bytes
+unpacked by hand from skeleton.ply and against skeleton.swc (text); parents against the SWC's
+parent column; the GLB and OBJ of each mesh against its PLY; depth views bit for bit against
+OpenImageIO; depth, cameras and the point cloud against each other (each point, projected with
+its view's transform_matrix and intrinsics, lands on a pixel centre at the depth the map holds);
+the EXR reader on files OpenImageIO writes with every compression; the PyTorch datasets through
+a DataLoader.
+
+A missing dependency (numpy, OpenImageIO, torch, venv) is a failure, not a skip: scripts/setup
+installs them all, and a skip would hide a broken setup from CI.
+
+Usage: test_sylva_dataset.py SYLVA_EXE SOURCE_DIR
 """
 
+import json
 import os
 import shutil
 import struct
@@ -16,15 +35,11 @@ import sys
 import tempfile
 import zlib
 
-try:
-    import numpy as np
-except ImportError:
-    print("numpy missing (apt-get install -y python3-numpy): skipped")
-    sys.exit(77)
-
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "..", "python"))
-import sylva_dataset as sd  # noqa: E402
+# Debian packages the checks need; scripts/setup installs each.
+NEEDED = [("numpy", "python3-numpy"), ("OpenImageIO", "python3-openimageio"),
+          ("torch", "python3-torch"), ("ensurepip", "python3-venv"),
+          ("setuptools", "python3-setuptools")]
 
 failures = []
 
@@ -35,7 +50,71 @@ def check(cond, what):
         print("FAIL:", what)
 
 
-def png_bytes(rows, channels, filters):
+# --- driver ---------------------------------------------------------------------------------------
+
+
+def run(cmd, **kw):
+    r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, **kw)
+    if r.returncode != 0:
+        print("$ %s\n%s" % (" ".join(cmd), r.stdout))
+        raise SystemExit("test_sylva_dataset: the command above failed (exit %d)" % r.returncode)
+    return r.stdout
+
+
+def driver(exe, src):
+    missing = []
+    for module, package in NEEDED:
+        try:
+            __import__(module)
+        except ImportError:
+            missing.append(package)
+    if missing:
+        print("test_sylva_dataset: %s missing for %s: scripts/setup installs them "
+              "(apt-get install -y %s)" % (", ".join(missing), sys.executable, " ".join(missing)))
+        return 1
+    tmp = tempfile.mkdtemp(prefix="sylva_pytest_")
+    env = dict(os.environ, PIP_DISABLE_PIP_VERSION_CHECK="1", PYTHONNOUSERSITE="1",
+               PIP_NO_INPUT="1")
+    try:
+        data = os.path.join(tmp, "ds")
+        run([exe, "build", os.path.join(src, "tests/data/tiny_dataset.toml"), "--out", data,
+             "--threads", "2"])
+        venv = os.path.join(tmp, "venv")
+        run([sys.executable, "-m", "venv", "--system-site-packages", venv])
+        py, pip = os.path.join(venv, "bin", "python"), [os.path.join(venv, "bin", "python"), "-m", "pip"]
+        pip_install = pip + ["install", "--no-build-isolation", "--no-index"]
+        # A regular install of a copy (so the source tree gets no build/ or egg-info litter).
+        copy = os.path.join(tmp, "pkg")
+        shutil.copytree(os.path.join(src, "python"), copy)
+        run(pip_install + [copy], env=env)
+        r = subprocess.run([py, os.path.abspath(__file__), "--checks", exe, src, data, tmp],
+                           cwd=tmp, env=env)
+        if r.returncode != 0:
+            return 1
+        # The documented editable install: every module from the source tree.
+        run(pip_install + ["-e", os.path.join(src, "python")], env=env)
+        probe = ("import json, sylva_dataset, sylva_dataset.pytorch as p, importlib.metadata as m;"
+                 "print(json.dumps([sylva_dataset.__file__, p.__file__, sylva_dataset.__version__,"
+                 " m.version('sylva-dataset')]))")
+        init, torch_mod, version, dist = json.loads(run([py, "-c", probe], cwd=tmp, env=env))
+        pkg = os.path.realpath(os.path.join(src, "python", "sylva_dataset"))
+        check(os.path.realpath(init) == os.path.join(pkg, "__init__.py")
+              and os.path.realpath(torch_mod) == os.path.join(pkg, "pytorch.py"),
+              "editable install imports from the source tree: %s, %s" % (init, torch_mod))
+        check(version == dist, "__version__ %s = the installed distribution's %s" % (version, dist))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    if failures:
+        print("%d failure(s)" % len(failures))
+        return 1
+    print("sylva_dataset: all checks passed (installed copy and editable install)")
+    return 0
+
+
+# --- checks (inside the venv) ---------------------------------------------------------------------
+
+
+def png_bytes(np, rows, channels, filters):
     """Encodes uint8 rows (H, W*channels) with the given per-row filter types."""
     h, stride = rows.shape
     bpp = channels
@@ -74,19 +153,19 @@ def png_bytes(rows, channels, filters):
             + chunk(b"IDAT", zlib.compress(bytes(out))) + chunk(b"IEND", b""))
 
 
-def test_png_filters(tmp):
+def test_png_filters(np, sd, tmp):
     rng = np.random.RandomState(3)
     for channels in (1, 2, 3, 4):
         img = rng.randint(0, 256, size=(7, 5 * channels)).astype(np.uint8)
         p = os.path.join(tmp, "f%d.png" % channels)
         with open(p, "wb") as f:
-            f.write(png_bytes(img, channels, [0, 1, 2, 3, 4]))
+            f.write(png_bytes(np, img, channels, [0, 1, 2, 3, 4]))
         got = sd.read_png(p)
         want = img if channels == 1 else img.reshape(7, 5, channels)
         check(got.shape == want.shape and (got == want).all(), "PNG filters 0-4, %d channel(s)" % channels)
 
 
-def test_ply_mixed_lists(tmp):
+def test_ply_mixed_lists(sd, tmp):
     p = os.path.join(tmp, "mixed.ply")
     header = ("ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\n"
               "element face 2\nproperty list uchar int vertex_indices\nproperty uchar tag\nend_header\n")
@@ -100,10 +179,105 @@ def test_ply_mixed_lists(tmp):
           and list(faces["tag"]) == [7, 9], "PLY mixed list lengths")
 
 
-def test_dataset(exe, src, tmp):
-    out = os.path.join(tmp, "ds")
-    subprocess.run([exe, "build", os.path.join(src, "tests/data/tiny_dataset.toml"), "--out", out, "--threads", "2"],
-                   check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+def test_exr_compressions(np, sd, oiio, tmp):
+    """EXRs written by OpenImageIO (OpenEXR) with mixed channel types, read by sylva_dataset's
+    own decoder (none, rle, zips, zip) and its OpenImageIO fallback (piz), bit for bit."""
+    rng = np.random.RandomState(5)
+    w, h = 37, 21  # odd sizes, a ZIP block of 16 lines plus a short one
+    pixels = (rng.rand(h, w, 3) * 10).astype(np.float32)
+    pixels[5:9] = 0  # runs for RLE
+    for comp in ("none", "rle", "zips", "zip", "piz"):
+        p = os.path.join(tmp, "c_%s.exr" % comp)
+        spec = oiio.ImageSpec(w, h, 3, oiio.FLOAT)
+        spec.channelnames = ("depth", "B", "Y")
+        spec.channelformats = (oiio.TypeDesc("half"), oiio.TypeDesc("float"), oiio.TypeDesc("uint"))
+        spec.attribute("compression", comp)
+        out = oiio.ImageOutput.create(p)
+        out.open(p, spec)
+        out.write_image(pixels)
+        out.close()
+        got = sd.read_exr(p)
+        inp = oiio.ImageInput.open(p)
+        names = list(inp.spec().channelnames)
+        kinds = [str(f) for f in inp.spec().channelformats]
+        native = comp != "piz"  # piz goes through OpenImageIO: every channel as float32
+        refs = [inp.read_image(0, 0, c, c + 1, kinds[c] if native else "float")[:, :, 0]
+                for c in range(len(names))]
+        inp.close()
+        check(list(got) == names == ["B", "Y", "depth"], "EXR %s channel order %r" % (comp, list(got)))
+        for name, ref in zip(names, refs):
+            g = got.get(name)
+            check(g is not None and g.dtype == ref.dtype and g.shape == (h, w)
+                  and np.array_equal(g.view(np.uint8), ref.view(np.uint8)),
+                  "EXR %s channel %s equals OpenImageIO's (%s)" % (comp, name, kinds[names.index(name)]))
+        first = sd.read_exr_first_channel(p)
+        check(first.dtype == np.float32 and np.array_equal(first, refs[0].astype(np.float32)),
+              "EXR %s first channel" % comp)
+
+
+def test_obj_general(np, sd, tmp):
+    """An OBJ with a quad, negative indices, v//vn corners and a g group: the general path."""
+    p = os.path.join(tmp, "general.obj")
+    with open(p, "w") as f:
+        f.write("# test\nmtllib x.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0 1.0\n"
+                "vn 0 0 1\ng leaves\nusemtl leaf\nv 0 0 1\nf 1//1 2//1 3//1 4//1\nf -1//1 1//1 2//1\n")
+    m = sd.read_obj(p)
+    check(m.positions.shape == (5, 3) and m.positions[4].tolist() == [0, 0, 1], "OBJ positions (w dropped)")
+    check(m.faces.tolist() == [[0, 1, 2], [0, 2, 3], [4, 0, 1]], "OBJ quad fan and negative index: %r" % m.faces.tolist())
+    check(m.uvs is None and m.normals is not None and m.normals[4].tolist() == [0, 0, 1], "OBJ v//vn")
+    check(m.part.tolist() == [0, 0, 0, 0, 1], "OBJ part from the 'leaves' group")
+
+
+def test_glb_transform(np, sd, tmp):
+    """A hand-made GLB: one triangle under a node translated by (1, 2, 3) and scaled by 2."""
+    pos = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], "<f4")
+    idx = np.array([0, 2, 1], "<u2")
+    binary = pos.tobytes() + idx.tobytes() + b"\0\0"
+    gltf = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+            "nodes": [{"children": [1], "translation": [1, 2, 3]}, {"mesh": 0, "scale": [2, 2, 2]}],
+            "meshes": [{"name": "leaves", "primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+            "buffers": [{"byteLength": len(binary)}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
+                          {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]}
+    js = json.dumps(gltf).encode()
+    js += b" " * (-len(js) % 4)
+    body = struct.pack("<I4s", len(js), b"JSON") + js + struct.pack("<I4s", len(binary), b"BIN\0") + binary
+    p = os.path.join(tmp, "t.glb")
+    with open(p, "wb") as f:
+        f.write(struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
+    m = sd.read_glb(p)
+    check(m.positions.tolist() == [[1, 2, 3], [3, 2, 3], [1, 4, 3]], "GLB node transforms: %r" % m.positions.tolist())
+    check(m.faces.tolist() == [[0, 2, 1]] and m.part.tolist() == [1, 1, 1], "GLB faces (uint16) and part")
+
+
+def ply_vertex_bytes(path):
+    """skeleton.ply's vertex records unpacked by hand (x y z radius: float, order: int, part:
+    uchar; little-endian): an independent check of read_ply."""
+    with open(path, "rb") as f:
+        data = f.read()
+    start = data.index(b"end_header\n") + len(b"end_header\n")
+    n = int(data[:start].split(b"element vertex ")[1].split(b"\n")[0])
+    return [struct.unpack_from("<4fiB", data, start + 21 * k) for k in range(n)]
+
+
+def read_swc(path):
+    rows = []
+    with open(path) as f:
+        for line in f:
+            if line.strip() and not line.startswith("#"):
+                rows.append([float(x) for x in line.split()])
+    return rows
+
+
+def plain(np, a, dtype, shape, what):
+    check(a is not None and a.dtype == np.dtype(dtype) and a.shape == shape and a.flags.c_contiguous
+          and a.dtype.isnative, "%s: %s %r, got %s %r" % (what, dtype, shape,
+                                                          None if a is None else a.dtype,
+                                                          None if a is None else a.shape))
+
+
+def test_dataset(np, sd, oiio, out):
     ds = sd.Dataset(out)
     check(len(ds) == ds.info["counts"]["instances_in_dataset"] == 24, "instance count %d" % len(ds))
     check(ds.species == ["tiny", "tiny-var"], "species %r" % ds.species)
@@ -113,53 +287,182 @@ def test_dataset(exe, src, tmp):
     first = ds[0]
     check(ds[first.id].id == first.id, "lookup by id")
     views = ds.info["spec"]["views"]
-    w, h = views["resolution"]
+    w, h, nv = views["resolution"][0], views["resolution"][1], views["count"]
+    leaves_seen = 0
     for inst in ds:
         st = inst.stats
+        # Skeleton: plain arrays, values as in the file's bytes and the SWC.
         sk = inst.skeleton()
-        check(len(sk.nodes) == st["nodes"], "%s skeleton nodes %d vs %d" % (inst.id, len(sk.nodes), st["nodes"]))
-        check(len(sk.edges) == st["segments"], "%s skeleton edges" % inst.id)
-        check(sk.edges.min() >= 0 and sk.edges.max() < len(sk.nodes), "%s edge indices" % inst.id)
-        m = inst.mesh()
-        check(len(m.vertices) == st["mesh_vertices"], "%s mesh vertices" % inst.id)
-        check(m.faces.shape == (st["mesh_triangles"], 3), "%s mesh faces %r" % (inst.id, m.faces.shape))
-        check(m.faces.max() < len(m.vertices), "%s face indices" % inst.id)
-        wt = inst.mesh("watertight")
-        check(len(wt.vertices) == st["watertight_vertices"] and len(wt.faces) == st["watertight_triangles"],
-              "%s watertight counts" % inst.id)
+        n = st["nodes"]
+        plain(np, sk.positions, "float32", (n, 3), inst.id + " skeleton positions")
+        plain(np, sk.radii, "float32", (n,), inst.id + " skeleton radii")
+        plain(np, sk.parents, "int64", (n,), inst.id + " skeleton parents")
+        plain(np, sk.edges, "int64", (st["segments"], 2), inst.id + " skeleton edges")
+        plain(np, sk.order, "int64", (n,), inst.id + " skeleton order")
+        check(sk.radius is sk.radii, "radius is radii")
+        raw = ply_vertex_bytes(inst.path("skeleton_ply"))
+        check(len(raw) == n and all(tuple(sk.positions[k]) == raw[k][:3] and sk.radii[k] == raw[k][3]
+                                    and sk.order[k] == raw[k][4] and sk.part[k] == raw[k][5]
+                                    for k in (0, 1, n // 2, n - 1)),
+              "%s skeleton nodes 0, 1, N/2, N-1 equal skeleton.ply's bytes" % inst.id)
+        check(sk.positions[0].tolist() == [0, 0, 0], "%s root node at the origin" % inst.id)
+        swc = np.array(read_swc(inst.path("skeleton_swc")))
+        check(swc.shape == (n, 7) and np.allclose(swc[:, 2:5], sk.positions, rtol=1e-5, atol=1e-6)
+              and np.allclose(swc[:, 5], sk.radii, rtol=1e-5, atol=1e-7),
+              "%s positions and radii agree with skeleton.swc" % inst.id)
+        swc_parent = swc[:, 6].astype(np.int64)
+        check(sk.parents[0] == -1 and np.array_equal(np.where(swc_parent < 0, -1, swc_parent - 1), sk.parents),
+              "%s parents equal the SWC's parent column" % inst.id)
+        # Meshes: every format the manifest lists, each equal to the PLY.
+        for kind, nvert, ntri in (("mesh", st["mesh_vertices"], st["mesh_triangles"]),
+                                  ("watertight", st["watertight_vertices"], st["watertight_triangles"])):
+            fmts = inst.mesh_formats(kind)
+            check(fmts == ["ply", "glb", "obj"], "%s %s formats %r" % (inst.id, kind, fmts))
+            ref = inst.mesh(kind)
+            for fmt in fmts:
+                m = inst.mesh(kind, fmt)
+                what = "%s %s.%s" % (inst.id, kind, fmt)
+                plain(np, m.positions, "float32", (nvert, 3), what + " positions")
+                plain(np, m.faces, "int64", (ntri, 3), what + " faces")
+                plain(np, m.normals, "float32", (nvert, 3), what + " normals")
+                plain(np, m.uvs, "float32", (nvert, 2), what + " uvs")
+                plain(np, m.part, "int64", (nvert,), what + " part")
+                if fmt != "obj":
+                    plain(np, m.order, "int64", (nvert,), what + " order")
+                    check(np.array_equal(m.order, ref.order), what + " order equals the PLY's")
+                check(m.faces.min() >= 0 and m.faces.max() < nvert, what + " face indices")
+                check(np.array_equal(m.positions, ref.positions) and np.array_equal(m.faces, ref.faces)
+                      and np.array_equal(m.normals, ref.normals) and np.array_equal(m.uvs, ref.uvs)
+                      and np.array_equal(m.part, ref.part), what + " equals the PLY")
+            leaves_seen += int((ref.part == 1).sum()) if kind == "mesh" else 0
+        glb = inst.mesh("glb")  # the issue's KeyError: 'glb_ply'
+        check(len(glb.positions) == st["mesh_vertices"], "%s inst.mesh('glb')" % inst.id)
+        with open(inst.path("mesh_obj")) as f:
+            check(sum(1 for line in f if line.startswith("v ")) == st["mesh_vertices"],
+                  "%s mesh.obj 'v' lines" % inst.id)
+        # Views.
         cams = inst.cameras()
-        check(len(cams["frames"]) == views["count"], "%s camera count" % inst.id)
-        masks = inst.masks()
-        check(len(masks) == views["count"] == len(st["silhouette_coverage"]), "%s mask count" % inst.id)
-        for k, mask in enumerate(masks):
-            check(mask.shape == (h, w), "%s mask %d shape %r" % (inst.id, k, mask.shape))
+        check(len(cams["frames"]) == nv, "%s camera count" % inst.id)
+        masks, labels, depths = inst.masks(), inst.labels(), inst.depths()
+        check(len(masks) == len(labels) == len(depths) == nv == len(st["silhouette_coverage"]),
+              "%s view counts" % inst.id)
+        base = os.path.dirname(inst.path("transforms"))
+        for k, (mask, label, depth) in enumerate(zip(masks, labels, depths)):
+            check(mask.shape == (h, w) and mask.dtype == np.uint8, "%s mask %d shape %r" % (inst.id, k, mask.shape))
             check(set(np.unique(mask)) <= {0, 255}, "%s mask %d values" % (inst.id, k))
             cov = float((mask == 255).sum()) / (w * h)
             check(abs(cov - st["silhouette_coverage"][k]) < 1e-12,
                   "%s mask %d coverage %g vs %g" % (inst.id, k, cov, st["silhouette_coverage"][k]))
-        labels = inst.labels()
-        check(len(labels) == len(masks) and all(((l > 0) == (s > 0)).all() for l, s in zip(labels, masks)),
-              "%s labels cover exactly the silhouette" % inst.id)
+            check(((label > 0) == (mask > 0)).all(), "%s labels %d cover exactly the silhouette" % (inst.id, k))
+            plain(np, depth, "float32", (h, w), "%s depth %d" % (inst.id, k))
+            inp = oiio.ImageInput.open(os.path.join(base, cams["frames"][k]["depth_file_path"]))
+            ref = inp.read_image(0, 0, 0, 1, "float")[:, :, 0]
+            inp.close()
+            check(np.array_equal(depth.view(np.uint32), ref.view(np.uint32)),
+                  "%s depth %d equals OpenImageIO's read, bit for bit" % (inst.id, k))
+            check(((depth > 0) == (mask == 255)).all() and (depth >= 0).all(),
+                  "%s depth %d: > 0 exactly on the silhouette" % (inst.id, k))
+        # The point cloud is the depth maps back-projected, in view then row-major pixel order.
+        pc = inst.points()
+        total = sum(int((d > 0).sum()) for d in depths)
+        plain(np, pc.positions, "float32", (total, 3), inst.id + " points")
+        plain(np, pc.labels, "int64", (total,), inst.id + " point labels")
+        check(np.array_equal(pc.labels, np.concatenate([l[d > 0] for l, d in zip(labels, depths)])),
+              "%s point labels equal the label views" % inst.id)
+        for k, fr in enumerate(cams["frames"]):
+            w2c = np.linalg.inv(np.array(fr["transform_matrix"], np.float64))
+            p = pc.positions[pc.views == k].astype(np.float64) @ w2c[:3, :3].T + w2c[:3, 3]
+            rows, cols = np.nonzero(depths[k] > 0)
+            u = cams["cx"] + cams["fl_x"] * p[:, 0] / -p[:, 2]
+            v = cams["cy"] - cams["fl_y"] * p[:, 1] / -p[:, 2]
+            check(len(p) == len(rows) and np.abs(-p[:, 2] - depths[k][rows, cols]).max() < 1e-4
+                  and np.abs(u - (cols + 0.5)).max() < 1e-3 and np.abs(v - (rows + 0.5)).max() < 1e-3,
+                  "%s view %d: points project to their pixel centres at the depth map's depth" % (inst.id, k))
+    check(leaves_seen > 0, "the dataset has leaf vertices (part 1) to compare")
+    # Errors name what is missing.
+    bare = sd.Instance(out, {"id": "x", "species": "tiny", "files": {"mesh_ply": "m.ply"}})
+    try:
+        bare.mesh("obj")
+        check(False, "a format the manifest does not list raises KeyError")
+    except KeyError as e:
+        check("mesh_obj" in str(e) and "mesh_ply" in str(e), "KeyError names the key and those present: %s" % e)
+
+
+def test_torch(np, sd, out):
+    import torch
+    from sylva_dataset.pytorch import TreeDataset, ViewDataset
+
+    check(sd.torch_available(), "torch_available()")
+    ds = sd.Dataset(out)
+    trees = TreeDataset(out, fields=("skeleton", "mesh", "points", "views"), species=["tiny-var"])
+    check(len(trees) == 12, "TreeDataset species filter: %d" % len(trees))
+    item = trees[3]
+    inst = ds[item["id"]]
+    sk, m = inst.skeleton(), inst.mesh()
+    for key, ref, dtype in (("positions", sk.positions, torch.float32), ("radii", sk.radii, torch.float32),
+                            ("parents", sk.parents, torch.int64), ("edges", sk.edges, torch.int64),
+                            ("mesh_positions", m.positions, torch.float32),
+                            ("mesh_faces", m.faces, torch.int64),
+                            ("point_positions", inst.points().positions, torch.float32),
+                            ("depths", np.stack(inst.depths()), torch.float32),
+                            ("labels", np.stack(inst.labels()).astype(np.int64), torch.int64),
+                            ("masks", np.stack(inst.masks()), torch.uint8)):
+        t = item.get(key)
+        check(t is not None and t.dtype == dtype and np.array_equal(t.numpy(), ref),
+              "TreeDataset %s: %s equal to the numpy reader" % (key, dtype))
+    check(tuple(item["c2w"].shape) == (4, 4, 4) and tuple(item["K"].shape) == (4, 3, 3),
+          "TreeDataset cameras (V, 4, 4) and (V, 3, 3)")
+    check(np.allclose(item["c2w"][2].numpy(), np.array(inst.cameras()["frames"][2]["transform_matrix"])),
+          "TreeDataset c2w equals transforms.json")
+    trees_loader = torch.utils.data.DataLoader(trees, batch_size=None, shuffle=False)
+    check(sum(1 for _ in trees_loader) == 12, "TreeDataset through a DataLoader (batch_size=None)")
+
+    views = ViewDataset(out)
+    nv = ds.info["spec"]["views"]["count"]
+    check(len(views) == 24 * nv, "ViewDataset length %d" % len(views))
+    loader = torch.utils.data.DataLoader(views, batch_size=nv, shuffle=False)
+    batch = next(iter(loader))
+    w, h = ds.info["spec"]["views"]["resolution"]
+    check(tuple(batch["depth"].shape) == (nv, h, w) and batch["depth"].dtype == torch.float32
+          and batch["mask"].dtype == torch.uint8 and batch["labels"].dtype == torch.int64
+          and tuple(batch["c2w"].shape) == (nv, 4, 4) and tuple(batch["K"].shape) == (nv, 3, 3),
+          "ViewDataset default collation: %r" % {k: tuple(v.shape) for k, v in batch.items() if hasattr(v, "shape")})
+    check(list(batch["id"]) == [ds[0].id] * nv and batch["view"].tolist() == list(range(nv)),
+          "ViewDataset order: instance then view")
+    check(np.array_equal(batch["depth"].numpy(), np.stack(ds[0].depths()))
+          and np.array_equal(batch["mask"].numpy(), np.stack(ds[0].masks())),
+          "ViewDataset batch equals the numpy reader")
+
+
+def checks(exe, src, out, tmp):
+    import numpy as np
+    import OpenImageIO as oiio
+    import sylva_dataset as sd
+
+    check(os.path.realpath(sd.__file__).startswith(os.path.realpath(sys.prefix)),
+          "sylva_dataset imported from the venv's install: %s" % sd.__file__)
+    check(not sd.__file__.startswith(os.path.realpath(os.path.join(src, "python"))),
+          "not from the source tree")
+    test_png_filters(np, sd, tmp)
+    test_ply_mixed_lists(sd, tmp)
+    test_exr_compressions(np, sd, oiio, tmp)
+    test_obj_general(np, sd, tmp)
+    test_glb_transform(np, sd, tmp)
+    test_dataset(np, sd, oiio, out)
+    test_torch(np, sd, out)
+    if failures:
+        print("%d failure(s) in the installed package" % len(failures))
+        return 1
+    return 0
 
 
 def main():
-    if len(sys.argv) < 2:
+    if len(sys.argv) >= 6 and sys.argv[1] == "--checks":
+        return checks(*sys.argv[2:6])
+    if len(sys.argv) < 3:
         print(__doc__)
         return 2
-    exe = os.path.abspath(sys.argv[1])
-    src = sys.argv[2] if len(sys.argv) > 2 else os.path.dirname(HERE)
-    tmp = tempfile.mkdtemp(prefix="sylva_pytest_")
-    try:
-        test_png_filters(tmp)
-        test_ply_mixed_lists(tmp)
-        test_dataset(exe, src, tmp)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    if failures:
-        print("%d failure(s)" % len(failures))
-        return 1
-    print("sylva_dataset: all checks passed")
-    return 0
+    return driver(os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2]))
 
 
 if __name__ == "__main__":

@@ -1,0 +1,44 @@
+"""Read a sylva dataset directory from Python: numpy arrays, and PyTorch datasets when torch is
+importable. Install: ``pip install -e python/`` (docs/outputs.md, "The Python package")::
+
+    import sylva_dataset as sd
+
+    ds = sd.Dataset("out/demo")          # dataset.json (ds.info) + every complete manifest record
+    len(ds), ds.species                  # instance count, species names (first-seen order)
+    for inst in ds:                      # Instance objects, in manifest (= instance) order
+        inst.id, inst.species, inst.index, inst.seed, inst.record, inst.stats["height_m"]
+        sk = inst.skeleton()             # positions (N,3) f32, radii f32, parents i64 (−1 root),
+                                         # edges (E,2) i64, order i64, part i64
+        m = inst.mesh()                  # first listed format; inst.mesh("glb"),
+                                         # inst.mesh("watertight", "obj"): positions (V,3) f32,
+                                         # faces (F,3) i64, normals, uvs, order, part, colour
+        inst.points()                    # positions (P,3) f32, labels i64, views i64
+        inst.cameras()                   # transforms.json (dict)
+        inst.masks(), inst.labels()      # lists of (H, W) uint8 views, in frame order
+        inst.depths()                    # list of (H, W) float32 depth views (metres, 0 = none)
+
+    from sylva_dataset.pytorch import TreeDataset, ViewDataset   # needs torch
+
+Low-level readers: read_ply, read_png, read_exr, read_mesh (ply / glb / obj).
+"""
+
+from .dataset import MESH_FORMATS, Dataset, Instance, PointCloud, Skeleton
+from .exr import read_exr, read_exr_first_channel
+from .meshes import Mesh, read_glb, read_mesh, read_obj
+from .ply import read_ply
+from .png import read_png
+
+__version__ = "0.2.0"
+
+__all__ = ["Dataset", "Instance", "Skeleton", "Mesh", "PointCloud", "MESH_FORMATS", "read_ply",
+           "read_png", "read_exr", "read_exr_first_channel", "read_mesh", "read_glb", "read_obj",
+           "torch_available"]
+
+
+def torch_available():
+    """True when PyTorch is importable, i.e. sylva_dataset.pytorch can be used."""
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        return False
+    return True

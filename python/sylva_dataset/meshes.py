@@ -1,0 +1,280 @@
+"""Mesh readers for the three formats sylva writes (docs/outputs.md, "Meshes"), each returning
+the same Mesh of plain numpy arrays.
+
+- PLY (mesh.ply, watertight.ply): vertex x y z nx ny nz u v, int order, uchar part, uchar colour;
+  face list uchar uint vertex_indices (triangles).
+- GLB (glTF 2.0 binary): one node per part, meshes "wood" and "leaves", triangle primitives with
+  POSITION, NORMAL, TEXCOORD_0 and the application attributes _ORDER and _COLOUR (floats).
+- OBJ: "o wood" / "o leaves" objects of v, vt, vn and f a/a/a lines (1-based, global indices).
+
+Parts follow the PLY convention everywhere: 0 wood, 1 leaves (GLB: the mesh named "leaves";
+OBJ: the object named "leaves").
+"""
+
+import json
+import struct
+from collections import namedtuple
+
+import numpy as np
+
+from .ply import read_ply
+
+__all__ = ["Mesh", "read_mesh", "read_mesh_ply", "read_glb", "read_obj"]
+
+
+class Mesh(namedtuple("Mesh", "positions faces normals uvs order part colour vertices")):
+    """A triangle mesh as plain arrays (torch.from_numpy takes each):
+
+    positions  (N, 3) float32, metres
+    faces      (F, 3) int64 vertex indices (an object array of index arrays only for a PLY whose
+               faces are not all triangles)
+    normals    (N, 3) float32, or None (OBJ without vn)
+    uvs        (N, 2) float32, or None
+    order      (N,) int64 branch order, or None (OBJ has no per-vertex attributes)
+    part       (N,) int64: 0 wood, 1 leaves
+    colour     (N,) int64 leaf colour class, or None
+    vertices   the PLY vertex element as read (structured array); None for GLB and OBJ
+    """
+
+
+def _f32(a, width=None):
+    a = np.ascontiguousarray(a, dtype=np.float32)
+    return a.reshape(-1, width) if width else a
+
+
+def _i64(a):
+    return np.ascontiguousarray(a, dtype=np.int64)
+
+
+def read_mesh_ply(path):
+    ply = read_ply(path)
+    v = ply["vertex"]
+    names = v.dtype.names
+    faces = ply["face"]["vertex_indices"] if "face" in ply else np.zeros((0, 3), np.int64)
+    if faces.dtype != object:
+        faces = _i64(faces).reshape(len(faces), -1)
+
+    def column(*fields):
+        if not all(f in names for f in fields):
+            return None
+        return np.stack([v[f] for f in fields], axis=1)
+
+    positions = _f32(column("x", "y", "z"), 3)
+    n = len(positions)
+    normals = column("nx", "ny", "nz")
+    uvs = column("u", "v")
+    return Mesh(positions, faces,
+                None if normals is None else _f32(normals, 3),
+                None if uvs is None else _f32(uvs, 2),
+                _i64(v["order"]) if "order" in names else None,
+                _i64(v["part"]) if "part" in names else np.zeros(n, np.int64),
+                _i64(v["colour"]) if "colour" in names else None,
+                v)
+
+
+# --- GLB ------------------------------------------------------------------------------------------
+
+_GLTF_COMPONENTS = {5120: "i1", 5121: "u1", 5122: "i2", 5123: "u2", 5125: "u4", 5126: "f4"}
+_GLTF_WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+
+
+def _glb_chunks(data, path):
+    magic, version, length = struct.unpack_from("<4sII", data, 0)
+    if magic != b"glTF" or version != 2:
+        raise ValueError("%s: not a glTF 2.0 binary (GLB) file" % path)
+    pos, gltf, binary = 12, None, b""
+    while pos < min(length, len(data)):
+        size, kind = struct.unpack_from("<I4s", data, pos)
+        chunk = data[pos + 8:pos + 8 + size]
+        if kind == b"JSON":
+            gltf = json.loads(chunk.decode("utf-8"))
+        elif kind == b"BIN\0" and not binary:
+            binary = chunk
+        pos += 8 + size
+    if gltf is None:
+        raise ValueError("%s: GLB without a JSON chunk" % path)
+    return gltf, binary
+
+
+def _accessor(gltf, binary, index, path):
+    acc = gltf["accessors"][index]
+    if "sparse" in acc or "bufferView" not in acc:
+        raise ValueError("%s: accessor %d: sparse or view-less accessors are not read" % (path, index))
+    view = gltf["bufferViews"][acc["bufferView"]]
+    if view.get("buffer", 0) != 0 or "uri" in gltf["buffers"][view.get("buffer", 0)]:
+        raise ValueError("%s: accessor %d: only the GLB's own binary chunk is read" % (path, index))
+    dt = np.dtype("<" + _GLTF_COMPONENTS[acc["componentType"]])
+    width = _GLTF_WIDTHS[acc["type"]]
+    count = acc["count"]
+    start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+    stride = view.get("byteStride", 0) or width * dt.itemsize
+    if stride == width * dt.itemsize:
+        out = np.frombuffer(binary, dt, count * width, start).reshape(count, width)
+    else:
+        rows = np.frombuffer(binary, np.uint8, stride * (count - 1) + width * dt.itemsize, start)
+        out = np.lib.stride_tricks.as_strided(rows, (count, width * dt.itemsize), (stride, 1))
+        out = np.ascontiguousarray(out).view(dt).reshape(count, width)
+    return out if width > 1 else out[:, 0]
+
+
+def _quat_matrix(q):
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def _node_matrix(node):
+    if "matrix" in node:
+        return np.array(node["matrix"], np.float64).reshape(4, 4).T  # column-major in glTF
+    m = np.eye(4)
+    m[:3, :3] = _quat_matrix(node.get("rotation", [0, 0, 0, 1])) * np.array(node.get("scale", [1, 1, 1]))
+    m[:3, 3] = node.get("translation", [0, 0, 0])
+    return m
+
+
+def read_glb(path):
+    """Reads the triangle primitives of a GLB's default scene (node transforms applied) into one
+    Mesh, in node order; vertex arrays missing from some primitive are None."""
+    with open(path, "rb") as f:
+        gltf, binary = _glb_chunks(f.read(), path)
+    scenes = gltf.get("scenes", [])
+    roots = scenes[gltf.get("scene", 0)].get("nodes", []) if scenes else range(len(gltf.get("nodes", [])))
+    parts = []
+
+    def visit(index, parent):
+        node = gltf["nodes"][index]
+        m = parent @ _node_matrix(node)
+        if "mesh" in node:
+            mesh = gltf["meshes"][node["mesh"]]
+            part = 1 if mesh.get("name", node.get("name")) == "leaves" else 0
+            for prim in mesh["primitives"]:
+                if prim.get("mode", 4) != 4:
+                    raise ValueError("%s: primitive mode %d: only triangles are read" % (path, prim["mode"]))
+                a = prim["attributes"]
+
+                def get(name):
+                    return _accessor(gltf, binary, a[name], path) if name in a else None
+
+                pos, normals = get("POSITION"), get("NORMAL")
+                n = len(pos)
+                idx = (_accessor(gltf, binary, prim["indices"], path) if "indices" in prim
+                       else np.arange(n))
+                if not np.array_equal(m, np.eye(4)):  # sylva's nodes have no transform
+                    pos = pos @ m[:3, :3].T + m[:3, 3]
+                    if normals is not None:
+                        normals = normals @ np.linalg.inv(m[:3, :3])  # inverse transpose
+                        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+                parts.append(dict(positions=pos, faces=idx.reshape(-1, 3),
+                                  normals=normals, uvs=get("TEXCOORD_0"), order=get("_ORDER"),
+                                  colour=get("_COLOUR"), part=np.full(n, part)))
+        for child in node.get("children", []):
+            visit(child, m)
+
+    for r in roots:
+        visit(r, np.eye(4))
+    return _concatenate(parts)
+
+
+def _concatenate(parts):
+    """One Mesh from per-primitive dicts of arrays; an attribute missing from any part is None."""
+    def cat(key):
+        """Parts lacking the attribute get zeros (sylva's GLB has _COLOUR on leaves only; the PLY
+        gives wood colour 0); None when no part has it."""
+        have = [p[key] for p in parts if p[key] is not None]
+        if not have:
+            return None
+        shape = np.asarray(have[0]).shape[1:]
+        return np.concatenate([np.asarray(p[key]) if p[key] is not None
+                               else np.zeros((len(p["positions"]),) + shape) for p in parts])
+
+    def as_int(a):
+        return None if a is None else _i64(np.rint(a))
+
+    starts = np.cumsum([0] + [len(p["positions"]) for p in parts])
+    faces = [_i64(p["faces"]) + s for p, s in zip(parts, starts)]
+    positions, normals, uvs = cat("positions"), cat("normals"), cat("uvs")
+    return Mesh(_f32(positions if positions is not None else np.zeros((0, 3)), 3),
+                np.concatenate(faces) if faces else np.zeros((0, 3), np.int64),
+                None if normals is None else _f32(normals, 3), None if uvs is None else _f32(uvs, 2),
+                as_int(cat("order")), as_int(cat("part")) if parts else np.zeros(0, np.int64),
+                as_int(cat("colour")), None)
+
+
+# --- OBJ ------------------------------------------------------------------------------------------
+
+
+def read_obj(path):
+    """Reads a Wavefront OBJ's v / vt / vn / f lines into a Mesh. Polygons are split into
+    triangle fans. Normals and UVs are per vertex when every face corner uses the same UV and
+    normal for the same position (as sylva writes, f a/a/a); otherwise they are None. The part
+    of each vertex is 1 under an object or group named "leaves", else 0."""
+    lines = {"v": [], "vt": [], "vn": [], "f": []}
+    part_starts = []  # (index of the first vertex after an o/g line, part)
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            tag, _, rest = line.strip().partition(" ")
+            if tag in lines:
+                lines[tag].append(rest)
+            elif tag in ("o", "g"):
+                part_starts.append((len(lines["v"]), 1 if rest.split()[:1] == ["leaves"] else 0))
+    positions = _f32(_obj_numbers(lines["v"], 3), 3)
+    part = np.zeros(len(positions), np.int64)
+    for start, p in part_starts:
+        part[start:] = p
+    corners = _obj_corners(lines["f"], (len(positions), len(lines["vt"]), len(lines["vn"])))
+
+    def per_vertex(tag, slot, width):
+        if not lines[tag] or (corners[:, slot] < 0).any():
+            return None
+        values = _obj_numbers(lines[tag], width)[corners[:, slot]]
+        out = np.zeros((len(positions), width), np.float64)
+        out[corners[:, 0]] = values
+        if not np.array_equal(out[corners[:, 0]], values):
+            return None  # some vertex has two different UVs or normals
+        return _f32(out, width)
+
+    return Mesh(positions, corners[:, 0].reshape(-1, 3).copy(), per_vertex("vn", 2, 3),
+                per_vertex("vt", 1, 2), None, part, None, None)
+
+
+def _obj_numbers(rows, width):
+    """The first `width` numbers of each row (v may carry a w or colours; vt a w)."""
+    flat = " ".join(rows).split()
+    if len(flat) == width * len(rows):  # the usual case: exactly `width` numbers per row
+        return np.array(flat, np.float64).reshape(-1, width)
+    return np.array([r.split()[:width] for r in rows], np.float64).reshape(-1, width)
+
+
+def _obj_corners(rows, counts):
+    """Triangle corners (3 per triangle) as rows of (v, vt, vn) 0-based indices, −1 absent."""
+    flat = " ".join(rows).replace("/", " ").split()
+    if len(flat) == 9 * len(rows) and "//" not in "".join(rows):  # all "f a/b/c a/b/c a/b/c"
+        idx = np.array(flat, np.int64).reshape(-1, 3)
+        if (idx > 0).all():
+            return idx - 1
+    corners = []
+    for r in rows:
+        ids = []
+        for c in r.split():
+            k = (c.split("/") + ["", ""])[:3]
+            ids.append([_obj_index(t, n) for t, n in zip(k, counts)])
+        for i in range(1, len(ids) - 1):  # a triangle fan
+            corners += (ids[0], ids[i], ids[i + 1])
+    return np.array(corners, np.int64).reshape(-1, 3)
+
+
+def _obj_index(s, count):
+    if not s:
+        return -1
+    i = int(s)
+    return i - 1 if i > 0 else count + i  # 1-based, or negative = relative to the end
+
+
+def read_mesh(path):
+    """A Mesh from a .ply, .glb or .obj file, by its extension."""
+    ext = path.rsplit(".", 1)[-1].lower()
+    readers = {"ply": read_mesh_ply, "glb": read_glb, "obj": read_obj}
+    if ext not in readers:
+        raise ValueError("%s: unknown mesh format %r (ply, glb, obj)" % (path, ext))
+    return readers[ext](path)
