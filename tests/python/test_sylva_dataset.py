@@ -20,7 +20,7 @@ its view's transform_matrix and intrinsics, lands on a pixel centre at the depth
 the EXR reader on files OpenImageIO writes with every compression; the PyTorch datasets through
 a DataLoader.
 
-A missing dependency (numpy, OpenImageIO, torch, venv, setuptools) is a failure, not a skip:
+A missing dependency (numpy, OpenImageIO, torch, venv, setuptools, wheel) is a failure, not a skip:
 `scripts/setup --tests` (run by scripts/test) installs them all, and a skip would hide a broken
 setup from CI. The one exception: where the archive has no python3-torch (some architectures),
 the PyTorch datasets are not tested, and the test says so.
@@ -41,7 +41,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 # Debian packages the checks need; scripts/setup installs each.
 NEEDED = [("numpy", "python3-numpy"), ("OpenImageIO", "python3-openimageio"),
           ("torch", "python3-torch"), ("ensurepip", "python3-venv"),
-          ("setuptools", "python3-setuptools")]
+          ("setuptools", "python3-setuptools"), ("wheel", "python3-wheel")]
 
 failures = []
 
@@ -87,7 +87,7 @@ def driver(exe, src):
             else:
                 missing.append(package)
     if missing:
-        print("test_sylva_dataset: %s missing for %s: scripts/setup installs them "
+        print("test_sylva_dataset: %s missing for %s: scripts/setup --tests installs them "
               "(apt-get install -y %s)" % (", ".join(missing), sys.executable, " ".join(missing)))
         return 1
     tmp = tempfile.mkdtemp(prefix="sylva_pytest_")
