@@ -149,8 +149,19 @@ class Instance:
     def depths(self):
         """The depth views, in frame order: (H, W) float32 metres along the view axis (z-depth),
         0 = background. Read from each frame's depth_file_path EXR (its first channel, whatever its
-        name)."""
-        return [read_exr_first_channel(p) for p in self._frame_files("depth_file_path")]
+        name); a dataset with 16-bit depth PNGs only (instant-ngp's depth_path) gives value ×
+        integer_depth_scale instead, quantised to that scale."""
+        exrs = self._frame_files("depth_file_path")
+        if exrs:
+            return [read_exr_first_channel(p) for p in exrs]
+        pngs = self._frame_files("depth_path")
+        if not pngs:
+            return []
+        scale = self.cameras().get("integer_depth_scale")
+        if not scale or scale <= 0:
+            raise ValueError("%s: depth PNGs without a positive integer_depth_scale in "
+                             "transforms.json" % self.id)
+        return [(read_png(p).astype(np.float64) * scale).astype(np.float32) for p in pngs]
 
 
 def _manifest_paths(root):

@@ -1,4 +1,5 @@
-"""A PNG decoder for 8-bit non-interlaced grey / grey+alpha / RGB / RGBA images (sylva's views)."""
+"""A PNG decoder for 8- and 16-bit non-interlaced grey / grey+alpha / RGB / RGBA images: sylva's
+views (8-bit grey) and 16-bit depth PNGs."""
 
 import struct
 import zlib
@@ -12,7 +13,8 @@ _PNG_CHANNELS = {0: 1, 2: 3, 4: 2, 6: 4}
 
 
 def read_png(path):
-    """Decodes an 8-bit non-interlaced PNG (grey, grey+alpha, RGB, RGBA) to a uint8 array."""
+    """Decodes a non-interlaced PNG (grey, grey+alpha, RGB, RGBA; 8 or 16 bits per sample) to a
+    uint8 or uint16 array: (H, W) for grey, (H, W, C) otherwise."""
     with open(path, "rb") as f:
         data = f.read()
     if data[:8] != b"\x89PNG\r\n\x1a\n":
@@ -33,10 +35,11 @@ def read_png(path):
     if hdr is None:
         raise ValueError("%s: no IHDR" % path)
     w, h, depth, ctype, _, _, interlace = hdr
-    if depth != 8 or ctype not in _PNG_CHANNELS or interlace:
-        raise ValueError("%s: only 8-bit non-interlaced grey/RGB(A) PNGs are supported "
+    if depth not in (8, 16) or ctype not in _PNG_CHANNELS or interlace:
+        raise ValueError("%s: only 8- or 16-bit non-interlaced grey/RGB(A) PNGs are supported "
                          "(depth %d, colour type %d, interlace %d)" % (path, depth, ctype, interlace))
-    bpp = _PNG_CHANNELS[ctype]
+    channels = _PNG_CHANNELS[ctype]
+    bpp = channels * depth // 8  # bytes per pixel: the filters' unit
     stride = w * bpp
     raw = np.frombuffer(zlib.decompress(b"".join(idat)), np.uint8)
     if raw.size != h * (stride + 1):
@@ -72,4 +75,6 @@ def read_png(path):
             raise ValueError("%s: bad PNG filter type %d in row %d" % (path, ft, y))
         img[y] = cur
         prev = img[y]
-    return img.reshape(h, w) if bpp == 1 else img.reshape(h, w, bpp)
+    if depth == 16:  # samples are big-endian
+        img = img.view(">u2").astype(np.uint16)
+    return img.reshape(h, w) if channels == 1 else img.reshape(h, w, channels)

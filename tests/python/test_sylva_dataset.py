@@ -20,7 +20,7 @@ its view's transform_matrix and intrinsics, lands on a pixel centre at the depth
 the EXR reader on files OpenImageIO writes with every compression; the PyTorch datasets through
 a DataLoader.
 
-A missing dependency (numpy, OpenImageIO, torch, venv, setuptools, wheel) is a failure, not a skip:
+A missing dependency (numpy, OpenImageIO, OpenCV, torch, venv, setuptools, wheel) is a failure, not a skip:
 `scripts/setup --tests` (run by scripts/test) installs them all, and a skip would hide a broken
 setup from CI. The one exception: where the archive has no python3-torch (some architectures),
 the PyTorch datasets are not tested, and the test says so.
@@ -39,7 +39,7 @@ import zlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 # Debian packages the checks need; scripts/setup installs each.
-NEEDED = [("numpy", "python3-numpy"), ("OpenImageIO", "python3-openimageio"),
+NEEDED = [("numpy", "python3-numpy"), ("OpenImageIO", "python3-openimageio"), ("cv2", "python3-opencv"),
           ("torch", "python3-torch"), ("ensurepip", "python3-venv"),
           ("setuptools", "python3-setuptools"), ("wheel", "python3-wheel")]
 
@@ -133,10 +133,11 @@ def driver(exe, src):
 # --- checks (inside the venv) ---------------------------------------------------------------------
 
 
-def png_bytes(np, rows, channels, filters):
-    """Encodes uint8 rows (H, W*channels) with the given per-row filter types."""
+def png_bytes(np, rows, channels, filters, depth=8):
+    """Encodes rows of bytes (H, W*channels*depth/8; 16-bit samples big-endian) with the given
+    per-row filter types."""
     h, stride = rows.shape
-    bpp = channels
+    bpp = channels * depth // 8
     out = bytearray()
     prev = np.zeros(stride, np.int64)
     for y in range(h):
@@ -168,7 +169,7 @@ def png_bytes(np, rows, channels, filters):
     def chunk(kind, data):
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
 
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", stride // channels, h, 8, ctype, 0, 0, 0))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", stride // bpp, h, depth, ctype, 0, 0, 0))
             + chunk(b"IDAT", zlib.compress(bytes(out))) + chunk(b"IEND", b""))
 
 
@@ -182,6 +183,38 @@ def test_png_filters(np, sd, tmp):
         got = sd.read_png(p)
         want = img if channels == 1 else img.reshape(7, 5, channels)
         check(got.shape == want.shape and (got == want).all(), "PNG filters 0-4, %d channel(s)" % channels)
+        img16 = rng.randint(0, 65536, size=(6, 4 * channels)).astype(">u2")
+        with open(p, "wb") as f:
+            f.write(png_bytes(np, img16.view(np.uint8).reshape(6, -1), channels, [0, 1, 2, 3, 4], 16))
+        got = sd.read_png(p)
+        want = img16.astype(np.uint16) if channels == 1 else img16.astype(np.uint16).reshape(6, 4, channels)
+        check(got.dtype == np.uint16 and got.shape == want.shape and (got == want).all(),
+              "16-bit PNG filters 0-4, %d channel(s)" % channels)
+
+
+def test_png16_opencv_and_depth_png(np, sd, cv2, tmp):
+    """16-bit grey PNGs written by OpenCV (its own filter choices) read back equal, and an
+    instance with depth PNGs only (instant-ngp's depth_path) gives value × integer_depth_scale."""
+    rng = np.random.RandomState(9)
+    depth = rng.randint(0, 65536, size=(19, 23)).astype(np.uint16)
+    depth[3:8] = 0
+    views = os.path.join(tmp, "inst", "views")
+    os.makedirs(views)
+    frames = []
+    for k in range(2):
+        name = "%03d_depth.png" % k
+        check(cv2.imwrite(os.path.join(views, name), depth + k), "cv2 writes a 16-bit PNG")
+        frames.append({"file_path": "views/%03d.png" % k, "depth_path": "views/" + name})
+        got = sd.read_png(os.path.join(views, name))
+        check(got.dtype == np.uint16 and np.array_equal(got, cv2.imread(os.path.join(views, name),
+                                                                        cv2.IMREAD_UNCHANGED)),
+              "16-bit PNG %d equals OpenCV's read" % k)
+    with open(os.path.join(tmp, "inst", "transforms.json"), "w") as f:
+        json.dump({"integer_depth_scale": 0.002, "frames": frames}, f)
+    inst = sd.Instance(tmp, {"id": "png-only", "species": "x", "files": {"transforms": "inst/transforms.json"}})
+    d = inst.depths()
+    check(len(d) == 2 and all(x.dtype == np.float32 and np.array_equal(x, ((depth + k) * 0.002).astype(np.float32))
+                              for k, x in enumerate(d)), "depths() from depth PNGs × integer_depth_scale")
 
 
 def test_ply_mixed_lists(sd, tmp):
@@ -455,6 +488,7 @@ def test_torch(np, sd, out):
 def checks(exe, src, out, tmp, torch):
     import numpy as np
     import OpenImageIO as oiio
+    import cv2
     import sylva_dataset as sd
 
     check("torch" not in sys.modules, "importing sylva_dataset does not import torch")
@@ -464,6 +498,7 @@ def checks(exe, src, out, tmp, torch):
           "not from the source tree")
     test_png_filters(np, sd, tmp)
     test_ply_mixed_lists(sd, tmp)
+    test_png16_opencv_and_depth_png(np, sd, cv2, tmp)
     test_exr_compressions(np, sd, oiio, tmp)
     test_obj_general(np, sd, tmp)
     test_glb_transform(np, sd, tmp)
