@@ -9,7 +9,7 @@ OpenCV as uint16. Writes what each returned, unchanged, as raw little-endian row
 OUT_DIR/cv2_exr.f32, OUT_DIR/oiio_exr.f32, OUT_DIR/cv2_png.u16, and OUT_DIR/readers.json with
 each reader's dtype, shape and (OpenImageIO) channel names and pixel format. The comparison
 with the renderer's buffer is the C++ test's. A missing module is an error (exit 1), never a
-skip: scripts/setup installs python3-opencv and python3-openimageio.
+skip: `scripts/setup --tests` installs python3-opencv and python3-openimageio.
 """
 
 import json

@@ -18,8 +18,8 @@ Builds tests/data/nerf_dataset.toml with the given sylva executable, then for ev
   instant-ngp's unit cube after p * scale + offset.
 
 Usage: test_depth_nerf.py SYLVA_EXE SOURCE_DIR
-A missing module (numpy, cv2, OpenImageIO) is a failure, not a skip: scripts/setup installs
-python3-numpy, python3-opencv and python3-openimageio.
+A missing module (numpy, cv2, OpenImageIO) is a failure, not a skip: `scripts/setup --tests`
+installs python3-numpy, python3-opencv and python3-openimageio.
 """
 
 import glob
