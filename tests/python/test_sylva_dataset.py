@@ -15,8 +15,9 @@ The checks read the dataset back and compare with the files and with independent
 counts, dtypes and shapes against the manifest's stats; skeleton positions against bytes
 unpacked by hand from skeleton.ply and against skeleton.swc (text); parents against the SWC's
 parent column; the GLB and OBJ of each mesh against its PLY; depth views bit for bit against
-OpenImageIO; depth, cameras and the point cloud against each other (each point, projected with
-its view's transform_matrix and intrinsics, lands on a pixel centre at the depth the map holds);
+OpenImageIO and equal to OpenCV's read; depth, cameras and the point cloud against each other
+(each point, projected with its view's transform_matrix and intrinsics, lands on a pixel centre
+at the depth the map holds);
 the EXR reader on files OpenImageIO writes with every compression; the PyTorch datasets through
 a DataLoader.
 
@@ -328,7 +329,7 @@ def plain(np, a, dtype, shape, what):
               what, dtype, shape, None if a is None else (a.dtype, a.shape, a.strides)))
 
 
-def test_dataset(np, sd, oiio, out):
+def test_dataset(np, sd, oiio, cv2, out):
     ds = sd.Dataset(out)
     check(len(ds) == ds.info["counts"]["instances_in_dataset"] == 24, "instance count %d" % len(ds))
     check(ds.species == ["tiny", "tiny-var"], "species %r" % ds.species)
@@ -411,6 +412,9 @@ def test_dataset(np, sd, oiio, out):
             inp.close()
             check(np.array_equal(depth.view(np.uint32), ref.view(np.uint32)),
                   "%s depth %d equals OpenImageIO's read, bit for bit" % (inst.id, k))
+            cv = cv2.imread(os.path.join(base, cams["frames"][k]["depth_file_path"]), cv2.IMREAD_ANYDEPTH)
+            check(cv is not None and np.array_equal(depth, cv),
+                  "%s depth %d equals OpenCV's read (what nerfstudio calls)" % (inst.id, k))
             check(((depth > 0) == (mask == 255)).all() and (depth >= 0).all(),
                   "%s depth %d: > 0 exactly on the silhouette" % (inst.id, k))
         # The point cloud is the depth maps back-projected, in view then row-major pixel order.
@@ -502,7 +506,7 @@ def checks(exe, src, out, tmp, torch):
     test_exr_compressions(np, sd, oiio, tmp)
     test_obj_general(np, sd, tmp)
     test_glb_transform(np, sd, tmp)
-    test_dataset(np, sd, oiio, out)
+    test_dataset(np, sd, oiio, cv2, out)
     if torch == "torch":
         test_torch(np, sd, out)
     else:
