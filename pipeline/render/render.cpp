@@ -34,6 +34,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 
 #include "species/model/leaf_shape.h"
@@ -133,9 +134,13 @@ struct Triangle {
     Box box;
 };
 
-// The screen triangle of three corners; false when it has no area or no pixel centre in its box.
+// The screen triangle of three corners; false when it has no area or no pixel centre in its
+// box, or, with `frontOnly`, when it faces away from the camera (counter-clockwise seen from
+// outside is clockwise on screen, whose rows run down: a negative area).
 bool setupTriangle(const Corner& a, const Corner& b, const Corner& c, uint8_t label, int w, int h,
-                   Triangle& t) {
+                   bool frontOnly, Triangle& t) {
+    t.area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (!(frontOnly ? t.area < 0.0 : t.area != 0.0)) return false;  // (NaN area: false)
     const Corner* v[3] = {&a, &b, &c};
     double lox = 1e300, hix = -1e300, loy = 1e300, hiy = -1e300, zmin = 1e300;
     for (int j = 0; j < 3; ++j) {
@@ -148,10 +153,9 @@ bool setupTriangle(const Corner& a, const Corner& b, const Corner& c, uint8_t la
         loy = std::min(loy, t.y[j]);
         hiy = std::max(hiy, t.y[j]);
     }
-    t.area = (t.x[1] - t.x[0]) * (t.y[2] - t.y[0]) - (t.y[1] - t.y[0]) * (t.x[2] - t.x[0]);
     t.zmin = static_cast<float>(zmin);
     t.label = label;
-    return t.area != 0.0 && pixelBox(lox, hix, loy, hiy, w, h, t.box);  // (NaN area: false)
+    return pixelBox(lox, hix, loy, hiy, w, h, t.box);
 }
 
 // True when the triangle's box holds at most four pixel centres and each is clearly outside
@@ -205,25 +209,114 @@ struct Line {
     Box box;
 };
 
+// A pixel a small triangle covers, found while binning: its index, label and the interpolated
+// depth term (depth for orthographic views, 1/depth for perspective ones; inverted only for
+// the fragments kept).
+struct Fragment {
+    uint32_t pixel;
+    uint8_t label;
+    double zi;
+};
+
+// A growable array of fragments whose new slots are not zeroed first (appendFragments writes
+// every slot it keeps).
+class Fragments {
+  public:
+    size_t size() const { return size_; }
+    Fragment* data() { return data_.get(); }
+    const Fragment* data() const { return data_.get(); }
+    // Room for `more` fragments past size(), returned as the first free slot.
+    Fragment* grow(size_t more) {
+        if (size_ + more > capacity_) {
+            const size_t capacity = std::max(size_ + more, 2 * capacity_ + 1024);
+            std::unique_ptr<Fragment[]> bigger(new Fragment[capacity]);
+            std::copy(data_.get(), data_.get() + size_, bigger.get());
+            data_ = std::move(bigger);
+            capacity_ = capacity;
+        }
+        return data_.get() + size_;
+    }
+    void setSize(size_t size) { size_ = size; }
+
+  private:
+    std::unique_ptr<Fragment[]> data_;
+    size_t size_ = 0, capacity_ = 0;
+};
+
+// The z-buffer's depth for a depth in metres.
+inline float storedDepth(double depth) { return std::max(kMinDepth, static_cast<float>(depth)); }
+
+// Barycentric weight of vertex j at (px, py): the signed sub-triangle opposite it over the
+// triangle's signed area (1 / area = inv).
+inline double weight(const Triangle& t, int j, double px, double py, double inv) {
+    const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+    return ((t.x[j2] - t.x[j1]) * (py - t.y[j1]) - (t.y[j2] - t.y[j1]) * (px - t.x[j1])) * inv;
+}
+
+// Appends the pixels of a triangle whose box holds few centres: each centre inside it (every
+// weight ≥ 0, edges inclusive) at its perspective-correct depth. The same arithmetic as
+// weight(), with the per-row and per-triangle terms hoisted; every centre of the box is
+// written and kept only if inside (no branch to mispredict: most centres are outside).
+void appendFragments(const Triangle& t, int w, Fragments& out) {
+    const double inv = 1.0 / t.area;
+    double dx[3], dy[3];
+    for (int j = 0; j < 3; ++j) {
+        const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+        dx[j] = t.x[j2] - t.x[j1];
+        dy[j] = t.y[j2] - t.y[j1];
+    }
+    Fragment* f =
+        out.grow(static_cast<size_t>(t.box.x1 - t.box.x0 + 1) * (t.box.y1 - t.box.y0 + 1));
+    size_t n = 0;
+    for (int y = t.box.y0; y <= t.box.y1; ++y) {
+        const double pyc = y + 0.5;
+        const double r0 = dx[0] * (pyc - t.y[1]), r1 = dx[1] * (pyc - t.y[2]),
+                     r2 = dx[2] * (pyc - t.y[0]);
+        const size_t rowOff = static_cast<size_t>(y) * w;
+        for (int x = t.box.x0; x <= t.box.x1; ++x) {
+            const double pxc = x + 0.5;
+            const double b0 = (r0 - dy[0] * (pxc - t.x[1])) * inv;
+            const double b1 = (r1 - dy[1] * (pxc - t.x[2])) * inv;
+            const double b2 = (r2 - dy[2] * (pxc - t.x[0])) * inv;
+            const double zi = b0 * t.z[0] + b1 * t.z[1] + b2 * t.z[2];
+            f[n] = {static_cast<uint32_t>(rowOff + x), t.label, zi};
+            n += (b0 >= 0.0) & (b1 >= 0.0) & (b2 >= 0.0);
+        }
+    }
+    out.setSize(out.size() + n);
+}
+
 // What one view draws. Triangle ids: [0, woodTriangles) the tube triangles, then the leaf
 // triangles (leafIndices), then `clipped` (triangles cut by the near plane, made explicit);
-// line ids follow the triangles'.
+// line ids follow the triangles'. Triangles whose box holds at most kSmallBox pixel centres
+// (almost all of a tree's: twigs are thinner than a pixel) are resolved into fragments while
+// binning; the others, clipped triangles and lines are binned by id and drawn per band.
 struct Scene {
-    std::vector<Corner> corners;     // tube vertices, then leaf outline points
-    std::vector<Vec3> cameraPoints;  // the same in camera space (for near-plane clipping)
-    const uint32_t* woodIndices = nullptr;
+    std::unique_ptr<Corner[]> corners;  // tube vertices, then leaf outline points
+    const Mesh* wood = nullptr;
     const int32_t* woodNodes = nullptr;
+    std::vector<uint8_t> nodeLabels;  // segmentLabel per skeleton node
     size_t woodTriangles = 0;
+    std::vector<Vec3> leafPoints;       // leaf outline points in camera space
     std::vector<uint32_t> leafIndices;  // into corners
+    size_t indexedTriangles = 0;        // woodTriangles + leaf triangles
     std::vector<Triangle> clipped;
     std::vector<Line> lines;
-    size_t indexedTriangles = 0;              // woodTriangles + leaf triangles
     std::vector<std::vector<uint32_t>> bins;  // per band: ids in ascending order
+    // Per binning chunk: its fragments sorted by band, band b at [bandStart[b], [b + 1]).
+    struct Chunk {
+        std::vector<Fragment> fragments;
+        std::vector<uint32_t> bandStart;
+        std::vector<uint32_t> big, cut;  // ids: binned whole; cut by the near plane
+    };
+    std::vector<Chunk> chunks;
 };
+
+constexpr int kSmallBox = 16;
 
 // Corner indices of indexed triangle `id`.
 inline void cornersOf(const Scene& s, size_t id, uint32_t v[3]) {
-    const uint32_t* p = id < s.woodTriangles ? s.woodIndices + 3 * id
+    const uint32_t* p = id < s.woodTriangles ? s.wood->indices.data() + 3 * id
                                              : s.leafIndices.data() + 3 * (id - s.woodTriangles);
     v[0] = p[0];
     v[1] = p[1];
@@ -231,7 +324,15 @@ inline void cornersOf(const Scene& s, size_t id, uint32_t v[3]) {
 }
 
 inline uint8_t labelOf(const Scene& s, const Tree& tree, size_t id) {
-    return id < s.woodTriangles ? segmentLabel(tree.nodes[s.woodNodes[id]]) : kLabelLeaf;
+    return id < s.woodTriangles ? s.nodeLabels[s.woodNodes[id]] : kLabelLeaf;
+}
+
+// Camera-space position of corner v (wood vertices recomputed from the mesh).
+inline Vec3 cameraPoint(const Scene& s, const View& view, uint32_t v) {
+    const size_t nWood = s.wood->vertexCount();
+    if (v >= nWood) return s.leafPoints[v - nWood];
+    const float* p = &s.wood->positions[3 * static_cast<size_t>(v)];
+    return view.toCamera({p[0], p[1], p[2]});
 }
 
 void addToBins(Scene& scene, const Box& box, uint32_t id) {
@@ -286,87 +387,111 @@ Scene buildScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>&
                  const View& view, const RenderOptions& options) {
     Scene scene;
     const int w = view.width, h = view.height;
-    scene.bins.resize((h + kBandRows - 1) / kBandRows);
+    const int bands = (h + kBandRows - 1) / kBandRows;
+    scene.bins.resize(bands);
+    scene.wood = &wood;
+    scene.woodNodes = woodNodes.data();
+    scene.woodTriangles = wood.triangleCount();
+    scene.nodeLabels.resize(tree.nodes.size());
+    for (size_t i = 0; i < tree.nodes.size(); ++i)
+        scene.nodeLabels[i] = segmentLabel(tree.nodes[i]);
 
     // Vertices: the tubes' (in parallel), then every leaf's outline points.
     const size_t nWood = wood.vertexCount();
-    scene.corners.resize(nWood);
-    scene.cameraPoints.resize(nWood);
+    size_t nLeafPoints = 0, nLeafIndices = 0;
+    for (const Leaf& leaf : tree.leaves) {
+        const LeafOutline& outline = leafOutline(leaf.shape);
+        nLeafPoints += outline.points.size();
+        nLeafIndices += outline.triangles.size();
+    }
+    scene.corners.reset(new Corner[nWood + nLeafPoints]);  // (uninitialised: all written below)
+    Corner* corners = scene.corners.get();
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nWood, 4096),
                       [&](const tbb::blocked_range<size_t>& r) {
                           for (size_t i = r.begin(); i != r.end(); ++i) {
                               const float* p = &wood.positions[3 * i];
-                              const Vec3 c = view.toCamera({p[0], p[1], p[2]});
-                              scene.cameraPoints[i] = c;
-                              scene.corners[i] = project(view, c);
+                              corners[i] = project(view, view.toCamera({p[0], p[1], p[2]}));
                           }
                       });
-    scene.woodIndices = wood.indices.data();
-    scene.woodNodes = woodNodes.data();
-    scene.woodTriangles = wood.triangleCount();
+    scene.leafPoints.reserve(nLeafPoints);
+    scene.leafIndices.reserve(nLeafIndices);
     std::vector<Vec3> points;
     for (const Leaf& leaf : tree.leaves) {
         const LeafOutline& outline = leafOutline(leaf.shape);
-        leafPoints(leaf, leafFrame(leaf), outline, points);
-        const uint32_t first = static_cast<uint32_t>(scene.corners.size());
+        sylva::leafPoints(leaf, leafFrame(leaf), outline, points);
+        const uint32_t first = static_cast<uint32_t>(nWood + scene.leafPoints.size());
         for (const Vec3& p : points) {
             // Rounded to float as the mesh stores them.
             const Vec3 c = view.toCamera(
                 {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)});
-            scene.cameraPoints.push_back(c);
-            scene.corners.push_back(project(view, c));
+            corners[nWood + scene.leafPoints.size()] = project(view, c);
+            scene.leafPoints.push_back(c);
         }
         for (uint32_t v : outline.triangles) scene.leafIndices.push_back(first + v);
     }
     scene.indexedTriangles = scene.woodTriangles + scene.leafIndices.size() / 3;
 
-    // Bin the triangles, chunk by chunk in parallel; those cut by the near plane are set aside.
-    struct Entry {
-        uint32_t id;
-        int band0, band1;
-    };
-    struct Chunk {
-        std::vector<Entry> entries;
-        std::vector<uint32_t> cut;
-    };
+    // Triangles, chunk by chunk in parallel: small ones straight to fragments, the others set
+    // aside to be binned whole, those cut by the near plane set aside to be clipped.
     const size_t n = scene.indexedTriangles;
-    std::vector<Chunk> chunks((n + kBinChunk - 1) / kBinChunk);
-    tbb::parallel_for(size_t(0), chunks.size(), [&](size_t c) {
-        Chunk& chunk = chunks[c];
+    scene.chunks.resize((n + kBinChunk - 1) / kBinChunk);
+    const size_t bandPixels = static_cast<size_t>(w) * kBandRows;
+    tbb::parallel_for(size_t(0), scene.chunks.size(), [&](size_t c) {
+        Scene::Chunk& chunk = scene.chunks[c];
+        Fragments found;
         const size_t end = std::min(n, (c + 1) * kBinChunk);
         for (size_t id = c * kBinChunk; id < end; ++id) {
             uint32_t v[3];
             cornersOf(scene, id, v);
-            const Corner &a = scene.corners[v[0]], &b = scene.corners[v[1]],
-                         &d = scene.corners[v[2]];
+            const Corner &a = corners[v[0]], &b = corners[v[1]], &d = corners[v[2]];
             if (!(a.depth >= kNear && b.depth >= kNear && d.depth >= kNear)) {
                 chunk.cut.push_back(static_cast<uint32_t>(id));
                 continue;
             }
             Triangle t;
-            if (!setupTriangle(a, b, d, 0, w, h, t) || missesEveryCentre(t)) continue;
-            chunk.entries.push_back(
-                {static_cast<uint32_t>(id), t.box.y0 / kBandRows, t.box.y1 / kBandRows});
+            if (!setupTriangle(a, b, d, 0, w, h, id < scene.woodTriangles, t)) continue;
+            if ((t.box.x1 - t.box.x0 + 1) * (t.box.y1 - t.box.y0 + 1) > kSmallBox) {
+                chunk.big.push_back(static_cast<uint32_t>(id));
+                continue;
+            }
+            t.label = labelOf(scene, tree, id);
+            appendFragments(t, w, found);
+        }
+        // Counting sort by band.
+        const Fragment* all = found.data();
+        const size_t count = found.size();
+        chunk.bandStart.assign(bands + 1, 0);
+        for (size_t k = 0; k < count; ++k) ++chunk.bandStart[all[k].pixel / bandPixels + 1];
+        for (int b = 0; b < bands; ++b) chunk.bandStart[b + 1] += chunk.bandStart[b];
+        chunk.fragments.resize(count);
+        std::vector<uint32_t> next(chunk.bandStart.begin(), chunk.bandStart.end() - 1);
+        for (size_t k = 0; k < count; ++k) {
+            chunk.fragments[next[all[k].pixel / bandPixels]++] = all[k];
         }
     });
-    for (const Chunk& chunk : chunks) {
-        for (const Entry& e : chunk.entries) {
-            for (int band = e.band0; band <= e.band1; ++band) scene.bins[band].push_back(e.id);
+    for (const Scene::Chunk& chunk : scene.chunks) {
+        for (uint32_t id : chunk.big) {
+            uint32_t v[3];
+            cornersOf(scene, id, v);
+            Triangle t;
+            setupTriangle(corners[v[0]], corners[v[1]], corners[v[2]], 0, w, h, false, t);
+            addToBins(scene, t.box, id);
         }
     }
-    for (const Chunk& chunk : chunks) {
+    for (const Scene::Chunk& chunk : scene.chunks) {
         for (uint32_t id : chunk.cut) {
             uint32_t v[3];
             cornersOf(scene, id, v);
-            const Vec3 tri[3] = {scene.cameraPoints[v[0]], scene.cameraPoints[v[1]],
-                                 scene.cameraPoints[v[2]]};
+            const Vec3 tri[3] = {cameraPoint(scene, view, v[0]), cameraPoint(scene, view, v[1]),
+                                 cameraPoint(scene, view, v[2])};
             Vec3 poly[4];
             const int m = clipNear(tri, 3, poly);
             const uint8_t label = labelOf(scene, tree, id);
             for (int j = 1; j + 1 < m; ++j) {  // fan
                 Triangle t;
                 if (!setupTriangle(project(view, poly[0]), project(view, poly[j]),
-                                   project(view, poly[j + 1]), label, w, h, t) ||
+                                   project(view, poly[j + 1]), label, w, h,
+                                   id < scene.woodTriangles, t) ||
                     missesEveryCentre(t)) {
                     continue;
                 }
@@ -381,7 +506,7 @@ Scene buildScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>&
 
 // The z-buffer test and write. Equal depths go to the lower label.
 inline void plot(float* zbuf, uint8_t* lbuf, size_t k, double depth, uint8_t label) {
-    const float z = std::max(kMinDepth, static_cast<float>(depth));
+    const float z = storedDepth(depth);
     if (z < zbuf[k] || (z == zbuf[k] && label < lbuf[k])) {
         zbuf[k] = z;
         lbuf[k] = label;
@@ -434,23 +559,28 @@ void drawLine(const Line& s, int w, int row0, int row1, float* zbuf, uint8_t* lb
 void drawTriangle(const Triangle& t, bool ortho, int w, int row0, int row1, float* zbuf,
                   uint8_t* lbuf) {
     const double inv = 1.0 / t.area;
+    // Each weight is linear along a row, so the inside of a row is an interval: per edge, the
+    // x where the weight opposite it crosses 0, linear in the row's y.
+    double slope[3], sign[3];
+    for (int j = 0; j < 3; ++j) {
+        const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+        const double dy = t.y[j2] - t.y[j1];
+        slope[j] = dy != 0.0 ? (t.x[j2] - t.x[j1]) / dy : 0.0;
+        sign[j] = dy * inv;  // > 0: the weight falls as x grows (inside left of the crossing)
+    }
     for (int y = std::max(t.box.y0, row0); y <= std::min(t.box.y1, row1 - 1); ++y) {
         const double pyc = y + 0.5;
         const size_t rowOff = static_cast<size_t>(y) * w;
-        // The row's span: each barycentric weight is linear in x along the row, so the
-        // inside is an interval; widened by a hair so the exact test below, unchanged, still
-        // decides every pixel (slivers such as needles no longer scan their whole box).
+        // The row's span, widened by a hair so the exact test below still decides every pixel
+        // (slivers do not scan their whole box).
         double lo = t.box.x0 + 0.5, hi = t.box.x1 + 0.5;
         for (int j = 0; j < 3; ++j) {
-            const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
-            // bc[j] = (a − b (x − x[j1])) · inv ≥ 0
-            const double a = (t.x[j2] - t.x[j1]) * (pyc - t.y[j1]) * inv;
-            const double b = (t.y[j2] - t.y[j1]) * inv;
-            if (b > 0) {
-                hi = std::min(hi, t.x[j1] + a / b + kSpanMargin);
-            } else if (b < 0) {
-                lo = std::max(lo, t.x[j1] + a / b - kSpanMargin);
-            } else if (a < -kSpanMargin) {
+            const int j1 = (j + 1) % 3;
+            if (sign[j] > 0) {
+                hi = std::min(hi, t.x[j1] + slope[j] * (pyc - t.y[j1]) + kSpanMargin);
+            } else if (sign[j] < 0) {
+                lo = std::max(lo, t.x[j1] + slope[j] * (pyc - t.y[j1]) - kSpanMargin);
+            } else if (weight(t, j, lo, pyc, inv) < -kSpanMargin) {
                 lo = hi + 1;  // parallel to the row and outside: no pixel
             }
         }
@@ -461,18 +591,13 @@ void drawTriangle(const Triangle& t, bool ortho, int w, int row0, int row1, floa
             const size_t k = rowOff + x;
             if (zbuf[k] < t.zmin) continue;
             const double pxc = x + 0.5;
-            double bc[3];
-            bool inside = true;
-            for (int j = 0; j < 3 && inside; ++j) {
-                const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
-                // Barycentric weight of vertex j: the sub-triangle opposite it.
-                bc[j] = ((t.x[j2] - t.x[j1]) * (pyc - t.y[j1]) -
-                         (t.y[j2] - t.y[j1]) * (pxc - t.x[j1])) *
-                        inv;
-                inside = bc[j] >= 0.0;
-            }
-            if (!inside) continue;
-            const double zi = bc[0] * t.z[0] + bc[1] * t.z[1] + bc[2] * t.z[2];
+            const double b0 = weight(t, 0, pxc, pyc, inv);
+            if (b0 < 0.0) continue;
+            const double b1 = weight(t, 1, pxc, pyc, inv);
+            if (b1 < 0.0) continue;
+            const double b2 = weight(t, 2, pxc, pyc, inv);
+            if (b2 < 0.0) continue;
+            const double zi = b0 * t.z[0] + b1 * t.z[1] + b2 * t.z[2];
             plot(zbuf, lbuf, k, ortho ? zi : 1.0 / zi, t.label);
         }
     }
@@ -485,6 +610,9 @@ ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32
                      const RenderOptions& options) {
     if (camera.width <= 0 || camera.height <= 0) {
         throw std::invalid_argument("renderView: image size must be positive");
+    }
+    if (static_cast<double>(camera.width) * camera.height > 4.0e9) {
+        throw std::invalid_argument("renderView: image too large");
     }
     if (woodNodes.size() != wood.triangleCount()) {
         throw std::invalid_argument("renderView: woodNodes needs one node per wood triangle");
@@ -506,22 +634,29 @@ ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32
         const size_t firstLine = firstClipped + scene.clipped.size();
         const int bands = static_cast<int>(scene.bins.size());
         tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& r) {
+            float* z = zbuf.data();
+            uint8_t* l = lbuf.data();
             for (int band = r.begin(); band != r.end(); ++band) {
                 const int row0 = band * kBandRows, row1 = std::min(h, row0 + kBandRows);
+                for (const Scene::Chunk& chunk : scene.chunks) {
+                    for (uint32_t i = chunk.bandStart[band]; i < chunk.bandStart[band + 1]; ++i) {
+                        const Fragment& f = chunk.fragments[i];
+                        plot(z, l, f.pixel, view.ortho ? f.zi : 1.0 / f.zi, f.label);
+                    }
+                }
                 for (uint32_t id : scene.bins[band]) {
                     if (id < firstClipped) {
                         uint32_t v[3];
                         cornersOf(scene, id, v);
                         Triangle t;
                         setupTriangle(scene.corners[v[0]], scene.corners[v[1]], scene.corners[v[2]],
-                                      labelOf(scene, tree, id), w, h, t);
-                        drawTriangle(t, view.ortho, w, row0, row1, zbuf.data(), lbuf.data());
+                                      labelOf(scene, tree, id), w, h, false, t);
+                        drawTriangle(t, view.ortho, w, row0, row1, z, l);
                     } else if (id < firstLine) {
-                        drawTriangle(scene.clipped[id - firstClipped], view.ortho, w, row0, row1,
-                                     zbuf.data(), lbuf.data());
+                        drawTriangle(scene.clipped[id - firstClipped], view.ortho, w, row0, row1, z,
+                                     l);
                     } else {
-                        drawLine(scene.lines[id - firstLine], w, row0, row1, zbuf.data(),
-                                 lbuf.data());
+                        drawLine(scene.lines[id - firstLine], w, row0, row1, z, l);
                     }
                 }
             }
