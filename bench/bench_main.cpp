@@ -111,10 +111,28 @@ static void WatertightTree(benchmark::State& state) {
 }
 BENCHMARK(WatertightTree)->Unit(benchmark::kMillisecond);
 
-// One 256×256 view with depth and labels (the demo's views), per view.
+// The branch tubes a view draws, made once per tree as the build's mesh stage does (the demo's
+// level of detail: 3–12 sides, 4 cm edges).
+struct Tubes {
+    Mesh wood;
+    std::vector<int32_t> nodes;
+    explicit Tubes(const Tree& tree) {
+        TubeOptions t;
+        t.maxSides = 12;
+        t.edgeLength = 0.04;
+        wood = tubeMesh(tree, t, &nodes);
+    }
+};
+
+// One 256×256 view with depth and labels (the demo's views), per view, the tubes made
+// beforehand (once per tree: MeshTree). Arg: [views] min_width_px (0: the mesh only, the
+// default; 1.415: skeleton lines at least √2 px wide on top).
 static void RenderView(benchmark::State& state) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
     GrownTree g = demoTree();
+    const Tubes tubes(g.tree);
+    RenderOptions ro;
+    ro.minWidthPx = state.range(0) / 1000.0;
     ViewOptions vo;
     vo.count = 8;
     vo.elevationsDeg = {10, 35};
@@ -122,14 +140,17 @@ static void RenderView(benchmark::State& state) {
     std::vector<Camera> cams = makeCameras(g.tree, vo, rng);
     size_t k = 0;
     for (auto _ : state) {
-        ViewImage v = renderView(g.tree, cams[k++ % cams.size()], true, true);
+        ViewImage v =
+            renderView(g.tree, tubes.wood, tubes.nodes, cams[k++ % cams.size()], true, true, ro);
         benchmark::DoNotOptimize(v.silhouette.data());
     }
+    state.counters["wood_triangles"] = static_cast<double>(tubes.wood.triangleCount());
 }
-BENCHMARK(RenderView)->Unit(benchmark::kMillisecond);
+BENCHMARK(RenderView)->Arg(0)->Arg(1415)->Unit(benchmark::kMillisecond);
 
 // One 512×512 view with depth and labels of the large Table 1 tree (bench/table1.toml), per
-// view, on 1 thread (Arg 1) and on every core (Arg 0): the renderer's banded parallelism.
+// view, on 1 thread (Arg 1) and on every core (Arg 0): the renderer's banded parallelism. The
+// tubes are made beforehand, once per tree, as in RenderView.
 static void RenderViewLarge(benchmark::State& state) {
     std::optional<tbb::global_control> limit;
     if (state.range(0) > 0) {
@@ -143,12 +164,15 @@ static void RenderViewLarge(benchmark::State& state) {
     vo.randomAzimuth = false;
     Rng rng(1);
     const std::vector<Camera> cams = makeCameras(tree, vo, rng);
+    static const Tubes tubes(tree);
     size_t k = 0;
     for (auto _ : state) {
-        ViewImage v = renderView(tree, cams[k++ % cams.size()], true, true);
+        ViewImage v =
+            renderView(tree, tubes.wood, tubes.nodes, cams[k++ % cams.size()], true, true);
         benchmark::DoNotOptimize(v.silhouette.data());
     }
     state.counters["segments"] = static_cast<double>(tree.nodes.size() - 1);
+    state.counters["wood_triangles"] = static_cast<double>(tubes.wood.triangleCount());
 }
 BENCHMARK(RenderViewLarge)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
 
@@ -190,13 +214,17 @@ static void LeafShapeRender(benchmark::State& state) {
     vo.randomAzimuth = false;
     Rng rng(1);
     const std::vector<Camera> cams = makeCameras(tree, vo, rng);
+    const Tubes tubes(tree);
     size_t k = 0;
     for (auto _ : state) {
-        ViewImage v = renderView(tree, cams[k++ % cams.size()], true, true);
+        ViewImage v =
+            renderView(tree, tubes.wood, tubes.nodes, cams[k++ % cams.size()], true, true);
         benchmark::DoNotOptimize(v.silhouette.data());
     }
     std::vector<ViewImage> views;
-    for (const Camera& c : cams) views.push_back(renderView(tree, c, false, true));
+    for (const Camera& c : cams) {
+        views.push_back(renderView(tree, tubes.wood, tubes.nodes, c, false, true));
+    }
     state.SetLabel(leafShapeWords()[state.range(0)].first);
     state.counters["leaf_pixel_fraction"] = leafPixelFraction(views);
 }

@@ -194,7 +194,7 @@ void readOutputs(Params& o, OutputOptions& out) {
 // [views]; defaults come from ViewOptions, except `count`: a [views] table without it asks
 // for kDefaultViewCount views (no table: none).
 constexpr int kDefaultViewCount = 8;
-void readViews(Params& v, ViewOptions& vo) {
+void readViews(Params& v, ViewOptions& vo, RenderOptions& ro) {
     vo.count = static_cast<int>(v.integer("count", kDefaultViewCount, Range::closed(0, 1000)));
     if (v.has("elevations_deg") && v.has("elevation_range_deg")) {
         v.fail("elevation_range_deg", "give either elevations_deg or elevation_range_deg");
@@ -241,6 +241,7 @@ void readViews(Params& v, ViewOptions& vo) {
     vo.pointCloud = v.boolean("point_cloud", vo.pointCloud);
     if (vo.pointCloud && !vo.depth) v.fail("point_cloud", "needs depth = true");
     vo.contactSheet = v.boolean("contact_sheet", vo.contactSheet);
+    ro.minWidthPx = v.number("min_width_px", ro.minWidthPx, Range::closed(0, 64));
     v.finish();
 }
 
@@ -322,7 +323,7 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
     readSpeciesEntries(p, d, fingerprintBytes);
     checkSweptSpecies(d);
     if (auto o = p.optionalTable("outputs")) readOutputs(*o, d.outputs);
-    if (auto v = p.optionalTable("views")) readViews(*v, d.outputs.views);
+    if (auto v = p.optionalTable("views")) readViews(*v, d.outputs.views, d.outputs.render);
     p.finish();
     for (SpeciesEntry& entry : d.species) expandSweepPoints(entry, d.sweeps);
     char fingerprint[17];

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "pipeline/render/camera.h"
+#include "pipeline/render/render.h"
 #include "species/geometry/tube_mesh.h"
 #include "species/geometry/watertight.h"
 #include "species/spec/species.h"
@@ -49,6 +50,7 @@ struct OutputOptions {
     WatertightOptions watertightOptions;
     bool vdb = false;       // watertight.vdb (the level set itself)
     ViewOptions views;      // [views]
+    RenderOptions render;   // [views] min_width_px
     int speciesSheet = 16;  // first K instances per species in a sheet
 };
 

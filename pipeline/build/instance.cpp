@@ -53,7 +53,7 @@ void growStage(InstanceWork& w) {
 void meshStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     auto t0 = Clock::now();
     if (!o.meshFormats.empty()) {
-        w.mesh.wood = tubeMesh(w.grown.tree, o.tubes);
+        w.mesh.wood = tubeMesh(w.grown.tree, o.tubes, &w.woodNodes);
         w.mesh.leaves = leafMesh(w.grown.tree);
     }
     if (o.watertight) {
@@ -69,11 +69,18 @@ void renderStage(InstanceWork& w, const OutputOptions& o) {
     auto t0 = Clock::now();
     Rng camRng = Rng(w.job->seed).derive("cameras");
     w.cameras = makeCameras(w.grown.tree, o.views, camRng);
+    // The views show the tubes as meshed: the mesh stage's, or made here when no mesh is written.
+    Mesh ownWood;
+    std::vector<int32_t> ownNodes;
+    const bool meshed = !o.meshFormats.empty();
+    if (!meshed) ownWood = tubeMesh(w.grown.tree, o.tubes, &ownNodes);
+    const Mesh& wood = meshed ? w.mesh.wood : ownWood;
+    const std::vector<int32_t>& nodes = meshed ? w.woodNodes : ownNodes;
     w.views.reserve(w.cameras.size());
     for (const Camera& c : w.cameras) {
-        w.views.push_back(renderView(w.grown.tree, c,
+        w.views.push_back(renderView(w.grown.tree, wood, nodes, c,
                                      o.views.depth || o.views.depthPng || o.views.pointCloud,
-                                     o.views.labels || o.views.pointCloud));
+                                     o.views.labels || o.views.pointCloud, o.render));
     }
     w.renderMs = msSince(t0);
 }

@@ -18,8 +18,9 @@ namespace sylva {
 struct InstanceWork {
     const InstanceJob* job = nullptr;
     GrownTree grown;
-    TreeMesh mesh;    // tubes + leaf cards (when a mesh format is asked for)
-    Mesh watertight;  // when asked for
+    TreeMesh mesh;                   // tubes + leaf cards (when a mesh format is asked for)
+    std::vector<int32_t> woodNodes;  // per tube triangle, its skeleton node (tubeMesh)
+    Mesh watertight;                 // when asked for
     std::vector<Camera> cameras;
     std::vector<ViewImage> views;
     double growMs = 0, meshMs = 0, renderMs = 0, writeMs = 0;

@@ -1,35 +1,31 @@
-// CPU renderer of one view: skeleton segments as tapered capsules (drawn directly, no mesh,
-// so sub-pixel twigs survive) and leaves as the triangles of their outlines, z-buffered; plus
-// silhouette statistics.
+// CPU renderer of one view: the tree's mesh as sylva writes it — the branch tubes of
+// species/geometry/tube_mesh.h and the leaves' outline triangles — z-buffered into a
+// silhouette, a depth map and labels; optionally the skeleton's segments as lines of a minimum
+// width on top; plus silhouette statistics.
 //
-// Segments. Each is a tapered capsule: the union of the spheres of radius r(t) (linear
-// between the node radii) about the axis points. A pixel is covered when its centre's ray
-// meets the capsule, or when the projected axis passes within kMinRadiusPx of the centre.
-// That minimum is just over half a pixel diagonal (√½), so every pixel holding a point of
-// the projected axis is drawn: sub-pixel twigs become unbroken 1–2 px lines, as in the
-// paper's black-on-white figures, and every node lands on a silhouette pixel. Only pixels
-// within a conservative screen bound of the axis (the projected sphere ellipses) are tested.
+// Triangles. A pixel is covered iff its centre lies inside a triangle, edges inclusive (the
+// barycentric weights all ≥ 0): a binary mask with no coverage fraction, the same test any
+// plain rasteriser of the mesh file makes. No back faces are culled (a closed tube swept around
+// a sharp bend can fold). Tube triangles use the mesh's float positions; leaf triangles are each
+// leaf's outline points (leafPoints) rounded to float, as leafMesh writes them, one face only
+// (the back face has the same positions). Depth is perspective-correct: 1/z is linear in screen
+// space (z itself for orthographic). Triangles cut by the near plane (depth 1e-4 m) are
+// clipped (Sutherland–Hodgman) and fanned.
 //
-// Segment depth (metres along the view axis, always > 0): the front of the capsule along the
-// pixel-centre ray, computed exactly (closed form, see capsuleFront), but never deeper than
-// the nearest axis point within kMinRadiusPx of the pixel centre; for pixels covered only by
-// the minimum width, that axis depth. (So a pixel's depth is never behind a skeleton point
-// inside it, and back-projected points stay within radius + a pixel of the skeleton.)
-// Capsules thinner than the minimum width everywhere skip the ray test and use the axis.
+// Lines (RenderOptions::minWidthPx > 0, off by default). Each skeleton segment, clipped to the
+// near plane, covers the pixels whose centres lie within minWidthPx / 2 of its projected axis,
+// at the depth of the nearest axis point within that distance (so a pixel's depth is never
+// behind a skeleton point inside it). A width just over √2 px draws every pixel the axis passes
+// through: sub-pixel twigs become unbroken 1–2 px lines, as in the papers' black-on-white
+// figures. Wider tubes hide their own lines, since their surface is in front of their axis.
 //
-// Leaves: each leaf is the triangles of its shape's outline (species/model/leaf_shape.h; the
-// card: two triangles), from the same points as the mesh's leaves (leafPoints), covering the
-// pixels whose centres are inside them (edges inclusive; no minimum width, so leaves seen
-// exactly edge-on, and needles thinner than a pixel between pixel centres, vanish), with
-// perspective-correct depth (1/z linear in screen space; z linear for orthographic).
-// Geometry in front of the near plane (depth 1e-4 m) is clipped.
+// Visibility: nearest depth (compared as float) wins; equal depths go to the lower label. A
+// full tie leaves the same depth and label whichever primitive drew first, so the image does
+// not depend on drawing order.
 //
-// Visibility: nearest depth (compared as float) wins; equal depths go to the lower label,
-// then to the lower primitive index (segments in child-node order, then leaf triangles).
-//
-// Parallelism: the image is split into bands of kBandRows rows; primitives are binned (in
-// index order) by the bands their clipped screen box overlaps; each band is owned by one task
-// and draws its primitives in index order, so the result does not depend on thread count.
+// Parallelism: vertices are projected in parallel; triangles are binned by the bands of
+// kBandRows rows their clipped screen box overlaps (in parallel over fixed chunks, merged in
+// chunk order); each band is owned by one task. The result does not depend on thread count.
 #include "pipeline/render/render.h"
 
 #include <tbb/blocked_range.h>
@@ -38,6 +34,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 
 #include "species/model/leaf_shape.h"
@@ -46,11 +43,11 @@ namespace sylva {
 
 namespace {
 
-constexpr double kMinRadiusPx = 0.7072;  // just over √½: the pixel holding any axis point
-constexpr double kNear = 1e-4;           // metres; geometry closer than this is clipped
-constexpr float kMinDepth = 1e-6f;       // drawn depths stay > 0 (0 means background)
+constexpr double kNear = 1e-4;      // metres; geometry closer than this is clipped
+constexpr float kMinDepth = 1e-6f;  // drawn depths stay > 0 (0 means background)
 constexpr int kBandRows = 16;
 constexpr double kSpanMargin = 1e-6;  // pixels: a triangle's row span is widened by this
+constexpr size_t kBinChunk = 8192;    // triangles per binning task
 
 // World → camera space, camera space → pixels.
 struct View {
@@ -80,18 +77,6 @@ struct View {
         const double s = ortho ? f : f / -c.z;
         px = cx + s * c.x;
         py = cy - s * c.y;
-    }
-    // The ray through a pixel position, in camera space: origin o, direction d with d.z = −1
-    // (so a ray point's depth is its ray parameter).
-    void ray(double px, double py, Vec3& o, Vec3& d) const {
-        const double u = (px - cx) / f, v = (cy - py) / f;
-        if (ortho) {
-            o = {u, v, 0.0};
-            d = {0.0, 0.0, -1.0};
-        } else {
-            o = {0.0, 0.0, 0.0};
-            d = {u, v, -1.0};
-        }
     }
 };
 
@@ -126,33 +111,56 @@ bool pixelBox(double lox, double hix, double loy, double hiy, int w, int h, Box&
     return box.x0 <= box.x1 && box.y0 <= box.y1;
 }
 
-struct Segment {
-    Vec3 a, e;            // camera-space axis: a + t e, t in [0, 1]
-    double ee;            // e·e
-    double ra, rb;        // world radii at the ends
-    double da, db;        // axis depths at the ends (≥ kNear)
-    double invDa, invDb;  // their reciprocals
-    double invLen2;       // 1 / squared screen length, 0 for a point
-    bool aNearer;         // da ≤ db
-    bool ortho;
-    double ax, ay, bx, by;  // screen endpoints
-    double reach;           // no covered pixel centre is farther from the screen axis
-    float zmin;             // no pixel of the segment is nearer than this
-    uint8_t label;
-    Box box;
+// A projected vertex: screen position, depth (metres along the view axis) and the term
+// interpolated linearly in screen space (depth for orthographic, 1/depth for perspective).
+struct Corner {
+    double x, y, depth, z;
 };
+
+Corner project(const View& view, const Vec3& c) {
+    Corner k;
+    view.toPixel(c, k.x, k.y);
+    k.depth = -c.z;
+    k.z = view.ortho ? k.depth : 1.0 / k.depth;
+    return k;
+}
 
 struct Triangle {
     double x[3], y[3];  // screen vertices
     double z[3];        // depth (orthographic) or 1/depth (perspective) per vertex
     double area;        // signed, twice the screen area
     float zmin;
+    uint8_t label;
     Box box;
 };
 
+// The screen triangle of three corners; false when it has no area or no pixel centre in its
+// box, or, with `frontOnly`, when it faces away from the camera (counter-clockwise seen from
+// outside is clockwise on screen, whose rows run down: a negative area).
+bool setupTriangle(const Corner& a, const Corner& b, const Corner& c, uint8_t label, int w, int h,
+                   bool frontOnly, Triangle& t) {
+    t.area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (!(frontOnly ? t.area < 0.0 : t.area != 0.0)) return false;  // (NaN area: false)
+    const Corner* v[3] = {&a, &b, &c};
+    double lox = 1e300, hix = -1e300, loy = 1e300, hiy = -1e300, zmin = 1e300;
+    for (int j = 0; j < 3; ++j) {
+        t.x[j] = v[j]->x;
+        t.y[j] = v[j]->y;
+        t.z[j] = v[j]->z;
+        zmin = std::min(zmin, v[j]->depth);
+        lox = std::min(lox, t.x[j]);
+        hix = std::max(hix, t.x[j]);
+        loy = std::min(loy, t.y[j]);
+        hiy = std::max(hiy, t.y[j]);
+    }
+    t.zmin = static_cast<float>(zmin);
+    t.label = label;
+    return pixelBox(lox, hix, loy, hiy, w, h, t.box);
+}
+
 // True when the triangle's box holds at most four pixel centres and each is clearly outside
-// it (a barycentric weight below −1e-9), so drawing it would change no pixel: most leaf
-// triangles of shaped leaves are smaller than a pixel, and skipping them keeps the scene small.
+// it (a barycentric weight below −1e-9), so drawing it would change no pixel: most triangles of
+// twigs and shaped leaves are smaller than a pixel, and skipping them keeps the bins small.
 // Centres within the margin are left to drawTriangle's exact test.
 bool missesEveryCentre(const Triangle& t) {
     if ((t.box.x1 - t.box.x0 + 1) * (t.box.y1 - t.box.y0 + 1) > 4) return false;
@@ -187,180 +195,318 @@ int clipNear(const Vec3* in, int n, Vec3* out) {
     return m;
 }
 
-struct Scene {
-    std::vector<Segment> segments;
-    std::vector<Triangle> triangles;
-    // Per band: primitive ids in index order; ids ≥ segments.size() are triangles.
-    std::vector<std::vector<int32_t>> bins;
+// A skeleton segment drawn as a line of a minimum width (RenderOptions::minWidthPx).
+struct Line {
+    double ax, ay, bx, by;  // screen endpoints
+    double da, db;          // axis depths at the ends (≥ kNear)
+    double invDa, invDb;    // their reciprocals
+    double invLen2;         // 1 / squared screen length, 0 for a point
+    bool aNearer;           // da ≤ db
+    bool ortho;
+    double radius;  // pixels: half the width
+    float zmin;
+    uint8_t label;
+    Box box;
 };
 
-void addToBins(Scene& scene, const Box& box, int32_t id) {
+// A pixel a small triangle covers, found while binning: its index, label and the interpolated
+// depth term (depth for orthographic views, 1/depth for perspective ones; inverted only for
+// the fragments kept).
+struct Fragment {
+    uint32_t pixel;
+    uint8_t label;
+    double zi;
+};
+
+// A growable array of fragments whose new slots are not zeroed first (appendFragments writes
+// every slot it keeps).
+class Fragments {
+  public:
+    size_t size() const { return size_; }
+    Fragment* data() { return data_.get(); }
+    const Fragment* data() const { return data_.get(); }
+    // Room for `more` fragments past size(), returned as the first free slot.
+    Fragment* grow(size_t more) {
+        if (size_ + more > capacity_) {
+            const size_t capacity = std::max(size_ + more, 2 * capacity_ + 1024);
+            std::unique_ptr<Fragment[]> bigger(new Fragment[capacity]);
+            std::copy(data_.get(), data_.get() + size_, bigger.get());
+            data_ = std::move(bigger);
+            capacity_ = capacity;
+        }
+        return data_.get() + size_;
+    }
+    void setSize(size_t size) { size_ = size; }
+
+  private:
+    std::unique_ptr<Fragment[]> data_;
+    size_t size_ = 0, capacity_ = 0;
+};
+
+// The z-buffer's depth for a depth in metres.
+inline float storedDepth(double depth) { return std::max(kMinDepth, static_cast<float>(depth)); }
+
+// Barycentric weight of vertex j at (px, py): the signed sub-triangle opposite it over the
+// triangle's signed area (1 / area = inv).
+inline double weight(const Triangle& t, int j, double px, double py, double inv) {
+    const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+    return ((t.x[j2] - t.x[j1]) * (py - t.y[j1]) - (t.y[j2] - t.y[j1]) * (px - t.x[j1])) * inv;
+}
+
+// Appends the pixels of a triangle whose box holds few centres: each centre inside it (every
+// weight ≥ 0, edges inclusive) at its perspective-correct depth. The same arithmetic as
+// weight(), with the per-row and per-triangle terms hoisted; every centre of the box is
+// written and kept only if inside (no branch to mispredict: most centres are outside).
+void appendFragments(const Triangle& t, int w, Fragments& out) {
+    const double inv = 1.0 / t.area;
+    double dx[3], dy[3];
+    for (int j = 0; j < 3; ++j) {
+        const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+        dx[j] = t.x[j2] - t.x[j1];
+        dy[j] = t.y[j2] - t.y[j1];
+    }
+    Fragment* f =
+        out.grow(static_cast<size_t>(t.box.x1 - t.box.x0 + 1) * (t.box.y1 - t.box.y0 + 1));
+    size_t n = 0;
+    for (int y = t.box.y0; y <= t.box.y1; ++y) {
+        const double pyc = y + 0.5;
+        const double r0 = dx[0] * (pyc - t.y[1]), r1 = dx[1] * (pyc - t.y[2]),
+                     r2 = dx[2] * (pyc - t.y[0]);
+        const size_t rowOff = static_cast<size_t>(y) * w;
+        for (int x = t.box.x0; x <= t.box.x1; ++x) {
+            const double pxc = x + 0.5;
+            const double b0 = (r0 - dy[0] * (pxc - t.x[1])) * inv;
+            const double b1 = (r1 - dy[1] * (pxc - t.x[2])) * inv;
+            const double b2 = (r2 - dy[2] * (pxc - t.x[0])) * inv;
+            const double zi = b0 * t.z[0] + b1 * t.z[1] + b2 * t.z[2];
+            f[n] = {static_cast<uint32_t>(rowOff + x), t.label, zi};
+            n += (b0 >= 0.0) & (b1 >= 0.0) & (b2 >= 0.0);
+        }
+    }
+    out.setSize(out.size() + n);
+}
+
+// What one view draws. Triangle ids: [0, woodTriangles) the tube triangles, then the leaf
+// triangles (leafIndices), then `clipped` (triangles cut by the near plane, made explicit);
+// line ids follow the triangles'. Triangles whose box holds at most kSmallBox pixel centres
+// (almost all of a tree's: twigs are thinner than a pixel) are resolved into fragments while
+// binning; the others, clipped triangles and lines are binned by id and drawn per band.
+struct Scene {
+    std::unique_ptr<Corner[]> corners;  // tube vertices, then leaf outline points
+    const Mesh* wood = nullptr;
+    const int32_t* woodNodes = nullptr;
+    std::vector<uint8_t> nodeLabels;  // segmentLabel per skeleton node
+    size_t woodTriangles = 0;
+    std::vector<Vec3> leafPoints;       // leaf outline points in camera space
+    std::vector<uint32_t> leafIndices;  // into corners
+    size_t indexedTriangles = 0;        // woodTriangles + leaf triangles
+    std::vector<Triangle> clipped;
+    std::vector<Line> lines;
+    std::vector<std::vector<uint32_t>> bins;  // per band: ids in ascending order
+    // Per binning chunk: its fragments sorted by band, band b at [bandStart[b], [b + 1]).
+    struct Chunk {
+        std::vector<Fragment> fragments;
+        std::vector<uint32_t> bandStart;
+        std::vector<uint32_t> big, cut;  // ids: binned whole; cut by the near plane
+    };
+    std::vector<Chunk> chunks;
+};
+
+constexpr int kSmallBox = 16;
+
+// Corner indices of indexed triangle `id`.
+inline void cornersOf(const Scene& s, size_t id, uint32_t v[3]) {
+    const uint32_t* p = id < s.woodTriangles ? s.wood->indices.data() + 3 * id
+                                             : s.leafIndices.data() + 3 * (id - s.woodTriangles);
+    v[0] = p[0];
+    v[1] = p[1];
+    v[2] = p[2];
+}
+
+inline uint8_t labelOf(const Scene& s, const Tree& tree, size_t id) {
+    return id < s.woodTriangles ? s.nodeLabels[s.woodNodes[id]] : kLabelLeaf;
+}
+
+// Camera-space position of corner v (wood vertices recomputed from the mesh).
+inline Vec3 cameraPoint(const Scene& s, const View& view, uint32_t v) {
+    const size_t nWood = s.wood->vertexCount();
+    if (v >= nWood) return s.leafPoints[v - nWood];
+    const float* p = &s.wood->positions[3 * static_cast<size_t>(v)];
+    return view.toCamera({p[0], p[1], p[2]});
+}
+
+void addToBins(Scene& scene, const Box& box, uint32_t id) {
     for (int band = box.y0 / kBandRows; band <= box.y1 / kBandRows; ++band) {
         scene.bins[band].push_back(id);
     }
 }
 
-// How far from the projected axis the projected capsule can reach, in pixels. Orthographic:
-// the radius in pixels. Perspective: a sphere of radius r at depth z, seen at angle θ from the
-// optical axis under the angular radius α = asin(r / distance), projects to an ellipse
-// reaching (f r / z) / cos(θ + α) from its projected centre; f r / z is linear in screen space
-// along the segment, θ is largest at an end and α at most asin(max r / eye-segment distance).
-double screenReach(const View& view, const Segment& s, double da, double db) {
-    if (view.ortho) return std::max(s.ra, s.rb) * view.f;
-    const double rz = std::max(s.ra / da, s.rb / db) * view.f;
-    if (rz == 0.0) return 0.0;
-    // θ: the larger end angle, via ρ² = squared pixel distance from the principal point.
-    auto rho2 = [&](double px, double py) {
-        return (px - view.cx) * (px - view.cx) + (py - view.cy) * (py - view.cy);
-    };
-    const double r2 = std::max(rho2(s.ax, s.ay), rho2(s.bx, s.by));
-    const double hyp = std::sqrt(view.f * view.f + r2);
-    const double cosT = view.f / hyp, sinT = std::sqrt(r2) / hyp;
-    // α: from the distance between the eye (the origin) and the axis segment.
-    const double t = s.ee > 0 ? std::clamp(-dot(s.a, s.e) / s.ee, 0.0, 1.0) : 0.0;
-    const double dist = length(s.a + s.e * t);
-    const double rmax = std::max(s.ra, s.rb);
-    if (!(dist > rmax)) return 1e9;  // the eye is inside: everything
-    const double sinA = rmax / dist, cosA = std::sqrt(1.0 - sinA * sinA);
-    const double cosSum = cosT * cosA - sinT * sinA;  // cos(θ + α)
-    if (!(cosSum > 1e-3)) return 1e9;
-    return rz / cosSum * (1.0 + 1e-9);
-}
-
-Scene buildScene(const Tree& tree, const View& view) {
-    Scene scene;
-    const int bands = (view.height + kBandRows - 1) / kBandRows;
-    scene.bins.resize(bands);
+void addLines(const Tree& tree, const View& view, double radius, Scene& scene) {
     const auto& nodes = tree.nodes;
-
     std::vector<Vec3> cam(nodes.size());
     for (size_t i = 0; i < nodes.size(); ++i) cam[i] = view.toCamera(nodes[i].position);
-
-    scene.segments.reserve(nodes.size());
+    const uint32_t firstId = static_cast<uint32_t>(scene.indexedTriangles + scene.clipped.size());
     for (size_t i = 1; i < nodes.size(); ++i) {
         const int32_t p = nodes[i].parent;
         if (p < 0 || static_cast<size_t>(p) >= nodes.size()) continue;
-        Segment s;
-        s.a = cam[p];
-        Vec3 b = cam[i];
-        s.ra = std::max(0.0, nodes[p].radius);
-        s.rb = std::max(0.0, nodes[i].radius);
-        double da = -s.a.z, db = -b.z;
+        Vec3 a = cam[p], b = cam[i];
+        double da = -a.z, db = -b.z;
         if (!(da >= kNear || db >= kNear)) continue;  // wholly behind (or NaN)
         if (da < kNear) {
-            const double t = (kNear - da) / (db - da);
-            s.a = s.a + (b - s.a) * t;
-            s.ra += (s.rb - s.ra) * t;
+            a = a + (b - a) * ((kNear - da) / (db - da));
             da = kNear;
         } else if (db < kNear) {
-            const double t = (kNear - db) / (da - db);
-            b = b + (s.a - b) * t;
-            s.rb += (s.ra - s.rb) * t;
+            b = b + (a - b) * ((kNear - db) / (da - db));
             db = kNear;
         }
-        s.e = b - s.a;
-        s.ee = dot(s.e, s.e);
+        Line s;
         s.da = da;
         s.db = db;
         s.invDa = 1.0 / da;
         s.invDb = 1.0 / db;
         s.aNearer = da <= db;
         s.ortho = view.ortho;
-        view.toPixel(s.a, s.ax, s.ay);
+        view.toPixel(a, s.ax, s.ay);
         view.toPixel(b, s.bx, s.by);
-        {
-            const double dx = s.bx - s.ax, dy = s.by - s.ay, len2 = dx * dx + dy * dy;
-            s.invLen2 = len2 > 1e-18 ? 1.0 / len2 : 0.0;
-        }
-        s.reach = std::max(kMinRadiusPx, screenReach(view, s, da, db));
-        s.zmin = static_cast<float>(std::min(da - s.ra, db - s.rb));
+        const double dx = s.bx - s.ax, dy = s.by - s.ay, len2 = dx * dx + dy * dy;
+        s.invLen2 = len2 > 1e-18 ? 1.0 / len2 : 0.0;
+        s.radius = radius;
+        s.zmin = static_cast<float>(std::min(da, db));
         s.label = segmentLabel(nodes[i]);
-        const double reach = s.reach;
-        if (!pixelBox(std::min(s.ax, s.bx) - reach, std::max(s.ax, s.bx) + reach,
-                      std::min(s.ay, s.by) - reach, std::max(s.ay, s.by) + reach, view.width,
+        if (!pixelBox(std::min(s.ax, s.bx) - radius, std::max(s.ax, s.bx) + radius,
+                      std::min(s.ay, s.by) - radius, std::max(s.ay, s.by) + radius, view.width,
                       view.height, s.box)) {
             continue;
         }
-        const int32_t id = static_cast<int32_t>(scene.segments.size());
-        scene.segments.push_back(s);
-        addToBins(scene, s.box, id);
+        addToBins(scene, s.box, firstId + static_cast<uint32_t>(scene.lines.size()));
+        scene.lines.push_back(s);
     }
+}
 
-    // Leaf triangles get ids after every segment; their bin entries are appended after the
-    // segments', so each bin stays in index order.
-    const int32_t firstTri = static_cast<int32_t>(scene.segments.size());
-    // A projected triangle corner: screen position, depth and the interpolated depth term.
-    struct Corner {
-        double x, y, depth, z;
-    };
-    auto project = [&](const Vec3& c) {
-        Corner k;
-        view.toPixel(c, k.x, k.y);
-        k.depth = -c.z;
-        k.z = view.ortho ? k.depth : 1.0 / k.depth;
-        return k;
-    };
-    auto addTriangle = [&](const Corner& a, const Corner& b, const Corner& c) {
-        Triangle t;
-        const Corner* v[3] = {&a, &b, &c};
-        double lox = 1e300, hix = -1e300, loy = 1e300, hiy = -1e300, zmin = 1e300;
-        for (int j = 0; j < 3; ++j) {
-            t.x[j] = v[j]->x;
-            t.y[j] = v[j]->y;
-            t.z[j] = v[j]->z;
-            zmin = std::min(zmin, v[j]->depth);
-            lox = std::min(lox, t.x[j]);
-            hix = std::max(hix, t.x[j]);
-            loy = std::min(loy, t.y[j]);
-            hiy = std::max(hiy, t.y[j]);
-        }
-        t.area = (t.x[1] - t.x[0]) * (t.y[2] - t.y[0]) - (t.y[1] - t.y[0]) * (t.x[2] - t.x[0]);
-        t.zmin = static_cast<float>(zmin);
-        if (!(t.area != 0.0) || !pixelBox(lox, hix, loy, hiy, view.width, view.height, t.box)) {
-            return;
-        }
-        if (missesEveryCentre(t)) return;  // a sub-pixel leaf triangle between pixel centres
-        const int32_t id = firstTri + static_cast<int32_t>(scene.triangles.size());
-        scene.triangles.push_back(t);
-        addToBins(scene, t.box, id);
-    };
-    // Each leaf's outline triangles, from the same points as its mesh (leafPoints).
-    std::vector<Vec3> world, inCamera;
-    std::vector<Corner> corners;
+Scene buildScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+                 const View& view, const RenderOptions& options) {
+    Scene scene;
+    const int w = view.width, h = view.height;
+    const int bands = (h + kBandRows - 1) / kBandRows;
+    scene.bins.resize(bands);
+    scene.wood = &wood;
+    scene.woodNodes = woodNodes.data();
+    scene.woodTriangles = wood.triangleCount();
+    scene.nodeLabels.resize(tree.nodes.size());
+    for (size_t i = 0; i < tree.nodes.size(); ++i)
+        scene.nodeLabels[i] = segmentLabel(tree.nodes[i]);
+
+    // Vertices: the tubes' (in parallel), then every leaf's outline points.
+    const size_t nWood = wood.vertexCount();
+    size_t nLeafPoints = 0, nLeafIndices = 0;
     for (const Leaf& leaf : tree.leaves) {
         const LeafOutline& outline = leafOutline(leaf.shape);
-        leafPoints(leaf, leafFrame(leaf), outline, world);
-        inCamera.resize(world.size());
-        bool inFront = true;
-        for (size_t i = 0; i < world.size(); ++i) {
-            inCamera[i] = view.toCamera(world[i]);
-            inFront = inFront && -inCamera[i].z - kNear >= 0;
+        nLeafPoints += outline.points.size();
+        nLeafIndices += outline.triangles.size();
+    }
+    scene.corners.reset(new Corner[nWood + nLeafPoints]);  // (uninitialised: all written below)
+    Corner* corners = scene.corners.get();
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nWood, 4096),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t i = r.begin(); i != r.end(); ++i) {
+                              const float* p = &wood.positions[3 * i];
+                              corners[i] = project(view, view.toCamera({p[0], p[1], p[2]}));
+                          }
+                      });
+    scene.leafPoints.reserve(nLeafPoints);
+    scene.leafIndices.reserve(nLeafIndices);
+    std::vector<Vec3> points;
+    for (const Leaf& leaf : tree.leaves) {
+        const LeafOutline& outline = leafOutline(leaf.shape);
+        sylva::leafPoints(leaf, leafFrame(leaf), outline, points);
+        const uint32_t first = static_cast<uint32_t>(nWood + scene.leafPoints.size());
+        for (const Vec3& p : points) {
+            // Rounded to float as the mesh stores them.
+            const Vec3 c = view.toCamera(
+                {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)});
+            corners[nWood + scene.leafPoints.size()] = project(view, c);
+            scene.leafPoints.push_back(c);
         }
-        const std::vector<uint32_t>& tri = outline.triangles;
-        if (inFront) {  // the usual case: no clipping, each point projected once
-            corners.resize(inCamera.size());
-            for (size_t i = 0; i < inCamera.size(); ++i) corners[i] = project(inCamera[i]);
-            for (size_t k = 0; k < tri.size(); k += 3) {
-                addTriangle(corners[tri[k]], corners[tri[k + 1]], corners[tri[k + 2]]);
+        for (uint32_t v : outline.triangles) scene.leafIndices.push_back(first + v);
+    }
+    scene.indexedTriangles = scene.woodTriangles + scene.leafIndices.size() / 3;
+
+    // Triangles, chunk by chunk in parallel: small ones straight to fragments, the others set
+    // aside to be binned whole, those cut by the near plane set aside to be clipped.
+    const size_t n = scene.indexedTriangles;
+    scene.chunks.resize((n + kBinChunk - 1) / kBinChunk);
+    const size_t bandPixels = static_cast<size_t>(w) * kBandRows;
+    tbb::parallel_for(size_t(0), scene.chunks.size(), [&](size_t c) {
+        Scene::Chunk& chunk = scene.chunks[c];
+        Fragments found;
+        const size_t end = std::min(n, (c + 1) * kBinChunk);
+        for (size_t id = c * kBinChunk; id < end; ++id) {
+            uint32_t v[3];
+            cornersOf(scene, id, v);
+            const Corner &a = corners[v[0]], &b = corners[v[1]], &d = corners[v[2]];
+            if (!(a.depth >= kNear && b.depth >= kNear && d.depth >= kNear)) {
+                chunk.cut.push_back(static_cast<uint32_t>(id));
+                continue;
             }
-            continue;
+            Triangle t;
+            if (!setupTriangle(a, b, d, 0, w, h, id < scene.woodTriangles, t)) continue;
+            if ((t.box.x1 - t.box.x0 + 1) * (t.box.y1 - t.box.y0 + 1) > kSmallBox) {
+                chunk.big.push_back(static_cast<uint32_t>(id));
+                continue;
+            }
+            t.label = labelOf(scene, tree, id);
+            appendFragments(t, w, found);
         }
-        for (size_t k = 0; k < tri.size(); k += 3) {
-            const Vec3 t3[3] = {inCamera[tri[k]], inCamera[tri[k + 1]], inCamera[tri[k + 2]]};
+        // Counting sort by band.
+        const Fragment* all = found.data();
+        const size_t count = found.size();
+        chunk.bandStart.assign(bands + 1, 0);
+        for (size_t k = 0; k < count; ++k) ++chunk.bandStart[all[k].pixel / bandPixels + 1];
+        for (int b = 0; b < bands; ++b) chunk.bandStart[b + 1] += chunk.bandStart[b];
+        chunk.fragments.resize(count);
+        std::vector<uint32_t> next(chunk.bandStart.begin(), chunk.bandStart.end() - 1);
+        for (size_t k = 0; k < count; ++k) {
+            chunk.fragments[next[all[k].pixel / bandPixels]++] = all[k];
+        }
+    });
+    for (const Scene::Chunk& chunk : scene.chunks) {
+        for (uint32_t id : chunk.big) {
+            uint32_t v[3];
+            cornersOf(scene, id, v);
+            Triangle t;
+            setupTriangle(corners[v[0]], corners[v[1]], corners[v[2]], 0, w, h, false, t);
+            addToBins(scene, t.box, id);
+        }
+    }
+    for (const Scene::Chunk& chunk : scene.chunks) {
+        for (uint32_t id : chunk.cut) {
+            uint32_t v[3];
+            cornersOf(scene, id, v);
+            const Vec3 tri[3] = {cameraPoint(scene, view, v[0]), cameraPoint(scene, view, v[1]),
+                                 cameraPoint(scene, view, v[2])};
             Vec3 poly[4];
-            const int n = clipNear(t3, 3, poly);
-            for (int j = 1; j + 1 < n; ++j) {  // fan
-                addTriangle(project(poly[0]), project(poly[j]), project(poly[j + 1]));
+            const int m = clipNear(tri, 3, poly);
+            const uint8_t label = labelOf(scene, tree, id);
+            for (int j = 1; j + 1 < m; ++j) {  // fan
+                Triangle t;
+                if (!setupTriangle(project(view, poly[0]), project(view, poly[j]),
+                                   project(view, poly[j + 1]), label, w, h,
+                                   id < scene.woodTriangles, t) ||
+                    missesEveryCentre(t)) {
+                    continue;
+                }
+                addToBins(scene, t.box, static_cast<uint32_t>(n + scene.clipped.size()));
+                scene.clipped.push_back(t);
             }
         }
     }
+    if (options.minWidthPx > 0) addLines(tree, view, 0.5 * options.minWidthPx, scene);
     return scene;
 }
 
-// The z-buffer test and write. Equal depths go to the lower label; a full tie keeps the
-// earlier primitive (bands draw in index order).
+// The z-buffer test and write. Equal depths go to the lower label.
 inline void plot(float* zbuf, uint8_t* lbuf, size_t k, double depth, uint8_t label) {
-    const float z = std::max(kMinDepth, static_cast<float>(depth));
+    const float z = storedDepth(depth);
     if (z < zbuf[k] || (z == zbuf[k] && label < lbuf[k])) {
         zbuf[k] = z;
         lbuf[k] = label;
@@ -370,7 +516,7 @@ inline void plot(float* zbuf, uint8_t* lbuf, size_t k, double depth, uint8_t lab
 // Depth of the axis at the nearest point of the stretch of the screen-space axis within
 // `radius` pixels of a pixel centre p inside it; tRaw: the unclamped screen parameter of the
 // point of the axis line closest to p, pa2 = |p − screen a|².
-double nearestAxisDepth(const Segment& s, double tRaw, double pa2, double radius) {
+double nearestAxisDepth(const Line& s, double tRaw, double pa2, double radius) {
     double u = s.aNearer ? 0.0 : 1.0;  // depth is monotonic along the axis: the nearer end …
     if (s.invLen2 > 0) {               // … of the stretch
         const double half =
@@ -381,58 +527,9 @@ double nearestAxisDepth(const Segment& s, double tRaw, double pa2, double radius
     return s.ortho ? s.da + u * (s.db - s.da) : 1.0 / (s.invDa + u * (s.invDb - s.invDa));
 }
 
-// Front of the tapered capsule (the union of the spheres of radius r(t) about a + t e) along
-// the ray o + σ d (d.z = −1, so σ is the depth), or +∞ if the ray misses it. The ray meets
-// sphere t where q(t) = dist²(ray, centre(t)) − r(t)² ≤ 0 (q quadratic in t), entering it at
-// f(t) = σ(t) − sqrt(−q(t))/|d| with σ(t) linear. The front is the least f over that set.
-// Where q reaches 0 inside [0, 1], f has an infinite slope pointing inwards, so the least f
-// is at t = 0 or 1 (the end caps) or where f' = 0, a quadratic's roots in closed form.
-// Exact up to rounding.
-double capsuleFront(const Segment& s, const Vec3& o, const Vec3& d) {
-    const Vec3 g = s.a - o;
-    const double c = dot(d, d), invC = 1.0 / c, invLen = std::sqrt(invC);
-    const double dg = dot(d, g), de = dot(d, s.e), dr = s.rb - s.ra;
-    const double alpha = s.ee - de * de * invC - dr * dr;
-    const double beta = dot(g, s.e) - dg * de * invC - s.ra * dr;
-    const double gamma = dot(g, g) - dg * dg * invC - s.ra * s.ra;
-    double front = std::numeric_limits<double>::infinity();
-    auto consider = [&](double t) {
-        if (!(t >= 0.0 && t <= 1.0)) return;
-        const double q = (alpha * t + 2.0 * beta) * t + gamma;
-        if (q <= 0.0) front = std::min(front, (dg + t * de) * invC - std::sqrt(-q) * invLen);
-    };
-    consider(0.0);
-    consider(1.0);
-    const double tiny = 1e-12 * (s.ee + s.ra * s.ra);
-    if (de * de > 1e-24 * c * s.ee) {
-        // f'(t) = 0  ⇔  sqrt(−q) = −(α t + β) c / (de |d|)  ⇒  (squared, m = c / de²)
-        // α(1 + mα) t² + 2β(1 + mα) t + γ + mβ² = 0. Squaring may add a spurious root; it
-        // is still a point of the capsule, so taking the least f stays exact.
-        const double m = c / (de * de);
-        const double qa = alpha * (1.0 + m * alpha), qb = beta * (1.0 + m * alpha);
-        const double qc = gamma + m * beta * beta;
-        if (std::abs(qa) > tiny) {
-            const double disc = qb * qb - qa * qc;
-            if (disc >= 0.0) {
-                const double root = std::sqrt(disc);
-                consider((-qb - root) / qa);
-                consider((-qb + root) / qa);
-            }
-        } else if (std::abs(qb) > tiny) {
-            consider(-qc / (2.0 * qb));
-        }
-    } else if (std::abs(alpha) > tiny) {
-        consider(-beta / alpha);  // σ is constant: the deepest point inside
-    }
-    return front;
-}
-
-void drawSegment(const Segment& s, const View& view, int row0, int row1, float* zbuf,
-                 uint8_t* lbuf) {
+void drawLine(const Line& s, int w, int row0, int row1, float* zbuf, uint8_t* lbuf) {
     const double dx = s.bx - s.ax, dy = s.by - s.ay;
-    const double reach = s.reach;
-    const bool thin = reach <= kMinRadiusPx;  // the projected capsule is sub-pixel
-    const int w = view.width;
+    const double reach = s.radius;
     for (int y = std::max(s.box.y0, row0); y <= std::min(s.box.y1, row1 - 1); ++y) {
         const double pyc = y + 0.5;
         // Only the part of the axis within `reach` rows of this one can cover it.
@@ -453,57 +550,37 @@ void drawSegment(const Segment& s, const View& view, int row0, int row1, float* 
             const double tRaw = (pax * dx + pay * dy) * s.invLen2;
             const double t = std::clamp(tRaw, 0.0, 1.0);
             const double ex = pxc - (s.ax + t * dx), ey = pyc - (s.ay + t * dy);
-            const double dist2 = ex * ex + ey * ey;
-            if (dist2 > reach * reach) continue;
-            // Covered if the pixel-centre ray meets the capsule, or the projected axis passes
-            // within kMinRadiusPx of the centre (the pixel holds a skeleton point). Depth: the
-            // capsule's front along the ray, but no deeper than the nearest axis point in the
-            // pixel.
-            if (thin) {
-                // Sub-pixel capsule: whatever the ray meets lies within the minimum width;
-                // the axis depth stands for the surface (they differ by < r).
-                plot(zbuf, lbuf, k, nearestAxisDepth(s, tRaw, pax * pax + pay * pay, kMinRadiusPx),
-                     s.label);
-                continue;
-            }
-            Vec3 o, d;
-            view.ray(pxc, pyc, o, d);
-            double depth = capsuleFront(s, o, d);
-            if (dist2 <= kMinRadiusPx * kMinRadiusPx) {
-                // (No axis point is nearer than the nearer end.)
-                if (!(depth <= std::min(s.da, s.db))) {
-                    depth = std::min(
-                        depth, nearestAxisDepth(s, tRaw, pax * pax + pay * pay, kMinRadiusPx));
-                }
-            } else if (!std::isfinite(depth)) {
-                continue;
-            }
-            plot(zbuf, lbuf, k, depth, s.label);
+            if (ex * ex + ey * ey > reach * reach) continue;
+            plot(zbuf, lbuf, k, nearestAxisDepth(s, tRaw, pax * pax + pay * pay, reach), s.label);
         }
     }
 }
 
-void drawTriangle(const Triangle& t, const View& view, int row0, int row1, float* zbuf,
+void drawTriangle(const Triangle& t, bool ortho, int w, int row0, int row1, float* zbuf,
                   uint8_t* lbuf) {
     const double inv = 1.0 / t.area;
-    const int w = view.width;
+    // Each weight is linear along a row, so the inside of a row is an interval: per edge, the
+    // x where the weight opposite it crosses 0, linear in the row's y.
+    double slope[3], sign[3];
+    for (int j = 0; j < 3; ++j) {
+        const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+        const double dy = t.y[j2] - t.y[j1];
+        slope[j] = dy != 0.0 ? (t.x[j2] - t.x[j1]) / dy : 0.0;
+        sign[j] = dy * inv;  // > 0: the weight falls as x grows (inside left of the crossing)
+    }
     for (int y = std::max(t.box.y0, row0); y <= std::min(t.box.y1, row1 - 1); ++y) {
         const double pyc = y + 0.5;
         const size_t rowOff = static_cast<size_t>(y) * w;
-        // The row's span: each barycentric weight is linear in x along the row, so the
-        // inside is an interval; widened by a hair so the exact test below, unchanged, still
-        // decides every pixel (slivers such as needles no longer scan their whole box).
+        // The row's span, widened by a hair so the exact test below still decides every pixel
+        // (slivers do not scan their whole box).
         double lo = t.box.x0 + 0.5, hi = t.box.x1 + 0.5;
         for (int j = 0; j < 3; ++j) {
-            const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
-            // bc[j] = (a − b (x − x[j1])) · inv ≥ 0
-            const double a = (t.x[j2] - t.x[j1]) * (pyc - t.y[j1]) * inv;
-            const double b = (t.y[j2] - t.y[j1]) * inv;
-            if (b > 0) {
-                hi = std::min(hi, t.x[j1] + a / b + kSpanMargin);
-            } else if (b < 0) {
-                lo = std::max(lo, t.x[j1] + a / b - kSpanMargin);
-            } else if (a < -kSpanMargin) {
+            const int j1 = (j + 1) % 3;
+            if (sign[j] > 0) {
+                hi = std::min(hi, t.x[j1] + slope[j] * (pyc - t.y[j1]) + kSpanMargin);
+            } else if (sign[j] < 0) {
+                lo = std::max(lo, t.x[j1] + slope[j] * (pyc - t.y[j1]) - kSpanMargin);
+            } else if (weight(t, j, lo, pyc, inv) < -kSpanMargin) {
                 lo = hi + 1;  // parallel to the row and outside: no pixel
             }
         }
@@ -514,28 +591,36 @@ void drawTriangle(const Triangle& t, const View& view, int row0, int row1, float
             const size_t k = rowOff + x;
             if (zbuf[k] < t.zmin) continue;
             const double pxc = x + 0.5;
-            double bc[3];
-            bool inside = true;
-            for (int j = 0; j < 3 && inside; ++j) {
-                const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
-                // Barycentric weight of vertex j: the sub-triangle opposite it.
-                bc[j] = ((t.x[j2] - t.x[j1]) * (pyc - t.y[j1]) -
-                         (t.y[j2] - t.y[j1]) * (pxc - t.x[j1])) *
-                        inv;
-                inside = bc[j] >= 0.0;
-            }
-            if (!inside) continue;
-            const double zi = bc[0] * t.z[0] + bc[1] * t.z[1] + bc[2] * t.z[2];
-            plot(zbuf, lbuf, k, view.ortho ? zi : 1.0 / zi, kLabelLeaf);
+            const double b0 = weight(t, 0, pxc, pyc, inv);
+            if (b0 < 0.0) continue;
+            const double b1 = weight(t, 1, pxc, pyc, inv);
+            if (b1 < 0.0) continue;
+            const double b2 = weight(t, 2, pxc, pyc, inv);
+            if (b2 < 0.0) continue;
+            const double zi = b0 * t.z[0] + b1 * t.z[1] + b2 * t.z[2];
+            plot(zbuf, lbuf, k, ortho ? zi : 1.0 / zi, t.label);
         }
     }
 }
 
 }  // namespace
 
-ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, bool wantLabels) {
+ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+                     const Camera& camera, bool wantDepth, bool wantLabels,
+                     const RenderOptions& options) {
     if (camera.width <= 0 || camera.height <= 0) {
         throw std::invalid_argument("renderView: image size must be positive");
+    }
+    if (static_cast<double>(camera.width) * camera.height > 4.0e9) {
+        throw std::invalid_argument("renderView: image too large");
+    }
+    if (woodNodes.size() != wood.triangleCount()) {
+        throw std::invalid_argument("renderView: woodNodes needs one node per wood triangle");
+    }
+    for (int32_t node : woodNodes) {
+        if (node < 0 || static_cast<size_t>(node) >= tree.nodes.size()) {
+            throw std::invalid_argument("renderView: woodNodes holds a node the tree lacks");
+        }
     }
     const View view(camera);
     const int w = camera.width, h = camera.height;
@@ -544,18 +629,34 @@ ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, boo
     std::vector<uint8_t> lbuf(n, kLabelBackground);
 
     if (view.f > 0 && std::isfinite(view.f)) {
-        const Scene scene = buildScene(tree, view);
-        const int32_t firstTri = static_cast<int32_t>(scene.segments.size());
+        const Scene scene = buildScene(tree, wood, woodNodes, view, options);
+        const size_t firstClipped = scene.indexedTriangles;
+        const size_t firstLine = firstClipped + scene.clipped.size();
         const int bands = static_cast<int>(scene.bins.size());
         tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& r) {
+            float* z = zbuf.data();
+            uint8_t* l = lbuf.data();
             for (int band = r.begin(); band != r.end(); ++band) {
                 const int row0 = band * kBandRows, row1 = std::min(h, row0 + kBandRows);
-                for (int32_t id : scene.bins[band]) {
-                    if (id < firstTri) {
-                        drawSegment(scene.segments[id], view, row0, row1, zbuf.data(), lbuf.data());
+                for (const Scene::Chunk& chunk : scene.chunks) {
+                    for (uint32_t i = chunk.bandStart[band]; i < chunk.bandStart[band + 1]; ++i) {
+                        const Fragment& f = chunk.fragments[i];
+                        plot(z, l, f.pixel, view.ortho ? f.zi : 1.0 / f.zi, f.label);
+                    }
+                }
+                for (uint32_t id : scene.bins[band]) {
+                    if (id < firstClipped) {
+                        uint32_t v[3];
+                        cornersOf(scene, id, v);
+                        Triangle t;
+                        setupTriangle(scene.corners[v[0]], scene.corners[v[1]], scene.corners[v[2]],
+                                      labelOf(scene, tree, id), w, h, false, t);
+                        drawTriangle(t, view.ortho, w, row0, row1, z, l);
+                    } else if (id < firstLine) {
+                        drawTriangle(scene.clipped[id - firstClipped], view.ortho, w, row0, row1, z,
+                                     l);
                     } else {
-                        drawTriangle(scene.triangles[id - firstTri], view, row0, row1, zbuf.data(),
-                                     lbuf.data());
+                        drawLine(scene.lines[id - firstLine], w, row0, row1, z, l);
                     }
                 }
             }
@@ -578,6 +679,13 @@ ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, boo
     if (wantDepth) out.depth = std::move(zbuf);
     if (wantLabels) out.labels = std::move(lbuf);
     return out;
+}
+
+ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, bool wantLabels,
+                     const TubeOptions& tubes, const RenderOptions& options) {
+    std::vector<int32_t> nodes;
+    const Mesh wood = tubeMesh(tree, tubes, &nodes);
+    return renderView(tree, wood, nodes, camera, wantDepth, wantLabels, options);
 }
 
 double silhouetteCoverage(const ViewImage& view) {

@@ -1,5 +1,6 @@
-// A CPU renderer of one view: the skeleton's tapered capsules and the leaves, z-buffered
-// into a silhouette, a depth map and a label image; plus silhouette statistics.
+// A CPU renderer of one view: the tree's mesh as sylva writes it (branch tubes and leaf
+// outlines), z-buffered into a silhouette, a depth map and a label image; plus silhouette
+// statistics.
 #pragma once
 
 #include <algorithm>
@@ -7,6 +8,8 @@
 #include <vector>
 
 #include "pipeline/render/camera.h"
+#include "species/geometry/mesh.h"
+#include "species/geometry/tube_mesh.h"
 #include "species/model/tree.h"
 
 namespace sylva {
@@ -39,11 +42,30 @@ struct ViewImage {
     std::vector<uint8_t> labels;      // 0 background, 1 + branch order for wood, 255 leaves
 };
 
-// Renders one view: every skeleton segment as a tapered capsule (its screen radius at least
-// √½ px, so sub-pixel twigs still appear as unbroken lines) and every leaf as the triangles of
-// its outline (the same triangles as the mesh's leaves), z-buffered. Deterministic whatever the
-// thread count.
-ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, bool wantLabels);
+// Options of the renderer beyond the camera.
+struct RenderOptions {
+    // [views] min_width_px. 0 (default): the views show the mesh and nothing else. > 0: every
+    // skeleton segment is also drawn as a line at least this many pixels wide (a pixel is
+    // covered when the projected axis passes within min_width_px / 2 of its centre, at the
+    // depth of the nearest such axis point), so twigs thinner than a pixel stay unbroken lines.
+    // 1.415 (just over √2) covers every pixel the axis passes through.
+    double minWidthPx = 0.0;
+};
+
+// Renders one view of a tree whose branch tubes are already made: `wood` and `woodNodes` as
+// tubeMesh(tree, tubes, &woodNodes) returns them (the views of one tree share them). A pixel is
+// drawn iff its centre is inside a triangle of the tubes or of a leaf outline (edges
+// inclusive: a binary mask, no anti-aliasing): the triangles of `wood` (float positions, as
+// written) and each leaf's outline triangles (the same as leafMesh's). Depth: the nearest
+// triangle along the pixel-centre ray, perspective-correct. Labels: segmentLabel of the node a
+// tube triangle sweeps to, kLabelLeaf for leaves. Deterministic whatever the thread count.
+ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+                     const Camera& camera, bool wantDepth, bool wantLabels,
+                     const RenderOptions& options = {});
+
+// The same, making the tubes first (tubeMesh(tree, tubes)): for one-off views.
+ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, bool wantLabels,
+                     const TubeOptions& tubes = {}, const RenderOptions& options = {});
 
 // Silhouette statistics.
 double silhouetteCoverage(const ViewImage& view);    // fraction of tree pixels

@@ -78,7 +78,8 @@ void putVec(std::vector<float>& out, const Vec3& v) {
 }
 
 // Appends one chain's closed tube to `mesh` (see the layout at the top of the file).
-void sweepChain(const Tree& tree, const Chain& chain, const TubeOptions& options, Mesh& mesh) {
+void sweepChain(const Tree& tree, const Chain& chain, const TubeOptions& options, Mesh& mesh,
+                std::vector<int32_t>* triangleNodes) {
     const size_t n = chain.nodes.size();
     const SkeletonNode& firstNode = tree.nodes[chain.nodes[chain.fromFork ? 1 : 0]];
     const bool twig = firstNode.radius < options.minRadius;  // only reached when !dropThin
@@ -219,7 +220,12 @@ void sweepChain(const Tree& tree, const Chain& chain, const TubeOptions& options
         if (k == 0) firstRing = ringPos;
         if (k + 1 == n) lastRing = ringPos;
     }
+    // The node ending each triangle's segment (see triangleNodes in the header).
+    auto noteNode = [&](int32_t node, size_t triangles) {
+        if (triangleNodes) triangleNodes->insert(triangleNodes->end(), triangles, node);
+    };
     for (size_t k = 0; k + 1 < n; ++k) {
+        noteNode(chain.nodes[k + 1], 2 * static_cast<size_t>(sides));
         const uint32_t lo = base + static_cast<uint32_t>(k) * ringSize, hi = lo + ringSize;
         for (uint32_t j = 0; j < static_cast<uint32_t>(sides); ++j) {
             triangle(lo + j, lo + j + 1, hi + j + 1);  // counter-clockwise seen from outside
@@ -252,6 +258,7 @@ void sweepChain(const Tree& tree, const Chain& chain, const TubeOptions& options
             vertex(apexF, coneNormal(std::cos(mid), std::sin(mid)), (j + 0.5) / sides,
                    (s[k] + h) * vScale);
         }
+        noteNode(chain.nodes[n - 1], static_cast<size_t>(sides));
         for (uint32_t j = 0; j < static_cast<uint32_t>(sides); ++j) {
             triangle(ring + j, ring + j + 1, apexes + j);
         }
@@ -267,6 +274,7 @@ void sweepChain(const Tree& tree, const Chain& chain, const TubeOptions& options
                                  static_cast<float>(x[0].z)};
         const uint32_t c = static_cast<uint32_t>(mesh.vertexCount());
         vertex(centre, -t[0], 0.5, 0.5);
+        noteNode(chain.nodes[1], static_cast<size_t>(sides));
         for (uint32_t j = 0; j < static_cast<uint32_t>(sides); ++j) {
             const uint32_t j1 = (j + 1) % static_cast<uint32_t>(sides);
             triangle(c, rim + j1, rim + j);
@@ -276,9 +284,12 @@ void sweepChain(const Tree& tree, const Chain& chain, const TubeOptions& options
 
 }  // namespace
 
-Mesh tubeMesh(const Tree& tree, const TubeOptions& options) {
+Mesh tubeMesh(const Tree& tree, const TubeOptions& options, std::vector<int32_t>* triangleNodes) {
     Mesh mesh;
-    for (const Chain& chain : decompose(tree, options)) sweepChain(tree, chain, options, mesh);
+    if (triangleNodes) triangleNodes->clear();
+    for (const Chain& chain : decompose(tree, options)) {
+        sweepChain(tree, chain, options, mesh, triangleNodes);
+    }
     return mesh;
 }
 

@@ -1,6 +1,9 @@
 // Branch tubes: the skeleton swept as tapered generalised cylinders. Frame: +y up, metres.
 #pragma once
 
+#include <cstdint>
+#include <vector>
+
 #include "species/geometry/mesh.h"
 #include "species/model/tree.h"
 
@@ -19,7 +22,10 @@ struct TubeOptions {
 // skeleton with rotation-minimising frames (double reflection, Wang et al. 2008); child
 // tubes start at the fork node, inside their parent, so forks have no gaps; tips and the
 // root base are closed. Per-vertex normals, bark UVs (u around, v along in units of the
-// circumference) and branch order.
-Mesh tubeMesh(const Tree& tree, const TubeOptions& options);
+// circumference) and branch order. With `triangleNodes`, also per triangle the skeleton node
+// ending the segment it sweeps (tip cone: the tip; base disc: the end of the chain's first
+// segment), so a renderer can label the tubes as the skeleton (root or shoot, branch order).
+Mesh tubeMesh(const Tree& tree, const TubeOptions& options,
+              std::vector<int32_t>* triangleNodes = nullptr);
 
 }  // namespace sylva

@@ -1,5 +1,6 @@
-// Views: cameras, the capsule / leaf-card renderer, silhouette statistics, transforms.json,
-// image writers, the labelled point cloud and contact sheets.
+// Views: cameras, the renderer of the mesh (tubes and leaf outlines, optional skeleton lines),
+// silhouette statistics, transforms.json, image writers, the labelled point cloud and contact
+// sheets.
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -17,6 +18,8 @@
 #include "pipeline/formats/view_writers.h"
 #include "pipeline/render/camera.h"
 #include "pipeline/render/render.h"
+#include "species/geometry/leaf_mesh.h"
+#include "species/geometry/tube_mesh.h"
 #include "species/spec/species.h"
 #include "tests/test_support.h"
 
@@ -251,14 +254,21 @@ TEST(ViewCamera, AzimuthOffsetAndElevationRange) {
 // ---------------------------------------------------------------------------------------------
 // Renderer
 
-TEST(ViewRender, GrownTreeNodesLandInsideTheSilhouette) {
+// min_width_px (RenderOptions::minWidthPx) just over √2: the pixel of every skeleton point.
+RenderOptions widened() {
+    RenderOptions o;
+    o.minWidthPx = 1.415;
+    return o;
+}
+
+TEST(ViewRender, WithMinWidthLinesGrownTreeNodesLandInsideTheSilhouette) {
     const Tree& tree = grownTree();
     ASSERT_GT(tree.nodes.size(), 100u);
     for (bool ortho : {false, true}) {
         Rng rng(2);
         const auto cams = makeCameras(tree, ringOptions(ortho), rng);
         for (const Camera& c : cams) {
-            const ViewImage v = renderView(tree, c, true, true);
+            const ViewImage v = renderView(tree, c, true, true, TubeOptions{}, widened());
             ASSERT_EQ(v.silhouette.size(), size_t(c.width) * c.height);
             ASSERT_EQ(v.depth.size(), v.silhouette.size());
             ASSERT_EQ(v.labels.size(), v.silhouette.size());
@@ -287,92 +297,125 @@ TEST(ViewRender, GrownTreeNodesLandInsideTheSilhouette) {
     }
 }
 
-// Brute force: the nearest entry of the pixel-centre ray into the spheres of radius r(t)
-// about the axis points a + t (b − a), t sampled finely; depth along the view axis, or −1.
-double bruteFront(const Camera& c, const SkeletonNode& a, const SkeletonNode& b, int x, int y) {
-    const Vec3 eye = column(c, 3);
-    const Vec3 p1 = c.unproject(x + 0.5, y + 0.5, 1.0);
-    const Vec3 dir = c.orthographic ? -column(c, 2) : p1 - eye;  // depth 1 per unit of σ
-    const Vec3 origin = c.orthographic ? p1 - dir : eye;
-    const double len = length(dir);
-    double best = -1;
-    for (int i = 0; i <= 4000; ++i) {
-        const double t = i / 4000.0;
-        const Vec3 centre = a.position + (b.position - a.position) * t;
-        const double r = a.radius + (b.radius - a.radius) * t;
-        const Vec3 oc = centre - origin;
-        const double proj = dot(oc, dir) / len;
-        const double lat2 = dot(oc, oc) - proj * proj;
-        if (lat2 > r * r) continue;
-        const double sigma = (proj - std::sqrt(r * r - lat2)) / len;
-        if (best < 0 || sigma < best) best = sigma;
+// Ray casting, independent of the rasteriser: the pixel-centre ray (origin at depth 0,
+// direction advancing depth by 1 per unit) against every triangle of the tubes (tubeMesh) and
+// of the leaves (leafMesh, both faces), Möller–Trumbore in double precision.
+struct RayHit {
+    double depth = -1;    // nearest hit whose barycentric weights are all ≥ −kEdge; −1: none
+    bool strict = false;  // some hit has every weight ≥ +kEdge (clearly inside)
+    int label = kLabelBackground;
+    double secondDepth = -1;  // the nearest hit with a different label (ties make labels moot)
+};
+constexpr double kEdge = 1e-7;
+
+RayHit castRay(const Camera& c, double px, double py, const std::vector<const Mesh*>& meshes,
+               const std::vector<std::vector<uint8_t>>& labels) {
+    const Vec3 p1 = c.unproject(px, py, 1.0), p2 = c.unproject(px, py, 2.0);
+    const Vec3 dir = p2 - p1, origin = p1 - dir;
+    RayHit hit;
+    for (size_t m = 0; m < meshes.size(); ++m) {
+        const Mesh& mesh = *meshes[m];
+        auto vertex = [&](uint32_t i) {
+            return Vec3{mesh.positions[3 * i], mesh.positions[3 * i + 1],
+                        mesh.positions[3 * i + 2]};
+        };
+        for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+            const Vec3 a = vertex(mesh.indices[3 * t]), b = vertex(mesh.indices[3 * t + 1]),
+                       d = vertex(mesh.indices[3 * t + 2]);
+            const Vec3 e1 = b - a, e2 = d - a, pv = cross(dir, e2);
+            const double det = dot(e1, pv);
+            if (det == 0) continue;
+            const double inv = 1.0 / det;
+            const Vec3 tv = origin - a, qv = cross(tv, e1);
+            const double u = dot(tv, pv) * inv, v = dot(dir, qv) * inv, w = 1.0 - u - v;
+            if (u < -kEdge || v < -kEdge || w < -kEdge) continue;
+            const double depth = dot(e2, qv) * inv;
+            if (depth <= 0) continue;
+            hit.strict |= u >= kEdge && v >= kEdge && w >= kEdge;
+            const int label = labels[m][t];
+            if (hit.depth < 0 || depth < hit.depth) {
+                if (label != hit.label) hit.secondDepth = hit.depth;
+                hit.depth = depth;
+                hit.label = label;
+            } else if (label != hit.label && (hit.secondDepth < 0 || depth < hit.secondDepth)) {
+                hit.secondDepth = depth;
+            }
+        }
     }
-    return best;
+    return hit;
 }
 
-TEST(ViewRender, DepthOfAThickSegmentIsItsFrontSurface) {
+// A small tree: a tapering trunk, a branch, a sub-pixel twig and three leaves of different
+// shapes, one of them in front of the trunk.
+Tree smallLeafyTree() {
     Tree t;
     addNode(t, -1, {0, 0, 0}, 0.3);
     addNode(t, 0, {0.2, 2, 0.3}, 0.15);
+    addNode(t, 1, {1.2, 2.8, 0.1}, 0.06, 1);
+    addNode(t, 2, {1.6, 3.4, 0.4}, 0.004, 2);
+    addNode(t, 1, {0.1, 3.2, 0.2}, 0.1);
+    const LeafShape shapes[] = {LeafShape::kCard, LeafShape::kLobed, LeafShape::kSimple};
+    const Vec3 where[] = {{0.1, 1.2, 0.6}, {1.3, 2.9, 0.2}, {0.0, 3.4, 0.0}};
+    for (int i = 0; i < 3; ++i) {
+        Leaf leaf;
+        leaf.position = where[i];
+        leaf.normal = normalize(Vec3{0.3 * i, 1.0, 1.0 - 0.4 * i});
+        leaf.tangent = anyPerpendicular(leaf.normal);
+        leaf.size = 0.5;
+        leaf.aspect = 0.6;
+        leaf.shape = shapes[i];
+        t.leaves.push_back(leaf);
+    }
+    return t;
+}
+
+// Every pixel of a view against ray casting of the mesh's triangles: drawn iff the centre's ray
+// hits a triangle (up to rays within kEdge of an edge), at the nearest hit's depth, with its
+// label (tubes: segmentLabel of the triangle's node; leaves 255).
+TEST(ViewRender, PixelsAreRayCastsOfTheMeshTriangles) {
+    const Tree t = smallLeafyTree();
+    TubeOptions tubes;
+    tubes.maxSides = 9;
+    tubes.edgeLength = 0.1;
+    std::vector<int32_t> nodes;
+    const Mesh wood = tubeMesh(t, tubes, &nodes);
+    const Mesh leaves = leafMesh(t);
+    std::vector<std::vector<uint8_t>> labels(2);
+    for (int32_t n : nodes) labels[0].push_back(segmentLabel(t.nodes[n]));
+    labels[1].assign(leaves.triangleCount(), kLabelLeaf);
     for (bool ortho : {false, true}) {
         Rng rng(5);
         ViewOptions o = ringOptions(ortho);
-        o.width = o.height = 64;
+        o.count = 4;
+        o.width = o.height = 72;
         for (const Camera& c : makeCameras(t, o, rng)) {
-            const ViewImage v = renderView(t, c, true, false);
-            EXPECT_TRUE(v.labels.empty());
-            int compared = 0, missed = 0;
-            for (int y = 0; y < v.height; y += 2) {
-                for (int x = 0; x < v.width; x += 2) {
-                    const double truth = bruteFront(c, t.nodes[0], t.nodes[1], x, y);
-                    const float z = v.depth[at(v, x, y)];
-                    if (truth < 0) continue;  // the ray misses (drawn or not, no reference)
-                    if (z == 0) {
-                        ++missed;  // a hit the 2-D screen capsule left out
-                        continue;
+            const ViewImage v = renderView(t, wood, nodes, c, true, true);
+            int drawn = 0;
+            for (int y = 0; y < v.height; ++y) {
+                for (int x = 0; x < v.width; ++x) {
+                    const RayHit hit = castRay(c, x + 0.5, y + 0.5, {&wood, &leaves}, labels);
+                    const size_t k = at(v, x, y);
+                    const bool on = v.silhouette[k] == 255;
+                    drawn += on;
+                    if (hit.strict) {
+                        ASSERT_TRUE(on) << x << "," << y << " ortho " << ortho;
                     }
-                    EXPECT_NEAR(z, truth, 2e-4 * truth)
-                        << x << "," << y << " az " << c.azimuthDeg << " ortho " << ortho;
-                    ++compared;
+                    if (hit.depth < 0) {
+                        ASSERT_FALSE(on) << x << "," << y << " ortho " << ortho;
+                    }
+                    if (!on || !hit.strict) continue;
+                    EXPECT_NEAR(v.depth[k], hit.depth, 1e-5 * hit.depth) << x << "," << y;
+                    if (hit.secondDepth < 0 || hit.secondDepth > hit.depth * (1 + 1e-5)) {
+                        EXPECT_EQ(v.labels[k], hit.label) << x << "," << y;
+                    }
                 }
             }
-            EXPECT_GT(compared, 50);
-            EXPECT_LE(missed, compared / 50);
-            // At the nodes' pixels the surface is in front of the node, at most by the
-            // radius stretched along the oblique ray.
-            for (const SkeletonNode& n : t.nodes) {
-                double px, py, d;
-                ASSERT_TRUE(c.project(n.position, px, py, d));
-                const size_t k = at(v, static_cast<int>(px), static_cast<int>(py));
-                ASSERT_EQ(v.silhouette[k], 255);
-                EXPECT_LT(v.depth[k], d);
-                EXPECT_GT(v.depth[k], d - 3 * n.radius);
-            }
-        }
-    }
-    // Seen square-on (a vertical segment from the side): the pixel of a node sees the front
-    // of the node's sphere, |depth − (node depth − r)| ≤ r + pixel footprint.
-    Tree upright;
-    addNode(upright, -1, {0, 0, 0}, 0.2);
-    addNode(upright, 0, {0, 2, 0}, 0.1);
-    for (bool ortho : {false, true}) {
-        ViewOptions o = ringOptions(ortho);
-        o.elevationsDeg = {0};
-        Rng rng(5);
-        for (const Camera& c : makeCameras(upright, o, rng)) {
-            const ViewImage v = renderView(upright, c, true, false);
-            for (const SkeletonNode& n : upright.nodes) {
-                double px, py, d;
-                ASSERT_TRUE(c.project(n.position, px, py, d));
-                const size_t k = at(v, static_cast<int>(px), static_cast<int>(py));
-                EXPECT_LE(std::abs(v.depth[k] - (d - n.radius)), n.radius + footprint(c, d));
-                EXPECT_NEAR(v.depth[k], d - n.radius, 0.02 * n.radius + footprint(c, d));
-            }
+            EXPECT_GT(drawn, 200);
         }
     }
 }
 
-TEST(ViewRender, ThinSegmentCoversItsWholeProjectedLength) {
+TEST(ViewRender, WithMinWidthLinesAThinSegmentCoversItsWholeProjectedLength) {
     for (bool ortho : {false, true}) {
         // 10 px per metre at the segment (z = 0) in both projections.
         Camera c = frontCamera(ortho, 120, 100, 10.0, 2 * std::atan(5.0 / 10.0) * 180 / kPi, 10.0);
@@ -382,7 +425,7 @@ TEST(ViewRender, ThinSegmentCoversItsWholeProjectedLength) {
             const Vec3 start{-4.1, -2.3, 0};
             addNode(t, -1, start, 0.005);  // 0.05 px radius: 1/10 px wide
             addNode(t, 0, end, 0.005);
-            const ViewImage v = renderView(t, c, false, false);
+            const ViewImage v = renderView(t, c, false, false, TubeOptions{}, widened());
             EXPECT_TRUE(v.depth.empty());
             // Every pixel the axis passes through is drawn (sample the axis densely).
             for (int i = 0; i <= 2000; ++i) {
@@ -411,6 +454,41 @@ TEST(ViewRender, ThinSegmentCoversItsWholeProjectedLength) {
             const double len = std::max(std::abs(bx - ax), std::abs(by - ay));
             EXPECT_GE(total, len - 1);
             EXPECT_LE(total, 2.1 * len + 6);
+        }
+    }
+}
+
+// By default a twig thinner than a pixel is not widened: only pixels whose centres its tube
+// covers are drawn, each within its radius of the axis (or of the tip cone, one radius beyond).
+TEST(ViewRender, SubPixelTwigDrawsOnlyThePixelCentresItCovers) {
+    for (bool ortho : {false, true}) {
+        Camera c = frontCamera(ortho, 120, 100, 10.0, 2 * std::atan(5.0 / 10.0) * 180 / kPi, 10.0);
+        const Vec3 start{-4.1, -2.3, 0}, end{4.5, 0.3, 0};
+        for (double radius : {0.005, 0.03}) {  // 0.05 px and 0.3 px at 10 px per metre
+            Tree t;
+            addNode(t, -1, start, radius);
+            addNode(t, 0, end, radius);
+            const ViewImage v = renderView(t, c, false, false);
+            double ax, ay, bx, by, d;
+            c.project(start, ax, ay, d);
+            c.project(end + normalize(end - start) * radius, bx, by, d);  // the tip cone's apex
+            const double rPx = radius * 10.0;
+            int drawn = 0;
+            for (int y = 0; y < c.height; ++y) {
+                for (int x = 0; x < c.width; ++x) {
+                    if (v.silhouette[at(v, x, y)] == 0) continue;
+                    ++drawn;
+                    const Vec3 p{x + 0.5, y + 0.5, 0}, a{ax, ay, 0}, b{bx, by, 0};
+                    double s;
+                    EXPECT_LE(pointSegmentDistance(p, a, b, s), rPx * (1 + 1e-6));
+                }
+            }
+            // About the tube's screen area (width < 2 r, length ≈ 91 px) in pixel centres.
+            const double area = 2 * rPx * std::hypot(bx - ax, by - ay);
+            EXPECT_LE(drawn, area + 4);
+            if (radius > 0.01) {
+                EXPECT_GE(drawn, 0.3 * area);
+            }
         }
     }
 }
