@@ -23,6 +23,25 @@ struct SourcePos {
     std::string str() const;
 };
 
+// The machine ran out of something the build needs — disk space (ENOSPC), quota (EDQUOT), the
+// file size limit (EFBIG) or memory (ENOMEM) — while writing `path`: neither bad input nor a
+// bug. A build stops at the first one and a rerun resumes (pipeline/build/build.h).
+class ResourceError : public std::runtime_error {
+  public:
+    ResourceError(int error, const std::string& path, const std::string& message);
+    int error() const { return error_; }
+    const std::string& path() const { return path_; }
+    // "disk full", "disk quota exceeded", "file size limit reached", "out of memory".
+    std::string whatRanOut() const;
+
+  private:
+    int error_;
+    std::string path_;
+};
+
+// Whether an errno value is one of ResourceError's.
+bool isResourceErrno(int error);
+
 // A bad spec: the message is one line, "file:line:col: key.path: what was expected".
 class SpecError : public InputError {
   public:

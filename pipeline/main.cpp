@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -26,7 +27,8 @@ using namespace sylva;
 
 namespace {
 
-int runBuild(const std::string& specPath, std::string out, int threads, const std::string& shard) {
+int runBuild(const std::string& specPath, std::string out, bool outGiven, int threads,
+             const std::string& shard) {
     int si = 0, sn = 1;
     if (!shard.empty()) {
         int used = 0;
@@ -38,11 +40,17 @@ int runBuild(const std::string& specPath, std::string out, int threads, const st
     }
     DatasetSpec spec = loadDataset(specPath);  // validates everything before any write
     BuildOptions o;
+    if (outGiven && out.empty()) throw InputError("--out: expected a directory, got \"\"");
     o.out = out.empty() ? fs::path("out") / spec.name : fs::path(out);
     o.threads = threads;
     o.shardIndex = si;
     o.shardCount = sn;
     BuildSummary s = buildDataset(spec, o);
+    if (!s.stopped.empty()) {  // a full disk (or quota, file size limit, memory): one line
+        std::fprintf(stderr, "%ssylva: build: %s\n", isatty(2) ? "\r\033[K" : "",
+                     s.stopped.c_str());
+        return 1;
+    }
     std::fprintf(stderr,
                  "sylva: %s: %lld built, %lld already there, %lld failed of %lld in %.2f s -> %s\n",
                  spec.name.c_str(), static_cast<long long>(s.built),
@@ -167,7 +175,8 @@ int main(int argc, char** argv) {
     int threads = 0;
     auto* build = app.add_subcommand("build", "Build a dataset (every instance of every species)");
     build->add_option("SPEC", spec, "Dataset spec (.toml)")->required();
-    build->add_option("--out", out, "Output directory (default: out/<dataset name>)");
+    auto* buildOut =
+        build->add_option("--out", out, "Output directory (default: out/<dataset name>)");
     build->add_option("--threads", threads, "Worker threads (default: all cores)")
         ->check(CLI::NonNegativeNumber);
     build->add_option("--shard", shard,
@@ -261,12 +270,15 @@ int main(int argc, char** argv) {
         app.exit(e);
         return 2;
     }
+    // Past the file size limit (ulimit -f) a write fails with EFBIG, which a build stops on
+    // like a full disk, instead of the default SIGXFSZ killing the process mid-write.
+    std::signal(SIGXFSZ, SIG_IGN);
     // The subcommand, as error messages name it.
     std::string command;
     for (const CLI::App* c : app.get_subcommands()) command = c->get_name();
     if (*speciesList) command = "species list";
     try {
-        if (*build) return runBuild(spec, out, threads, shard);
+        if (*build) return runBuild(spec, out, buildOut->count() > 0, threads, shard);
         if (*grow) return runGrow(speciesPath, seed, growOut, growThreads);
         if (*validate) return runValidate(validatePath);
         if (*merge) return runMerge(mergeOptions);

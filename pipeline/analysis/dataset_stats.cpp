@@ -12,6 +12,7 @@
 #include <sstream>
 #include <unordered_set>
 
+#include "pipeline/build/output_lock.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/skeleton_reader.h"
 #include "species/model/reference_metrics.h"
@@ -472,6 +473,8 @@ DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOp
     if (!fs::is_directory(dir, ec)) {
         throw DatasetStatsInputError(dir.string() + ": not a directory");
     }
+    // DIR/stats/ is written into the dataset: not while a build (or another stats) runs there.
+    OutputLock lock(dir, "sylva stats");
     std::optional<Reference> reference;
     if (!options.reference.empty()) reference = readReference(options.reference);
     // manifest.jsonl first, then the shards in index order.

@@ -6,10 +6,14 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <set>
 
 #include "pipeline/build/build.h"
+#include "pipeline/build/output_lock.h"
+#include "pipeline/build/run_log.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/view_writers.h"
 
@@ -86,7 +90,21 @@ void transfer(const fs::path& from, const fs::path& to, bool move) {
 
 MergeSummary mergeShards(const MergeOptions& o) {
     const auto start = std::chrono::steady_clock::now();
+    nlohmann::json run = runLine("merge");
     if (o.shards.empty()) fail("no shard directories given");
+
+    // --move takes the instances out of the shards: no build may run there meanwhile.
+    std::vector<std::unique_ptr<OutputLock>> shardLocks;
+    if (o.move) {
+        std::set<fs::path> dirs;
+        for (const fs::path& d : o.shards) {
+            std::error_code ec;
+            if (!fs::is_directory(d, ec)) continue;  // findShards says so below
+            if (dirs.insert(fs::canonical(d)).second) {
+                shardLocks.push_back(std::make_unique<OutputLock>(d, "sylva merge --move"));
+            }
+        }
+    }
 
     // --- Check everything before writing anything ----------------------------------------
     std::vector<Shard> shards;
@@ -169,11 +187,19 @@ MergeSummary mergeShards(const MergeOptions& o) {
         }
     }
     std::error_code ec;
-    if (fs::exists(o.out) && !(fs::is_directory(o.out) && fs::is_empty(o.out, ec))) {
+    if (fs::exists(o.out) && !fs::is_directory(o.out)) {
         fail(o.out.string() + ": exists and is not an empty directory");
     }
+    checkOutputDir(o.out, "OUT");
 
-    // --- Assemble in a temporary sibling, then rename onto `out` ---------------------------
+    // --- Lock OUT, assemble in a temporary sibling, then rename onto `out` ------------------
+    createOutputDir(o.out, "OUT");
+    auto outLock = std::make_unique<OutputLock>(o.out, "sylva merge");
+    for (const auto& e : fs::directory_iterator(o.out)) {
+        if (e.path() != outLock->file()) {
+            fail(o.out.string() + ": exists and is not an empty directory");
+        }
+    }
     const fs::path out = fs::absolute(o.out).lexically_normal();
     const fs::path stage =
         out.parent_path() / ("." + out.filename().string() + ".merge." + std::to_string(getpid()));
@@ -209,33 +235,41 @@ MergeSummary mergeShards(const MergeOptions& o) {
             ++summary.sheets;
         }
 
-        // dataset.json as an unsharded build writes it: counts summed; of the timing fields,
-        // threads and wall_seconds are the largest shard's (the slowest machine), and
-        // trees_per_second = built / wall_seconds.
+        // dataset.json exactly as an unsharded build writes it (the timing fields of older
+        // builds' shards dropped: they are in the run logs now).
         nlohmann::json d = first.dataset;
-        int64_t built = 0, skipped = 0;
-        int threads = 0;
-        double wall = 0;
-        for (const Shard* s : byIndex) {
-            built += countOf(*s, "built");
-            skipped += countOf(*s, "skipped_already_built");
-            threads = std::max(threads, s->dataset.value("threads", 0));
-            wall = std::max(wall, s->dataset.value("wall_seconds", 0.0));
-        }
         d["shard"] = {{"index", 0}, {"count", 1}};
         d["status"] = "complete";
         d["counts"] = {{"instances_in_dataset", total},
                        {"instances_in_shard", total},
-                       {"skipped_already_built", skipped},
-                       {"built", built},
-                       {"failed", 0}};
-        d["threads"] = threads;
-        d["wall_seconds"] = wall;
-        d["trees_per_second"] = wall > 0 ? static_cast<double>(built) / wall : 0.0;
+                       {"built", total},
+                       {"missing", 0}};
+        for (const char* k : {"threads", "wall_seconds", "trees_per_second"}) d.erase(k);
         writeFileAtomic(stage / datasetJsonName(0, 1), d.dump(2) + "\n");
 
-        if (fs::exists(out)) fs::remove(out);  // the empty directory checked above
+        // runs.jsonl: every shard's runs, in shard order, then this merge's.
+        std::string runs;
+        for (const Shard* s : byIndex) {
+            std::ifstream in(s->dir / runLogName(s->index, s->count), std::ios::binary);
+            for (std::string line; std::getline(in, line);) {
+                if (!line.empty()) runs += line + "\n";
+            }
+        }
+        run["status"] = "complete";
+        run["shards"] = n;
+        run["instances"] = total;
+        run["moved"] = o.move;
+        run["wall_seconds"] =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        runs += run.dump() + "\n";
+        writeFileAtomic(stage / runLogName(0, 1), runs);
+
+        // The stage takes its own lock before OUT's is given up, and keeps it as OUT.
+        OutputLock stageLock(stage, "sylva merge");
+        outLock.reset();
+        fs::remove(out);  // empty again
         fs::rename(stage, out);
+        stageLock.movedTo(out);
         summary.shardCount = n;
         summary.instances = total;
         summary.wallSeconds =

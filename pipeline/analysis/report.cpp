@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <numeric>
 #include <regex>
@@ -16,6 +17,7 @@
 
 #include "core/errors.h"
 #include "pipeline/analysis/dataset_stats.h"
+#include "pipeline/build/output_lock.h"
 #include "pipeline/formats/atomic_file.h"
 
 namespace fs = std::filesystem;
@@ -588,6 +590,7 @@ struct ReportData {
     std::map<std::string, std::vector<std::string>> byTheme;
     double labelWidth = 36;  // of the box plots' species column
     bool anySweep = false;
+    std::vector<json> runs;  // runs.jsonl: one line per build (or merge) run
 };
 
 // Reads the dataset directory; bad input (not a dataset, no record) throws InputError.
@@ -599,6 +602,13 @@ ReportData readReportData(const fs::path& dir) {
     d.info = json::parse(slurpFile(dir / "dataset.json"), nullptr, false);
     if (d.info.is_discarded() || !d.info.is_object()) {
         throw InputError((dir / "dataset.json").string() + ": not valid JSON");
+    }
+    {
+        std::ifstream runs(dir / "runs.jsonl", std::ios::binary);
+        for (std::string line; std::getline(runs, line);) {
+            json r = json::parse(line, nullptr, false);
+            if (r.is_object()) d.runs.push_back(std::move(r));
+        }
     }
     d.recs = readManifest(dir, d.skipped, d.perView);
     if (d.recs.empty()) throw InputError(dir.string() + ": the manifest has no record");
@@ -694,6 +704,25 @@ void writeFacts(std::ostream& h, const ReportData& d) {
         fact("build time", num(d.info["wall_seconds"].get<double>(), 4) + " s");
     if (d.info.contains("trees_per_second") && d.info["trees_per_second"].is_number())
         fact("throughput", num(d.info["trees_per_second"].get<double>(), 4) + " trees/s");
+    // How it was built: the run log (older datasets kept this in dataset.json, above).
+    if (!d.runs.empty()) {
+        double wall = 0;
+        int64_t threads = 0;
+        std::map<std::string, int> statuses;
+        for (const json& r : d.runs) {
+            ++statuses[r.value("status", "?")];
+            if (r.value("command", "") != "build") continue;
+            if (r.contains("wall_seconds") && r["wall_seconds"].is_number())
+                wall += r["wall_seconds"].get<double>();
+            threads = std::max(threads, r.value("threads", int64_t{0}));
+        }
+        std::string runs = std::to_string(d.runs.size()) + " (";
+        for (const auto& [status, n] : statuses)
+            runs += (runs.back() == '(' ? "" : ", ") + std::to_string(n) + " " + status;
+        fact("runs", runs + ")");
+        fact("build time", num(wall, 4) + " s (sum of the build runs)");
+        if (threads > 0) fact("threads", std::to_string(threads) + " (most in a run)");
+    }
     if (d.info.contains("shard") && d.info["shard"].is_object())
         fact("shard", std::to_string(d.info["shard"].value("index", 0)) + " of " +
                           std::to_string(d.info["shard"].value("count", 1)));
@@ -980,6 +1009,10 @@ void checkLinks(const std::string& html, const fs::path& reportDir) {
 }  // namespace
 
 ReportResult writeReport(const fs::path& dir) {
+    // DIR/report/ is written into the dataset: not while a build (or another report) runs there.
+    std::unique_ptr<OutputLock> lock;
+    std::error_code ec;
+    if (fs::is_directory(dir, ec)) lock = std::make_unique<OutputLock>(dir, "sylva report");
     const ReportData d = readReportData(dir);
     ReportResult result;
     result.instances = d.recs.size();

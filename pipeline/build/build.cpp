@@ -11,16 +11,22 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
+#include <unordered_map>
 
 #include "pipeline/build/instance.h"
+#include "pipeline/build/manifest_repair.h"
+#include "pipeline/build/output_lock.h"
 #include "pipeline/build/progress.h"
+#include "pipeline/build/run_log.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/view_writers.h"
 #include "volumes/versions.h"
@@ -35,7 +41,7 @@ std::pair<size_t, size_t> shardRange(size_t jobs, int index, int count) {
     return {lo, hi};
 }
 
-static std::string shardSuffix(int index, int count) {
+std::string shardSuffix(int index, int count) {
     if (count <= 1) return "";
     int width = static_cast<int>(std::to_string(count).size());
     char buf[64];
@@ -73,24 +79,72 @@ namespace {
 struct Message {
     size_t seq = 0;  // position among the jobs run now (sequencer order)
     std::shared_ptr<InstanceWork> work;
+    bool discarded = false;  // dropped unfinished: the build is stopping (resource exhausted)
 };
 
-// A stage as a flow-graph body: runs `stage` unless an earlier one failed.
+// The first resource that ran out (core/errors.h ResourceError, or std::bad_alloc): from then
+// on the build takes no new instance, drops the unfinished ones and records nothing more.
+struct StopState {
+    std::atomic<bool> requested{false};
+    std::mutex mutex;
+    std::string reason;  // "disk full while writing <path>"
+    int error = 0;       // its errno
+
+    void note(int err, const std::string& why) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (reason.empty()) {
+            reason = why;
+            error = err;
+        }
+        requested = true;
+    }
+    void note(const ResourceError& e) {
+        note(e.error(), e.whatRanOut() + " while writing " + e.path());
+    }
+};
+
+// What to do about a resource that ran out, for the stop line.
+std::string stopAdvice(int error) {
+    switch (error) {
+        case ENOSPC:
+            return "free space and rerun to resume";
+        case EDQUOT:
+            return "free space (or raise the quota) and rerun to resume";
+        case EFBIG:
+            return "raise the file size limit (ulimit -f) and rerun to resume";
+        default:
+            return "free memory (or use fewer --threads) and rerun to resume";
+    }
+}
+
+// A stage as a flow-graph body: runs `stage` unless an earlier one failed or the build is
+// stopping; a resource that runs out stops the build instead of failing the instance.
 template <class F>
-auto stageBody(F stage) {
-    return [stage](Message m) {
-        if (m.work->error.empty()) {
-            try {
-                stage(*m.work);
-            } catch (const std::exception& e) {
-                m.work->error = e.what();
-            }
+auto stageBody(F stage, StopState& stop) {
+    return [stage, &stop](Message m) {
+        if (!m.work->error.empty() || m.discarded) return m;
+        if (stop.requested) {
+            m.discarded = true;
+            return m;
+        }
+        try {
+            stage(*m.work);
+        } catch (const ResourceError& e) {
+            m.discarded = true;
+            stop.note(e);
+        } catch (const std::bad_alloc&) {
+            m.discarded = true;
+            stop.note(ENOMEM, "out of memory while building " + m.work->job->id);
+        } catch (const std::exception& e) {
+            m.work->error = e.what();
         }
         return m;
     };
 }
 
-// Per species, a sheet of the first views of its first K recorded instances.
+// Per species, a sheet of the first views of its first K recorded instances
+// (contact/<species>.png; contact/<species>.shard-I-of-N.png for a shard, whose instances are
+// only a block of the dataset's).
 void writeSpeciesSheets(const DatasetSpec& spec, const std::vector<InstanceJob>& jobs,
                         const std::set<std::string>& recorded, const fs::path& out,
                         const std::string& suffix) {
@@ -105,12 +159,15 @@ void writeSpeciesSheets(const DatasetSpec& spec, const std::vector<InstanceJob>&
             if (static_cast<int>(dirs.size()) >= k) break;
         }
         if (dirs.empty()) continue;
-        writeSpeciesSheet(out / "contact" / (e.species.name + ".png"), dirs);
+        writeSpeciesSheet(out / "contact" / (e.species.name + suffix + ".png"), dirs);
     }
 }
 
+// dataset.json describes the dataset, the same bytes however many runs, threads or machines
+// made it: what is recorded (`built`: instances in the manifest) and what is not (`missing`).
+// What differs per run goes into the run log (run_log.h).
 void writeDatasetJson(const DatasetSpec& spec, const BuildOptions& o, const fs::path& file,
-                      const std::string& status, const BuildSummary& s, int threads,
+                      const std::string& status, int64_t inShard, int64_t recorded,
                       size_t allJobs) {
     nlohmann::json d;
     d["name"] = spec.name;
@@ -136,88 +193,126 @@ void writeDatasetJson(const DatasetSpec& spec, const BuildOptions& o, const fs::
     d["versions"] = versionInfo();
     d["shard"] = {{"index", o.shardIndex}, {"count", o.shardCount}};
     d["counts"] = {{"instances_in_dataset", allJobs},
-                   {"instances_in_shard", s.total},
-                   {"skipped_already_built", s.skipped},
-                   {"built", s.built},
-                   {"failed", s.failed}};
-    d["threads"] = threads;
-    d["wall_seconds"] = s.wallSeconds;
-    d["trees_per_second"] = s.wallSeconds > 0 ? s.built / s.wallSeconds : 0.0;
+                   {"instances_in_shard", inShard},
+                   {"built", recorded},
+                   {"missing", inShard - recorded}};
     writeFileAtomic(file, d.dump(2) + "\n");
 }
 
-}  // namespace
-
-BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
-    auto start = std::chrono::steady_clock::now();
-    // Every instance allocates and frees blocks of a few hundred KiB within milliseconds
-    // (z-buffers, encoders' scratch, mesh buffers). Above glibc's default threshold those are
-    // mmap'd and unmapped each time, a page fault per 4 KiB on every use; kept on the heap
-    // they are reused (the process keeps at most the trim threshold idle).
-    static std::once_flag heapTuned;
-    std::call_once(heapTuned, [] {
-        mallopt(M_MMAP_THRESHOLD, 64 << 20);
-        mallopt(M_TRIM_THRESHOLD, 256 << 20);
-    });
-    const int threads = o.threads > 0 ? o.threads : tbb::info::default_concurrency();
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-
-    std::vector<InstanceJob> all = expandJobs(spec);
-    auto [lo, hi] = shardRange(all.size(), o.shardIndex, o.shardCount);
-
-    fs::create_directories(o.out);
-    const fs::path manifestPath = o.out / manifestName(o.shardIndex, o.shardCount);
-    const fs::path datasetPath = o.out / datasetJsonName(o.shardIndex, o.shardCount);
-
-    // Resume: the ids already recorded (a partial last line from a kill is dropped).
-    std::set<std::string> done;
-    const bool resuming = fs::exists(manifestPath);
-    if (resuming) {
-        if (fs::exists(datasetPath)) {
-            auto old = nlohmann::json::parse(std::ifstream(datasetPath), nullptr, false);
-            if (!old.is_discarded() && old.value("fingerprint", "") != spec.fingerprint) {
-                throw SpecError(SourcePos{spec.path, 0, 0}, "",
-                                "output directory " + o.out.string() +
-                                    " holds a build of a different spec (fingerprint " +
-                                    old.value("fingerprint", "?") + " ≠ " + spec.fingerprint +
-                                    "); use another --out");
+// Removes what a killed run of this shard left half-written: the temp siblings
+// ("<file>.tmp.<pid>.…") in the directories of the instances still to build, and those of the
+// shard's own top-level files. Under the shard's lock no other process writes there, so every
+// such file is stale.
+void removeStaleTempFiles(const fs::path& out, const std::vector<const InstanceJob*>& todo,
+                          const std::vector<std::string>& ownFiles) {
+    auto isTemp = [](const fs::path& p) {
+        return p.filename().string().find(".tmp.") != std::string::npos;
+    };
+    std::error_code ec;
+    for (const InstanceJob* j : todo) {
+        const fs::path dir = out / instanceDir(*j);
+        std::vector<fs::path> stale;  // (views/ too: collect first, then remove)
+        for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end;
+             it.increment(ec)) {
+            if (isTemp(it->path())) stale.push_back(it->path());
+        }
+        for (const fs::path& p : stale) fs::remove(p, ec);
+    }
+    for (const std::string& f : ownFiles) {
+        const fs::path target = out / f;
+        std::vector<fs::path> stale;
+        for (fs::directory_iterator it(target.parent_path(), ec), end; !ec && it != end;
+             it.increment(ec)) {
+            const std::string name = it->path().filename().string();
+            if (name.rfind(target.filename().string() + ".tmp.", 0) == 0) {
+                stale.push_back(it->path());
             }
         }
-        for (const std::string& line : AppendLog::readCompleteLines(manifestPath)) {
-            auto j = nlohmann::json::parse(line, nullptr, false);
-            if (!j.is_discarded() && j.contains("id")) done.insert(j["id"].get<std::string>());
+        for (const fs::path& p : stale) fs::remove(p, ec);
+    }
+}
+
+// What the steps of a build share, so that a stop anywhere can still be reported.
+struct BuildState {
+    BuildSummary summary;
+    int64_t failed = 0;
+    StopState stop;
+    nlohmann::json run;  // this run's line in the run log
+    bool runStarted = false;
+    int64_t recorded() const { return summary.skipped + summary.built; }
+};
+
+// The build of one shard into its locked directory; a ResourceError anywhere (or one noted by
+// a stage) leaves st.stop set for buildDataset to report.
+void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vector<InstanceJob>& all,
+                size_t lo, size_t hi, int threads, RunLog& runs, BuildState& st) {
+    BuildSummary& summary = st.summary;
+    StopState& stop = st.stop;
+    int64_t& failed = st.failed;
+    nlohmann::json& run = st.run;
+    const fs::path manifestPath = o.out / manifestName(o.shardIndex, o.shardCount);
+    const fs::path datasetPath = o.out / datasetJsonName(o.shardIndex, o.shardCount);
+    const std::string suffix = shardSuffix(o.shardIndex, o.shardCount);
+    std::set<std::string> done;
+    auto recorded = [&] { return st.recorded(); };
+    if (fs::exists(datasetPath)) {
+        auto old = nlohmann::json::parse(std::ifstream(datasetPath), nullptr, false);
+        if (!old.is_discarded() && old.value("fingerprint", "") != spec.fingerprint) {
+            throw SpecError(SourcePos{spec.path, 0, 0}, "",
+                            "output directory " + o.out.string() +
+                                " holds a build of a different spec (fingerprint " +
+                                old.value("fingerprint", "?") + " ≠ " + spec.fingerprint +
+                                "); use another --out");
         }
     }
+    // Resume: the instances already recorded. A torn last line (a kill mid-append), and
+    // duplicate or out-of-order records (two builds at once, before builds took a lock),
+    // are repaired first: the first complete record of each id, in job order.
+    std::unordered_map<std::string, size_t> position;
+    position.reserve(hi - lo);
+    for (size_t k = lo; k < hi; ++k) position.emplace(all[k].id, k - lo);
+    auto positionOf = [&](const std::string& id) -> std::optional<size_t> {
+        auto it = position.find(id);
+        if (it == position.end()) return std::nullopt;
+        return it->second;
+    };
+    const ManifestRepair repair = repairManifest(manifestPath, positionOf);
+    // Records appended now land after the recorded ones: out of job order when an earlier
+    // run left a gap (a failed instance) that this run fills.
+    size_t lastRecorded = 0;
+    for (const std::string& id : repair.ids) lastRecorded = std::max(lastRecorded, position[id]);
+    bool fillsAGap = false;
+    if (repair.duplicates || repair.reordered || repair.unreadable > (repair.tornLast ? 1 : 0)) {
+        std::fprintf(stderr,
+                     "sylva: build: repaired %s: %zu records kept, %zu duplicates and %zu "
+                     "unreadable lines dropped%s\n",
+                     manifestPath.string().c_str(), repair.ids.size(), repair.duplicates,
+                     repair.unreadable, repair.reordered ? ", put back in job order" : "");
+    }
+    done.insert(repair.ids.begin(), repair.ids.end());
     std::vector<const InstanceJob*> todo;
-    BuildSummary summary;
-    summary.total = static_cast<int64_t>(hi - lo);
     for (size_t k = lo; k < hi; ++k) {
         if (done.count(all[k].id))
             ++summary.skipped;
         else
             todo.push_back(&all[k]);
     }
-    if (resuming) {
-        // A kill mid-write leaves "<file>.tmp.<pid>.…" siblings in the directories of the
-        // instances not yet recorded: remove those of this shard's remaining instances (never
-        // another shard's, whose process may be writing there right now).
-        for (const InstanceJob* j : todo) {
-            const fs::path dir = o.out / instanceDir(*j);
-            std::error_code ec;
-            std::vector<fs::path> stale;  // (views/ too: collect first, then remove)
-            for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end;
-                 it.increment(ec)) {
-                if (it->path().filename().string().find(".tmp.") != std::string::npos) {
-                    stale.push_back(it->path());
-                }
-            }
-            for (const fs::path& p : stale) {
-                std::error_code ignored;
-                fs::remove(p, ignored);
-            }
-        }
+    std::vector<std::string> ownFiles = {manifestName(o.shardIndex, o.shardCount),
+                                         datasetJsonName(o.shardIndex, o.shardCount),
+                                         runLogName(o.shardIndex, o.shardCount)};
+    for (const SpeciesEntry& e : spec.species) {
+        ownFiles.push_back("contact/" + e.species.name + suffix + ".png");
     }
-    writeDatasetJson(spec, o, datasetPath, "running", summary, threads, all.size());
+    removeStaleTempFiles(o.out, todo, ownFiles);
+
+    run["shard"] = {{"index", o.shardIndex}, {"count", o.shardCount}};
+    run["threads"] = threads;
+    run["status"] = "running";
+    run["instances_in_shard"] = summary.total;
+    run["already_built"] = summary.skipped;
+    runs.start(run, summary.skipped);
+    st.runStarted = true;
+    writeDatasetJson(spec, o, datasetPath, "running", summary.total, recorded(), all.size());
 
     AppendLog manifest(manifestPath);
     Progress progress(static_cast<int64_t>(todo.size()), o.progress);
@@ -230,7 +325,7 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
     graph g;
     size_t next = 0;
     input_node<Message> source(g, [&](tbb::flow_control& fc) -> Message {
-        if (next >= todo.size()) {
+        if (next >= todo.size() || stop.requested) {
             fc.stop();
             return {};
         }
@@ -243,13 +338,13 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
     const size_t inFlight = o.maxInFlight > 0 ? o.maxInFlight : 4 * static_cast<size_t>(threads);
     limiter_node<Message> limiter(g, inFlight);
     function_node<Message, Message> grow(g, unlimited,
-                                         stageBody([](InstanceWork& w) { growStage(w); }));
+                                         stageBody([](InstanceWork& w) { growStage(w); }, stop));
     function_node<Message, Message> mesh(
-        g, unlimited, stageBody([&](InstanceWork& w) { meshStage(w, spec.outputs, o.out); }));
+        g, unlimited, stageBody([&](InstanceWork& w) { meshStage(w, spec.outputs, o.out); }, stop));
     function_node<Message, Message> render(
-        g, unlimited, stageBody([&](InstanceWork& w) { renderStage(w, spec.outputs); }));
+        g, unlimited, stageBody([&](InstanceWork& w) { renderStage(w, spec.outputs); }, stop));
     function_node<Message, Message> write(g, unlimited, [&](Message m) {
-        stageBody([&](InstanceWork& w) { writeStage(w, spec.outputs, o.out); })(m);
+        m = stageBody([&](InstanceWork& w) { writeStage(w, spec.outputs, o.out); }, stop)(m);
         // Free the heavy parts before the message waits in the sequencer.
         InstanceWork& w = *m.work;
         w.grown = GrownTree{};
@@ -259,12 +354,23 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
         return m;
     });
     sequencer_node<Message> order(g, [](const Message& m) { return m.seq; });
-    int64_t failed = 0;
+    bool recording = true;  // until the first instance dropped by a stop, in job order
     function_node<Message, continue_msg> record(g, serial, [&](const Message& m) {
         const InstanceWork& w = *m.work;
+        if (!recording || m.discarded) {
+            recording = false;  // the manifest stays a prefix of the job order
+            return continue_msg();
+        }
         if (w.error.empty()) {
-            manifest.append(w.record.dump());
+            try {
+                manifest.append(w.record.dump());
+            } catch (const ResourceError& e) {
+                stop.note(e);
+                recording = false;
+                return continue_msg();
+            }
             done.insert(w.job->id);
+            if (!repair.ids.empty() && position[w.job->id] < lastRecorded) fillsAGap = true;
             ++summary.built;
             if (abortAfter >= 0 && summary.built >= abortAfter) std::_Exit(137);
         } else {
@@ -286,13 +392,91 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
     source.activate();
     g.wait_for_all();
 
-    writeSpeciesSheets(spec, all, done, o.out, shardSuffix(o.shardIndex, o.shardCount));
-    summary.failed = failed;
+    if (!stop.requested) {
+        if (fillsAGap) repairManifest(manifestPath, positionOf);  // back in job order
+        writeSpeciesSheets(spec, all, done, o.out, suffix);
+        progress.finish(summary.built + failed, failed);
+    }
+}
+
+}  // namespace
+
+BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
+    auto start = std::chrono::steady_clock::now();
+    // Every instance allocates and frees blocks of a few hundred KiB within milliseconds
+    // (z-buffers, encoders' scratch, mesh buffers). Above glibc's default threshold those are
+    // mmap'd and unmapped each time, a page fault per 4 KiB on every use; kept on the heap
+    // they are reused (the process keeps at most the trim threshold idle).
+    static std::once_flag heapTuned;
+    std::call_once(heapTuned, [] {
+        mallopt(M_MMAP_THRESHOLD, 64 << 20);
+        mallopt(M_TRIM_THRESHOLD, 256 << 20);
+    });
+    const int threads = o.threads > 0 ? o.threads : tbb::info::default_concurrency();
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+
+    std::vector<InstanceJob> all = expandJobs(spec);
+    auto [lo, hi] = shardRange(all.size(), o.shardIndex, o.shardCount);
+
+    // --out: checked before anything is written and created only once every check passed;
+    // then this shard of it is locked for the whole build (another build, merge, stats or
+    // report there gets one line naming the holder).
+    checkOutputDir(o.out, "--out");
+    createOutputDir(o.out, "--out");
+    const std::string command =
+        "sylva build" + (o.shardCount > 1 ? " --shard " + std::to_string(o.shardIndex) + "/" +
+                                                std::to_string(o.shardCount)
+                                          : std::string());
+    OutputLock lock(o.out, command, o.shardIndex, o.shardCount);
+    const fs::path datasetPath = o.out / datasetJsonName(o.shardIndex, o.shardCount);
+    RunLog runs(o.out / runLogName(o.shardIndex, o.shardCount));
+
+    BuildState st;
+    BuildSummary& summary = st.summary;
+    summary.total = static_cast<int64_t>(hi - lo);
+    st.run = runLine("build");
+    try {
+        buildShard(spec, o, all, lo, hi, threads, runs, st);
+    } catch (const ResourceError& e) {
+        st.stop.note(e);
+    }
+    summary.failed = st.failed;
     summary.wallSeconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    progress.finish(summary.built + failed, failed);
-    writeDatasetJson(spec, o, datasetPath, failed ? "incomplete" : "complete", summary, threads,
-                     all.size());
+    auto finishRun = [&](const std::string& status) {
+        if (!st.runStarted) return;
+        nlohmann::json& run = st.run;
+        run["status"] = status;
+        run["built"] = summary.built;
+        run["failed"] = summary.failed;
+        run["left"] = summary.total - st.recorded();
+        run["wall_seconds"] = summary.wallSeconds;
+        run["trees_per_second"] =
+            summary.wallSeconds > 0 ? summary.built / summary.wallSeconds : 0.0;
+        if (!summary.stopped.empty()) run["stop"] = summary.stopped;
+        runs.finish(run);
+    };
+    if (st.stop.requested) {
+        // One line instead of one error per remaining instance; what was recorded stays (the
+        // manifest ends with a complete record) and a rerun resumes from it.
+        summary.stopped = st.stop.reason + ": " + std::to_string(st.recorded()) +
+                          " instances built, " + std::to_string(summary.total - st.recorded()) +
+                          " left; " + stopAdvice(st.stop.error);
+        try {  // best effort: the disk may still be full
+            writeDatasetJson(spec, o, datasetPath, "incomplete", summary.total, st.recorded(),
+                             all.size());
+        } catch (const ResourceError&) {
+        }
+        try {
+            finishRun("stopped");
+        } catch (const ResourceError&) {
+        }
+        return summary;
+    }
+    const bool complete = st.recorded() == summary.total;
+    writeDatasetJson(spec, o, datasetPath, complete ? "complete" : "incomplete", summary.total,
+                     st.recorded(), all.size());
+    finishRun(complete ? "complete" : "incomplete");
     return summary;
 }
 

@@ -29,16 +29,25 @@ struct BuildSummary {
     int64_t built = 0;
     int64_t failed = 0;
     double wallSeconds = 0;
+    // Not empty when the build stopped because a resource ran out (ENOSPC, EDQUOT, EFBIG,
+    // ENOMEM): "disk full while writing <path>: N instances built, M left; free space and
+    // rerun to resume". What was recorded stays; a rerun resumes.
+    std::string stopped;
 };
 
 // Jobs of shard i of n: a contiguous block, so shard manifests concatenate, in shard
 // order, to exactly the unsharded manifest.
 std::pair<size_t, size_t> shardRange(size_t jobs, int index, int count);
 
+// ".shard-I-of-N" ("" when unsharded), the suffix of a shard's own files.
+std::string shardSuffix(int index, int count);
+
 // Manifest and dataset file names for a shard ("manifest.jsonl" when unsharded).
 std::string manifestName(int index, int count);
 std::string datasetJsonName(int index, int count);
 
+// Builds (or resumes) the shard into options.out, holding its lock (output_lock.h) throughout:
+// InputError when --out cannot be used or is in use, nothing written then.
 BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& options);
 
 // Library versions, for dataset.json.

@@ -13,14 +13,20 @@
 #include <stdexcept>
 #include <thread>
 
+#include "core/errors.h"
+
 namespace sylva {
 
 namespace fs = std::filesystem;
 
 namespace {
 
+// A full disk, quota, file size limit or memory is a ResourceError (a build stops on it and a
+// rerun resumes); any other failure a std::runtime_error.
 [[noreturn]] void throwErrno(const std::string& what, const fs::path& path, int err) {
-    throw std::runtime_error(what + " '" + path.string() + "': " + std::strerror(err));
+    const std::string message = what + " '" + path.string() + "': " + std::strerror(err);
+    if (isResourceErrno(err)) throw ResourceError(err, path.string(), message);
+    throw std::runtime_error(message);
 }
 
 void createParentDirs(const fs::path& path) {
@@ -28,10 +34,7 @@ void createParentDirs(const fs::path& path) {
     if (parent.empty()) return;
     std::error_code ec;
     fs::create_directories(parent, ec);
-    if (ec) {
-        throw std::runtime_error("cannot create directory '" + parent.string() +
-                                 "': " + ec.message());
-    }
+    if (ec) throwErrno("cannot create directory", parent, ec.value());
 }
 
 // Writes all of `bytes`, retrying on EINTR and short writes. Returns 0 or an errno value.
@@ -105,8 +108,18 @@ void AppendLog::append(std::string line) {
     line.push_back('\n');
     // The mutex keeps a (rare) short-write continuation contiguous with its first part.
     std::lock_guard<std::mutex> lock(mutex_);
+    struct stat before {};
+    const bool sized = ::fstat(fd_, &before) == 0;
     int err = writeAll(fd_, line);
-    if (err != 0) throwErrno("cannot append to", path_, err);
+    if (err != 0) {
+        // A full disk can take part of the line: cut the file back so it still ends with a
+        // complete record (shrinking needs no space; should it fail, the next run drops the
+        // torn tail).
+        if (sized) {
+            [[maybe_unused]] int ignored = ::ftruncate(fd_, before.st_size);
+        }
+        throwErrno("cannot append to", path_, err);
+    }
 }
 
 void AppendLog::sync() {

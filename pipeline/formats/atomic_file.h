@@ -20,7 +20,8 @@ std::filesystem::path uniqueTempPath(const std::filesystem::path& target,
 // `path`, so readers see either the old or the new complete file. fsync is off by default
 // (dataset files can be regenerated; the rename is what guarantees no torn files after a
 // process kill); pass fsyncData = true to also survive power loss. Throws std::runtime_error
-// naming the path and the OS error; the temp file is removed on failure.
+// naming the path and the OS error (a ResourceError, core/errors.h, when the disk, quota, file
+// size limit or memory ran out); the temp file is removed on failure.
 void writeFileAtomic(const std::filesystem::path& path, std::string_view bytes,
                      bool fsyncData = false);
 
@@ -40,7 +41,8 @@ class AppendLog {
     AppendLog& operator=(const AppendLog&) = delete;
 
     // Appends line + "\n". The line must not contain '\n' (std::invalid_argument).
-    // Throws std::runtime_error on I/O failure.
+    // Throws std::runtime_error on I/O failure (ResourceError on a full disk, after cutting a
+    // partly written line off again).
     void append(std::string line);
     // fsync the log (optional durability point, e.g. at the end of a batch).
     void sync();

@@ -24,6 +24,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -33,6 +34,7 @@
 #include <string>
 #include <unordered_map>
 
+#include "core/errors.h"
 #include "species/geometry/level_set_mesh.h"
 
 namespace sylva {
@@ -477,15 +479,20 @@ struct SegmentBuckets {
 };
 
 void writeVdbAtomically(const openvdb::FloatGrid::Ptr& grid, const std::string& path) {
-    // A temporary name in the same directory (so rename is atomic), unique per process.
-    const std::string tmp = path + ".tmp" + std::to_string(::getpid());
+    // A temporary name in the same directory (so rename is atomic), unique per process;
+    // ".tmp." marks it for removal by a resumed build should this process be killed.
+    const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+    errno = 0;
     try {
         openvdb::io::File file(tmp);
         file.write({grid});
         file.close();
     } catch (const std::exception& e) {
+        const int err = errno;  // the failed write's, as OpenVDB's stream left it
         std::remove(tmp.c_str());
-        throw std::runtime_error("watertightMesh: cannot write " + path + ": " + e.what());
+        const std::string message = "watertightMesh: cannot write " + path + ": " + e.what();
+        if (isResourceErrno(err)) throw ResourceError(err, path, message);
+        throw std::runtime_error(message);
     }
     if (std::rename(tmp.c_str(), path.c_str()) != 0) {
         std::remove(tmp.c_str());

@@ -1,7 +1,11 @@
 // Skeleton PLY/SWC writers, atomic file replacement and the append-only manifest log.
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -9,6 +13,7 @@
 #include <sstream>
 #include <thread>
 
+#include "core/errors.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/skeleton_writers.h"
 #include "pipeline/formats/stats_json.h"
@@ -206,6 +211,44 @@ TEST(AppendLog, AppendsAndDropsTornLastLine) {
     }
     EXPECT_EQ(AppendLog::readCompleteLines(log).back(), "{\"id\":3}");
     EXPECT_EQ(slurp(log), "{\"id\":1}\n\n{\"id\":2}\n{\"id\":3}\n");
+}
+
+// Past the file size limit (EFBIG, the errno a build treats like ENOSPC; setrlimit in a child
+// process, so no root and no small file system needed): writeFileAtomic throws ResourceError
+// and leaves no temp file; AppendLog cuts a partly written line off again.
+TEST(AppendLog, FullDiskIsAResourceErrorAndLeavesCompleteLines) {
+    TempDir tmp;
+    const fs::path file = tmp.path() / "big.bin", log = tmp.path() / "manifest.jsonl";
+    const pid_t child = ::fork();
+    if (child == 0) {
+        ::signal(SIGXFSZ, SIG_IGN);
+        struct rlimit rl = {4096, 4096};
+        if (::setrlimit(RLIMIT_FSIZE, &rl) != 0) ::_exit(10);
+        try {
+            writeFileAtomic(file, std::string(10000, 'x'));
+            ::_exit(11);
+        } catch (const ResourceError& e) {
+            if (e.error() != EFBIG || e.path() != file.string()) ::_exit(12);
+        }
+        AppendLog a(log);
+        const std::string line(1000, 'y');
+        for (int i = 0; i < 10; ++i) {
+            try {
+                a.append(line);
+            } catch (const ResourceError& e) {
+                ::_exit(e.error() == EFBIG && i == 4 ? 0 : 13);  // 4 × 1001 bytes fit in 4096
+            }
+        }
+        ::_exit(14);
+    }
+    ASSERT_GT(child, 0);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status)) << status;
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+    EXPECT_FALSE(fs::exists(file));
+    EXPECT_EQ(listDir(tmp.path()), std::vector<std::string>{"manifest.jsonl"});
+    EXPECT_EQ(fs::file_size(log), 4u * 1001u);  // the fifth line's first 92 bytes cut off again
 }
 
 TEST(AppendLog, ConcurrentAppendsKeepLinesWhole) {
