@@ -1,6 +1,7 @@
 #include "pipeline/build/build.h"
 
 #include <OpenImageIO/oiioversion.h>
+#include <fcntl.h>
 #include <malloc.h>
 #include <openvdb/version.h>
 #include <tbb/flow_graph.h>
@@ -232,6 +233,26 @@ void removeStaleTempFiles(const fs::path& out, const std::vector<const InstanceJ
     }
 }
 
+// Room for the last writes of a run that a full disk stops (dataset.json and the run log, both
+// rewritten through a temp file): a file allocated when the run starts and deleted to give its
+// space back. Best effort: without room for it the run goes on without.
+class SpaceReserve {
+  public:
+    SpaceReserve(const fs::path& file, off_t bytes) : file_(file) {
+        ::unlink(file_.c_str());  // a killed run's
+        const int fd = ::open(file_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+        if (fd < 0) return;
+        const bool ok = ::posix_fallocate(fd, 0, bytes) == 0;
+        ::close(fd);
+        if (!ok) ::unlink(file_.c_str());
+    }
+    ~SpaceReserve() { release(); }
+    void release() { ::unlink(file_.c_str()); }
+
+  private:
+    fs::path file_;
+};
+
 // What the steps of a build share, so that a stop anywhere can still be reported.
 struct BuildState {
     BuildSummary summary;
@@ -355,10 +376,12 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vecto
     });
     sequencer_node<Message> order(g, [](const Message& m) { return m.seq; });
     bool recording = true;  // until the first instance dropped by a stop, in job order
+    std::vector<const InstanceJob*> dropped;
     function_node<Message, continue_msg> record(g, serial, [&](const Message& m) {
         const InstanceWork& w = *m.work;
         if (!recording || m.discarded) {
             recording = false;  // the manifest stays a prefix of the job order
+            dropped.push_back(w.job);
             return continue_msg();
         }
         if (w.error.empty()) {
@@ -367,6 +390,7 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vecto
             } catch (const ResourceError& e) {
                 stop.note(e);
                 recording = false;
+                dropped.push_back(w.job);
                 return continue_msg();
             }
             done.insert(w.job->id);
@@ -392,7 +416,12 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vecto
     source.activate();
     g.wait_for_all();
 
-    if (!stop.requested) {
+    if (stop.requested) {
+        // What the dropped instances wrote is not part of the dataset (a rerun makes them
+        // again): removed, which also gives back the space dataset.json and the run log need.
+        std::error_code ec;
+        for (const InstanceJob* j : dropped) fs::remove_all(o.out / instanceDir(*j), ec);
+    } else {
         if (fillsAGap) repairManifest(manifestPath, positionOf);  // back in job order
         writeSpeciesSheets(spec, all, done, o.out, suffix);
         progress.finish(summary.built + failed, failed);
@@ -430,6 +459,8 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
     OutputLock lock(o.out, command, o.shardIndex, o.shardCount);
     const fs::path datasetPath = o.out / datasetJsonName(o.shardIndex, o.shardCount);
     RunLog runs(o.out / runLogName(o.shardIndex, o.shardCount));
+    SpaceReserve reserve(o.out / (".sylva" + shardSuffix(o.shardIndex, o.shardCount) + ".reserve"),
+                         off_t{1} << 20);
 
     BuildState st;
     BuildSummary& summary = st.summary;
@@ -462,6 +493,7 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
         summary.stopped = st.stop.reason + ": " + std::to_string(st.recorded()) +
                           " instances built, " + std::to_string(summary.total - st.recorded()) +
                           " left; " + stopAdvice(st.stop.error);
+        reserve.release();
         try {  // best effort: the disk may still be full
             writeDatasetJson(spec, o, datasetPath, "incomplete", summary.total, st.recorded(),
                              all.size());

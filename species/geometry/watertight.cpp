@@ -14,6 +14,7 @@
 // segment with the smallest signed distance at the vertex; colour 0; no uvs.
 #include "species/geometry/watertight.h"
 
+#include <fcntl.h>
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/SignedFloodFill.h>
@@ -27,9 +28,11 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -478,19 +481,40 @@ struct SegmentBuckets {
     }
 };
 
+// io::File::write ignores a failed stream (a full disk leaves a truncated .vdb and no error), so
+// the grid is serialised exactly as it does (Archive::write, seekable) into memory and the bytes
+// are written with every write(2) checked.
+class VdbSerialiser : public openvdb::io::File {
+  public:
+    VdbSerialiser() : openvdb::io::File("") {}
+    std::string bytes(const openvdb::GridCPtrVec& grids) const {
+        std::ostringstream os(std::ios_base::out | std::ios_base::binary);
+        Archive::write(os, grids, /*seekable=*/true, openvdb::MetaMap());
+        return os.str();
+    }
+};
+
 void writeVdbAtomically(const openvdb::FloatGrid::Ptr& grid, const std::string& path) {
+    const std::string bytes = VdbSerialiser().bytes({grid});
     // A temporary name in the same directory (so rename is atomic), unique per process;
     // ".tmp." marks it for removal by a resumed build should this process be killed.
     const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-    errno = 0;
-    try {
-        openvdb::io::File file(tmp);
-        file.write({grid});
-        file.close();
-    } catch (const std::exception& e) {
-        const int err = errno;  // the failed write's, as OpenVDB's stream left it
+    int err = 0;
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) {
+        err = errno;
+    } else {
+        for (size_t done = 0; done < bytes.size() && err == 0;) {
+            const ssize_t w = ::write(fd, bytes.data() + done, bytes.size() - done);
+            if (w < 0 && errno != EINTR) err = errno;
+            if (w > 0) done += static_cast<size_t>(w);
+        }
+        if (::close(fd) != 0 && err == 0) err = errno;
+    }
+    if (err != 0) {
         std::remove(tmp.c_str());
-        const std::string message = "watertightMesh: cannot write " + path + ": " + e.what();
+        const std::string message =
+            "watertightMesh: cannot write " + path + ": " + std::strerror(err);
         if (isResourceErrno(err)) throw ResourceError(err, path, message);
         throw std::runtime_error(message);
     }

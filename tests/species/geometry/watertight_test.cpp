@@ -13,10 +13,14 @@
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -24,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "core/errors.h"
 #include "species/model/tree.h"
 #include "species/spec/species.h"
 #include "tests/test_support.h"
@@ -425,6 +430,36 @@ TEST(Watertight, IdenticalForAnyThreadCount) {
     size_t files = 0;
     for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir)) ++files;
     EXPECT_EQ(files, 2u);
+    std::filesystem::remove_all(dir);
+}
+
+// (e) Past the file size limit (what a full disk does to a write, EFBIG instead of ENOSPC;
+// set in a child process): a ResourceError naming the .vdb, and no file — OpenVDB's own writer
+// ignores the failed stream and would leave a truncated .vdb in its place.
+TEST(Watertight, VdbOnAFullDiskIsAResourceErrorAndNoFile) {
+    const auto dir = scratchDir("vdb_full");
+    const auto path = dir / "capsule.vdb";
+    const pid_t child = ::fork();
+    if (child == 0) {
+        ::signal(SIGXFSZ, SIG_IGN);
+        struct rlimit rl = {2048, 2048};
+        if (::setrlimit(RLIMIT_FSIZE, &rl) != 0) ::_exit(10);
+        try {
+            watertightMesh(segmentTree({0, 0, 0}, 0.06, {0.2, 0.5, 0}, 0.06), {0.01, 3.0},
+                           path.string());
+        } catch (const ResourceError& e) {
+            ::_exit(e.error() == EFBIG && e.path() == path.string() ? 0 : 11);
+        } catch (...) {
+            ::_exit(12);
+        }
+        ::_exit(13);  // no error: the truncated file was kept
+    }
+    ASSERT_GT(child, 0);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status)) << status;
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+    EXPECT_TRUE(std::filesystem::is_empty(dir)) << "a .vdb or its temp file was left";
     std::filesystem::remove_all(dir);
 }
 
