@@ -470,6 +470,8 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
         buildShard(spec, o, all, lo, hi, threads, runs, st);
     } catch (const ResourceError& e) {
         st.stop.note(e);
+    } catch (const std::bad_alloc&) {  // outside a stage (the manifest, the species sheets)
+        st.stop.note(ENOMEM, "out of memory while building " + spec.name);
     }
     summary.failed = st.failed;
     summary.wallSeconds =

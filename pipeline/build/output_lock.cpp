@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
+#include <vector>
 
 namespace sylva {
 
@@ -261,6 +262,21 @@ OutputLock::OutputLock(const fs::path& dir, const std::string& command, int shar
         }
     };
     clearConflicts(true);
+    // Temp files of a lock creation on this host whose process died between two system calls.
+    {
+        static const std::regex newFile(R"(\.sylva.*\.lock\.new\.(.*)\.(\d+))");
+        std::error_code ec;
+        std::vector<fs::path> stale;
+        for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+            const std::string f = it->path().filename().string();
+            std::smatch m;
+            if (std::regex_match(f, m, newFile) && m[1] == me.host &&
+                ::kill(static_cast<pid_t>(std::stoll(m[2])), 0) != 0 && errno == ESRCH) {
+                stale.push_back(it->path());
+            }
+        }
+        for (const fs::path& p : stale) ::unlink(p.c_str());
+    }
 
     // Create the lock complete or not at all: a temporary file hard-linked to the lock's name
     // (link fails if the name exists, on NFS too); O_EXCL where hard links are not supported.

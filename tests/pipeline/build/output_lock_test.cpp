@@ -78,8 +78,12 @@ TEST(OutputLock, TakesOverADeadProcessesLockButNotAnotherHosts) {
     nlohmann::json j = {{"pid", dead},    {"host", h.host},       {"boot_id", h.bootId},
                         {"pid_start", 1}, {"started", h.started}, {"command", h.command}};
     spit(t / ".sylva.lock", j.dump());
+    // (and the temp file of a lock it was creating when it died)
+    const fs::path half = t / (".sylva.lock.new." + h.host + "." + std::to_string(dead));
+    spit(half, "{");
     EXPECT_EQ(lockError(t.path()), "");  // taken over (and released)
     EXPECT_FALSE(fs::exists(t / ".sylva.lock"));
+    EXPECT_FALSE(fs::exists(half));
 
     // Alive but its pid now names another process (start time differs): stale too.
     j["pid"] = ::getpid();
