@@ -2,9 +2,10 @@
 // machines, e.g. a Slurm job array or a Kubernetes Indexed Job) into one directory that is the
 // single-machine build: the same trees/ files, manifest.jsonl (the shard manifests' lines,
 // verbatim, in instance order), contact/<species>.png regenerated from the merged instances as
-// buildDataset does, and dataset.json as an unsharded build writes it. Only the timing fields
-// of dataset.json (threads, wall_seconds, trees_per_second) and the per-instance `timing` of
-// the manifest lines differ from another build, as they differ between any two builds.
+// buildDataset does, dataset.json exactly as an unsharded build writes it, and runs.jsonl (the
+// shards' run logs in shard order, then the merge's line). Only the per-instance `timing` of
+// the manifest lines and the run log differ from another build, as between any two builds.
+// OUT is locked (output_lock.h) for the whole merge, and with `move` the shard directories.
 #pragma once
 
 #include <cstdint>

@@ -158,6 +158,26 @@ TEST(Report, HtmlOfAKnownDataset) {
               std::string::npos);
 }
 
+// How the dataset was built comes from the run log runs.jsonl (dataset.json describes the
+// dataset only): the runs by status, their summed build time, the most threads.
+TEST(Report, RunsFromTheRunLog) {
+    sylva::test::TempDir tmp;
+    writeDataset(tmp.path(), false);
+    writeText(tmp.path() / "runs.jsonl",
+              "{\"command\":\"build\",\"status\":\"interrupted\",\"threads\":2,"
+              "\"built\":5}\n"
+              "{\"command\":\"build\",\"status\":\"complete\",\"threads\":8,"
+              "\"wall_seconds\":1.25,\"built\":11}\n");
+    const std::string html = slurpFile(writeReport(tmp.path()).index);
+    EXPECT_NE(html.find("<td>runs</td><td class=\"l\">2 (1 complete, 1 interrupted)</td>"),
+              std::string::npos);
+    EXPECT_NE(html.find("<td>build time</td><td class=\"l\">1.25 s (sum of the build runs)</td>"),
+              std::string::npos);
+    EXPECT_NE(html.find("<td>threads</td><td class=\"l\">8 (most in a run)</td>"),
+              std::string::npos);
+    EXPECT_FALSE(fs::exists(tmp.path() / ".sylva.lock"));  // report's lock, gone again
+}
+
 TEST(Report, NoSweepSectionWithoutSweepsAndErrors) {
     sylva::test::TempDir tmp;
     writeDataset(tmp.path(), false);
