@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "pipeline/build/dataset.h"
 
@@ -28,7 +29,9 @@ struct BuildSummary {
     int64_t skipped = 0;  // already in the manifest
     int64_t built = 0;
     int64_t failed = 0;
+    std::vector<std::string> failedIds;  // the first kMaxFailedIds that failed, in job order
     double wallSeconds = 0;
+    static constexpr size_t kMaxFailedIds = 20;
 };
 
 // Jobs of shard i of n: a contiguous block, so shard manifests concatenate, in shard
