@@ -115,7 +115,8 @@ void GrowthGuard::graphNodes(int64_t count, const std::string& where) const {
 }
 
 void GrowthGuard::leaves(int64_t count, const std::string& where) const {
-    if (count > budget_.maxLeaves) exceeded("max_leaves", budget_.maxLeaves, count, "leaves", where);
+    if (count > budget_.maxLeaves)
+        exceeded("max_leaves", budget_.maxLeaves, count, "leaves", where);
 }
 
 void GrowthGuard::triangles(int64_t count, const std::string& where) const {

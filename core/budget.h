@@ -111,8 +111,7 @@ struct SizeBound {
 // The bounds a species' reader could state (growth_method.h); empty when it knows none.
 struct SizeEstimate {
     std::vector<SizeBound> bounds;
-    void add(BudgetKind kind, double count, SourcePos where, std::string keyPath,
-             std::string what);
+    void add(BudgetKind kind, double count, SourcePos where, std::string keyPath, std::string what);
     // The first bound over its budget, or nullptr; triangle bounds only when `meshed` (a
     // build that makes meshes or views).
     const SizeBound* over(const Budget& budget, bool meshed) const;

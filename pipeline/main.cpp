@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "core/budget.h"
 #include "pipeline/analysis/dataset_stats.h"
 #include "pipeline/analysis/merge.h"
 #include "pipeline/analysis/realism_gates.h"
@@ -19,7 +20,6 @@
 #include "pipeline/build/build.h"
 #include "pipeline/build/dataset.h"
 #include "pipeline/build/grow_one.h"
-#include "core/budget.h"
 #include "species/spec/species.h"
 
 namespace fs = std::filesystem;

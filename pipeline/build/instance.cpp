@@ -98,7 +98,8 @@ void meshStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
         if (o.vdb) fs::create_directories(out / instanceDir(*w.job));
         w.watertight = watertightMesh(w.grown.tree, o.watertightOptions, vdb);
         GrowthGuard(w.grown.budget)
-            .triangles(static_cast<int64_t>(w.watertight.triangleCount()), " in the watertight mesh");
+            .triangles(static_cast<int64_t>(w.watertight.triangleCount()),
+                       " in the watertight mesh");
     }
     w.meshMs = msSince(t0);
 }

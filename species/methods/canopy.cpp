@@ -907,7 +907,7 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     const Vec3 size = box.size();
     const int maxIterations =  // a safety bound
         16 + static_cast<int>(std::min(1e9, std::ceil(4.0 * length(size) / step)));
-    std::vector<int32_t> active;                                      // markers not yet carried
+    std::vector<int32_t> active;  // markers not yet carried
     for (size_t k = 0; k < markerCount; ++k) {
         if (m[k].carrier < 0) active.push_back(static_cast<int32_t>(k));
     }
@@ -1058,7 +1058,8 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
 
 Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
                 const CanopySurfaceSampler* sampler, const GrowthGuard& guard) {
-    guard.leaves(static_cast<int64_t>(o.leaves.count) * o.leaves.cluster, " ([leaves] count × cluster)");
+    guard.leaves(static_cast<int64_t>(o.leaves.count) * o.leaves.cluster,
+                 " ([leaves] count × cluster)");
     if (!o.envelope) throw std::invalid_argument("growCanopy: no envelope");
     if (o.templates.empty()) throw std::invalid_argument("growCanopy: no branch template");
     CanopyStats st;

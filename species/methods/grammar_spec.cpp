@@ -567,15 +567,15 @@ SizeEstimate estimateGrammar(const GrammarOptions& o, Params& sp) {
     const bool refined = nodes > 2.0 * (1.0 + stems) && g && g->has("segment_length");
     const bool deep = g && g->has("max_depth");
     const std::string key = refined ? "segment_length" : "max_depth";
-    sizes.add(BudgetKind::kSkeletonNodes, nodes,
-              refined || deep ? g->where(key) : sp.where("rules"),
-              refined || deep ? g->path(key) : sp.path("rules"),
-              "the smallest derivation to depth " + d + " draws ≈ " + formatSize(stems) +
-                  " stems of ≈ " + formatSize(nodes) + " skeleton nodes" +
-                  (refined ? " at this segment length" : ""));
+    sizes.add(
+        BudgetKind::kSkeletonNodes, nodes, refined || deep ? g->where(key) : sp.where("rules"),
+        refined || deep ? g->path(key) : sp.path("rules"),
+        "the smallest derivation to depth " + d + " draws ≈ " + formatSize(stems) + " stems of ≈ " +
+            formatSize(nodes) + " skeleton nodes" + (refined ? " at this segment length" : ""));
     const double leaves = below[2][o.start];
     if (leaves > 0) {
-        sizes.add(BudgetKind::kLeaves, leaves, sp.where(sp.has("particles") ? "particles" : "fruit"),
+        sizes.add(BudgetKind::kLeaves, leaves,
+                  sp.where(sp.has("particles") ? "particles" : "fruit"),
                   sp.path(sp.has("particles") ? "particles" : "fruit"),
                   "the smallest derivation to depth " + d + " carries ≈ " + formatSize(leaves) +
                       " leaves and fruit");

@@ -574,9 +574,9 @@ void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const Roo
         const double h = o.trunk.height;
         const double spacing = levelSpacing(o, sys.levels[0], *sys.volume);
         const double count = std::max(1.0, std::ceil(h / spacing - 1e-9));
-        guard.skeletonNodes(static_cast<int64_t>(tree.nodes.size()) +
-                                static_cast<int64_t>(std::min(count, 1e18)),
-                            " (the bole of [trunk] height)");
+        guard.skeletonNodes(
+            static_cast<int64_t>(tree.nodes.size()) + static_cast<int64_t>(std::min(count, 1e18)),
+            " (the bole of [trunk] height)");
         const int segments = static_cast<int>(count);
         for (int k = 1; k <= segments; ++k) {
             SkeletonNode node;
@@ -604,8 +604,7 @@ void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const Roo
         const std::string at = " at " + std::string(roots ? "roots.levels[" : "levels[") +
                                std::to_string(level) + "] (" + std::to_string(jobs.size()) +
                                " graphs)";
-        guard.graphNodes(stats.graphNodes + stats.graphEndpoints + levelNodes + levelEndpoints,
-                         at);
+        guard.graphNodes(stats.graphNodes + stats.graphEndpoints + levelNodes + levelEndpoints, at);
         guard.skeletonNodes(static_cast<int64_t>(tree.nodes.size()) + levelEndpoints, at);
         guard.time();
         std::vector<GraphResult> results(jobs.size());

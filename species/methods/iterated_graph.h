@@ -200,8 +200,7 @@ WeightedGraph makeGraph(int n, const std::vector<std::pair<int32_t, int32_t>>& e
 // merged away leave tree.endpoints. Returns the number of nodes removed.
 int64_t mergeParallelPaths(Tree& tree, const MergeOptions& options);
 // Laplacian smoothing of every axis with its first node and tip fixed (SmoothingOptions).
-void smoothAxes(Tree& tree, int iterations,
-                const GrowthGuard& guard = GrowthGuard::unlimited());
+void smoothAxes(Tree& tree, int iterations, const GrowthGuard& guard = GrowthGuard::unlimited());
 
 // Single-source least-cost search (Dijkstra, binary heap). Returns cost per node (infinity
 // if unreachable) and the predecessor (−1 for the source and unreached nodes).

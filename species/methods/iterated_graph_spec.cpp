@@ -91,14 +91,17 @@ void estimateSystem(const IteratedGraphOptions& o, const GraphSystem& sys,
         skeleton = std::min(1e300, skeleton + endpoints);
         Params& t = tables[k];
         const std::string many =
-            k == 0 ? "" : " (" + sizeText(jobs) + " graphs at this level, from the endpoints of the levels before)";
-        sizes.add(BudgetKind::kGraphNodes, graphNodes, t.where("nodes"), t.path("nodes"),
-                  (k == 0 ? "this level alone makes ≈ " : "the levels up to this one make at least ≈ ") +
-                      sizeText(graphNodes) + " graph nodes and endpoints" + many);
-        sizes.add(BudgetKind::kSkeletonNodes, skeleton, t.where("endpoints"),
-                  t.path("endpoints"),
-                  (k == 0 ? "this level alone makes ≈ " : "the levels up to this one make at least ≈ ") +
-                      sizeText(skeleton) + " endpoints, each a skeleton node" + many);
+            k == 0 ? ""
+                   : " (" + sizeText(jobs) +
+                         " graphs at this level, from the endpoints of the levels before)";
+        sizes.add(
+            BudgetKind::kGraphNodes, graphNodes, t.where("nodes"), t.path("nodes"),
+            (k == 0 ? "this level alone makes ≈ " : "the levels up to this one make at least ≈ ") +
+                sizeText(graphNodes) + " graph nodes and endpoints" + many);
+        sizes.add(
+            BudgetKind::kSkeletonNodes, skeleton, t.where("endpoints"), t.path("endpoints"),
+            (k == 0 ? "this level alone makes ≈ " : "the levels up to this one make at least ≈ ") +
+                sizeText(skeleton) + " endpoints, each a skeleton node" + many);
     }
     skeletonAfter = skeleton;
 }
@@ -262,9 +265,10 @@ std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& sp) {
     if (o.trunk.height > 0) {
         // The bole: a node about every level-0 spacing (growSystem).
         const IteratedGraphLevel& l0 = o.crown.levels[0];
-        const double spacing = l0.spacing > 0 ? l0.spacing
-                                              : o.spacingFactor * std::cbrt(o.crown.volume->measure() /
-                                                                            std::max(1, l0.nodes));
+        const double spacing =
+            l0.spacing > 0
+                ? l0.spacing
+                : o.spacingFactor * std::cbrt(o.crown.volume->measure() / std::max(1, l0.nodes));
         skeleton += std::max(1.0, std::ceil(o.trunk.height / spacing - 1e-9));
         sizes.add(BudgetKind::kSkeletonNodes, skeleton, trunkTable->where("height"),
                   trunkTable->path("height"),

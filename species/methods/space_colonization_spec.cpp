@@ -216,8 +216,9 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
     }
     sizes.add(BudgetKind::kSkeletonNodes, 1.0 + bole, sp.where("trunk_length"),
               sp.path("trunk_length"),
-              "the bole alone is " + formatSize(1.0 + bole) + " skeleton nodes (trunk_length ÷ "
-              "internode, at most max_internodes)");
+              "the bole alone is " + formatSize(1.0 + bole) +
+                  " skeleton nodes (trunk_length ÷ "
+                  "internode, at most max_internodes)");
     auto method = std::make_unique<SpaceColonizationMethod>(std::move(o));
     method->sizes = std::move(sizes);
     return method;
