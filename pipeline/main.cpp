@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "core/budget.h"
 #include "pipeline/analysis/dataset_stats.h"
 #include "pipeline/analysis/merge.h"
 #include "pipeline/analysis/realism_gates.h"
@@ -56,6 +57,15 @@ int runBuild(const std::string& specPath, std::string out, bool outGiven, int th
                  spec.name.c_str(), static_cast<long long>(s.built),
                  static_cast<long long>(s.skipped), static_cast<long long>(s.failed),
                  static_cast<long long>(s.total), s.wallSeconds, o.out.string().c_str());
+    if (s.failed) {
+        // Which ones (their reasons are on the lines above): left out of the manifest, a rerun
+        // tries them again.
+        std::string ids;
+        for (const std::string& id : s.failedIds) ids += (ids.empty() ? "" : ", ") + id;
+        const int64_t more = s.failed - static_cast<int64_t>(s.failedIds.size());
+        if (more > 0) ids += " and " + std::to_string(more) + " more";
+        std::fprintf(stderr, "sylva: %s: failed: %s\n", spec.name.c_str(), ids.c_str());
+    }
     return s.failed ? 1 : 0;
 }
 
@@ -296,6 +306,9 @@ int main(int argc, char** argv) {
     } catch (const InputError& e) {  // other bad input: a directory, a command-line value
         std::fprintf(stderr, "sylva: %s: %s\n", command.c_str(), e.what());
         return 2;
+    } catch (const BudgetExceeded& e) {  // a tree over a budget of its spec while it grew
+        std::fprintf(stderr, "sylva: %s: %s\n", command.c_str(), e.what());
+        return 1;
     } catch (const std::exception& e) {  // a runtime failure or a broken invariant
         std::fprintf(stderr, "sylva: error: %s\n", e.what());
         return 1;

@@ -399,6 +399,9 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vecto
             if (abortAfter >= 0 && summary.built >= abortAfter) std::_Exit(137);
         } else {
             ++failed;
+            if (summary.failedIds.size() < BuildSummary::kMaxFailedIds) {
+                summary.failedIds.push_back(w.job->id);
+            }
             std::fprintf(stderr, "%ssylva: %s: %s\n", isatty(2) ? "\r\033[K" : "",
                          w.job->id.c_str(), w.error.c_str());
         }

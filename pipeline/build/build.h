@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "pipeline/build/dataset.h"
 
@@ -28,11 +29,13 @@ struct BuildSummary {
     int64_t skipped = 0;  // already in the manifest
     int64_t built = 0;
     int64_t failed = 0;
+    std::vector<std::string> failedIds;  // the first kMaxFailedIds that failed, in job order
     double wallSeconds = 0;
     // Not empty when the build stopped because a resource ran out (ENOSPC, EDQUOT, EFBIG,
     // ENOMEM): "disk full while writing <path>: N instances built, M left; free space and
     // rerun to resume". What was recorded stays; a rerun resumes.
     std::string stopped;
+    static constexpr size_t kMaxFailedIds = 20;
 };
 
 // Jobs of shard i of n: a contiguous block, so shard manifests concatenate, in shard

@@ -6,6 +6,8 @@
 #include <set>
 #include <sstream>
 
+#include "species/spec/budget_spec.h"
+
 namespace sylva {
 
 namespace fs = std::filesystem;
@@ -245,9 +247,25 @@ void readViews(Params& v, ViewOptions& vo, RenderOptions& ro) {
     v.finish();
 }
 
+// The views of one instance are held in memory together: their pixels are held to the
+// dataset's max_view_pixels, before anything is built.
+void checkViewPixels(Params& v, const ViewOptions& vo, const BudgetTable& table) {
+    Budget budget;
+    table.applyTo(budget);
+    const double pixels = double(vo.count) * vo.width * vo.height;
+    if (pixels > static_cast<double>(budget.maxViewPixels)) {
+        const char* key = v.has("resolution") ? "resolution" : "count";
+        v.fail(key, std::to_string(vo.count) + " views of " + std::to_string(vo.width) + " × " +
+                        std::to_string(vo.height) + " pixels make " + formatSize(pixels) +
+                        " pixels per instance, over the budget max_view_pixels = " +
+                        std::to_string(budget.maxViewPixels) +
+                        "; raise [budget] max_view_pixels or lower it");
+    }
+}
+
 // The sweep points of one species: the cartesian product of the sweeps that apply to it, each
 // checked to make a valid species whose every swept path is a key the species reads.
-void expandSweepPoints(SpeciesEntry& entry, const std::vector<SweepAxis>& sweeps) {
+void expandSweepPoints(SpeciesEntry& entry, const std::vector<SweepAxis>& sweeps, bool meshed) {
     std::vector<const SweepAxis*> axes;
     for (const SweepAxis& a : sweeps) {
         if (a.species.empty() ||
@@ -284,7 +302,7 @@ void expandSweepPoints(SpeciesEntry& entry, const std::vector<SweepAxis>& sweeps
                 pt.seedKey += (pt.seedKey.empty() ? "" : ";") + a->path + "=" + a->labels[v];
             }
         }
-        validateSpecies(entry.species, ov.get());
+        validateSpecies(entry.species, ov.get(), &entry.budget, meshed);
         for (const auto& [path, o] : *ov) {
             if (!o.used) {
                 throw SpecError(o.where, "sweep.path",
@@ -322,10 +340,18 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
     for (Params& s : p.tableArray("sweep")) d.sweeps.push_back(parseSweep(s));
     readSpeciesEntries(p, d, fingerprintBytes);
     checkSweptSpecies(d);
+    if (auto b = p.optionalTable("budget")) d.budget = readBudget(*b, true);
     if (auto o = p.optionalTable("outputs")) readOutputs(*o, d.outputs);
-    if (auto v = p.optionalTable("views")) readViews(*v, d.outputs.views, d.outputs.render);
+    if (auto v = p.optionalTable("views")) {
+        readViews(*v, d.outputs.views, d.outputs.render);
+        checkViewPixels(*v, d.outputs.views, d.budget);
+    }
     p.finish();
-    for (SpeciesEntry& entry : d.species) expandSweepPoints(entry, d.sweeps);
+    const bool meshed = !d.outputs.meshFormats.empty() || d.outputs.views.count > 0;
+    for (SpeciesEntry& entry : d.species) {
+        entry.budget = d.budget;
+        expandSweepPoints(entry, d.sweeps, meshed);
+    }
     char fingerprint[17];
     std::snprintf(fingerprint, sizeof fingerprint, "%016llx",
                   static_cast<unsigned long long>(hashString(fingerprintBytes)));

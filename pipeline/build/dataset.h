@@ -35,6 +35,7 @@ struct SweepPoint {
 
 struct SpeciesEntry {
     SpeciesFile species;
+    BudgetTable budget;  // the dataset's [budget], over the species' own
     int64_t count = 0;
     std::vector<SweepPoint> points;  // at least one (the empty point)
 };
@@ -62,6 +63,7 @@ struct DatasetSpec {
     std::vector<SpeciesEntry> species;
     std::vector<SweepAxis> sweeps;
     OutputOptions outputs;
+    BudgetTable budget;       // [budget]: every tree's budgets, over the species' own
     std::string fingerprint;  // hash of the dataset and species files, for resume safety
     std::shared_ptr<const toml::table> table;
 };

@@ -12,6 +12,7 @@
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
 #include "species/geometry/watertight.h"
+#include "species/model/leaf_shape.h"
 #include "species/model/tree_stats.h"
 
 namespace sylva {
@@ -37,6 +38,39 @@ std::string meshBytes(const TreeMesh& m, const std::string& format) {
     return meshPly(m);
 }
 
+// The mesh's triangles (tubes and both faces of every leaf), counted before it is made and
+// held to the tree's max_triangles (BudgetExceeded): the views draw the same tubes.
+void checkMeshTriangles(const GrownTree& g, const TubeOptions& tubes) {
+    int64_t leaves = 0;
+    for (const Leaf& leaf : g.tree.leaves) {
+        leaves += 2 * static_cast<int64_t>(leafOutline(leaf.shape).triangleCount());
+    }
+    GrowthGuard(g.budget).triangles(tubeTriangleCount(g.tree, tubes) + leaves,
+                                    " in the mesh (tubes and leaves)");
+}
+
+// The watertight mesh before its level set is made: its surface is at least about the
+// capsules' lateral area (twigs thickened to the voxel's covering radius, as watertight.cpp
+// does), and a surface voxel gives about two triangles. Only a surface four times the budget
+// fails here (the union's overlaps make it smaller); the mesh made is checked exactly after.
+void checkWatertightEstimate(const GrownTree& g, const WatertightOptions& o) {
+    const double voxel = o.voxelSize;
+    double area = 0.0;
+    for (const SkeletonNode& n : g.tree.nodes) {
+        if (n.parent < 0) continue;
+        const SkeletonNode& p = g.tree.nodes[n.parent];
+        const double r = std::max(0.5 * (n.radius + p.radius), 0.8660254037844386 * voxel);
+        area += 2.0 * kPi * r * distance(n.position, p.position);
+    }
+    const double triangles = 2.0 * area / (voxel * voxel);
+    if (triangles > 4.0 * static_cast<double>(g.budget.maxTriangles)) {
+        throw BudgetExceeded("budget max_triangles = " + std::to_string(g.budget.maxTriangles) +
+                             " exceeded: the watertight mesh at voxel_size " +
+                             formatNumber(voxel, 3) + " m would have ≈ " + formatSize(triangles) +
+                             " triangles; raise [budget] max_triangles or the voxel size");
+    }
+}
+
 }  // namespace
 
 fs::path instanceDir(const InstanceJob& job) {
@@ -46,20 +80,26 @@ fs::path instanceDir(const InstanceJob& job) {
 void growStage(InstanceWork& w) {
     auto t0 = Clock::now();
     const InstanceJob& job = *w.job;
-    w.grown = growSpecies(job.entry->species, job.seed, job.point->overrides.get(), true);
+    w.grown = growSpecies(job.entry->species, job.seed, job.point->overrides.get(), true,
+                          &job.entry->budget);
     w.growMs = msSince(t0);
 }
 
 void meshStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     auto t0 = Clock::now();
     if (!o.meshFormats.empty()) {
+        checkMeshTriangles(w.grown, o.tubes);
         w.mesh.wood = tubeMesh(w.grown.tree, o.tubes, &w.woodNodes);
         w.mesh.leaves = leafMesh(w.grown.tree);
     }
     if (o.watertight) {
         std::string vdb = o.vdb ? (out / instanceDir(*w.job) / "watertight.vdb").string() : "";
+        checkWatertightEstimate(w.grown, o.watertightOptions);
         if (o.vdb) fs::create_directories(out / instanceDir(*w.job));
         w.watertight = watertightMesh(w.grown.tree, o.watertightOptions, vdb);
+        GrowthGuard(w.grown.budget)
+            .triangles(static_cast<int64_t>(w.watertight.triangleCount()),
+                       " in the watertight mesh");
     }
     w.meshMs = msSince(t0);
 }
@@ -73,7 +113,10 @@ void renderStage(InstanceWork& w, const OutputOptions& o) {
     Mesh ownWood;
     std::vector<int32_t> ownNodes;
     const bool meshed = !o.meshFormats.empty();
-    if (!meshed) ownWood = tubeMesh(w.grown.tree, o.tubes, &ownNodes);
+    if (!meshed) {
+        checkMeshTriangles(w.grown, o.tubes);
+        ownWood = tubeMesh(w.grown.tree, o.tubes, &ownNodes);
+    }
     const Mesh& wood = meshed ? w.mesh.wood : ownWood;
     const std::vector<int32_t>& nodes = meshed ? w.woodNodes : ownNodes;
     w.views.reserve(w.cameras.size());

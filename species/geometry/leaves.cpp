@@ -5,9 +5,16 @@
 
 namespace sylva {
 
-void placeLeaves(Tree& tree, const LeafOptions& o, Rng& rng) {
+void placeLeaves(Tree& tree, const LeafOptions& o, Rng& rng, const GrowthGuard& guard) {
     if (!o.enabled || tree.nodes.size() < 2) return;
     const ChildIndex children(tree);
+    int64_t tips = 0;
+    for (int32_t i = 1; i < static_cast<int32_t>(tree.nodes.size()); ++i) {
+        tips += tree.nodes[i].part == kShootPart && children.count(i) == 0;
+    }
+    guard.leaves(static_cast<int64_t>(tree.leaves.size()) + tips * o.perTip,
+                 " ([leaves] per_tip = " + std::to_string(o.perTip) + " at " +
+                     std::to_string(tips) + " tips)");
     double yLo = 1e300, yHi = -1e300;
     for (const SkeletonNode& n : tree.nodes) {
         if (n.part != kShootPart) continue;

@@ -3,6 +3,7 @@
 // direction (as the canopy paper orients its leaves), and a colour class by height.
 #pragma once
 
+#include "core/budget.h"
 #include "core/rng.h"
 #include "species/model/tree.h"
 
@@ -30,7 +31,9 @@ struct LeafOptions : LeafCardOptions {
     double colourJitter = 0.1;  // random shift of the height fraction before classing
 };
 
-// Appends leaves to tree.leaves at every tip (shoot nodes without children).
-void placeLeaves(Tree& tree, const LeafOptions& options, Rng& rng);
+// Appends leaves to tree.leaves at every tip (shoot nodes without children). Throws
+// BudgetExceeded before placing any when tips × per_tip is over `guard`'s max_leaves.
+void placeLeaves(Tree& tree, const LeafOptions& options, Rng& rng,
+                 const GrowthGuard& guard = GrowthGuard::unlimited());
 
 }  // namespace sylva

@@ -77,12 +77,28 @@ void putVec(std::vector<float>& out, const Vec3& v) {
     out.push_back(static_cast<float>(v.z));
 }
 
+// The sides of a chain's tube (from the radius it starts with), 0 when it has no surface.
+int chainSides(const Tree& tree, const Chain& chain, const TubeOptions& options) {
+    const SkeletonNode& firstNode = tree.nodes[chain.nodes[chain.fromFork ? 1 : 0]];
+    const bool twig = firstNode.radius < options.minRadius;  // only reached when !dropThin
+    const double rFirst =
+        options.dropThin ? firstNode.radius : std::max(firstNode.radius, options.minRadius);
+    if (!(rFirst > 0.0)) return 0;  // a tube of radius 0 has no surface
+    const int minSides = std::max(3, options.minSides);
+    const int maxSides = std::max(minSides, options.maxSides);
+    if (twig) return minSides;
+    if (options.edgeLength > 0.0) {
+        const double ideal = std::round(2.0 * kPi * rFirst / options.edgeLength);
+        return static_cast<int>(std::clamp(ideal, double(minSides), double(maxSides)));
+    }
+    return maxSides;
+}
+
 // Appends one chain's closed tube to `mesh` (see the layout at the top of the file).
 void sweepChain(const Tree& tree, const Chain& chain, const TubeOptions& options, Mesh& mesh,
                 std::vector<int32_t>* triangleNodes) {
     const size_t n = chain.nodes.size();
     const SkeletonNode& firstNode = tree.nodes[chain.nodes[chain.fromFork ? 1 : 0]];
-    const bool twig = firstNode.radius < options.minRadius;  // only reached when !dropThin
 
     // Points, drawn radii (thickened to minRadius unless thin branches are dropped).
     std::vector<Vec3> x(n);
@@ -97,17 +113,8 @@ void sweepChain(const Tree& tree, const Chain& chain, const TubeOptions& options
         for (double& rk : r) rk = std::max(rk, options.minRadius);
     }
     const double rFirst = r[0];
-    if (!(rFirst > 0.0)) return;  // a tube of radius 0 has no surface
-
-    const int minSides = std::max(3, options.minSides);
-    const int maxSides = std::max(minSides, options.maxSides);
-    int sides = maxSides;
-    if (twig) {
-        sides = minSides;
-    } else if (options.edgeLength > 0.0) {
-        const double ideal = std::round(2.0 * kPi * rFirst / options.edgeLength);
-        sides = static_cast<int>(std::clamp(ideal, double(minSides), double(maxSides)));
-    }
+    const int sides = chainSides(tree, chain, options);
+    if (sides == 0) return;
 
     // Unit segment directions; zero-length segments borrow a neighbour's direction.
     std::vector<Vec3> dir(n - 1);
@@ -283,6 +290,16 @@ void sweepChain(const Tree& tree, const Chain& chain, const TubeOptions& options
 }
 
 }  // namespace
+
+int64_t tubeTriangleCount(const Tree& tree, const TubeOptions& options) {
+    int64_t triangles = 0;
+    for (const Chain& chain : decompose(tree, options)) {
+        // Rings: 2 per side and segment; tip cone and base disc: 1 per side each.
+        triangles += 2 * static_cast<int64_t>(chainSides(tree, chain, options)) *
+                     static_cast<int64_t>(chain.nodes.size());
+    }
+    return triangles;
+}
 
 Mesh tubeMesh(const Tree& tree, const TubeOptions& options, std::vector<int32_t>* triangleNodes) {
     Mesh mesh;

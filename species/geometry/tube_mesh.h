@@ -28,4 +28,8 @@ struct TubeOptions {
 Mesh tubeMesh(const Tree& tree, const TubeOptions& options,
               std::vector<int32_t>* triangleNodes = nullptr);
 
+// The number of triangles tubeMesh makes, counted without making them (to hold a mesh to a
+// budget before it is built).
+int64_t tubeTriangleCount(const Tree& tree, const TubeOptions& options);
+
 }  // namespace sylva

@@ -682,7 +682,15 @@ int64_t attachLeaves(Tree& tree, double supportDistance) {
 // child's order, level and radius (Murray's rule gives a chain one radius); the bole is left
 // whole. `sprouts` and `own` (per node) follow the nodes; inserted nodes get 0 own flow.
 Tree subdivideCrown(const Tree& t, double maxLength, std::vector<char>& sprouts,
-                    std::vector<double>& own) {
+                    std::vector<double>& own, const GrowthGuard& guard) {
+    double total = static_cast<double>(t.nodes.size());
+    for (size_t i = 1; i < t.nodes.size(); ++i) {
+        if (!sprouts[i]) continue;
+        const double len = distance(t.nodes[t.nodes[i].parent].position, t.nodes[i].position);
+        total += std::max(1.0, std::ceil(len / maxLength)) - 1.0;
+    }
+    guard.skeletonNodes(static_cast<int64_t>(std::min(total, 1e18)),
+                        " (the crown cut into pieces of [support] sprout_spacing)");
     Tree out;
     std::vector<char> outSprouts;
     std::vector<double> outOwn;
@@ -794,7 +802,8 @@ size_t shedBare(Tree& tree, size_t from, const std::vector<char>* keep,
 
 int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
                          const CanopySupportOptions& o,
-                         const std::function<bool(const Vec3&)>& inside, int64_t* grown) {
+                         const std::function<bool(const Vec3&)>& inside, int64_t* grown,
+                         const GrowthGuard& guard) {
     if (grown) *grown = 0;
     const size_t leafCount = tree.leaves.size();
     if (leafCount == 0) return 0;
@@ -896,13 +905,16 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     std::vector<int32_t> touched, added;
     const double duplicate2 = 0.25 * step * step;  // a twig child this close is the same twig
     const Vec3 size = box.size();
-    const int maxIterations =
-        16 + static_cast<int>(std::ceil(4.0 * length(size) / step));  // a safety bound
-    std::vector<int32_t> active;                                      // markers not yet carried
+    const int maxIterations =  // a safety bound
+        16 + static_cast<int>(std::min(1e9, std::ceil(4.0 * length(size) / step)));
+    std::vector<int32_t> active;  // markers not yet carried
     for (size_t k = 0; k < markerCount; ++k) {
         if (m[k].carrier < 0) active.push_back(static_cast<int32_t>(k));
     }
     for (int iteration = 0; iteration < maxIterations; ++iteration) {
+        guard.time();
+        guard.skeletonNodes(static_cast<int64_t>(tree.nodes.size()),
+                            " (leaf-support twigs, round " + std::to_string(iteration) + ")");
         // Runions et al. 2007, §3: every marker pulls its nearest node.
         touched.clear();
         size_t alive = 0;
@@ -1045,7 +1057,9 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
 }
 
 Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
-                const CanopySurfaceSampler* sampler) {
+                const CanopySurfaceSampler* sampler, const GrowthGuard& guard) {
+    guard.leaves(static_cast<int64_t>(o.leaves.count) * o.leaves.cluster,
+                 " ([leaves] count × cluster)");
     if (!o.envelope) throw std::invalid_argument("growCanopy: no envelope");
     if (o.templates.empty()) throw std::invalid_argument("growCanopy: no branch template");
     CanopyStats st;
@@ -1113,7 +1127,7 @@ Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
     }
     std::vector<char> sprouts(bole.size());
     for (size_t i = 0; i < bole.size(); ++i) sprouts[i] = !bole[i];
-    tree = subdivideCrown(tree, o.support.sproutSpacing, sprouts, own);
+    tree = subdivideCrown(tree, o.support.sproutSpacing, sprouts, own, guard);
     if (o.leaves.count > 0) {
         Rng leafRng = rng.derive("leaves");
         if (sampler) {
@@ -1127,7 +1141,8 @@ Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
     const Vec3 centre = o.position;
     st.droppedLeaves = growSupportTwigs(
         tree, sprouts, o.support,
-        [&](const Vec3& p) { return envelopeRatio(env, p - centre) <= 1.0 + 1e-9; }, &st.twigNodes);
+        [&](const Vec3& p) { return envelopeRatio(env, p - centre) <= 1.0 + 1e-9; }, &st.twigNodes,
+        guard);
     if (o.support.pruneBare) {
         // Self-pruning: crown branches that carry no leaf die (the bole stays); `own` follows.
         std::vector<char> keep(sprouts.size());

@@ -36,6 +36,7 @@
 #include <string>
 #include <vector>
 
+#include "core/budget.h"
 #include "core/rng.h"
 #include "species/geometry/leaves.h"
 #include "species/model/tree.h"
@@ -232,16 +233,22 @@ struct CanopyStats {
 // nodes are appended (parents first) with radius 0; those that carry no leaf (nor any node
 // above them) are removed again. Returns the number of leaves dropped;
 // `grown` gets the number of nodes added.
+// The twigs grown are held to `guard`'s max_skeleton_nodes, and its deadline is checked every
+// round (BudgetExceeded).
 int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
                          const CanopySupportOptions& options,
-                         const std::function<bool(const Vec3&)>& inside, int64_t* grown = nullptr);
+                         const std::function<bool(const Vec3&)>& inside, int64_t* grown = nullptr,
+                         const GrowthGuard& guard = GrowthGuard::unlimited());
 
 // The trunk top actually used (resolves trunkHeight < 0), metres.
 double canopyTrunkHeight(const CanopyOptions& options);
 
 // Grows one tree: the template chosen by weight, expanded, fitted and clipped; then the
 // leaves. The surface sampler may be passed in (built once per envelope); else it is built.
+// The leaves (before they are placed), the support's crown pieces and twigs are held to
+// `guard`'s budgets (BudgetExceeded).
 Tree growCanopy(const CanopyOptions& options, Rng& rng, CanopyStats* stats = nullptr,
-                const CanopySurfaceSampler* sampler = nullptr);
+                const CanopySurfaceSampler* sampler = nullptr,
+                const GrowthGuard& guard = GrowthGuard::unlimited());
 
 }  // namespace sylva

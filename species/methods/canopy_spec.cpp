@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "species/methods/canopy.h"
+#include "species/model/leaf_shape.h"
 #include "species/spec/growth_method.h"
 #include "species/spec/leaves_spec.h"
 #include "species/spec/volume_spec_canopy_envelope.h"
@@ -26,9 +27,10 @@ class CanopyMethod : public GrowthMethod {
     explicit CanopyMethod(CanopyOptions o)
         : o_(std::move(o)), sampler_(std::make_shared<CanopySurfaceSampler>(*o_.envelope)) {}
 
-    Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats) const override {
+    Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats,
+              const GrowthGuard& guard) const override {
         CanopyStats s;
-        Tree t = growCanopy(o_, rng, &s, sampler_.get());
+        Tree t = growCanopy(o_, rng, &s, sampler_.get(), guard);
         stats["template"] = s.templateIndex;
         stats["template_segments"] = static_cast<double>(s.templateSegments);
         stats["kept_segments"] = static_cast<double>(s.keptSegments);
@@ -236,6 +238,7 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
     if (ts.empty()) sp.fail("templates", "expected at least one [[templates]] table");
     for (Params& t : ts) o.templates.push_back(parseTemplate(t));
 
+    SizeEstimate sizes;
     if (auto l = sp.optionalTable("leaves")) {
         CanopyLeafOptions& lo = o.leaves;
         lo.count = static_cast<int>(l->integer("count", lo.count, Range::closed(0, 1e6)));
@@ -263,13 +266,26 @@ std::unique_ptr<GrowthMethod> makeCanopyMethod(Params& sp) {
         lo.colourPatchiness =
             l->number("colour_patchiness", lo.colourPatchiness, Range::closed(0, 1));
         lo.supportDistance = l->number("support_distance", lo.supportDistance, Range::positive());
-        if (double(lo.count) * lo.cluster > 2e6) {
-            l->fail("cluster", "count × cluster = " + num(double(lo.count) * lo.cluster) +
-                                   " leaves; at most 2,000,000");
-        }
         l->finish();
+        // Every position gets its cluster (core/budget.h): count × cluster leaves are placed,
+        // and without leaf support every one is meshed and drawn (both faces in the mesh).
+        const double leaves = double(lo.count) * lo.cluster;
+        if (leaves > 0) {
+            sizes.add(BudgetKind::kLeaves, leaves, l->where("count"), l->path("count"),
+                      "count × cluster = " + formatSize(leaves) + " leaves");
+        }
+        if (leaves > 0 && o.support.mode == LeafSupport::kNone) {
+            const double triangles = 2.0 * leaves * leafOutline(lo.shape).triangleCount();
+            sizes.add(BudgetKind::kTriangles, triangles, l->where("count"), l->path("count"),
+                      "count × cluster = " + formatSize(leaves) + " leaves of " +
+                          formatSize(2.0 * leafOutline(lo.shape).triangleCount()) +
+                          " triangles each (both faces) make " + formatSize(triangles) +
+                          " mesh triangles");
+        }
     }
-    return std::make_unique<CanopyMethod>(std::move(o));
+    auto method = std::make_unique<CanopyMethod>(std::move(o));
+    method->sizes = std::move(sizes);
+    return method;
 }
 
 }  // namespace sylva

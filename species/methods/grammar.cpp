@@ -113,6 +113,8 @@ namespace {
 // far with their sampled curves, and the skeleton they make.
 struct Derivation {
     const GrammarOptions& o;
+    const GrowthGuard& guard;
+    uint64_t work = 0;  // for guard.work
     Rng& rng;
     int maxDepth;       // D, or the internal cap when unbounded
     double trunkWidth;  // W, drawn once per tree
@@ -153,6 +155,13 @@ void expand(Derivation& d, int state, int parentStem, int level, int order, uint
         const int s = out[i];
         if (o.stop[s]) {
             ++d.stats.stopStates;
+            continue;
+        }
+        // Every queued output is drawn in turn until max_stems stems are: those queued after
+        // the first max_stems never are, so they are counted here rather than kept (a queue of
+        // max_stems × branching entries could not be held).
+        if (static_cast<int64_t>(d.queue.size()) >= o.maxStems) {
+            ++d.stats.truncated;
             continue;
         }
         Pending p;
@@ -395,7 +404,12 @@ void drawStem(Derivation& d, const Pending& pd) {
     const std::vector<Vec3> ctrl =
         controlPoints(d, g, tropism, at.base, dir, len, bend, noiseOrigin, tau);
     const int m = static_cast<int>(ctrl.size());
-    int segments = std::max(1, static_cast<int>(std::ceil(len / o.segmentLength - 1e-9)));
+    const double wanted = std::max(1.0, std::ceil(len / o.segmentLength - 1e-9));
+    d.guard.skeletonNodes(
+        static_cast<int64_t>(d.tree.nodes.size()) + static_cast<int64_t>(std::min(wanted, 1e18)),
+        " (stem " + std::to_string(d.stems.size()) + ", " + formatSize(wanted) + " segments)");
+    d.guard.work(d.work, static_cast<uint64_t>(wanted) + 64);
+    int segments = static_cast<int>(wanted);
     if (bend > 0 || tau > 0) segments = std::max(segments, 2 * (m - 1));
 
     GrammarStem st;
@@ -471,12 +485,17 @@ void emitParticles(Derivation& d, size_t si, const HeightRange& y) {
     // Our extension: `per_metre` more leaves per metre of the leafy stretch of the stem's
     // sampled curve, all of them then spread evenly along it (stratified: one in each of n
     // equal sub-intervals) so they cover the stem without gaps or clumps.
-    int n = pp.count;
+    double wanted = pp.count;
     if (pp.perMetre > 0) {
         double arc = 0.0;
         for (size_t i = 1; i < sc.point.size(); ++i) arc += distance(sc.point[i - 1], sc.point[i]);
-        n += static_cast<int>(std::lround(pp.perMetre * arc * (pp.alongHi - pp.alongLo)));
+        wanted += std::round(pp.perMetre * arc * (pp.alongHi - pp.alongLo));
     }
+    d.guard.leaves(
+        static_cast<int64_t>(d.tree.leaves.size()) + static_cast<int64_t>(std::min(wanted, 1e18)),
+        " (particles of stem " + std::to_string(si) + ")");
+    d.guard.work(d.work, static_cast<uint64_t>(wanted) * 16);
+    const int n = static_cast<int>(wanted);
     for (int k = 0; k < n; ++k) {
         Rng lr = stream.derive(static_cast<uint64_t>(k));
         if (lr.uniform() >= season.density) continue;
@@ -523,6 +542,8 @@ void emitFruit(Derivation& d, size_t si) {
         return;
     }
     const Rng stream = d.rng.derive(hashCombine(st.key, kFruitTag));
+    d.guard.leaves(static_cast<int64_t>(d.tree.leaves.size()) + fr.count,
+                   " (fruit of stem " + std::to_string(si) + ")");
     for (int k = 0; k < fr.count; ++k) {
         Rng fr2 = stream.derive(static_cast<uint64_t>(k));
         const double a = fr2.uniform(fr.alongLo, fr.alongHi);
@@ -548,11 +569,11 @@ void emitFruit(Derivation& d, size_t si) {
 }  // namespace
 
 Tree growGrammar(const GrammarOptions& o, Rng& rng, GrammarStats* statsOut,
-                 std::vector<GrammarStem>* stemsOut) {
+                 std::vector<GrammarStem>* stemsOut, const GrowthGuard& guard) {
     const int maxDepth = o.maxDepth > 0 ? o.maxDepth : GrammarOptions::kMaxLevels;
     const double trunkWidth = rng.derive("trunk_width").uniform(o.trunkWidthLo, o.trunkWidthHi);
     const uint64_t noiseSeed = hashCombine(rng.seed(), hashString("curve-noise"));
-    Derivation d{o, rng, maxDepth, trunkWidth, noiseSeed, {}, {}, {}, {}, {}};
+    Derivation d{o, guard, 0, rng, maxDepth, trunkWidth, noiseSeed, {}, {}, {}, {}, {}};
     SkeletonNode root;
     root.radius = 0.5 * trunkWidth;
     d.tree.nodes.push_back(root);

@@ -52,6 +52,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/budget.h"
 #include "core/rng.h"
 #include "species/model/tree.h"
 
@@ -196,9 +197,12 @@ struct GrammarStats {
     int64_t rooted = 0;  // of them, those reaching the ground
 };
 
-// Grows one tree. Deterministic in rng's seed; independent of thread count (serial).
+// Grows one tree. Deterministic in rng's seed; independent of thread count (serial). Every
+// stem's nodes and every stem's leaves are held to `guard`'s budgets before they are made,
+// and its deadline is checked as the stems are drawn (BudgetExceeded).
 Tree growGrammar(const GrammarOptions& options, Rng& rng, GrammarStats* stats = nullptr,
-                 std::vector<GrammarStem>* stems = nullptr);
+                 std::vector<GrammarStem>* stems = nullptr,
+                 const GrowthGuard& guard = GrowthGuard::unlimited());
 
 // Smooth 3-D value noise in [−1, 1] (trilinear with smoothstep weights over a hashed lattice).
 double valueNoise3(const Vec3& p, uint64_t seed);

@@ -137,9 +137,10 @@ std::vector<uint8_t> readClasses(Params& p, std::string_view key) {
 class GrammarMethod : public GrowthMethod {
   public:
     explicit GrammarMethod(GrammarOptions o) : o_(std::move(o)) {}
-    Tree grow(Rng& rng, bool, std::map<std::string, double>& stats) const override {
+    Tree grow(Rng& rng, bool, std::map<std::string, double>& stats,
+              const GrowthGuard& guard) const override {
         GrammarStats s;
-        Tree t = growGrammar(o_, rng, &s);
+        Tree t = growGrammar(o_, rng, &s, nullptr, guard);
         stats["stems"] = static_cast<double>(s.stems);
         stats["depth_reached"] = s.depthReached;
         stats["stop_states"] = static_cast<double>(s.stopStates);
@@ -496,6 +497,92 @@ void readSeasons(Params& sp, GrammarOptions& o) {
     seasons.finish();
 }
 
+// Lower bounds of every tree's sizes (core/budget.h) from the smallest derivation: every rule
+// takes its alternative (of p > 0) that makes the least, to depth D. Every stem drawn has at
+// least ⌈t_l / segment_length⌉ skeleton nodes (t_l from its transition's shortest base length;
+// one node where roots may be cut at the ground), and a stem certainly carries its state's
+// particle count (when the season keeps every leaf) and fruit count. max_stems cuts the
+// derivation breadth first: a tree that reaches it has max_stems stems, of unknown states.
+SizeEstimate estimateGrammar(const GrammarOptions& o, Params& sp) {
+    const int states = static_cast<int>(o.states.size());
+    const int depth = o.maxDepth > 0 ? o.maxDepth : GrammarOptions::kMaxLevels;
+    bool anyRoots = false;
+    for (const GrammarRoots& r : o.roots) anyRoots = anyRoots || r.enabled;
+    const GrammarSeason& season = o.seasons[static_cast<int>(o.season)];
+    auto capped = [](double v) { return std::min(v, 1e300); };
+    auto stemNodes = [&](int from, int to, int c) {
+        if (anyRoots) return 1.0;
+        const GrammarGeometry& g = o.geometry(from, to);
+        const double len = g.lengthLo * std::pow(g.reduceLength, c) * o.lengthScale;
+        return std::max(1.0, std::ceil(len / o.segmentLength - 1e-9));
+    };
+    auto stemLeaves = [&](int to, int c) {
+        double n = 0;
+        const GrammarParticles& pp = o.particles[to];
+        if (pp.enabled && c >= pp.minLevel && season.density >= 1 && !season.classes.empty()) {
+            n += pp.count;
+        }
+        const GrammarFruit& f = o.fruit[to];
+        if (f.enabled && c >= f.minLevel && f.seasons[static_cast<int>(o.season)]) n += f.count;
+        return n;
+    };
+    // least[k][s]: the least of quantity k made below a stem of state s whose rule applies at
+    // level c (k: 0 stems, 1 skeleton nodes, 2 leaves), for c = D … 0.
+    std::vector<std::vector<double>> below(3, std::vector<double>(states, 0.0)), next = below;
+    for (int c = depth - 1; c >= 0; --c) {
+        for (int k = 0; k < 3; ++k) {
+            for (int st = 0; st < states; ++st) {
+                double best = o.rules[st].empty() ? 0.0 : 1e300;
+                for (const GrammarAlternative& a : o.rules[st]) {
+                    if (!(a.p > 0)) continue;
+                    double sum = 0;
+                    for (int out : a.out) {
+                        if (o.stop[out]) continue;
+                        const double own = k == 0   ? 1.0
+                                           : k == 1 ? stemNodes(st, out, c)
+                                                    : stemLeaves(out, c);
+                        sum = capped(sum + own + below[k][out]);
+                    }
+                    best = std::min(best, sum);
+                }
+                next[k][st] = best >= 1e300 ? 0.0 : best;
+            }
+        }
+        std::swap(below, next);
+    }
+    const double stems = below[0][o.start];
+    SizeEstimate sizes;
+    std::optional<Params> g = sp.optionalTable("grammar");
+    const std::string d = std::to_string(depth);
+    if (stems >= o.maxStems) {
+        // Every tree draws max_stems stems, each at least one node.
+        sizes.add(BudgetKind::kSkeletonNodes, 1.0 + o.maxStems,
+                  g ? g->where("max_stems") : sp.whereTable(), g ? g->path("max_stems") : "grammar",
+                  "every tree reaches max_stems = " + std::to_string(o.maxStems) +
+                      " stems (its smallest derivation to depth " + d + " has ≈ " +
+                      formatSize(stems) + "), each a skeleton node at least");
+        return sizes;
+    }
+    const double nodes = 1.0 + below[1][o.start];
+    const bool refined = nodes > 2.0 * (1.0 + stems) && g && g->has("segment_length");
+    const bool deep = g && g->has("max_depth");
+    const std::string key = refined ? "segment_length" : "max_depth";
+    sizes.add(
+        BudgetKind::kSkeletonNodes, nodes, refined || deep ? g->where(key) : sp.where("rules"),
+        refined || deep ? g->path(key) : sp.path("rules"),
+        "the smallest derivation to depth " + d + " draws ≈ " + formatSize(stems) + " stems of ≈ " +
+            formatSize(nodes) + " skeleton nodes" + (refined ? " at this segment length" : ""));
+    const double leaves = below[2][o.start];
+    if (leaves > 0) {
+        sizes.add(BudgetKind::kLeaves, leaves,
+                  sp.where(sp.has("particles") ? "particles" : "fruit"),
+                  sp.path(sp.has("particles") ? "particles" : "fruit"),
+                  "the smallest derivation to depth " + d + " carries ≈ " + formatSize(leaves) +
+                      " leaves and fruit");
+    }
+    return sizes;
+}
+
 }  // namespace
 
 std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
@@ -513,7 +600,10 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
     readFruit(sp, known, o);
     readRoots(sp, known, o);
     readSeasons(sp, o);
-    return std::make_unique<GrammarMethod>(std::move(o));
+    SizeEstimate sizes = estimateGrammar(o, sp);
+    auto method = std::make_unique<GrammarMethod>(std::move(o));
+    method->sizes = std::move(sizes);
+    return method;
 }
 
 }  // namespace sylva

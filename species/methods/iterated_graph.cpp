@@ -239,7 +239,8 @@ SolveScratch& threadScratch() {
 // least-cost search from R.
 void solveGraph(const IteratedGraphOptions& o, const std::vector<Vec3>& pos, int firstEndpoint,
                 double spacing, Rng& rng, std::vector<double>& dist, std::vector<int32_t>& pred,
-                GraphResult& out) {
+                GraphResult& out, const GrowthGuard& guard) {
+    uint64_t work = 0;
     const int n = static_cast<int>(pos.size());
     const double link = o.linkFactor * spacing;
     SolveScratch& scratch = threadScratch();
@@ -315,6 +316,7 @@ void solveGraph(const IteratedGraphOptions& o, const std::vector<Vec3>& pos, int
             int32_t bu = -1, bv = -1;
             double bd = std::numeric_limits<double>::infinity();
             for (int u = 0; u < n; ++u) {
+                guard.work(work);
                 if (find(u) != c) continue;
                 int32_t v = nearestIn(grid, pos[u], link, [&](int32_t id) {
                     return find(id) != c && (id == 0 || !isEndpoint(id));
@@ -344,6 +346,7 @@ void solveGraph(const IteratedGraphOptions& o, const std::vector<Vec3>& pos, int
         double len = distance(pos[edges[e].first], pos[edges[e].second]);
         costs[e] = w * (o.lengthExponent == 1.0 ? len : std::pow(len, o.lengthExponent));
     }
+    guard.time();
     fillGraph(n, edges, costs, scratch.graph, scratch.fill);
     if (o.radialWeight > 0) {
         // Straighter growth: the step u → v (outward, as the search runs from R) costs more
@@ -367,8 +370,10 @@ void solveGraph(const IteratedGraphOptions& o, const std::vector<Vec3>& pos, int
 // Endpoint positions: uniform in the volume, optionally only in the shell of depth d_e on its
 // far side as seen from the graph root (a point is in the shell when stepping d_e further
 // away from R leaves the volume — between the outer and inner surfaces of Wolff Abb. 9).
-Vec3 drawEndpoint(const Volume& volume, const Vec3& root, double shell, Rng& rng) {
+Vec3 drawEndpoint(const Volume& volume, const Vec3& root, double shell, Rng& rng,
+                  const GrowthGuard& guard, uint64_t& work) {
     for (int attempt = 0; attempt < 100000; ++attempt) {
+        guard.work(work);
         std::optional<Vec3> p = volume.sample(rng);
         if (!p) break;
         if (shell <= 0) return *p;
@@ -421,8 +426,10 @@ double nextLifespan(const IteratedGraphOptions& o, double lifespan, double decre
 }
 
 GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
-                       const RootOptions* roots, const GraphJob& job, Rng rng) {
+                       const RootOptions* roots, const GraphJob& job, Rng rng,
+                       const GrowthGuard& guard) {
     GraphResult out;
+    uint64_t work = 0;
     const IteratedGraphLevel& level = sys.levels[job.level];
     const double spacing = levelSpacing(o, level, *job.volume);
 
@@ -435,6 +442,7 @@ GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
     pos.reserve(level.nodes + job.endpoints + 2);
     pos.push_back(job.rootPos);
     poissonSample(*job.volume, po, nodeRng, pos);
+    guard.time();
     out.graphNodes = level.nodes;
     if (job.minY > -std::numeric_limits<double>::infinity()) {
         // A trunk (TrunkOptions): no graph node beside the bole, below the trunk top.
@@ -453,7 +461,7 @@ GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
         // Figure 15: the taproot is the path to a single deep endpoint; lateral roots come
         // from endpoints placed around it.
         pos.push_back(Vec3{0, -roots->taprootDepth, 0} + job.rootPos);
-        solveGraph(o, pos, firstEndpoint, spacing, weightRng, dist, pred, out);
+        solveGraph(o, pos, firstEndpoint, spacing, weightRng, dist, pred, out, guard);
         std::vector<Vec3> tap;
         std::vector<std::pair<int32_t, int32_t>> tapPred;  // (node, pred) along the taproot
         for (int32_t v = firstEndpoint; v >= 0; v = pred[v]) {
@@ -468,7 +476,7 @@ GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
                                              std::to_string(roots->lateralDistance) +
                                              " m of the taproot");
                 }
-                Vec3 p = drawEndpoint(*ev, job.rootPos, level.endpointShell, endRng);
+                Vec3 p = drawEndpoint(*ev, job.rootPos, level.endpointShell, endRng, guard, work);
                 double d = std::numeric_limits<double>::infinity();
                 for (size_t s = 0; s + 1 < tap.size(); ++s) {
                     d = std::min(d, segmentDistance(p, tap[s], tap[s + 1]));
@@ -481,7 +489,7 @@ GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
         }
         out.bridged = 0;
         Rng weightRng2 = rng.derive("weights");
-        solveGraph(o, pos, firstEndpoint, spacing, weightRng2, dist, pred, out);
+        solveGraph(o, pos, firstEndpoint, spacing, weightRng2, dist, pred, out, guard);
         // Keep the taproot the laterals were placed around: the second search draws the
         // weights in another edge order (the laterals' edges are interleaved) and may find
         // another path. Lateral paths follow the second search until they meet it.
@@ -489,10 +497,10 @@ GraphResult buildGraph(const IteratedGraphOptions& o, const GraphSystem& sys,
     } else {
         // maketree step 2: b endpoints at random positions in V.
         for (int k = 0; k < job.endpoints; ++k) {
-            pos.push_back(
-                drawEndpoint(*job.endpointVolume, job.rootPos, level.endpointShell, endRng));
+            pos.push_back(drawEndpoint(*job.endpointVolume, job.rootPos, level.endpointShell,
+                                       endRng, guard, work));
         }
-        solveGraph(o, pos, firstEndpoint, spacing, weightRng, dist, pred, out);
+        solveGraph(o, pos, firstEndpoint, spacing, weightRng, dist, pred, out, guard);
     }
     out.graphEndpoints = static_cast<int64_t>(pos.size()) - firstEndpoint;
     collectPaths(pos, firstEndpoint, pred, out);
@@ -542,8 +550,8 @@ Vec3 orientationFor(const IteratedGraphLevel& level, const EndpointRecord& e, Rn
 
 // Grows one system (crown or roots) into `tree`, hanging from node 0.
 void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const RootOptions* roots,
-                uint8_t part, const Rng& rng, bool threaded, Tree& tree,
-                IteratedGraphStats& stats) {
+                uint8_t part, const Rng& rng, bool threaded, Tree& tree, IteratedGraphStats& stats,
+                const GrowthGuard& guard) {
     const int levels = static_cast<int>(sys.levels.size());
     if (levels == 0) return;
     const std::vector<double> radius = subgraphRadii(sys);
@@ -565,7 +573,11 @@ void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const Roo
         // root up to the trunk top T, where the level-0 graph is rooted instead.
         const double h = o.trunk.height;
         const double spacing = levelSpacing(o, sys.levels[0], *sys.volume);
-        const int segments = std::max(1, static_cast<int>(std::ceil(h / spacing - 1e-9)));
+        const double count = std::max(1.0, std::ceil(h / spacing - 1e-9));
+        guard.skeletonNodes(
+            static_cast<int64_t>(tree.nodes.size()) + static_cast<int64_t>(std::min(count, 1e18)),
+            " (the bole of [trunk] height)");
+        const int segments = static_cast<int>(count);
         for (int k = 1; k <= segments; ++k) {
             SkeletonNode node;
             node.position = first.rootPos + Vec3{0, h * k / segments, 0};
@@ -583,10 +595,22 @@ void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const Roo
     std::vector<EndpointRecord> lastEndpoints;
 
     for (int level = 0; level < levels && !jobs.empty(); ++level) {
+        // This level's graphs in full before any is built: nodes asked for and endpoints.
+        int64_t levelNodes = 0, levelEndpoints = 0;
+        for (const GraphJob& job : jobs) {
+            levelNodes += sys.levels[level].nodes;
+            levelEndpoints += job.endpoints;
+        }
+        const std::string at = " at " + std::string(roots ? "roots.levels[" : "levels[") +
+                               std::to_string(level) + "] (" + std::to_string(jobs.size()) +
+                               " graphs)";
+        guard.graphNodes(stats.graphNodes + stats.graphEndpoints + levelNodes + levelEndpoints, at);
+        guard.skeletonNodes(static_cast<int64_t>(tree.nodes.size()) + levelEndpoints, at);
+        guard.time();
         std::vector<GraphResult> results(jobs.size());
         auto run = [&](size_t j) {
             Rng jobRng = rng.derive(hashCombine(static_cast<uint64_t>(level), jobs[j].key));
-            results[j] = buildGraph(o, sys, roots, jobs[j], jobRng);
+            results[j] = buildGraph(o, sys, roots, jobs[j], jobRng, guard);
         };
         if (threaded && jobs.size() > 1) {
             tbb::parallel_for(size_t(0), jobs.size(), run);
@@ -618,6 +642,7 @@ void growSystem(const IteratedGraphOptions& o, const GraphSystem& sys, const Roo
             stats.bridgingEdges += r.bridged;
             ++stats.graphs;
         }
+        guard.skeletonNodes(static_cast<int64_t>(tree.nodes.size()), at);
         // maketree step 4: sub-graphs around the endpoints whose lifespan remains.
         const int next = level + 1;
         if (next >= levels) break;
@@ -777,7 +802,7 @@ int64_t mergeParallelPaths(Tree& tree, const MergeOptions& options) {
     return merged;
 }
 
-void smoothAxes(Tree& tree, int iterations) {
+void smoothAxes(Tree& tree, int iterations, const GrowthGuard& guard) {
     std::vector<SkeletonNode>& nodes = tree.nodes;
     const int32_t n = static_cast<int32_t>(nodes.size());
     if (iterations <= 0 || n < 3) return;
@@ -816,7 +841,9 @@ void smoothAxes(Tree& tree, int iterations) {
         a.resize(m);
         for (size_t k = 0; k < m; ++k) a[k] = nodes[axis[k]].position;
         b = a;
+        uint64_t work = 0;
         for (int it = 0; it < iterations; ++it) {
+            guard.work(work, m);
             for (size_t k = 1; k + 1 < m; ++k) b[k] = a[k] * 0.5 + (a[k - 1] + a[k + 1]) * 0.25;
             std::swap(a, b);
         }
@@ -825,22 +852,22 @@ void smoothAxes(Tree& tree, int iterations) {
 }
 
 Tree growIteratedGraph(const IteratedGraphOptions& options, Rng& rng, bool threaded,
-                       IteratedGraphStats* statsOut) {
+                       IteratedGraphStats* statsOut, const GrowthGuard& guard) {
     Tree tree;
     SkeletonNode root;
     root.position = Vec3{0, 0, 0};
     tree.nodes.push_back(root);
     IteratedGraphStats stats;
     growSystem(options, options.crown, nullptr, kShootPart, rng.derive("crown"), threaded, tree,
-               stats);
+               stats, guard);
     if (options.roots.enabled) {
         growSystem(options, options.roots.system, &options.roots, kRootPart, rng.derive("roots"),
-                   threaded, tree, stats);
+                   threaded, tree, stats, guard);
     }
 
     // Continuous limbs (issue 13): bundles merged, then every axis smoothed, before radii.
     if (options.merge.distance > 0) stats.mergedNodes = mergeParallelPaths(tree, options.merge);
-    smoothAxes(tree, options.smoothing.iterations);
+    smoothAxes(tree, options.smoothing.iterations, guard);
 
     // Thickness (§3.2): w = (d')^ζ / (i + 1), d' the distance to the branch tip along the
     // path, taken at the middle of each node's incoming segment so tips keep a radius.

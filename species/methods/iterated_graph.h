@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "core/budget.h"
 #include "core/rng.h"
 #include "species/model/tree.h"
 #include "volumes/volume.h"
@@ -168,8 +169,11 @@ struct IteratedGraphStats {
 
 // Grows one tree. `threaded`: build the sub-graphs of a level in parallel (TBB); the result
 // is the same for any thread count because every graph draws from its own keyed stream.
+// Before each level its graph nodes and endpoints are held to `guard`'s budgets (and the
+// skeleton after it), and the deadline is checked within the graphs (BudgetExceeded).
 Tree growIteratedGraph(const IteratedGraphOptions& options, Rng& rng, bool threaded = true,
-                       IteratedGraphStats* stats = nullptr);
+                       IteratedGraphStats* stats = nullptr,
+                       const GrowthGuard& guard = GrowthGuard::unlimited());
 
 // Sub-graph sphere radius per level of a system: r at level 1 (index 1), then × a, unless a
 // level gives its own (maketree 4D). Index 0 (the user's graph) is 0.
@@ -196,7 +200,7 @@ WeightedGraph makeGraph(int n, const std::vector<std::pair<int32_t, int32_t>>& e
 // merged away leave tree.endpoints. Returns the number of nodes removed.
 int64_t mergeParallelPaths(Tree& tree, const MergeOptions& options);
 // Laplacian smoothing of every axis with its first node and tip fixed (SmoothingOptions).
-void smoothAxes(Tree& tree, int iterations);
+void smoothAxes(Tree& tree, int iterations, const GrowthGuard& guard = GrowthGuard::unlimited());
 
 // Single-source least-cost search (Dijkstra, binary heap). Returns cost per node (infinity
 // if unreachable) and the predecessor (−1 for the source and unreached nodes).

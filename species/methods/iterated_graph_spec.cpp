@@ -4,6 +4,7 @@
 // reader. Levels are numbered by their index in [[levels]]: levels[0] is the initial graph.
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <tuple>
 
 #include "species/methods/iterated_graph.h"
@@ -35,6 +36,74 @@ void checkCapacity(std::vector<Params>& ls, const GraphSystem& sys) {
             ls[i].fail("nodes", buf);
         }
     }
+}
+
+std::string sizeText(double v) { return formatSize(v); }
+
+// Lower bounds of a system's sizes (core/budget.h), level by level, as growSystem builds it:
+// level 0 is one graph; the graphs of level k + 1 hang from the endpoints (of level k, or of
+// every level before with from_all_levels) whose lifespan is surely still ≥ 1. Counts are the
+// least the rules allow: the light's smallest branching factor, its largest decrement, and no
+// sub-graph beyond level 1 under the stochastic rule (any endpoint may terminate). A graph asks
+// for K nodes and b endpoints (graph nodes), and every endpoint is a skeleton node of its own.
+// Each level adds the bounds reached with it, so the first one over a budget names the level
+// where the tree certainly outgrows it.
+void estimateSystem(const IteratedGraphOptions& o, const GraphSystem& sys,
+                    std::vector<Params>& tables, bool roots, double skeletonBefore,
+                    SizeEstimate& sizes, double& skeletonAfter) {
+    const int levels = static_cast<int>(sys.levels.size());
+    const double initial =
+        o.initialLifespan >= 0 ? o.initialLifespan : static_cast<double>(levels - 1);
+    const double s = o.light.enabled ? o.light.spread : 0.0;
+    const double maxDecrement = o.light.enabled && o.light.lifespan ? 1.0 + s : 1.0;
+    const bool stochastic = o.lifespan == LifespanRule::kStochastic;
+    auto leastEndpoints = [&](const IteratedGraphLevel& l, int k) {
+        if (k > 0 && o.light.enabled && o.light.endpoints) {
+            return static_cast<double>(std::max(0L, std::lround(l.endpoints * (1 - s))));
+        }
+        return static_cast<double>(l.endpoints);
+    };
+    std::map<double, double> all, last;  // endpoints by their least lifespan
+    double graphNodes = 0.0, skeleton = skeletonBefore;
+    for (int k = 0; k < levels; ++k) {
+        const IteratedGraphLevel& l = sys.levels[k];
+        double jobs = 0.0;
+        std::map<double, double> made;
+        if (k == 0) {
+            jobs = 1.0;
+            made[initial] = leastEndpoints(l, 0) + (roots ? 1.0 : 0.0);  // + the taproot
+        } else {
+            for (const auto& [life, count] : l.fromAllLevels ? all : last) {
+                if (!(life >= 1.0 - 1e-9) || count <= 0) continue;
+                jobs += count;
+                const double left = stochastic ? 0.0 : life - maxDecrement;
+                made[left] += count * leastEndpoints(l, k);
+            }
+        }
+        if (jobs <= 0) break;
+        double endpoints = 0.0;
+        for (const auto& [life, count] : made) {
+            endpoints += count;
+            all[life] += count;
+        }
+        last = std::move(made);
+        graphNodes = std::min(1e300, graphNodes + jobs * (l.nodes + leastEndpoints(l, k)));
+        skeleton = std::min(1e300, skeleton + endpoints);
+        Params& t = tables[k];
+        const std::string many =
+            k == 0 ? ""
+                   : " (" + sizeText(jobs) +
+                         " graphs at this level, from the endpoints of the levels before)";
+        sizes.add(
+            BudgetKind::kGraphNodes, graphNodes, t.where("nodes"), t.path("nodes"),
+            (k == 0 ? "this level alone makes ≈ " : "the levels up to this one make at least ≈ ") +
+                sizeText(graphNodes) + " graph nodes and endpoints" + many);
+        sizes.add(
+            BudgetKind::kSkeletonNodes, skeleton, t.where("endpoints"), t.path("endpoints"),
+            (k == 0 ? "this level alone makes ≈ " : "the levels up to this one make at least ≈ ") +
+                sizeText(skeleton) + " endpoints, each a skeleton node" + many);
+    }
+    skeletonAfter = skeleton;
 }
 
 std::vector<IteratedGraphLevel> parseLevels(Params& owner, const char* key,
@@ -90,9 +159,10 @@ std::vector<IteratedGraphLevel> parseLevels(Params& owner, const char* key,
 class IteratedGraphMethod : public GrowthMethod {
   public:
     explicit IteratedGraphMethod(IteratedGraphOptions o) : o_(std::move(o)) {}
-    Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats) const override {
+    Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats,
+              const GrowthGuard& guard) const override {
         IteratedGraphStats s;
-        Tree t = growIteratedGraph(o_, rng, threaded, &s);
+        Tree t = growIteratedGraph(o_, rng, threaded, &s, guard);
         stats["graph_nodes"] = static_cast<double>(s.graphNodes);
         stats["graph_endpoints"] = static_cast<double>(s.graphEndpoints);
         stats["graphs"] = static_cast<double>(s.graphs);
@@ -171,9 +241,11 @@ std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& sp) {
         o.light.lifespan = l->boolean("lifespan", o.light.lifespan);
         l->finish();
     }
-    if (auto t = sp.optionalTable("trunk")) {
-        o.trunk.height = t->number("height", o.trunk.height, Range::nonNegative());
-        t->finish();
+    SizeEstimate sizes;
+    std::optional<Params> trunkTable = sp.optionalTable("trunk");
+    if (trunkTable) {
+        o.trunk.height = trunkTable->number("height", o.trunk.height, Range::nonNegative());
+        trunkTable->finish();
     }
     if (auto m = sp.optionalTable("merge")) {
         o.merge.distance = m->number("distance", o.merge.distance, Range::nonNegative());
@@ -189,6 +261,21 @@ std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& sp) {
     std::vector<Params> levelTables;
     o.crown.levels = parseLevels(sp, "levels", &levelTables);
     checkCapacity(levelTables, o.crown);
+    double skeleton = 1.0;  // the root
+    if (o.trunk.height > 0) {
+        // The bole: a node about every level-0 spacing (growSystem).
+        const IteratedGraphLevel& l0 = o.crown.levels[0];
+        const double spacing =
+            l0.spacing > 0
+                ? l0.spacing
+                : o.spacingFactor * std::cbrt(o.crown.volume->measure() / std::max(1, l0.nodes));
+        skeleton += std::max(1.0, std::ceil(o.trunk.height / spacing - 1e-9));
+        sizes.add(BudgetKind::kSkeletonNodes, skeleton, trunkTable->where("height"),
+                  trunkTable->path("height"),
+                  "the bole alone is ≈ " + sizeText(skeleton) + " skeleton nodes (one every " +
+                      formatNumber(spacing, 3) + " m, the level-0 spacing)");
+    }
+    estimateSystem(o, o.crown, levelTables, false, skeleton, sizes, skeleton);
 
     if (auto r = sp.optionalTable("roots")) {
         o.roots.enabled = true;
@@ -214,8 +301,11 @@ std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& sp) {
         o.roots.system.levels = parseLevels(*r, "levels", &rootTables);
         checkCapacity(rootTables, o.roots.system);
         r->finish();
+        estimateSystem(o, o.roots.system, rootTables, true, skeleton, sizes, skeleton);
     }
-    return std::make_unique<IteratedGraphMethod>(std::move(o));
+    auto method = std::make_unique<IteratedGraphMethod>(std::move(o));
+    method->sizes = std::move(sizes);
+    return method;
 }
 
 }  // namespace sylva

@@ -289,9 +289,10 @@ VolumePtr treeCrown(const SpaceColonizationOptions& o, const Rng& rng) {
 
 class Grower {
   public:
-    Grower(const SpaceColonizationOptions& o, Rng& rng)
+    Grower(const SpaceColonizationOptions& o, Rng& rng, const GrowthGuard& guard)
         : o_(o),
           rng_(rng),
+          guard_(guard),
           L_(o.internode),
           rho_(o.occupancy * o.internode),
           r_(o.perception * o.internode),
@@ -318,6 +319,7 @@ class Grower {
 
     const SpaceColonizationOptions& o_;
     Rng& rng_;
+    const GrowthGuard& guard_;
     const double L_, rho_, r_, cosTheta_;
     const VolumePtr crown_;                       // o_.crown, or its per-instance deformed copy
     const bool allocating_;                       // Borchert–Honda allocation
@@ -450,10 +452,22 @@ std::vector<Step> Grower::improvedSteps(int iteration) {
     const Rng streams = rng_.derive("bud-markers");
     std::vector<std::vector<BudMarker>> own(n);
     std::vector<int> drawn(n, 0), dropped(n, 0);
+    // How many markers each bud draws, summed and held to the budget before any is made.
+    std::vector<Rng> budRng(n);
+    std::vector<int64_t> counts(n, 0);
+    forEachIndex(n, o_.threaded, [&](size_t i) {
+        budRng[i] = streams.derive(hashCombine(buds_[i].id, static_cast<uint64_t>(iteration)));
+        counts[i] = detail::binomial(budRng[i], o_.markersPerBud, within);
+    });
+    int64_t total = 0;
+    for (int64_t c : counts) total += c;
+    guard_.graphNodes(static_cast<int64_t>(generated_) + total,
+                      " (markers of iteration " + std::to_string(iteration) + ", " +
+                          std::to_string(n) + " buds)");
     forEachIndex(n, o_.threaded, [&](size_t i) {
         const Bud& b = buds_[i];
-        Rng rng = streams.derive(hashCombine(b.id, static_cast<uint64_t>(iteration)));
-        const int64_t count = detail::binomial(rng, o_.markersPerBud, within);
+        Rng& rng = budRng[i];
+        const int64_t count = counts[i];
         for (int64_t k = 0; k < count; ++k) {
             const Vec3 p = b.position + uniformInBall(rng) * cutoff;
             if (crown_ && !crown_->inside(p)) continue;  // markers stay in the crown
@@ -677,6 +691,8 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
     }
     generated_ += static_cast<double>(o_.guides.size());
     if (!improved) {
+        guard_.graphNodes(static_cast<int64_t>(o_.guides.size()) + o_.markers,
+                          " (markers in the crown)");
         Rng markerRng = rng_.derive("crown-markers");
         for (int i = 0; i < o_.markers; ++i) {
             if (auto p = crown_->sample(markerRng)) {
@@ -719,6 +735,11 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
     while (iterations < o_.maxIterations && !buds_.empty() &&
            static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes) {
         ++iterations;
+        guard_.time();
+        guard_.skeletonNodes(static_cast<int64_t>(nodes_.size()),
+                             " at iteration " + std::to_string(iterations));
+        guard_.graphNodes(static_cast<int64_t>(generated_),
+                          " at iteration " + std::to_string(iterations));
         budIterations_ += static_cast<double>(buds_.size());
         std::vector<Step> steps = improved ? improvedSteps(iterations) : baselineSteps();
         // Borchert–Honda: each bud's resource v (and shedding, which may drop buds).
@@ -802,9 +823,9 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
 }  // namespace
 
 Tree growSpaceColonization(const SpaceColonizationOptions& options, Rng& rng,
-                           std::map<std::string, double>* stats) {
+                           std::map<std::string, double>* stats, const GrowthGuard& guard) {
     validate(options);
-    Grower grower(options, rng);
+    Grower grower(options, rng, guard);
     return grower.grow(stats);
 }
 

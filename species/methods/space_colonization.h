@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "core/budget.h"
 #include "core/rng.h"
 #include "species/model/tree.h"
 #include "volumes/volume.h"
@@ -137,8 +138,11 @@ struct SpaceColonizationOptions {
 };
 
 // Grows one tree. Deterministic for a given rng, whatever the thread count. Counters
-// (iterations, internodes, markers generated/removed, live buds) go into `stats`.
+// (iterations, internodes, markers generated/removed, live buds) go into `stats`. Markers
+// (before they are drawn) and internodes are held to `guard`'s budgets, and its deadline is
+// checked every iteration (BudgetExceeded).
 Tree growSpaceColonization(const SpaceColonizationOptions& options, Rng& rng,
-                           std::map<std::string, double>* stats = nullptr);
+                           std::map<std::string, double>* stats = nullptr,
+                           const GrowthGuard& guard = GrowthGuard::unlimited());
 
 }  // namespace sylva

@@ -39,11 +39,12 @@ class SpaceColonizationMethod : public GrowthMethod {
   public:
     explicit SpaceColonizationMethod(SpaceColonizationOptions o) : o_(std::move(o)) {}
 
-    Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats) const override {
-        if (threaded == o_.threaded) return growSpaceColonization(o_, rng, &stats);
+    Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats,
+              const GrowthGuard& guard) const override {
+        if (threaded == o_.threaded) return growSpaceColonization(o_, rng, &stats, guard);
         SpaceColonizationOptions o = o_;
         o.threaded = threaded;
-        return growSpaceColonization(o, rng, &stats);
+        return growSpaceColonization(o, rng, &stats, guard);
     }
 
     std::vector<std::pair<std::string, VolumePtr>> volumes() const override {
@@ -200,7 +201,27 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
             crownTable->failHere(msg);
         }
     }
-    return std::make_unique<SpaceColonizationMethod>(std::move(o));
+    // Sizes every tree certainly reaches (core/budget.h): the baseline's markers are all
+    // drawn before growth starts, the bole grows before any bud competes.
+    SizeEstimate sizes;
+    const double guides = static_cast<double>(o.guides.size());
+    if (!improved) {
+        sizes.add(BudgetKind::kGraphNodes, o.markers + guides, sp.where("markers"),
+                  sp.path("markers"),
+                  "the crown's markers" + std::string(guides > 0 ? " and the guides'" : "") +
+                      " alone are " + formatSize(o.markers + guides));
+    } else if (guides > 0) {
+        sizes.add(BudgetKind::kGraphNodes, guides, sp.where("guides"), sp.path("guides"),
+                  "the guides alone are " + formatSize(guides) + " markers");
+    }
+    sizes.add(BudgetKind::kSkeletonNodes, 1.0 + bole, sp.where("trunk_length"),
+              sp.path("trunk_length"),
+              "the bole alone is " + formatSize(1.0 + bole) +
+                  " skeleton nodes (trunk_length ÷ "
+                  "internode, at most max_internodes)");
+    auto method = std::make_unique<SpaceColonizationMethod>(std::move(o));
+    method->sizes = std::move(sizes);
+    return method;
 }
 
 }  // namespace sylva

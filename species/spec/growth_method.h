@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/budget.h"
 #include "core/params.h"
 #include "core/rng.h"
 #include "species/model/tree.h"
@@ -18,14 +19,20 @@ class GrowthMethod {
   public:
     virtual ~GrowthMethod() = default;
     // Grows one tree from rng. `threaded`: the method may split its own work across TBB
-    // workers; results never depend on it. Method-specific counters go into `stats`.
-    virtual Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats) const = 0;
+    // workers; results never depend on it. Method-specific counters go into `stats`. The
+    // growth loops hold what they build to `guard`'s budget and deadline (BudgetExceeded).
+    virtual Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats,
+                      const GrowthGuard& guard) const = 0;
     // The method's named volumes, as parsed for this instance ("crown", ...), for
     // `sylva volume`; a method without volumes returns none.
     virtual std::vector<std::pair<std::string, VolumePtr>> volumes() const { return {}; }
     // True when the method reads the species' [leaves] table itself (its own keys) and
     // places its leaves; the shared [leaves] reader (species/geometry/leaves.h) is then skipped.
     virtual bool placesOwnLeaves() const { return false; }
+
+    // Lower bounds of the sizes of this species' trees, with the keys that make them: the
+    // reader states them from the parameters (core/budget.h), before anything grows.
+    SizeEstimate sizes;
 };
 
 // Reads the method's parameters from the species table (its own keys only) and returns the

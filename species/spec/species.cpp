@@ -7,6 +7,7 @@
 
 #include "species/geometry/leaves.h"
 #include "species/model/form.h"
+#include "species/spec/budget_spec.h"
 #include "species/spec/form_spec.h"
 #include "species/spec/leaves_spec.h"
 
@@ -32,6 +33,7 @@ struct SpeciesCache {
         std::shared_ptr<const GrowthMethod> method;
         LeafOptions leaves;
         FormOptions form;
+        BudgetTable budget;
     };
     std::mutex mutex;
     std::map<std::string, Entry> entries;  // keyed by the sweep point's overrides, as text
@@ -75,7 +77,7 @@ SpeciesFile loadSpecies(const std::string& path) {
 
 std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
                                                  const Overrides* overrides, LeafOptions* leaves,
-                                                 FormOptions* form) {
+                                                 FormOptions* form, BudgetTable* budget) {
     Params p(*species.table, species.path, "", &draw, overrides);
     p.documentAs("species");
     p.string("name", "");
@@ -91,15 +93,28 @@ std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, Dra
     if (leaves) *leaves = l;
     const FormOptions f = readForm(p);
     if (form) *form = f;
+    BudgetTable b;
+    if (auto t = p.optionalTable("budget")) b = readBudget(*t, false);
+    if (budget) *budget = b;
     p.finish();
     return m;
 }
 
+namespace {
+Budget effectiveBudget(const BudgetTable& species, const BudgetTable* dataset) {
+    Budget b;
+    species.applyTo(b);
+    if (dataset) dataset->applyTo(b);
+    return b;
+}
+}  // namespace
+
 GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
-                      bool threaded) {
+                      bool threaded, const BudgetTable* datasetBudget) {
     std::shared_ptr<const GrowthMethod> method;
     LeafOptions leaves;
     FormOptions form;
+    BudgetTable budget;
     GrownTree out;
     if (species.cache) {
         std::lock_guard<std::mutex> lock(species.cache->mutex);
@@ -108,6 +123,7 @@ GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides
             method = it->second.method;
             leaves = it->second.leaves;
             form = it->second.form;
+            budget = it->second.budget;
             ++species.cache->counts.hits;
         } else {
             ++species.cache->counts.misses;
@@ -116,29 +132,46 @@ GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides
     if (!method) {
         DrawContext draw;
         draw.seed = hashCombine(seed, 0x9a7a);  // parameter draws: their own stream
-        method = instantiateSpecies(species, draw, overrides, &leaves, &form);
+        method = instantiateSpecies(species, draw, overrides, &leaves, &form, &budget);
         out.sampled = std::move(draw.sampled);
         // Nothing drawn: every instance of this sweep point parses to the same method.
         if (out.sampled.empty() && !draw.perInstance && species.cache) {
             std::lock_guard<std::mutex> lock(species.cache->mutex);
             species.cache->entries.emplace(overridesKey(overrides),
-                                           SpeciesCache::Entry{method, leaves, form});
+                                           SpeciesCache::Entry{method, leaves, form, budget});
         }
     }
+    out.budget = effectiveBudget(budget, datasetBudget);
+    // This tree's drawn parameters may already make it too large (validation saw the centres).
+    if (const SizeBound* over = method->sizes.over(out.budget, false)) {
+        throw BudgetExceeded(over->keyPath + ": " + overBudgetMessage(*over, out.budget));
+    }
+    const GrowthGuard guard(out.budget);
     Rng rng(seed);
-    out.tree = method->grow(rng, threaded, out.methodStats);
+    out.tree = method->grow(rng, threaded, out.methodStats, guard);
+    guard.skeletonNodes(static_cast<int64_t>(out.tree.nodes.size()));
     applyForm(out.tree, form, Rng(seed).derive("form"));  // before leaves: they sit on the result
     if (out.tree.leaves.empty()) {
         Rng leafRng = Rng(seed).derive("leaves");  // its own stream: leaves never move branches
-        placeLeaves(out.tree, leaves, leafRng);
+        placeLeaves(out.tree, leaves, leafRng, guard);
     }
+    guard.leaves(static_cast<int64_t>(out.tree.leaves.size()));
+    guard.time();
     return out;
 }
 
-void validateSpecies(const SpeciesFile& species, const Overrides* overrides) {
+Budget validateSpecies(const SpeciesFile& species, const Overrides* overrides,
+                       const BudgetTable* datasetBudget, bool meshed) {
     DrawContext draw;
     draw.draw = false;
-    instantiateSpecies(species, draw, overrides);
+    BudgetTable table;
+    const std::unique_ptr<GrowthMethod> method =
+        instantiateSpecies(species, draw, overrides, nullptr, nullptr, &table);
+    const Budget budget = effectiveBudget(table, datasetBudget);
+    if (const SizeBound* over = method->sizes.over(budget, meshed)) {
+        throw SpecError(over->where, over->keyPath, overBudgetMessage(*over, budget));
+    }
+    return budget;
 }
 
 }  // namespace sylva

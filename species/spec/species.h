@@ -37,18 +37,21 @@ SpeciesFile loadSpecies(const std::string& path);
 
 struct GrownTree {
     Tree tree;
+    Budget budget;  // the tree's budgets (defaults, the species' [budget], the dataset's)
     std::map<std::string, double> methodStats;  // method-specific counters
     std::map<std::string, double> sampled;      // parameter path -> value drawn for this tree
 };
 
 // The method for one instance: distributions drawn from `seed` (or, with draw = false, their
 // centres, for validation), `overrides` applied. Every key is checked. Throws SpecError.
+// `budget`: the species' [budget] table.
 struct LeafOptions;
 struct FormOptions;
 std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
                                                  const Overrides* overrides,
                                                  LeafOptions* leaves = nullptr,
-                                                 FormOptions* form = nullptr);
+                                                 FormOptions* form = nullptr,
+                                                 BudgetTable* budget = nullptr);
 
 // How often growSpecies took a species' method from its cache (hits: a species without
 // distributions, per sweep point) or parsed it (misses).
@@ -58,11 +61,18 @@ struct SpeciesCacheCounts {
 };
 SpeciesCacheCounts speciesCacheCounts(const SpeciesFile& species);
 
-// Grows one tree of the species with the given instance seed.
+// Grows one tree of the species with the given instance seed, within its budgets: the
+// defaults, then the species' [budget], then `datasetBudget` (a dataset's [budget]). A tree
+// whose drawn parameters certainly exceed a budget, or that exceeds one while it grows (or
+// outgrows max_growth_seconds), throws BudgetExceeded.
 GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
-                      bool threaded);
+                      bool threaded, const BudgetTable* datasetBudget = nullptr);
 
-// Checks every key and value of the species (with overrides) without growing.
-void validateSpecies(const SpeciesFile& species, const Overrides* overrides);
+// Checks every key and value of the species (with overrides) without growing, and that its
+// parameters do not certainly exceed a budget (SpecError at the key that dominates; the
+// triangle budget only when `meshed`: a dataset that makes meshes or views). Returns the
+// budgets its trees are held to.
+Budget validateSpecies(const SpeciesFile& species, const Overrides* overrides,
+                       const BudgetTable* datasetBudget = nullptr, bool meshed = false);
 
 }  // namespace sylva
