@@ -12,6 +12,7 @@ std::string SourcePos::str() const {
 }
 
 SpecError::SpecError(const SourcePos& where, const std::string& keyPath, const std::string& message)
-    : InputError(where.str() + ": " + (keyPath.empty() ? "" : keyPath + ": ") + message) {}
+    : InputError(where.str() + ": " + (keyPath.empty() ? "" : keyPath + ": ") + message),
+      where_(where) {}
 
 }  // namespace sylva
