@@ -55,6 +55,63 @@ images = {
 for name, data in images.items():
     write(os.path.join("images", name), data)
 
+# Valid PNGs of every colour type and bit depth libpng expands, read by image_file_test.cpp
+# against OpenImageIO's read of the same file.
+
+
+def png_full(width, height, depth, colour, raw, extra=b"", interlace=0):
+    ihdr = struct.pack(">IIBBBBB", width, height, depth, colour, 0, 0, interlace)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + extra + chunk(b"IDAT", zlib.compress(raw))
+            + chunk(b"IEND", b""))
+
+
+def rows(width, height, samples_of):
+    return b"".join(b"\0" + bytes(v for x in range(width) for v in samples_of(x, y))
+                    for y in range(height))
+
+
+W, H = 13, 7
+valid = {
+    "ok_grey8.png": png_full(W, H, 8, 0, rows(W, H, lambda x, y: [(x * 19 + y * 7) % 256])),
+    "ok_grey16.png": png_full(W, H, 16, 0, b"".join(
+        b"\0" + b"".join(struct.pack(">H", (x * 5003 + y * 977) % 65536) for x in range(W))
+        for y in range(H))),
+    "ok_grey1.png": png_full(16, H, 1, 0, b"".join(bytes([0, 0b10110010 ^ y, 0b01101100])
+                                                   for y in range(H))),
+    "ok_grey_alpha8.png": png_full(W, H, 8, 4, rows(W, H, lambda x, y: [x * 17 % 256, y * 36])),
+    "ok_rgb8.png": png_full(W, H, 8, 2, rows(W, H, lambda x, y: [x * 19, y * 36, (x + y) * 11])),
+    "ok_rgba8.png": png_full(W, H, 8, 6, rows(W, H, lambda x, y: [x * 19, y * 36, 200, x * y * 3])),
+    "ok_palette.png": png_full(
+        W, H, 8, 3, rows(W, H, lambda x, y: [(x + y) % 4]),
+        extra=chunk(b"PLTE", bytes([0, 0, 0, 255, 0, 0, 0, 255, 0, 250, 250, 250]))),
+    "ok_palette_trns.png": png_full(
+        W, H, 8, 3, rows(W, H, lambda x, y: [(x * y) % 4]),
+        extra=chunk(b"PLTE", bytes([0, 0, 0, 255, 0, 0, 0, 255, 0, 250, 250, 250]))
+        + chunk(b"tRNS", bytes([0, 128, 255]))),
+    # Adam7-interlaced: the passes' scanlines one after the other.
+    "ok_interlaced.png": None,
+    "ok_side_16384.png": png_full(16384, 1, 8, 0, b"\0" + bytes(i % 251 for i in range(16384))),
+}
+
+
+def adam7(width, height, sample):
+    passes = [(0, 0, 8, 8), (4, 0, 8, 8), (0, 4, 4, 8), (2, 0, 4, 4), (0, 2, 2, 4), (1, 0, 2, 2),
+              (0, 1, 1, 2)]
+    out = b""
+    for x0, y0, dx, dy in passes:
+        xs = list(range(x0, width, dx))
+        if not xs:
+            continue
+        for y in range(y0, height, dy):
+            out += b"\0" + bytes(sample(x, y) for x in xs)
+    return out
+
+
+valid["ok_interlaced.png"] = png_full(W, H, 8, 0, adam7(W, H, lambda x, y: (x * 19 + y * 7) % 256),
+                                      interlace=1)
+for name, data in valid.items():
+    write(os.path.join("images", name), data)
+
 sketches = {
     "empty.svg": b"",
     "no_path.svg": b'<svg xmlns="http://www.w3.org/2000/svg"><rect width="4" height="6"/></svg>',
