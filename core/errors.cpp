@@ -13,7 +13,8 @@ std::string SourcePos::str() const {
 }
 
 SpecError::SpecError(const SourcePos& where, const std::string& keyPath, const std::string& message)
-    : InputError(where.str() + ": " + (keyPath.empty() ? "" : keyPath + ": ") + message) {}
+    : InputError(where.str() + ": " + (keyPath.empty() ? "" : keyPath + ": ") + message),
+      where_(where) {}
 
 ResourceError::ResourceError(int error, const std::string& path, const std::string& message)
     : std::runtime_error(message), error_(error), path_(path) {}

@@ -46,6 +46,11 @@ bool isResourceErrno(int error);
 class SpecError : public InputError {
   public:
     SpecError(const SourcePos& where, const std::string& keyPath, const std::string& message);
+    // Where the error is (a file that references this one wraps it with its own place).
+    const SourcePos& where() const { return where_; }
+
+  private:
+    SourcePos where_;
 };
 
 }  // namespace sylva

@@ -10,9 +10,17 @@
 
 namespace sylva {
 
+namespace {
+// A range's bounds with kMaxSpecMagnitude on a side without a bound of its own.
+bool unboundedBelow(const Range& r) { return r.lo <= -1e299; }
+bool unboundedAbove(const Range& r) { return r.hi >= 1e299; }
+}  // namespace
+
 bool Range::contains(double v) const {
     if (loOpen ? !(v > lo) : !(v >= lo)) return false;
     if (hiOpen ? !(v < hi) : !(v <= hi)) return false;
+    if (unboundedBelow(*this) && v < -kMaxSpecMagnitude) return false;
+    if (unboundedAbove(*this) && v > kMaxSpecMagnitude) return false;
     return true;
 }
 
@@ -178,6 +186,16 @@ const toml::node* Params::raw(std::string_view key) {
     return lookup(key, nullptr);
 }
 
+// The message for a finite value outside `range`: the range, and the magnitude limit when it is
+// what the value breaks.
+static std::string outOfRange(const Range& range, bool integer, double v, const std::string& got) {
+    const bool tooLarge = (unboundedAbove(range) && v > kMaxSpecMagnitude) ||
+                          (unboundedBelow(range) && v < -kMaxSpecMagnitude);
+    return "expected " + range.describe(integer) +
+           (tooLarge ? " of magnitude at most 1e9 (the largest a spec number may be)" : "") +
+           ", got " + got;
+}
+
 double Params::readNumber(const toml::node& node, const SourcePos& where, const std::string& path,
                           const Range& range, bool wantInteger) {
     auto check = [&](double v, const char* what) {
@@ -186,9 +204,7 @@ double Params::readNumber(const toml::node& node, const SourcePos& where, const 
                             std::string("expected a finite number, got ") + formatNumber(v));
         }
         if (!range.contains(v)) {
-            throw SpecError(
-                where, path,
-                "expected " + range.describe(wantInteger) + ", got " + what + formatNumber(v));
+            throw SpecError(where, path, outOfRange(range, wantInteger, v, what + formatNumber(v)));
         }
         if (wantInteger && std::floor(v) != v) {
             throw SpecError(where, path, "expected an integer, got " + formatNumber(v));
@@ -219,14 +235,23 @@ double Params::readNumber(const toml::node& node, const SourcePos& where, const 
         const toml::array* arr = first->second.as_array();
         auto num = [&](size_t i) -> double {
             const toml::node* e = arr->get(i);
-            if (auto ii = e->as_integer()) return static_cast<double>(ii->get());
-            if (auto ff = e->as_floating_point()) {
-                if (!std::isfinite(ff->get())) {
+            double v;
+            if (auto ii = e->as_integer()) {
+                v = static_cast<double>(ii->get());
+            } else if (auto ff = e->as_floating_point()) {
+                v = ff->get();
+                if (!std::isfinite(v)) {
                     throw SpecError(where, path, "distribution parameters must be finite");
                 }
-                return ff->get();
+            } else {
+                throw SpecError(where, path, "distribution parameters must be numbers");
             }
-            throw SpecError(where, path, "distribution parameters must be numbers");
+            if (std::abs(v) > kMaxSpecMagnitude) {
+                throw SpecError(where, path,
+                                "distribution parameters must have magnitude at most 1e9, got " +
+                                    formatNumber(v));
+            }
+            return v;
         };
         if (kind != "uniform" && kind != "normal") {
             std::string hint;
@@ -267,7 +292,8 @@ double Params::readNumber(const toml::node& node, const SourcePos& where, const 
             if (wantInteger) value = std::floor(value + 0.5);
             // Draws outside the valid range are clamped to it (documented in the README).
             if (!range.contains(value)) {
-                double lo = range.lo, hi = range.hi;
+                double lo = unboundedBelow(range) ? -kMaxSpecMagnitude : range.lo;
+                double hi = unboundedAbove(range) ? kMaxSpecMagnitude : range.hi;
                 if (range.loOpen) lo = lo + std::max(1e-9, std::abs(lo) * 1e-9);
                 if (range.hiOpen) hi = hi - std::max(1e-9, std::abs(hi) * 1e-9);
                 if (wantInteger) {
@@ -300,12 +326,37 @@ double Params::number(std::string_view key, double fallback, const Range& range)
     return readNumber(*n, w, path(key), range, false);
 }
 
+int64_t Params::readInteger(const toml::node& node, const SourcePos& where, const std::string& path,
+                            const Range& range) {
+    if (auto i = node.as_integer()) {
+        // Exact: a 64-bit integer is not rounded through a double (seeds above 2⁵³).
+        const int64_t v = i->get();
+        if (!range.contains(static_cast<double>(v))) {
+            throw SpecError(where, path,
+                            outOfRange(range, true, static_cast<double>(v), std::to_string(v)));
+        }
+        return v;
+    }
+    if (auto f = node.as_floating_point()) {
+        const double v = f->get();
+        if (std::isfinite(v) && std::floor(v) == v && std::abs(v) < 1e15) {
+            char whole[64];
+            std::snprintf(whole, sizeof whole, "%.1f", v);
+            throw SpecError(where, path,
+                            std::string("expected an integer, got the float ") + whole +
+                                " (write integers without a decimal point or exponent)");
+        }
+        throw SpecError(where, path, "expected an integer, got " + formatNumber(v));
+    }
+    return static_cast<int64_t>(readNumber(node, where, path, range, true));
+}
+
 int64_t Params::integer(std::string_view key, const Range& range) {
     ask(key);
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     if (!n) fail(key, "required key missing (expected " + range.describe(true) + ")");
-    return static_cast<int64_t>(readNumber(*n, w, path(key), range, true));
+    return readInteger(*n, w, path(key), range);
 }
 
 int64_t Params::integer(std::string_view key, int64_t fallback, const Range& range) {
@@ -313,7 +364,7 @@ int64_t Params::integer(std::string_view key, int64_t fallback, const Range& ran
     SourcePos w;
     const toml::node* n = lookup(key, &w);
     if (!n) return fallback;
-    return static_cast<int64_t>(readNumber(*n, w, path(key), range, true));
+    return readInteger(*n, w, path(key), range);
 }
 
 bool Params::boolean(std::string_view key, bool fallback) {
@@ -479,8 +530,10 @@ std::vector<Vec2> Params::pairArray(std::string_view key, size_t minCount) {
         }
         const double x = pair->get(0)->value<double>().value_or(NAN);
         const double y = pair->get(1)->value<double>().value_or(NAN);
-        if (!std::isfinite(x) || !std::isfinite(y)) {
-            bad(*a->get(i), "item " + std::to_string(i) + ": expected finite numbers");
+        if (!std::isfinite(x) || !std::isfinite(y) || std::abs(x) > kMaxSpecMagnitude ||
+            std::abs(y) > kMaxSpecMagnitude) {
+            bad(*a->get(i),
+                "item " + std::to_string(i) + ": expected finite numbers of magnitude at most 1e9");
         }
         out.push_back({x, y});
     }

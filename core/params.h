@@ -27,7 +27,14 @@ namespace sylva {
 // A number for an error message: printf "%.*g" with `significantDigits` digits.
 std::string formatNumber(double v, int significantDigits = 12);
 
-// Closed/open numeric interval for validation, with a readable description.
+// The largest magnitude a number in a spec may have when its key's range sets no bound of its
+// own (Range::any(), positive(), nonNegative(), atLeast()): 10⁹ (metres, degrees, counts). Larger
+// values are typos or hostile input, and their squares and cubes (areas, volumes, 32-bit float
+// vertices) must stay finite. Keys whose values are larger (seeds) state their range.
+constexpr double kMaxSpecMagnitude = 1e9;
+
+// Closed/open numeric interval for validation, with a readable description. A bound of ±1e300
+// means "none of its own": kMaxSpecMagnitude applies on that side.
 struct Range {
     double lo = -1e300, hi = 1e300;
     bool loOpen = false, hiOpen = false;
@@ -37,7 +44,7 @@ struct Range {
     static Range closed(double a, double b) { return {a, b, false, false}; }
     static Range leftOpen(double a, double b) { return {a, b, true, false}; }
     static Range atLeast(double a) { return {a, 1e300, false, false}; }
-    bool contains(double v) const;
+    bool contains(double v) const;  // with kMaxSpecMagnitude on a side without a bound
     std::string describe(bool integer = false) const;
 };
 
@@ -76,6 +83,9 @@ class Params {
     // Numbers (floats or integers in TOML; distributions allowed).
     double number(std::string_view key, const Range& range);
     double number(std::string_view key, double fallback, const Range& range);
+    // Integers: TOML integers only (`count = 1e9` or `nodes = 300.0` is an error: a float is
+    // not an integer key's value even when it is whole), or a distribution, whose draw is
+    // rounded.
     int64_t integer(std::string_view key, const Range& range);
     int64_t integer(std::string_view key, int64_t fallback, const Range& range);
     bool boolean(std::string_view key, bool fallback);
@@ -145,6 +155,8 @@ class Params {
     Params child(const toml::table& table, std::string path, std::string docPath) const;
     double readNumber(const toml::node& node, const SourcePos& where, const std::string& path,
                       const Range& range, bool wantInteger);
+    int64_t readInteger(const toml::node& node, const SourcePos& where, const std::string& path,
+                        const Range& range);
 
     const toml::table* table_;
     std::string file_;

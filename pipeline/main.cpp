@@ -6,12 +6,19 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cerrno>
+#include <cmath>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <optional>
+#include <set>
 
 #include "core/budget.h"
+#include "core/params.h"
 #include "pipeline/analysis/dataset_stats.h"
 #include "pipeline/analysis/merge.h"
 #include "pipeline/analysis/realism_gates.h"
@@ -175,6 +182,169 @@ int runReport(const std::string& dir) {
     return 0;
 }
 
+// --- command-line values ----------------------------------------------------------------------
+// Every value is checked as text before CLI11 converts it, so a bad one is one line naming the
+// option and what it expects (CLI11's own messages print a 300-digit range bound, "Could not
+// convert", or wrap a negative seed around to 2⁶⁴ − 1), exit 2, and nothing is written.
+
+// The most worker threads --threads takes: more than any machine sylva runs on has cores, and
+// few enough that TBB's per-thread state stays small (10⁸ ended in std::bad_alloc).
+constexpr uint64_t kMaxThreads = 1024;
+
+// Decimal digits only (no sign, no spaces), at most `max`.
+std::optional<uint64_t> parseUnsigned(const std::string& s, uint64_t max) {
+    if (s.empty() || s.size() > 20) return std::nullopt;
+    uint64_t v = 0;
+    for (char c : s) {
+        if (c < '0' || c > '9') return std::nullopt;
+        const uint64_t digit = static_cast<uint64_t>(c - '0');
+        if (v > (max - digit) / 10) return std::nullopt;
+        v = v * 10 + digit;
+    }
+    return v;
+}
+
+CLI::Validator unsignedValidator(uint64_t max, const std::string& note) {
+    const std::string expected = "an integer in [0, " + std::to_string(max) + "]" + note;
+    return CLI::Validator(
+        [max, expected](std::string& s) -> std::string {
+            if (parseUnsigned(s, max)) return "";
+            return "expected " + expected + ", got \"" + s + "\"";
+        },
+        "INT in [0, " + std::to_string(max) + "]");
+}
+
+// A finite number > 0 (metres), at most 10⁹ like any number in a spec.
+CLI::Validator positiveMetres() {
+    return CLI::Validator(
+        [](std::string& s) -> std::string {
+            char* end = nullptr;
+            errno = 0;
+            const double v = s.empty() ? 0.0 : std::strtod(s.c_str(), &end);
+            if (!s.empty() && end == s.c_str() + s.size() && errno == 0 && std::isfinite(v) &&
+                v > 0 && v <= kMaxSpecMagnitude) {
+                return "";
+            }
+            return "expected a number of metres > 0 (at most 1e9), got \"" + s + "\"";
+        },
+        "METRES > 0");
+}
+
+// I/N: decimal shard index and count, 0 ≤ I < N ≤ 2³¹ − 1.
+CLI::Validator shardValidator() {
+    return CLI::Validator(
+        [](std::string& s) -> std::string {
+            const size_t slash = s.find('/');
+            const uint64_t maxCount = 2147483647;
+            if (slash != std::string::npos) {
+                const auto i = parseUnsigned(s.substr(0, slash), maxCount);
+                const auto n = parseUnsigned(s.substr(slash + 1), maxCount);
+                if (i && n && *i < *n) return "";
+            }
+            return "expected I/N, shard I of N with 0 ≤ I < N (e.g. 0/4), got \"" + s + "\"";
+        },
+        "I/N");
+}
+
+// A spec or directory argument: not an empty string.
+CLI::Validator nonEmptyPath() {
+    return CLI::Validator(
+        [](std::string& s) -> std::string {
+            return s.empty() ? "expected a path, got an empty string" : "";
+        },
+        "");
+}
+
+// The command whose arguments argv holds ("build", "species list"; "" before one), as error
+// messages name it.
+std::string commandOf(const CLI::App& app, int argc, char** argv) {
+    if (argc < 2) return "";
+    const std::string first = argv[1];
+    for (const CLI::App* sub : app.get_subcommands({})) {
+        if (sub->get_name() != first) continue;
+        if (first == "species" && argc > 2 && std::string(argv[2]) == "list") return "species list";
+        return first;
+    }
+    return "";
+}
+
+// The options `command` takes, as written on the command line ("--threads").
+std::set<std::string> optionNames(const CLI::App& app, const std::string& command) {
+    const CLI::App* sub = &app;
+    std::string rest = command;
+    while (!rest.empty()) {
+        const size_t space = rest.find(' ');
+        const std::string name = rest.substr(0, space);
+        rest = space == std::string::npos ? "" : rest.substr(space + 1);
+        sub = sub->get_subcommand(name);
+    }
+    std::set<std::string> names;
+    for (const CLI::Option* o : sub->get_options()) {
+        for (const std::string& l : o->get_lnames()) names.insert("--" + l);
+        for (const std::string& n : o->get_snames()) names.insert("-" + n);
+    }
+    return names;
+}
+
+// One line for a command-line error CLI11 reports: the option and what it expects.
+std::string parseErrorLine(const CLI::App& app, const CLI::ParseError& e, int argc, char** argv) {
+    const std::string command = commandOf(app, argc, argv);
+    const std::string who = command.empty() ? "sylva" : "sylva " + command;
+    std::string message = e.what();
+    if (command.empty()) {
+        std::string commands;
+        for (const CLI::App* sub : app.get_subcommands({})) {
+            commands += (commands.empty() ? "" : ", ") + sub->get_name();
+        }
+        if (argc < 2) return who + ": expected a command (" + commands + "); see sylva --help";
+        const std::string first = argv[1];
+        if (!first.empty() && first[0] == '-' && first != "--help" && first != "-h") {
+            return who + ": unknown option " + first + "; expected a command first (" + commands +
+                   ")";
+        }
+        if (first.empty() || first[0] != '-') {
+            std::set<std::string> names;
+            for (const CLI::App* sub : app.get_subcommands({})) names.insert(sub->get_name());
+            std::string hint;
+            if (auto w = closestWord(first, names)) hint = "; did you mean \"" + *w + "\"?";
+            return who + ": unknown command \"" + first + "\"" + hint + " (commands: " + commands +
+                   ")";
+        }
+    }
+    if (dynamic_cast<const CLI::ExtrasError*>(&e)) {
+        // The first argument that is no option of the command, with the closest one.
+        const std::set<std::string> names = optionNames(app, command);
+        for (int i = 1 + (command.find(' ') != std::string::npos ? 2 : 1); i < argc; ++i) {
+            std::string a = argv[i];
+            if (a.size() < 2 || a[0] != '-') continue;
+            a = a.substr(0, a.find('='));
+            if (names.count(a)) continue;
+            std::string hint;
+            if (auto w = closestWord(a, names)) hint = "; did you mean " + *w + "?";
+            return who + ": unknown option " + a + hint + " (see " + who + " --help)";
+        }
+        message = message.substr(message.find(':') + 1);
+        while (!message.empty() && message[0] == ' ') message.erase(0, 1);
+        return who + ": unexpected argument " + message + " (see " + who + " --help)";
+    }
+    if (dynamic_cast<const CLI::RequiredError*>(&e) && command == "species") {
+        if (argc > 2) return who + ": unknown subcommand \"" + argv[2] + "\"; expected \"list\"";
+        return who + ": expected a subcommand (list)";
+    }
+    std::replace(message.begin(), message.end(), '\n', ' ');
+    if (dynamic_cast<const CLI::ArgumentMismatch*>(&e)) {
+        // "--threads: 1 required INT missing", "--threads: At Most 1 required but received 2"
+        const std::string option = message.substr(0, message.find(':'));
+        if (message.find("missing") != std::string::npos) {
+            return who + ": " + option + ": expected a value (see " + who + " --help)";
+        }
+        if (message.find("At Most") != std::string::npos) {
+            return who + ": " + option + ": given more than once";
+        }
+    }
+    return who + ": " + message;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -184,42 +354,54 @@ int main(int argc, char** argv) {
     std::string spec, out, shard;
     int threads = 0;
     auto* build = app.add_subcommand("build", "Build a dataset (every instance of every species)");
-    build->add_option("SPEC", spec, "Dataset spec (.toml)")->required();
+    build->add_option("SPEC", spec, "Dataset spec (.toml)")->required()->check(nonEmptyPath());
     auto* buildOut =
         build->add_option("--out", out, "Output directory (default: out/<dataset name>)");
-    build->add_option("--threads", threads, "Worker threads (default: all cores)")
-        ->check(CLI::NonNegativeNumber);
-    build->add_option("--shard", shard,
-                      "Build shard I of N (I/N, 0-based): a contiguous block of instances whose "
-                      "manifests concatenate, in shard order, to the whole dataset's");
+    build->add_option("--threads", threads, "Worker threads, at most 1024 (default 0: all cores)")
+        ->check(unsignedValidator(kMaxThreads, " (0: all cores)"));
+    build
+        ->add_option("--shard", shard,
+                     "Build shard I of N (I/N, 0-based): a contiguous block of instances whose "
+                     "manifests concatenate, in shard order, to the whole dataset's")
+        ->check(shardValidator());
 
     std::string speciesPath, growOut;
     uint64_t seed = 1;
     int growThreads = 0;
     auto* grow = app.add_subcommand("grow", "Grow one tree for a quick look (with preview.png)");
-    grow->add_option("SPECIES", speciesPath, "Species file (.toml)")->required();
-    grow->add_option("--seed", seed, "Instance seed (default 1)");
+    grow->add_option("SPECIES", speciesPath, "Species file (.toml)")
+        ->required()
+        ->check(nonEmptyPath());
+    grow->add_option("--seed", seed, "Instance seed (default 1)")
+        ->check(unsignedValidator(UINT64_MAX, ""));
     grow->add_option("--out", growOut, "Output directory (default: out/grow/<species>)");
-    grow->add_option("--threads", growThreads, "Worker threads (default: all cores)")
-        ->check(CLI::NonNegativeNumber);
+    grow->add_option("--threads", growThreads,
+                     "Worker threads, at most 1024 (default 0: all cores)")
+        ->check(unsignedValidator(kMaxThreads, " (0: all cores)"));
 
     std::string validatePath;
     auto* validate =
         app.add_subcommand("validate", "Check a species or dataset file without building");
-    validate->add_option("SPEC", validatePath, "Species or dataset spec (.toml)")->required();
+    validate->add_option("SPEC", validatePath, "Species or dataset spec (.toml)")
+        ->required()
+        ->check(nonEmptyPath());
 
     std::string volumePath, volumeOut;
     VolumeOutputOptions volumeOptions;
     auto* volume = app.add_subcommand(
         "volume", "Write a species' crown volumes (.vdb, .ply) and preview.png, to check them");
-    volume->add_option("SPECIES", volumePath, "Species file (.toml)")->required();
+    volume->add_option("SPECIES", volumePath, "Species file (.toml)")
+        ->required()
+        ->check(nonEmptyPath());
     volume->add_option("--out", volumeOut, "Output directory (default: out/volume/<species>)");
-    volume->add_option("--seed", volumeOptions.seed,
-                       "Instance seed, for volumes drawn per tree (default 1)");
+    volume
+        ->add_option("--seed", volumeOptions.seed,
+                     "Instance seed, for volumes drawn per tree (default 1)")
+        ->check(unsignedValidator(UINT64_MAX, ""));
     volume
         ->add_option("--voxel", volumeOptions.voxel,
                      "Voxel size, metres (default: each volume's largest extent / 128)")
-        ->check(CLI::PositiveNumber);
+        ->check(positiveMetres());
 
     std::string statsDir;
     bool statsNoTiming = false;
@@ -228,7 +410,8 @@ int main(int argc, char** argv) {
         "Per-species metric summaries, species comparison (KS, Wasserstein) and sweep table of a "
         "dataset -> DIR/stats/");
     stats->add_option("DIR", statsDir, "Dataset directory (finished, partial or sharded)")
-        ->required();
+        ->required()
+        ->check(nonEmptyPath());
     stats->add_flag("--no-timing", statsNoTiming,
                     "Leave out the timing.* metrics (machine-dependent), for reproducible files");
     std::string statsReference;
@@ -240,7 +423,7 @@ int main(int argc, char** argv) {
     std::string gatesDir;
     auto* gates = app.add_subcommand(
         "gates", "The realism gates of every species of a built dataset, as a Markdown table");
-    gates->add_option("DIR", gatesDir, "Dataset directory")->required();
+    gates->add_option("DIR", gatesDir, "Dataset directory")->required()->check(nonEmptyPath());
 
     std::string speciesDir;
     auto* species = app.add_subcommand("species", "The species library");
@@ -249,15 +432,17 @@ int main(int argc, char** argv) {
         "list",
         "List every species file under DIR (name, method, description, path), each validated; "
         "exit 2 if any fails to load");
-    speciesList->add_option(
-        "DIR", speciesDir,
-        "Directory searched recursively for *.toml (default: the species/ directory above the "
-        "executable or the current directory)");
+    speciesList
+        ->add_option(
+            "DIR", speciesDir,
+            "Directory searched recursively for *.toml (default: the species/ directory above "
+            "the executable or the current directory)")
+        ->check(nonEmptyPath());
 
     std::string reportDir;
     auto* report = app.add_subcommand(
         "report", "Self-contained HTML report (plots, tables, contact sheets) -> DIR/report/");
-    report->add_option("DIR", reportDir, "Dataset directory")->required();
+    report->add_option("DIR", reportDir, "Dataset directory")->required()->check(nonEmptyPath());
 
     MergeOptions mergeOptions;
     auto* merge = app.add_subcommand(
@@ -266,7 +451,8 @@ int main(int argc, char** argv) {
     merge
         ->add_option("SHARD_DIRS", mergeOptions.shards,
                      "Directories holding dataset.shard-I-of-N.json and its manifest and trees")
-        ->required();
+        ->required()
+        ->check(nonEmptyPath());
     merge->add_flag("--move", mergeOptions.move,
                     "Move the instance directories out of the shards instead of copying them");
 
@@ -276,8 +462,8 @@ int main(int argc, char** argv) {
         return app.exit(e);
     } catch (const CLI::CallForAllHelp& e) {
         return app.exit(e);
-    } catch (const CLI::ParseError& e) {
-        app.exit(e);
+    } catch (const CLI::ParseError& e) {  // one line: the option and what it expects
+        std::fprintf(stderr, "%s\n", parseErrorLine(app, e, argc, argv).c_str());
         return 2;
     }
     // Past the file size limit (ulimit -f) a write fails with EFBIG, which a build stops on

@@ -4,7 +4,6 @@
 // textures — and the envelope is immutable after construction (thread-safe queries).
 #include "volumes/canopy_envelope.h"
 
-#include <OpenImageIO/imageio.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -12,6 +11,8 @@
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+
+#include "volumes/image_file.h"
 
 namespace sylva {
 
@@ -36,12 +37,6 @@ inline double tileV(double v, double tiles) {
     double k = std::floor(t);
     if (k >= tiles) k = tiles - 1;
     return t - k;
-}
-
-std::string oneLine(std::string s) {
-    std::replace(s.begin(), s.end(), '\n', ' ');
-    while (!s.empty() && s.back() == ' ') s.pop_back();
-    return s;
 }
 
 // Lipschitz constants of a grid's interpolant in (u, v) units: the largest neighbour
@@ -196,26 +191,14 @@ CanopyGrid CanopyImage::channel(int c) const {
 }
 
 CanopyImage readCanopyImage(const std::string& path) {
-    // Packed images use alpha as a fourth function: read the stored values as they are,
-    // not premultiplied by alpha.
-    OIIO::ImageSpec config;
-    config.attribute("oiio:UnassociatedAlpha", 1);
-    auto in = OIIO::ImageInput::open(path, &config);
-    if (!in)
-        throw std::runtime_error("cannot read image " + path + ": " + oneLine(OIIO::geterror()));
-    const OIIO::ImageSpec& spec = in->spec();
+    // Packed images use alpha as a fourth function: the stored values, not premultiplied by
+    // alpha (readImageFile never premultiplies). Checked before decoding (image_file.h).
+    ImageFile file = readImageFile(path);
     CanopyImage img;
-    img.width = spec.width;
-    img.height = spec.height;
-    img.channels = spec.nchannels;
-    if (img.width <= 0 || img.height <= 0 || img.channels <= 0) {
-        throw std::runtime_error("image " + path + " has no pixels");
-    }
-    img.pixels.resize(size_t(img.width) * img.height * img.channels);
-    if (!in->read_image(0, 0, 0, img.channels, OIIO::TypeDesc::FLOAT, img.pixels.data())) {
-        throw std::runtime_error("cannot read image " + path + ": " + oneLine(in->geterror()));
-    }
-    in->close();
+    img.width = file.width;
+    img.height = file.height;
+    img.channels = file.channels;
+    img.pixels = std::move(file.pixels);
     for (float& v : img.pixels) {
         if (!std::isfinite(v)) v = 0.0f;
     }

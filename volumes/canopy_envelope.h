@@ -61,7 +61,8 @@ struct CanopyImage {
     std::vector<float> pixels;
     CanopyGrid channel(int c) const;  // one channel as a layer grid (wrap u, clamp v)
 };
-// Throws std::runtime_error (one line, naming the file) when the file cannot be read.
+// Throws ImageError, a std::runtime_error (one line, naming the file), when the file cannot be
+// read (volumes/image_file.h: checked before decoding).
 CanopyImage readCanopyImage(const std::string& path);
 
 // One function gᵢ.

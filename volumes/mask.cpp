@@ -1,9 +1,7 @@
-// Silhouette masks (Liu et al. 2020 §4.3): reading through OpenImageIO, exact distance
+// Silhouette masks (Liu et al. 2020 §4.3): reading (volumes/image_file.h), exact distance
 // transforms, the logistic fall-off of marker spread at the border, the half-profile of a
 // mask, and the mask-revolution volume (the profile revolved by volumes/revolution.h).
 #include "volumes/mask.h"
-
-#include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <cmath>
@@ -11,20 +9,13 @@
 #include <limits>
 #include <memory>
 
+#include "volumes/image_file.h"
+
 namespace sylva {
 
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-// OpenImageIO messages may span lines; a MaskError is one line.
-std::string oneLine(std::string s) {
-    for (char& c : s) {
-        if (c == '\n' || c == '\r') c = ' ';
-    }
-    while (!s.empty() && s.back() == ' ') s.pop_back();
-    return s;
-}
 
 // Abscissa where the parabolas of samples p < q (centres p + shift, q + shift) cross.
 inline double intersection(const double* f, double shift, int p, int q) {
@@ -121,19 +112,15 @@ size_t Mask::count() const {
 }
 
 Mask readMask(const std::string& path, bool invert) {
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) {
-        throw MaskError("cannot read mask " + path + ": " + oneLine(OIIO::geterror()));
+    ImageFile img;
+    try {
+        img = readImageFile(path);  // checked before decoding (volumes/image_file.h)
+    } catch (const ImageError& e) {
+        throw MaskError(e.what());
     }
-    const OIIO::ImageSpec& spec = in->spec();
-    const int w = spec.width, h = spec.height, nc = spec.nchannels;
-    if (w <= 0 || h <= 0 || nc <= 0) throw MaskError("mask " + path + " has no pixels");
-    std::vector<float> px(static_cast<size_t>(w) * h * nc);
-    if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, px.data())) {
-        throw MaskError("cannot read mask " + path + ": " + oneLine(in->geterror()));
-    }
-    in->close();
-    const int alpha = spec.alpha_channel;
+    const int w = img.width, h = img.height, nc = img.channels;
+    const std::vector<float>& px = img.pixels;
+    const int alpha = img.alphaChannel;
     Mask m;
     m.width = w;
     m.height = h;

@@ -8,7 +8,6 @@
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/boost/graph/helpers.h>
-#include <OpenImageIO/imageio.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/MeshToVolume.h>
 
@@ -17,12 +16,14 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <sstream>
 
+#include "volumes/image_file.h"
 #include "volumes/level_set_grid.h"
 
 namespace sylva {
@@ -42,6 +43,12 @@ std::string format(const char* fmt, ...) {
 }
 
 [[noreturn]] void fail(const std::string& message) { throw StrokeError(message); }
+
+// Limits on a drawn SVG stroke, far above any drawing (the shipped umbrella.svg: 1 kB, 60
+// points), so a hostile file fails at once instead of filling memory.
+constexpr size_t kMaxSvgBytes = size_t(16) << 20;  // 16 MiB
+constexpr size_t kMaxSvgPoints = 100000;           // after flattening curves
+constexpr double kMaxSvgCoordinate = 1e9;          // SVG user units
 
 // Largest extent of the points' bounding box (the length scale for tolerances).
 double extent(const std::vector<Vec2>& pts) {
@@ -441,6 +448,12 @@ class PathLexer {
         i_ = j;
         const double v = std::strtod(d_.substr(start, j - start).c_str(), nullptr);
         if (!std::isfinite(v)) badToken(start);
+        if (std::abs(v) > kMaxSvgCoordinate) {
+            fail(
+                format("SVG path coordinate %g (character %zu of the d attribute) is over %g in "
+                       "magnitude",
+                       v, start + 1, kMaxSvgCoordinate));
+        }
         return v;
     }
     [[noreturn]] void badToken(size_t at) const {
@@ -471,6 +484,10 @@ std::vector<Vec2> flattenPath(const std::string& d) {
     bool started = false;
     auto emit = [&](const Vec2& p) {
         if (out.empty() || !(out.back() == p)) out.push_back(p);
+        if (out.size() > kMaxSvgPoints) {
+            fail(format("the SVG path has over %zu points (a curve counts %d); simplify it",
+                        kMaxSvgPoints, kCurveSteps));
+        }
     };
     while (!lex.atEnd()) {
         if (auto c = lex.peekCommand()) {
@@ -592,14 +609,20 @@ std::optional<std::string> attribute(const std::string& tag, const std::string& 
     return std::nullopt;
 }
 
-// Drops XML comments so that a commented-out <path> is not read.
-std::string withoutComments(std::string s) {
-    size_t a;
-    while ((a = s.find("<!--")) != std::string::npos) {
+// Drops XML comments so that a commented-out <path> is not read (in one pass: erasing each
+// comment in place is quadratic in a file of many comments).
+std::string withoutComments(const std::string& s) {
+    std::string out;
+    out.reserve(s.size());
+    size_t from = 0, a;
+    while ((a = s.find("<!--", from)) != std::string::npos) {
+        out.append(s, from, a - from);
         const size_t b = s.find("-->", a + 4);
-        s.erase(a, b == std::string::npos ? std::string::npos : b + 3 - a);
+        if (b == std::string::npos) return out;
+        from = b + 3;
     }
-    return s;
+    out.append(s, from, std::string::npos);
+    return out;
 }
 
 // Raw points (x from the axis, y up, any units) → metres: lowest point at 0, height `height`.
@@ -619,6 +642,14 @@ std::vector<Vec2> readSvgStroke(const std::string& path, double axisX, double he
         throw std::invalid_argument("readSvgStroke: height must be finite and > 0");
     std::ifstream in(path, std::ios::binary);
     if (!in) fail("cannot read the SVG file " + path);
+    std::error_code ec;
+    const auto bytes = std::filesystem::file_size(path, ec);
+    if (!ec && bytes > kMaxSvgBytes) {
+        fail(
+            format("the SVG file %s has %llu bytes; at most %zu (a drawn stroke needs a few "
+                   "kilobytes)",
+                   path.c_str(), static_cast<unsigned long long>(bytes), kMaxSvgBytes));
+    }
     std::ostringstream ss;
     ss << in.rdbuf();
     const std::string text = withoutComments(ss.str());
@@ -659,24 +690,19 @@ std::vector<Vec2> readSvgStroke(const std::string& path, double axisX, double he
 std::vector<Vec2> traceStrokeImage(const std::string& path, double axisColumn, double height) {
     if (!(height > 0) || !std::isfinite(height))
         throw std::invalid_argument("traceStrokeImage: height must be finite and > 0");
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) {
-        std::string why = OIIO::geterror();
-        if (const size_t nl = why.find('\n'); nl != std::string::npos) why.resize(nl);
-        fail("cannot read the image " + path + (why.empty() ? "" : ": " + why));
+    // Checked before decoding (volumes/image_file.h); colour as stored, not premultiplied.
+    ImageFile img;
+    try {
+        img = readImageFile(path);
+    } catch (const ImageError& e) {
+        fail(e.what());
     }
-    const OIIO::ImageSpec spec = in->spec();
-    const int w = spec.width, h = spec.height, nc = spec.nchannels;
-    std::vector<float> px(size_t(w) * h * nc);
-    if (w <= 0 || h <= 0 || nc <= 0 ||
-        !in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, px.data())) {
-        fail("cannot read the pixels of the image " + path);
-    }
-    in->close();
+    const int w = img.width, h = img.height, nc = img.channels;
+    const std::vector<float>& px = img.pixels;
 
     // Opaque-on-transparent when there is an alpha channel that is not opaque everywhere;
     // otherwise dark-on-light by luminance.
-    int alpha = spec.alpha_channel;
+    int alpha = img.alphaChannel;
     if (alpha < 0 && (nc == 2 || nc == 4)) alpha = nc - 1;
     bool useAlpha = false;
     if (alpha >= 0) {

@@ -316,8 +316,8 @@ VolumeOutputResult writeSpeciesVolumes(const std::string& speciesPath, const fs:
         if (!(cells <= kMaxVoxels)) {
             char buf[200];
             std::snprintf(buf, sizeof buf,
-                          "voxel %g m is too fine for the %s volume (%.3g voxels, over 2·10⁹)",
-                          voxel, name.c_str(), cells);
+                          "%svoxel %g m is too fine for the %s volume (%.3g voxels, over 2·10⁹)",
+                          options.voxel > 0 ? "--" : "", voxel, name.c_str(), cells);
             throw InputError(buf);  // a --voxel too fine
         }
         voxels.push_back(voxel);

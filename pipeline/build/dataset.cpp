@@ -98,6 +98,12 @@ SweepAxis parseSweep(Params& p) {
     return a;
 }
 
+// An error inside a species file, reported at the dataset line that names the file, on one
+// line: "ds.toml:5:8: species[0].file: in tiny.toml:19:9: levels[0].nodes: expected …".
+[[noreturn]] void failInSpeciesFile(const SpeciesEntry& entry, const SpecError& e) {
+    throw SpecError(entry.fileWhere, entry.fileKey, std::string("in ") + e.what());
+}
+
 // [[species]]: each file loaded and checked once, names unique; their bytes join the
 // fingerprint.
 void readSpeciesEntries(Params& p, DatasetSpec& d, std::string& fingerprintBytes) {
@@ -112,7 +118,13 @@ void readSpeciesEntries(Params& p, DatasetSpec& d, std::string& fingerprintBytes
         if (!fs::is_regular_file(resolved)) {
             e.fail("file", "species file not found: " + resolved.string());
         }
-        entry.species = loadSpecies(resolved.lexically_normal().string());
+        entry.fileWhere = e.where("file");
+        entry.fileKey = e.path("file");
+        try {
+            entry.species = loadSpecies(resolved.lexically_normal().string());
+        } catch (const SpecError& err) {
+            failInSpeciesFile(entry, err);
+        }
         entry.count = e.integer("count", Range::closed(0, 1e9));
         e.finish();
         if (!names.insert(entry.species.name).second) {
@@ -228,8 +240,11 @@ void readViews(Params& v, ViewOptions& vo, RenderOptions& ro) {
     vo.fovDeg = v.number("fov_deg", vo.fovDeg, Range::closed(1, 170));
     if (const toml::node* r = v.raw("resolution")) {
         const toml::array* a = r->as_array();
-        auto w = a && a->size() == 2 ? a->get(0)->value<int64_t>() : std::nullopt;
-        auto h = a && a->size() == 2 ? a->get(1)->value<int64_t>() : std::nullopt;
+        // Integers only: value<int64_t>() would also take a whole float such as 64.0.
+        auto w = a && a->size() == 2 && a->get(0)->is_integer() ? a->get(0)->value<int64_t>()
+                                                                : std::nullopt;
+        auto h = a && a->size() == 2 && a->get(1)->is_integer() ? a->get(1)->value<int64_t>()
+                                                                : std::nullopt;
         if (!w || !h || *w < 8 || *h < 8 || *w > 16384 || *h > 16384) {
             v.fail("resolution", "expected [width, height] in whole pixels, 8 to 16384");
         }
@@ -302,7 +317,13 @@ void expandSweepPoints(SpeciesEntry& entry, const std::vector<SweepAxis>& sweeps
                 pt.seedKey += (pt.seedKey.empty() ? "" : ";") + a->path + "=" + a->labels[v];
             }
         }
-        validateSpecies(entry.species, ov.get(), &entry.budget, meshed);
+        try {
+            validateSpecies(entry.species, ov.get(), &entry.budget, meshed);
+        } catch (const SpecError& err) {
+            // A sweep value's own error is already at the sweep, in the dataset file.
+            if (err.where().file != entry.species.path) throw;
+            failInSpeciesFile(entry, err);
+        }
         for (const auto& [path, o] : *ov) {
             if (!o.used) {
                 throw SpecError(o.where, "sweep.path",

@@ -36,6 +36,8 @@ struct SweepPoint {
 struct SpeciesEntry {
     SpeciesFile species;
     BudgetTable budget;  // the dataset's [budget], over the species' own
+    SourcePos fileWhere;  // the entry's `file` key, and its path ("species[2].file"): errors
+    std::string fileKey;  // inside the species file are reported there too
     int64_t count = 0;
     std::vector<SweepPoint> points;  // at least one (the empty point)
 };

@@ -215,7 +215,27 @@ void readGrammarTable(Params& sp, GrammarOptions& o) {
     o.start = o.state(startName);
     for (const std::string& s : stopNames) {
         if (s == startName) failGrammar("stop", "the start state cannot be a stop state");
+        if (o.stop[o.state(s)]) failGrammar("stop", "\"" + s + "\" is listed twice");
         o.stop[o.state(s)] = true;
+    }
+    if (g) g->finish();
+}
+
+// Every stop state a `stop` list names is the output of some rule: a misspelt name would
+// otherwise be accepted and never used.
+void checkStopStatesProduced(Params& sp, const GrammarOptions& o) {
+    std::optional<Params> g = sp.optionalTable("grammar");
+    if (!g || !g->has("stop")) return;  // the default ["t"] may go unused (max_depth grammars)
+    std::vector<bool> produced(o.states.size(), false);
+    for (const auto& alts : o.rules) {
+        for (const GrammarAlternative& a : alts) {
+            for (int t : a.out) produced[t] = true;
+        }
+    }
+    for (size_t s = 0; s < o.states.size(); ++s) {
+        if (o.stop[s] && !produced[s]) {
+            g->fail("stop", "stop state \"" + o.states[s] + "\" is not the output of any rule");
+        }
     }
 }
 
@@ -595,6 +615,7 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
     GrammarOptions o;
     readGrammarTable(sp, o);
     const std::set<std::string> known = readRules(sp, o);
+    checkStopStatesProduced(sp, o);
     readGeometryTables(sp, known, o);
     readParticles(sp, known, o);
     readFruit(sp, known, o);

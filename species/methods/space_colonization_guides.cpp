@@ -178,13 +178,13 @@ std::vector<Vec3> readPolyline(Params& p, const char* key) {
         for (int j = 0; ok && j < 3; ++j) {
             ok = q->get(j)->is_number();
             if (ok) v[j] = q->get(j)->value<double>().value_or(NAN);
-            ok = ok && std::isfinite(v[j]);
+            ok = ok && std::isfinite(v[j]) && std::abs(v[j]) <= kMaxSpecMagnitude;
         }
         if (!ok) {
             throw SpecError(sourceOf(*a->get(i), p.file()), p.path(key),
                             "item " + std::to_string(i) +
-                                ": expected [x, y, z], three finite "
-                                "numbers (metres)");
+                                ": expected [x, y, z], three finite numbers (metres) of "
+                                "magnitude at most 1e9");
         }
         out.push_back(v);
     }

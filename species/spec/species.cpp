@@ -69,6 +69,11 @@ SpeciesFile loadSpecies(const std::string& path) {
         p.fail("name", "expected 1–64 letters, digits, '-' or '_' (it names files), got \"" +
                            s.name + "\"");
     }
+    if (!p.has("method") && s.table->contains("species") && (*s.table)["species"].is_array()) {
+        p.fail("method",
+               "required string missing: this is a dataset file (it has [[species]]), not a "
+               "species file");
+    }
     s.method = p.string("method");
     s.description = p.string("description", "");
     s.habit = readHabit(p);

@@ -223,5 +223,78 @@ TEST(Params, FormatNumberAndSourcePositions) {
               std::string("a.toml:3:7: k.x: bad"));
 }
 
+// Issue 15: `count = 1e9` (a TOML float) was read as the integer 10⁹.
+TEST(Params, IntegerKeysTakeTomlIntegersOnly) {
+    const toml::table t = toml::parse(
+        "whole = 300.0\nexponent = 1e9\nfraction = 2.5\nn = 7\nnan = nan\n"
+        "d = { uniform = [2, 4] }\n");
+    DrawContext draw = drawing(1);
+    Params p(t, "s.toml", "", &draw);
+    EXPECT_EQ(errorOf([&] { p.integer("whole", Range::atLeast(1)); }),
+              "s.toml:1:9: whole: expected an integer, got the float 300.0 (write integers "
+              "without a decimal point or exponent)");
+    EXPECT_EQ(errorOf([&] { p.integer("exponent", 0, Range::closed(0, 1e9)); }),
+              "s.toml:2:12: exponent: expected an integer, got the float 1000000000.0 (write "
+              "integers without a decimal point or exponent)");
+    EXPECT_EQ(errorOf([&] { p.integer("fraction", Range::any()); }),
+              "s.toml:3:12: fraction: expected an integer, got 2.5");
+    EXPECT_EQ(errorOf([&] { p.integer("nan", Range::any()); }),
+              "s.toml:5:7: nan: expected an integer, got nan");
+    EXPECT_EQ(p.integer("n", Range::closed(1, 10)), 7);
+    EXPECT_EQ(p.number("whole", Range::positive()), 300.0);      // a float is a number
+    const int64_t drawn = p.integer("d", Range::closed(0, 10));  // distributions still draw
+    EXPECT_GE(drawn, 2);
+    EXPECT_LE(drawn, 4);
+}
+
+// Issue 15: integers went through a double, so seed = 2⁵³ + 1 became 2⁵³.
+TEST(Params, IntegersAreExactBeyondTwoToThe53) {
+    const toml::table t = toml::parse("seed = 9007199254740993\nbig = 9223372036854775807\n");
+    Params p(t, "s.toml", "", nullptr);
+    EXPECT_EQ(p.integer("seed", Range::closed(0, 9.2e18)), 9007199254740993LL);
+    EXPECT_EQ(errorOf([&] { p.integer("big", Range::closed(1, 5e6)); }),
+              "s.toml:2:7: big: expected an integer in [1, 5000000], got 9223372036854775807");
+}
+
+// Issue 15: 1e299 passed every range without an upper bound and ended in a runtime failure
+// (exit 1: "poissonSample: minDistance is not finite").
+TEST(Params, NumbersWithoutABoundOfTheirOwnAreAtMostOneBillion) {
+    const toml::table t = toml::parse(
+        "huge = 1e299\nneg = -2e9\nok = 1e9\nten = 1e10\nv = [0, 1e300, 0]\n"
+        "u = { uniform = [1, 1e308] }\nn = { normal = [3, 1e300] }\npairs = [[0, 0], [1e10, 1]]\n");
+    DrawContext draw = drawing(1);
+    Params p(t, "s.toml", "", &draw);
+    EXPECT_EQ(errorOf([&] { p.number("huge", Range::positive()); }),
+              "s.toml:1:8: huge: expected a number > 0 of magnitude at most 1e9 (the largest a "
+              "spec number may be), got 1e+299");
+    EXPECT_NE(errorOf([&] { p.number("neg", Range::any()); }).find("magnitude at most 1e9"),
+              std::string::npos);
+    EXPECT_EQ(p.number("ok", Range::positive()), 1e9);
+    EXPECT_EQ(p.number("ten", Range::closed(0, 1e12)), 1e10);  // a range of its own allows more
+    EXPECT_NE(errorOf([&] {
+                  p.vec3("v", {0, 0, 0});
+              })
+                  .find("v[1]: expected a finite number of "
+                        "magnitude at most 1e9"),
+              std::string::npos);
+    EXPECT_NE(errorOf([&] {
+                  p.number("u", Range::positive());
+              }).find("distribution parameters must have magnitude at most 1e9, got 1e+308"),
+              std::string::npos);
+    EXPECT_NE(errorOf([&] { p.number("n", Range::positive()); }).find("magnitude at most 1e9"),
+              std::string::npos);
+    EXPECT_NE(errorOf([&] { p.pairArray("pairs"); }).find("magnitude at most 1e9"),
+              std::string::npos);
+    EXPECT_FALSE(Range::positive().contains(1.5e9));
+    EXPECT_TRUE(Range::closed(0, 9.2e18).contains(9e18));
+}
+
+TEST(Params, SpecErrorsKeepTheirPlace) {
+    const SpecError e(SourcePos{"a.toml", 3, 7}, "k.x", "bad");
+    EXPECT_EQ(e.where().file, "a.toml");
+    EXPECT_EQ(e.where().line, 3);
+    EXPECT_EQ(e.where().column, 7);
+}
+
 }  // namespace
 }  // namespace sylva

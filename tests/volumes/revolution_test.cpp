@@ -373,6 +373,39 @@ TEST(Revolution, SvgErrors) {
     EXPECT_THROW(readSvgStroke((t / "nopath.svg").string(), 0, 1), StrokeError);
 }
 
+// Issue 15: a hostile SVG fails at once instead of filling memory or time: coordinates within
+// 1e9, at most 100000 points after flattening, at most 16 MiB; comments stripped in one pass.
+TEST(Revolution, SvgLimits) {
+    TempDir t;
+    auto errorOf = [&](const std::string& name, const std::string& text) {
+        spit(t / name, text);
+        try {
+            readSvgStroke((t / name).string(), 0, 1);
+        } catch (const StrokeError& e) {
+            return std::string(e.what());
+        }
+        return std::string("(no error)");
+    };
+    EXPECT_NE(errorOf("huge.svg", "<svg><path d=\"M 0 0 L 1e308 1 L 0 5\"/></svg>")
+                  .find("SVG path coordinate 1e+308 (character 9 of the d attribute) is over "
+                        "1e+09 in magnitude"),
+              std::string::npos);
+    std::string curves = "<svg><path d=\"M 0 0";
+    for (int i = 0; i < 6251; ++i) curves += " c 1 1 2 2 " + std::to_string(i % 7 + 1) + " 3";
+    EXPECT_NE(errorOf("curves.svg", curves + "\"/></svg>").find("over 100000 points"),
+              std::string::npos);
+    EXPECT_NE(errorOf("big.svg", std::string((16 << 20) + 1, ' ')).find("at most 16777216"),
+              std::string::npos);
+    // Many comments, one of them hiding a path: the path after them is the one read.
+    std::string comments = "<svg>";
+    for (int i = 0; i < 20000; ++i) comments += "<!-- <path d=\"M 0 0 L 9 9\"/> -->";
+    const fs::path f = t / "comments.svg";
+    spit(f, comments + "<path d=\"M 0 0 L 2 -3 L 0 -6\"/></svg>");
+    const std::vector<Vec2> s = readSvgStroke(f.string(), 0, 6);
+    ASSERT_EQ(s.size(), 3u);
+    expectPoint(s[1], {2, 3});
+}
+
 TEST(Revolution, SvgSourceInASpecResolvesRelativeToTheSpecFile) {
     TempDir t;
     fs::create_directories(t / "sketches");

@@ -1,0 +1,216 @@
+#include "volumes/image_file.h"
+
+#include <OpenImageIO/imageio.h>
+#include <png.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <csetjmp>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+
+namespace sylva {
+
+namespace {
+
+const unsigned char kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+
+[[noreturn]] void fail(const std::string& path, const std::string& why) {
+    throw ImageError("cannot read the image " + path + ": " + why);
+}
+
+std::string oneLine(std::string s) {
+    std::replace(s.begin(), s.end(), '\n', ' ');
+    while (!s.empty() && s.back() == ' ') s.pop_back();
+    return s;
+}
+
+// The header's dimensions against the limits, before anything is allocated for the pixels.
+void checkDimensions(const std::string& path, int64_t w, int64_t h, int64_t channels) {
+    if (w <= 0 || h <= 0) {
+        fail(path,
+             "it declares " + std::to_string(w) + " × " + std::to_string(h) + " pixels: no pixels");
+    }
+    if (w > kMaxImageSide || h > kMaxImageSide || w * h > kMaxImagePixels) {
+        fail(path, "it declares " + std::to_string(w) + " × " + std::to_string(h) +
+                       " pixels; at most " + std::to_string(kMaxImageSide) + " on a side and " +
+                       std::to_string(kMaxImagePixels) + " (4096²) in all");
+    }
+    if (channels < 1 || channels > kMaxImageChannels) {
+        fail(path, "it declares " + std::to_string(channels) + " channels; expected 1 to " +
+                       std::to_string(kMaxImageChannels));
+    }
+}
+
+bool hasPngExtension(const std::string& path) {
+    std::string ext = std::filesystem::path(path).extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return ext == ".png";
+}
+
+uint32_t bigEndian32(const unsigned char* b) {
+    return (uint32_t(b[0]) << 24) | (uint32_t(b[1]) << 16) | (uint32_t(b[2]) << 8) | b[3];
+}
+
+// libpng's callbacks: errors are kept (and end the read through longjmp), warnings (benign
+// problems such as an ancillary chunk's bad CRC, which libpng skips) are dropped, reads past
+// the end of the file are errors. Nothing reaches stderr.
+struct PngSource {
+    std::FILE* file = nullptr;
+    char error[256] = {0};
+    bool truncated = false;
+};
+
+void pngError(png_structp png, png_const_charp message) {
+    auto* s = static_cast<PngSource*>(png_get_error_ptr(png));
+    std::snprintf(s->error, sizeof s->error, "%s", message ? message : "PNG error");
+    std::longjmp(png_jmpbuf(png), 1);
+}
+
+void pngWarning(png_structp, png_const_charp) {}
+
+void pngRead(png_structp png, png_bytep data, png_size_t length) {
+    auto* s = static_cast<PngSource*>(png_get_io_ptr(png));
+    if (std::fread(data, 1, length, s->file) != length) {
+        s->truncated = true;
+        png_error(png, "the file ends too early");
+    }
+}
+
+struct FileCloser {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+};
+
+// Decodes a PNG with the expansions OpenImageIO applies (palette → RGB, grey of 1–4 bits → 8
+// bits, tRNS → alpha), integer samples scaled as OpenImageIO scales them: float(v) · (1/max).
+// The pixel buffers are allocated before setjmp, so a longjmp skips no destructor.
+ImageFile readPng(const std::string& path, std::FILE* file, const unsigned char header[33]) {
+    // IHDR is the first chunk, 13 bytes: width, height, bit depth, colour type, ….
+    if (bigEndian32(header + 8) != 13 || std::memcmp(header + 12, "IHDR", 4) != 0) {
+        fail(path, "corrupt PNG: the first chunk is not IHDR");
+    }
+    const int64_t w = bigEndian32(header + 16), h = bigEndian32(header + 20);
+    const int colourType = header[25];
+    const int64_t declaredChannels = colourType == 2   ? 3
+                                     : colourType == 4 ? 2
+                                     : colourType == 6 ? 4
+                                     : colourType == 3 ? 4
+                                                       : 1;
+    checkDimensions(path, w, h, declaredChannels);
+
+    ImageFile img;
+    std::vector<unsigned char> rows;
+    std::vector<png_bytep> rowPointers;
+    PngSource source;
+    source.file = file;
+    std::rewind(file);
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &source, pngError, pngWarning);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!png || !info) {
+        png_destroy_read_struct(png ? &png : nullptr, nullptr, nullptr);
+        fail(path, "out of memory");
+    }
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_read_struct(&png, &info, nullptr);
+        fail(path, source.truncated
+                       ? "truncated: the file ends before the PNG's end (its IEND chunk)"
+                       : std::string("corrupt PNG data: ") + source.error);
+    }
+    png_set_read_fn(png, &source, pngRead);
+    png_set_user_limits(png, kMaxImageSide, kMaxImageSide);
+    png_set_chunk_malloc_max(png, 8u << 20);  // text and other ancillary chunks: 8 MiB each
+    png_set_keep_unknown_chunks(png, PNG_HANDLE_CHUNK_NEVER, nullptr, 0);
+    png_read_info(png, info);
+    const int bitDepth = png_get_bit_depth(png, info);
+    const int type = png_get_color_type(png, info);
+    if (type == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
+    if (type == PNG_COLOR_TYPE_GRAY && bitDepth < 8) png_set_expand_gray_1_2_4_to_8(png);
+    if (png_get_valid(png, info, PNG_INFO_tRNS)) png_set_tRNS_to_alpha(png);
+    const uint16_t probe = 1;
+    if (bitDepth == 16 && *reinterpret_cast<const uint8_t*>(&probe) == 1) png_set_swap(png);
+    png_set_interlace_handling(png);
+    png_read_update_info(png, info);
+    img.width = static_cast<int>(png_get_image_width(png, info));
+    img.height = static_cast<int>(png_get_image_height(png, info));
+    img.channels = png_get_channels(png, info);
+    img.alphaChannel = (img.channels == 2 || img.channels == 4) ? img.channels - 1 : -1;
+    const size_t rowBytes = png_get_rowbytes(png, info);
+    rows.resize(rowBytes * img.height);
+    rowPointers.resize(img.height);
+    for (int y = 0; y < img.height; ++y) rowPointers[y] = rows.data() + rowBytes * y;
+    png_read_image(png, rowPointers.data());
+    png_read_end(png, nullptr);  // the chunks after the image data, up to IEND
+    png_destroy_read_struct(&png, &info, nullptr);
+
+    const size_t samples = static_cast<size_t>(img.width) * img.height * img.channels;
+    img.pixels.resize(samples);
+    if (bitDepth == 16) {
+        const float scale = 1.0f / 65535.0f;
+        for (int y = 0; y < img.height; ++y) {
+            const auto* src = reinterpret_cast<const uint16_t*>(rowPointers[y]);
+            float* dst = img.pixels.data() + static_cast<size_t>(y) * img.width * img.channels;
+            for (int i = 0; i < img.width * img.channels; ++i) dst[i] = float(src[i]) * scale;
+        }
+    } else {
+        const float scale = 1.0f / 255.0f;
+        for (int y = 0; y < img.height; ++y) {
+            const png_bytep src = rowPointers[y];
+            float* dst = img.pixels.data() + static_cast<size_t>(y) * img.width * img.channels;
+            for (int i = 0; i < img.width * img.channels; ++i) dst[i] = float(src[i]) * scale;
+        }
+    }
+    return img;
+}
+
+// Any other format OpenImageIO reads: the header first (dimensions checked), then the pixels.
+ImageFile readWithOiio(const std::string& path) {
+    OIIO::ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = OIIO::ImageInput::open(path, &config);
+    if (!in) {
+        const std::string why = oneLine(OIIO::geterror());
+        fail(path, why.empty() ? "no image reader recognises it" : why);
+    }
+    const OIIO::ImageSpec& spec = in->spec();
+    checkDimensions(path, spec.width, spec.height, spec.nchannels);
+    if (spec.depth > 1)
+        fail(path, "it is a volume image (depth " + std::to_string(spec.depth) + ")");
+    ImageFile img;
+    img.width = spec.width;
+    img.height = spec.height;
+    img.channels = spec.nchannels;
+    img.alphaChannel = spec.alpha_channel < spec.nchannels ? spec.alpha_channel : -1;
+    img.pixels.resize(static_cast<size_t>(img.width) * img.height * img.channels);
+    if (!in->read_image(0, 0, 0, img.channels, OIIO::TypeDesc::FLOAT, img.pixels.data())) {
+        const std::string why = oneLine(in->geterror());
+        fail(path, why.empty() ? "its pixels cannot be read" : why);
+    }
+    in->close();
+    return img;
+}
+
+}  // namespace
+
+ImageFile readImageFile(const std::string& path) {
+    std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
+    if (!file) fail(path, std::strerror(errno));
+    unsigned char header[33] = {0};
+    const size_t got = std::fread(header, 1, sizeof header, file.get());
+    if (got == 0) fail(path, "the file is empty");
+    if (got >= 8 && std::memcmp(header, kPngSignature, 8) == 0) {
+        if (got < sizeof header) {
+            fail(path, "truncated: the file ends inside the PNG header");
+        }
+        return readPng(path, file.get(), header);
+    }
+    if (hasPngExtension(path)) {
+        fail(path, "not a PNG file (it does not start with the PNG signature)");
+    }
+    file.reset();
+    return readWithOiio(path);
+}
+
+}  // namespace sylva

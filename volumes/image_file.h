@@ -1,0 +1,49 @@
+// The images a species file names — silhouette masks, canopy layer images, drawn strokes —
+// read as float pixels after checks that come before any pixel is decoded: the file is not
+// empty, its format is recognised, its header's dimensions are within the limits below, and
+// (PNG) its data is complete and uncorrupted (every chunk whole, CRCs and the zlib stream
+// correct, up to IEND). Nothing is printed: libpng's and OpenImageIO's messages become the
+// one-line ImageError, which the spec reader reports at the key naming the file.
+//
+// PNG, the format of every shipped sketch, is decoded with libpng directly (OpenImageIO 2.4's
+// PNG reader installs no libpng error handler, so a corrupt file printed libpng's own lines on
+// stderr); the values equal OpenImageIO's float read (tests/volumes/image_file_test.cpp).
+// Other formats (JPEG, TIFF, EXR, …) go through OpenImageIO, their header checked first.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace sylva {
+
+// At most this many pixels on either side of an image a spec names …
+constexpr int kMaxImageSide = 16384;
+// … and this many in all (4096², 16.8 megapixels: about 270 MB as float RGBA).
+constexpr int64_t kMaxImagePixels = int64_t(4096) * 4096;
+// Channels (grey, grey + alpha, RGB, RGBA, or more in an EXR).
+constexpr int kMaxImageChannels = 16;
+
+// An image that cannot be used; the message is one line naming the file.
+class ImageError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+struct ImageFile {
+    int width = 0, height = 0, channels = 0;
+    int alphaChannel = -1;  // -1: none (PNG: the last channel of grey + alpha and RGBA)
+    // Row-major, top row first, channels interleaved; integer formats scaled to [0, 1]
+    // (v / 255, v / 65535); alpha unassociated (colour as stored, not multiplied by alpha).
+    std::vector<float> pixels;
+
+    float at(int column, int row, int channel) const {
+        return pixels[(static_cast<size_t>(row) * width + column) * channels + channel];
+    }
+};
+
+// Reads the image at `path`. Throws ImageError ("cannot read the image <path>: <why>").
+ImageFile readImageFile(const std::string& path);
+
+}  // namespace sylva
