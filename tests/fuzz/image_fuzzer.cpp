@@ -17,8 +17,8 @@ std::unique_ptr<tbb::global_control> gThreads;
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
     gBox = std::make_unique<sylva::fuzz::Sandbox>(SYLVA_SOURCE_DIR);
-    gThreads = std::make_unique<tbb::global_control>(
-        tbb::global_control::max_allowed_parallelism, 1);
+    gThreads =
+        std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, 1);
     std::atexit([] { gBox.reset(); });
     return 0;
 }

@@ -90,7 +90,10 @@ def main():
                     images += 1
     with open(os.path.join(out, "spec.dict"), "w", encoding="utf-8") as f:
         for w in sorted(words) + TOML_TOKENS:
-            esc = w.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\x0A")
+            # libFuzzer's dictionary: printable ASCII, everything else as \xNN.
+            esc = "".join(
+                chr(b) if 0x20 <= b < 0x7F and chr(b) not in '"\\' else "\\x%02X" % b
+                for b in w.encode("utf-8"))
             f.write('"%s"\n' % esc)
     print("corpus: %d spec files, %d images, %d dictionary words" % (n, images, len(words)))
 

@@ -43,8 +43,8 @@ class Sandbox {
     explicit Sandbox(const std::filesystem::path& source) {
         namespace fs = std::filesystem;
         static int counter = 0;
-        dir_ = fs::temp_directory_path() / ("sylva-fuzz-" + std::to_string(::getpid()) + "-" +
-                                            std::to_string(counter++));
+        dir_ = fs::temp_directory_path() /
+               ("sylva-fuzz-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
         fs::remove_all(dir_);
         fs::create_directories(dir_ / "in");
         for (const char* d : {"species", "datasets", "tests", "bench"}) {
