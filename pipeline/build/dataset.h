@@ -35,7 +35,7 @@ struct SweepPoint {
 
 struct SpeciesEntry {
     SpeciesFile species;
-    BudgetTable budget;  // the dataset's [budget], over the species' own
+    BudgetTable budget;   // the dataset's [budget], over the species' own
     SourcePos fileWhere;  // the entry's `file` key, and its path ("species[2].file"): errors
     std::string fileKey;  // inside the species file are reported there too
     int64_t count = 0;

@@ -1,0 +1,81 @@
+// The fuzz targets' crashers, kept as regression fixtures (tests/data/fuzz/<target>/, written
+// there by scripts/fuzz): each is read exactly as the fuzzer read it (spec_input.h) and must
+// give its recorded outcome — accepted, or sylva's one-line error saying what was wrong —
+// where, before its fix, it crashed, tripped a sanitizer, threw another exception or hung.
+// Every fixture needs a row in kExpected, so a new crasher cannot sit there untriaged.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "tests/fuzz/spec_input.h"
+#include "tests/test_support.h"
+
+namespace sylva {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kFixtures = fs::path(SYLVA_SOURCE_DIR) / "tests" / "data" / "fuzz";
+
+// Fixture (relative to tests/data/fuzz/) → what reading it must give: "" when the readers
+// accept it, else a fragment of the one-line error.
+const std::map<std::string, std::string> kExpected = {
+    // toml++'s description quotes the bad text, here "fals" and the newline after it.
+    {"spec/toml-syntax-error-quotes-a-newline",
+     ":50:13: TOML syntax error: Error while parsing boolean: expected 'false', saw 'fals\\n'"},
+};
+
+std::vector<fs::path> fixtures(const std::string& target) {
+    std::vector<fs::path> out;
+    if (!fs::is_directory(kFixtures / target)) return out;
+    for (const auto& e : fs::directory_iterator(kFixtures / target)) {
+        if (e.is_regular_file() && e.path().filename().string()[0] != '.') out.push_back(e.path());
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+void checkFixtures(const std::string& target) {
+    const fuzz::Sandbox box(SYLVA_SOURCE_DIR);
+    for (const fs::path& f : fixtures(target)) {
+        const std::string name = target + "/" + f.filename().string();
+        SCOPED_TRACE(name);
+        auto it = kExpected.find(name);
+        ASSERT_NE(it, kExpected.end()) << "a fixture without an expected outcome: triage it";
+        const std::string bytes = test::slurp(f);
+        const auto* data = reinterpret_cast<const uint8_t*>(bytes.data());
+        fuzz::Outcome o;
+        try {
+            o = target == "spec" ? fuzz::readSpec(box, data, bytes.size())
+                                 : fuzz::readImage(box, data, bytes.size());
+        } catch (const std::exception& e) {
+            ADD_FAILURE() << "escaped the readers: " << e.what();
+            continue;
+        }
+        if (it->second.empty()) {
+            EXPECT_TRUE(o.accepted) << o.message;
+        } else {
+            EXPECT_FALSE(o.accepted && target == "spec");
+            EXPECT_TRUE(fuzz::isOneLine(o.message)) << o.message;
+            EXPECT_NE(o.message.find(it->second), std::string::npos) << o.message;
+        }
+    }
+}
+
+TEST(FuzzFixtures, EverySpecCrasherIsAcceptedOrOneLineSpecError) { checkFixtures("spec"); }
+
+TEST(FuzzFixtures, EveryImageCrasherIsAcceptedOrTheReadersError) { checkFixtures("image"); }
+
+// Every fixture has a row, and every row a fixture.
+TEST(FuzzFixtures, ExpectationsNameExistingFixtures) {
+    for (const auto& [name, expected] : kExpected) {
+        EXPECT_TRUE(fs::is_regular_file(kFixtures / name)) << name;
+    }
+}
+
+}  // namespace
+}  // namespace sylva
