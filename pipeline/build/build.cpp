@@ -16,11 +16,11 @@
 #include <cstdio>
 #include <fstream>
 #include <mutex>
-#include <set>
 #include <sstream>
 
 #include "pipeline/build/instance.h"
 #include "pipeline/build/progress.h"
+#include "pipeline/build/resume.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/view_writers.h"
 #include "volumes/versions.h"
@@ -30,8 +30,12 @@ namespace sylva {
 namespace fs = std::filesystem;
 
 std::pair<size_t, size_t> shardRange(size_t jobs, int index, int count) {
-    size_t lo = jobs * static_cast<size_t>(index) / static_cast<size_t>(count);
-    size_t hi = jobs * static_cast<size_t>(index + 1) / static_cast<size_t>(count);
+    // In 128 bits: jobs (≤ kMaxInstances) × index (< 2³¹) overflows 64.
+    using Wide = unsigned __int128;
+    const auto lo =
+        static_cast<size_t>(Wide{jobs} * static_cast<Wide>(index) / static_cast<Wide>(count));
+    const auto hi =
+        static_cast<size_t>(Wide{jobs} * static_cast<Wide>(index + 1) / static_cast<Wide>(count));
     return {lo, hi};
 }
 
@@ -90,22 +94,23 @@ auto stageBody(F stage) {
     };
 }
 
-// Per species, a sheet of the first views of its first K recorded instances.
-void writeSpeciesSheets(const DatasetSpec& spec, const std::vector<InstanceJob>& jobs,
-                        const std::set<std::string>& recorded, const fs::path& out,
-                        const std::string& suffix) {
+// Per species, a sheet of the first views of its first K recorded instances of [lo, hi).
+void writeSpeciesSheets(const DatasetSpec& spec, const DatasetInstances& instances,
+                        const InstanceSet& recorded, int64_t lo, int64_t hi, const fs::path& out) {
     const int k = spec.outputs.speciesSheet;
     if (k <= 0 || spec.outputs.views.count <= 0) return;
-    for (const SpeciesEntry& e : spec.species) {
+    for (size_t s = 0; s < spec.species.size(); ++s) {
+        const auto [begin, end] = instances.speciesRange(s);
+        const int64_t stop = std::min(hi, end);
         std::vector<fs::path> dirs;
-        for (const InstanceJob& j : jobs) {
-            if (j.entry != &e || !recorded.count(j.id)) continue;
-            const fs::path dir = out / instanceDir(j);
+        for (int64_t i = recorded.nextPresent(std::max(lo, begin), stop); i < stop;
+             i = recorded.nextPresent(i + 1, stop)) {
+            const fs::path dir = out / instanceDir(instances[i]);
             if (fs::exists(dir / "views" / "000.png")) dirs.push_back(dir);
             if (static_cast<int>(dirs.size()) >= k) break;
         }
         if (dirs.empty()) continue;
-        writeSpeciesSheet(out / "contact" / (e.species.name + ".png"), dirs);
+        writeSpeciesSheet(out / "contact" / (spec.species[s].species.name + ".png"), dirs);
     }
 }
 
@@ -162,15 +167,19 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
     const int threads = o.threads > 0 ? o.threads : tbb::info::default_concurrency();
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
 
-    std::vector<InstanceJob> all = expandJobs(spec);
-    auto [lo, hi] = shardRange(all.size(), o.shardIndex, o.shardCount);
+    // Instances are computed from their position as the source reaches them: nothing here is
+    // sized by the dataset's count (resume holds runs of recorded positions, InstanceSet).
+    const DatasetInstances instances(spec);
+    const auto [shardLo, shardHi] =
+        shardRange(static_cast<size_t>(instances.size()), o.shardIndex, o.shardCount);
+    const auto lo = static_cast<int64_t>(shardLo), hi = static_cast<int64_t>(shardHi);
 
     fs::create_directories(o.out);
     const fs::path manifestPath = o.out / manifestName(o.shardIndex, o.shardCount);
     const fs::path datasetPath = o.out / datasetJsonName(o.shardIndex, o.shardCount);
 
-    // Resume: the ids already recorded (a partial last line from a kill is dropped).
-    std::set<std::string> done;
+    // Resume: the instances already recorded (a partial last line from a kill is dropped).
+    InstanceSet done;
     const bool resuming = fs::exists(manifestPath);
     if (resuming) {
         if (fs::exists(datasetPath)) {
@@ -183,44 +192,19 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
                                     "); use another --out");
             }
         }
-        for (const std::string& line : AppendLog::readCompleteLines(manifestPath)) {
-            auto j = nlohmann::json::parse(line, nullptr, false);
-            if (!j.is_discarded() && j.contains("id")) done.insert(j["id"].get<std::string>());
-        }
+        done = recordedInstances(manifestPath, instances);
     }
-    std::vector<const InstanceJob*> todo;
     BuildSummary summary;
-    summary.total = static_cast<int64_t>(hi - lo);
-    for (size_t k = lo; k < hi; ++k) {
-        if (done.count(all[k].id))
-            ++summary.skipped;
-        else
-            todo.push_back(&all[k]);
-    }
-    if (resuming) {
-        // A kill mid-write leaves "<file>.tmp.<pid>.…" siblings in the directories of the
-        // instances not yet recorded: remove those of this shard's remaining instances (never
-        // another shard's, whose process may be writing there right now).
-        for (const InstanceJob* j : todo) {
-            const fs::path dir = o.out / instanceDir(*j);
-            std::error_code ec;
-            std::vector<fs::path> stale;  // (views/ too: collect first, then remove)
-            for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end;
-                 it.increment(ec)) {
-                if (it->path().filename().string().find(".tmp.") != std::string::npos) {
-                    stale.push_back(it->path());
-                }
-            }
-            for (const fs::path& p : stale) {
-                std::error_code ignored;
-                fs::remove(p, ignored);
-            }
-        }
-    }
-    writeDatasetJson(spec, o, datasetPath, "running", summary, threads, all.size());
+    summary.total = hi - lo;
+    summary.skipped = done.countIn(lo, hi);
+    // A kill mid-write leaves "<file>.tmp.<pid>.…" siblings in the directories of the instances
+    // not yet recorded: remove those of this shard's remaining instances.
+    if (resuming) removeStaleTemporaries(o.out, instances, done, lo, hi);
+    writeDatasetJson(spec, o, datasetPath, "running", summary, threads,
+                     static_cast<size_t>(instances.size()));
 
     AppendLog manifest(manifestPath);
-    Progress progress(static_cast<int64_t>(todo.size()), o.progress);
+    Progress progress(summary.total - summary.skipped, o.progress);
     const int64_t abortAfter = [] {
         const char* e = std::getenv("SYLVA_TEST_ABORT_AFTER");  // tests: simulate a kill
         return e ? std::atoll(e) : -1;
@@ -228,16 +212,18 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
 
     using namespace tbb::flow;
     graph g;
-    size_t next = 0;
+    int64_t next = lo;  // the next position to consider
+    size_t seq = 0;
     input_node<Message> source(g, [&](tbb::flow_control& fc) -> Message {
-        if (next >= todo.size()) {
+        next = done.nextMissing(next, hi);  // skip what is recorded, a run at a time
+        if (next >= hi) {
             fc.stop();
             return {};
         }
         Message m;
-        m.seq = next;
+        m.seq = seq++;
         m.work = std::make_shared<InstanceWork>();
-        m.work->job = todo[next++];
+        m.work->job = instances[next++];
         return m;
     });
     const size_t inFlight = o.maxInFlight > 0 ? o.maxInFlight : 4 * static_cast<size_t>(threads);
@@ -264,13 +250,13 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
         const InstanceWork& w = *m.work;
         if (w.error.empty()) {
             manifest.append(w.record.dump());
-            done.insert(w.job->id);
+            done.insert(w.job.position);
             ++summary.built;
             if (abortAfter >= 0 && summary.built >= abortAfter) std::_Exit(137);
         } else {
             ++failed;
-            std::fprintf(stderr, "%ssylva: %s: %s\n", isatty(2) ? "\r\033[K" : "",
-                         w.job->id.c_str(), w.error.c_str());
+            std::fprintf(stderr, "%ssylva: %s: %s\n", isatty(2) ? "\r\033[K" : "", w.job.id.c_str(),
+                         w.error.c_str());
         }
         progress.tick(summary.built + failed, failed);
         return continue_msg();
@@ -286,13 +272,13 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
     source.activate();
     g.wait_for_all();
 
-    writeSpeciesSheets(spec, all, done, o.out, shardSuffix(o.shardIndex, o.shardCount));
+    writeSpeciesSheets(spec, instances, done, lo, hi, o.out);
     summary.failed = failed;
     summary.wallSeconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     progress.finish(summary.built + failed, failed);
     writeDatasetJson(spec, o, datasetPath, failed ? "incomplete" : "complete", summary, threads,
-                     all.size());
+                     static_cast<size_t>(instances.size()));
     return summary;
 }
 
