@@ -645,7 +645,7 @@ static void SpeciesTree(benchmark::State& state, const std::string& file) {
     int64_t trees = 0;
     for (auto _ : state) {
         InstanceWork w;
-        w.job = &job;
+        w.job = job;
         growStage(w);
         meshStage(w, outputs, fs::path());
         renderStage(w, outputs);

@@ -105,9 +105,9 @@ int runValidate(const std::string& path) {
     toml::table t = parseTomlFile(path);
     if (isDatasetFile(t)) {
         DatasetSpec spec = loadDataset(path);
-        size_t jobs = expandJobs(spec).size();
-        std::printf("%s: ok — dataset \"%s\", %zu species, %zu instances\n", path.c_str(),
-                    spec.name.c_str(), spec.species.size(), jobs);
+        const int64_t instances = DatasetInstances(spec).size();  // computed, not listed
+        std::printf("%s: ok — dataset \"%s\", %zu species, %lld instances\n", path.c_str(),
+                    spec.name.c_str(), spec.species.size(), static_cast<long long>(instances));
     } else {
         SpeciesFile s = loadSpecies(path);
         validateSpecies(s, nullptr);

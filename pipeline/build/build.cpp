@@ -27,6 +27,7 @@
 #include "pipeline/build/manifest_repair.h"
 #include "pipeline/build/output_lock.h"
 #include "pipeline/build/progress.h"
+#include "pipeline/build/resume.h"
 #include "pipeline/build/run_log.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/view_writers.h"
@@ -37,8 +38,12 @@ namespace sylva {
 namespace fs = std::filesystem;
 
 std::pair<size_t, size_t> shardRange(size_t jobs, int index, int count) {
-    size_t lo = jobs * static_cast<size_t>(index) / static_cast<size_t>(count);
-    size_t hi = jobs * static_cast<size_t>(index + 1) / static_cast<size_t>(count);
+    // In 128 bits: jobs (≤ kMaxInstances) × index (< 2³¹) overflows 64.
+    using Wide = unsigned __int128;
+    const auto lo =
+        static_cast<size_t>(Wide{jobs} * static_cast<Wide>(index) / static_cast<Wide>(count));
+    const auto hi =
+        static_cast<size_t>(Wide{jobs} * static_cast<Wide>(index + 1) / static_cast<Wide>(count));
     return {lo, hi};
 }
 
@@ -135,7 +140,7 @@ auto stageBody(F stage, StopState& stop) {
             stop.note(e);
         } catch (const std::bad_alloc&) {
             m.discarded = true;
-            stop.note(ENOMEM, "out of memory while building " + m.work->job->id);
+            stop.note(ENOMEM, "out of memory while building " + m.work->job.id);
         } catch (const std::exception& e) {
             m.work->error = e.what();
         }
@@ -146,21 +151,23 @@ auto stageBody(F stage, StopState& stop) {
 // Per species, a sheet of the first views of its first K recorded instances
 // (contact/<species>.png; contact/<species>.shard-I-of-N.png for a shard, whose instances are
 // only a block of the dataset's).
-void writeSpeciesSheets(const DatasetSpec& spec, const std::vector<InstanceJob>& jobs,
-                        const std::set<std::string>& recorded, const fs::path& out,
+void writeSpeciesSheets(const DatasetSpec& spec, const DatasetInstances& instances,
+                        const InstanceSet& recorded, int64_t lo, int64_t hi, const fs::path& out,
                         const std::string& suffix) {
     const int k = spec.outputs.speciesSheet;
     if (k <= 0 || spec.outputs.views.count <= 0) return;
-    for (const SpeciesEntry& e : spec.species) {
+    for (size_t s = 0; s < spec.species.size(); ++s) {
+        const auto [begin, end] = instances.speciesRange(s);
+        const int64_t stop = std::min(hi, end);
         std::vector<fs::path> dirs;
-        for (const InstanceJob& j : jobs) {
-            if (j.entry != &e || !recorded.count(j.id)) continue;
-            const fs::path dir = out / instanceDir(j);
+        for (int64_t i = recorded.nextPresent(std::max(lo, begin), stop); i < stop;
+             i = recorded.nextPresent(i + 1, stop)) {
+            const fs::path dir = out / instanceDir(instances[i]);
             if (fs::exists(dir / "views" / "000.png")) dirs.push_back(dir);
             if (static_cast<int>(dirs.size()) >= k) break;
         }
         if (dirs.empty()) continue;
-        writeSpeciesSheet(out / "contact" / (e.species.name + suffix + ".png"), dirs);
+        writeSpeciesSheet(out / "contact" / (spec.species[s].species.name + suffix + ".png"), dirs);
     }
 }
 
@@ -200,25 +207,11 @@ void writeDatasetJson(const DatasetSpec& spec, const BuildOptions& o, const fs::
     writeFileAtomic(file, d.dump(2) + "\n");
 }
 
-// Removes what a killed run of this shard left half-written: the temp siblings
-// ("<file>.tmp.<pid>.…") in the directories of the instances still to build, and those of the
-// shard's own top-level files. Under the shard's lock no other process writes there, so every
-// such file is stale.
-void removeStaleTempFiles(const fs::path& out, const std::vector<const InstanceJob*>& todo,
-                          const std::vector<std::string>& ownFiles) {
-    auto isTemp = [](const fs::path& p) {
-        return p.filename().string().find(".tmp.") != std::string::npos;
-    };
+// Removes the temp siblings ("<file>.tmp.<pid>.…") of the shard's own top-level files that a
+// killed run left (those in the instance directories: removeStaleTemporaries, resume.h). Under
+// the shard's lock no other process writes there, so every such file is stale.
+void removeStaleOwnTempFiles(const fs::path& out, const std::vector<std::string>& ownFiles) {
     std::error_code ec;
-    for (const InstanceJob* j : todo) {
-        const fs::path dir = out / instanceDir(*j);
-        std::vector<fs::path> stale;  // (views/ too: collect first, then remove)
-        for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end;
-             it.increment(ec)) {
-            if (isTemp(it->path())) stale.push_back(it->path());
-        }
-        for (const fs::path& p : stale) fs::remove(p, ec);
-    }
     for (const std::string& f : ownFiles) {
         const fs::path target = out / f;
         std::vector<fs::path> stale;
@@ -265,8 +258,8 @@ struct BuildState {
 
 // The build of one shard into its locked directory; a ResourceError anywhere (or one noted by
 // a stage) leaves st.stop set for buildDataset to report.
-void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vector<InstanceJob>& all,
-                size_t lo, size_t hi, int threads, RunLog& runs, BuildState& st) {
+void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetInstances& instances,
+                int64_t lo, int64_t hi, int threads, RunLog& runs, BuildState& st) {
     BuildSummary& summary = st.summary;
     StopState& stop = st.stop;
     int64_t& failed = st.failed;
@@ -274,7 +267,6 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vecto
     const fs::path manifestPath = o.out / manifestName(o.shardIndex, o.shardCount);
     const fs::path datasetPath = o.out / datasetJsonName(o.shardIndex, o.shardCount);
     const std::string suffix = shardSuffix(o.shardIndex, o.shardCount);
-    std::set<std::string> done;
     auto recorded = [&] { return st.recorded(); };
     if (fs::exists(datasetPath)) {
         auto old = nlohmann::json::parse(std::ifstream(datasetPath), nullptr, false);
@@ -286,45 +278,42 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vecto
                                 "); use another --out");
         }
     }
-    // Resume: the instances already recorded. A torn last line (a kill mid-append), and
-    // duplicate or out-of-order records (two builds at once, before builds took a lock),
-    // are repaired first: the first complete record of each id, in job order.
-    std::unordered_map<std::string, size_t> position;
-    position.reserve(hi - lo);
-    for (size_t k = lo; k < hi; ++k) position.emplace(all[k].id, k - lo);
+    // Resume: the instances already recorded, streamed from the manifest into runs of
+    // positions (nothing held per instance). A manifest that is not a list of this shard's
+    // records in job order — duplicate or out-of-order records (two builds at once, before
+    // builds took a lock), or a kill while a rerun filled a gap — is repaired first: the first
+    // complete record of each id, in job order (held in memory, once).
     auto positionOf = [&](const std::string& id) -> std::optional<size_t> {
-        auto it = position.find(id);
-        if (it == position.end()) return std::nullopt;
-        return it->second;
+        const std::optional<int64_t> p = instances.find(id);
+        if (!p || *p < lo || *p >= hi) return std::nullopt;
+        return static_cast<size_t>(*p - lo);
     };
-    const ManifestRepair repair = repairManifest(manifestPath, positionOf);
-    // Records appended now land after the recorded ones: out of job order when an earlier
-    // run left a gap (a failed instance) that this run fills.
-    size_t lastRecorded = 0;
-    for (const std::string& id : repair.ids) lastRecorded = std::max(lastRecorded, position[id]);
-    bool fillsAGap = false;
-    if (repair.duplicates || repair.reordered || repair.unreadable > (repair.tornLast ? 1 : 0)) {
+    ManifestOrder order = scanManifestOrder(manifestPath, instances, lo, hi);
+    if (!order.inOrder) {
+        const ManifestRepair repair = repairManifest(manifestPath, positionOf);
         std::fprintf(stderr,
                      "sylva: build: repaired %s: %zu records kept, %zu duplicates and %zu "
                      "unreadable lines dropped%s\n",
                      manifestPath.string().c_str(), repair.ids.size(), repair.duplicates,
                      repair.unreadable, repair.reordered ? ", put back in job order" : "");
+        order.last =
+            repair.ids.empty() ? -1 : lo + static_cast<int64_t>(*positionOf(repair.ids.back()));
     }
-    done.insert(repair.ids.begin(), repair.ids.end());
-    std::vector<const InstanceJob*> todo;
-    for (size_t k = lo; k < hi; ++k) {
-        if (done.count(all[k].id))
-            ++summary.skipped;
-        else
-            todo.push_back(&all[k]);
-    }
+    // Records appended now land after the recorded ones: out of job order when an earlier
+    // run left a gap (a failed instance) that this run fills.
+    const int64_t lastRecorded = order.last;
+    bool fillsAGap = false;
+    InstanceSet done = recordedInstances(manifestPath, instances);  // (cuts a torn last line)
+    std::mutex doneMutex;  // the source reads `done` while the recorder adds to it
+    summary.skipped = done.countIn(lo, hi);
+    removeStaleTemporaries(o.out, instances, done, lo, hi);
     std::vector<std::string> ownFiles = {manifestName(o.shardIndex, o.shardCount),
                                          datasetJsonName(o.shardIndex, o.shardCount),
                                          runLogName(o.shardIndex, o.shardCount)};
     for (const SpeciesEntry& e : spec.species) {
         ownFiles.push_back("contact/" + e.species.name + suffix + ".png");
     }
-    removeStaleTempFiles(o.out, todo, ownFiles);
+    removeStaleOwnTempFiles(o.out, ownFiles);
 
     run["shard"] = {{"index", o.shardIndex}, {"count", o.shardCount}};
     run["threads"] = threads;
@@ -333,10 +322,11 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vecto
     run["already_built"] = summary.skipped;
     runs.start(run, summary.skipped);
     st.runStarted = true;
-    writeDatasetJson(spec, o, datasetPath, "running", summary.total, recorded(), all.size());
+    writeDatasetJson(spec, o, datasetPath, "running", summary.total, recorded(),
+                     static_cast<size_t>(instances.size()));
 
     AppendLog manifest(manifestPath);
-    Progress progress(static_cast<int64_t>(todo.size()), o.progress);
+    Progress progress(summary.total - summary.skipped, o.progress);
     const int64_t abortAfter = [] {
         const char* e = std::getenv("SYLVA_TEST_ABORT_AFTER");  // tests: simulate a kill
         return e ? std::atoll(e) : -1;
@@ -344,16 +334,21 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vecto
 
     using namespace tbb::flow;
     graph g;
-    size_t next = 0;
+    int64_t next = lo;  // the next position to consider
+    size_t seq = 0;
     input_node<Message> source(g, [&](tbb::flow_control& fc) -> Message {
-        if (next >= todo.size() || stop.requested) {
+        if (!stop.requested) {
+            std::lock_guard<std::mutex> hold(doneMutex);
+            next = done.nextMissing(next, hi);  // skip what is recorded, a run at a time
+        }
+        if (next >= hi || stop.requested) {
             fc.stop();
             return {};
         }
         Message m;
-        m.seq = next;
+        m.seq = seq++;
         m.work = std::make_shared<InstanceWork>();
-        m.work->job = todo[next++];
+        m.work->job = instances[next++];
         return m;
     });
     const size_t inFlight = o.maxInFlight > 0 ? o.maxInFlight : 4 * static_cast<size_t>(threads);
@@ -375,8 +370,8 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vecto
         return m;
     });
     sequencer_node<Message> order(g, [](const Message& m) { return m.seq; });
-    bool recording = true;  // until the first instance dropped by a stop, in job order
-    std::vector<const InstanceJob*> dropped;
+    bool recording = true;             // until the first instance dropped by a stop, in job order
+    std::vector<InstanceJob> dropped;  // at most the instances in flight
     function_node<Message, continue_msg> record(g, serial, [&](const Message& m) {
         const InstanceWork& w = *m.work;
         if (!recording || m.discarded) {
@@ -393,17 +388,20 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vecto
                 dropped.push_back(w.job);
                 return continue_msg();
             }
-            done.insert(w.job->id);
-            if (!repair.ids.empty() && position[w.job->id] < lastRecorded) fillsAGap = true;
+            {
+                std::lock_guard<std::mutex> hold(doneMutex);
+                done.insert(w.job.position);
+            }
+            if (w.job.position < lastRecorded) fillsAGap = true;
             ++summary.built;
             if (abortAfter >= 0 && summary.built >= abortAfter) std::_Exit(137);
         } else {
             ++failed;
             if (summary.failedIds.size() < BuildSummary::kMaxFailedIds) {
-                summary.failedIds.push_back(w.job->id);
+                summary.failedIds.push_back(w.job.id);
             }
-            std::fprintf(stderr, "%ssylva: %s: %s\n", isatty(2) ? "\r\033[K" : "",
-                         w.job->id.c_str(), w.error.c_str());
+            std::fprintf(stderr, "%ssylva: %s: %s\n", isatty(2) ? "\r\033[K" : "", w.job.id.c_str(),
+                         w.error.c_str());
         }
         progress.tick(summary.built + failed, failed);
         return continue_msg();
@@ -423,10 +421,10 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const std::vecto
         // What the dropped instances wrote is not part of the dataset (a rerun makes them
         // again): removed, which also gives back the space dataset.json and the run log need.
         std::error_code ec;
-        for (const InstanceJob* j : dropped) fs::remove_all(o.out / instanceDir(*j), ec);
+        for (const InstanceJob& j : dropped) fs::remove_all(o.out / instanceDir(j), ec);
     } else {
         if (fillsAGap) repairManifest(manifestPath, positionOf);  // back in job order
-        writeSpeciesSheets(spec, all, done, o.out, suffix);
+        writeSpeciesSheets(spec, instances, done, lo, hi, o.out, suffix);
         progress.finish(summary.built + failed, failed);
     }
 }
@@ -447,8 +445,12 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
     const int threads = o.threads > 0 ? o.threads : tbb::info::default_concurrency();
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
 
-    std::vector<InstanceJob> all = expandJobs(spec);
-    auto [lo, hi] = shardRange(all.size(), o.shardIndex, o.shardCount);
+    // Instances are computed from their position as the source reaches them: nothing here is
+    // sized by the dataset's count (resume holds runs of recorded positions, InstanceSet).
+    const DatasetInstances instances(spec);
+    const auto [shardLo, shardHi] =
+        shardRange(static_cast<size_t>(instances.size()), o.shardIndex, o.shardCount);
+    const auto lo = static_cast<int64_t>(shardLo), hi = static_cast<int64_t>(shardHi);
 
     // --out: checked before anything is written and created only once every check passed;
     // then this shard of it is locked for the whole build (another build, merge, stats or
@@ -470,7 +472,7 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
     summary.total = static_cast<int64_t>(hi - lo);
     st.run = runLine("build");
     try {
-        buildShard(spec, o, all, lo, hi, threads, runs, st);
+        buildShard(spec, o, instances, lo, hi, threads, runs, st);
     } catch (const ResourceError& e) {
         st.stop.note(e);
     } catch (const std::bad_alloc&) {  // outside a stage (the manifest, the species sheets)
@@ -501,7 +503,7 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
         reserve.release();
         try {  // best effort: the disk may still be full
             writeDatasetJson(spec, o, datasetPath, "incomplete", summary.total, st.recorded(),
-                             all.size());
+                             static_cast<size_t>(instances.size()));
         } catch (const ResourceError&) {
         }
         try {
@@ -512,7 +514,7 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
     }
     const bool complete = st.recorded() == summary.total;
     writeDatasetJson(spec, o, datasetPath, complete ? "complete" : "incomplete", summary.total,
-                     st.recorded(), all.size());
+                     st.recorded(), static_cast<size_t>(instances.size()));
     finishRun(complete ? "complete" : "incomplete");
     return summary;
 }

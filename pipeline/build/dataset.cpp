@@ -1,10 +1,12 @@
 #include "pipeline/build/dataset.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 
 #include "species/spec/budget_spec.h"
 
@@ -125,7 +127,16 @@ void readSpeciesEntries(Params& p, DatasetSpec& d, std::string& fingerprintBytes
         } catch (const SpecError& err) {
             failInSpeciesFile(entry, err);
         }
-        entry.count = e.integer("count", Range::closed(0, 1e9));
+        // Params reads integers through a double, exact up to kMaxInstances (any larger integer
+        // stays above it); the error shows a large integer's own digits.
+        if (const toml::node* c = e.raw("count");
+            c && c->as_integer() && c->as_integer()->get() > kMaxInstances) {
+            e.fail("count", "expected an integer in [0, 9e+15] (the largest dataset), got " +
+                                std::to_string(c->as_integer()->get()));
+        }
+        entry.count = e.integer("count", Range::closed(0, static_cast<double>(kMaxInstances)));
+        entry.countWhere = e.where("count");
+        entry.keyPath = e.prefix();
         e.finish();
         if (!names.insert(entry.species.name).second) {
             e.fail("file", "species \"" + entry.species.name +
@@ -336,6 +347,50 @@ void expandSweepPoints(SpeciesEntry& entry, const std::vector<SweepAxis>& sweeps
     }
 }
 
+// Σ count × sweep points ≤ kMaxInstances, summed in 128 bits (each count ≤ kMaxInstances, at
+// most 10⁶ points each); the error points at the count that crosses it.
+void checkInstanceTotal(const DatasetSpec& d) {
+    unsigned __int128 total = 0;
+    for (const SpeciesEntry& e : d.species) {
+        total += static_cast<unsigned __int128>(e.count) * e.points.size();
+        if (total > static_cast<unsigned __int128>(kMaxInstances)) {
+            std::string digits;
+            for (unsigned __int128 v = total; v > 0; v /= 10) {
+                digits.insert(digits.begin(), static_cast<char>('0' + static_cast<int>(v % 10)));
+            }
+            throw SpecError(e.countWhere, e.keyPath + ".count",
+                            "expected at most 9e+15 instances in the dataset (Σ count × sweep "
+                            "points: the largest dataset supported), got " +
+                                digits);
+        }
+    }
+}
+
+// Ids are unique: "<name>-p<point>-<index>" of a swept species is never the id
+// "<other>-<index>" of an unswept species named "<name>-p<point>" (both with instances).
+void checkIdsUnique(const DatasetSpec& d) {
+    for (const SpeciesEntry& x : d.species) {
+        if (x.count == 0 || x.points.size() > 1 || !x.points[0].key.empty()) continue;
+        for (const SpeciesEntry& y : d.species) {
+            if (y.count == 0 || (y.points.size() == 1 && y.points[0].key.empty())) continue;
+            const std::string& n = x.species.name;
+            const std::string prefix = y.species.name + "-p";
+            if (n.size() <= prefix.size() || n.compare(0, prefix.size(), prefix) != 0) continue;
+            for (size_t pi = 0; pi < y.points.size(); ++pi) {
+                if (instanceId(y.species.name, true, static_cast<int>(pi), 0) != n + "-00000") {
+                    continue;
+                }
+                throw SpecError(x.fileWhere, x.keyPath + ".file",
+                                "expected a species name that no instance id of another species "
+                                "starts with, got \"" +
+                                    n + "\": \"" + n + "-00000\" is also sweep point " +
+                                    std::to_string(pi) + " of species \"" + y.species.name +
+                                    "\" (rename one)");
+            }
+        }
+    }
+}
+
 }  // namespace
 
 DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
@@ -373,6 +428,8 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
         entry.budget = d.budget;
         expandSweepPoints(entry, d.sweeps, meshed);
     }
+    checkInstanceTotal(d);
+    checkIdsUnique(d);
     char fingerprint[17];
     std::snprintf(fingerprint, sizeof fingerprint, "%016llx",
                   static_cast<unsigned long long>(hashString(fingerprintBytes)));
@@ -380,29 +437,108 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
     return d;
 }
 
-std::vector<InstanceJob> expandJobs(const DatasetSpec& spec) {
-    std::vector<InstanceJob> jobs;
-    for (const SpeciesEntry& e : spec.species) {
-        const bool swept = e.points.size() > 1 || !e.points[0].key.empty();
-        for (size_t pi = 0; pi < e.points.size(); ++pi) {
-            for (int64_t k = 0; k < e.count; ++k) {
-                InstanceJob j;
-                j.entry = &e;
-                j.point = &e.points[pi];
-                j.pointIndex = static_cast<int>(pi);
-                j.index = k;
-                j.seed = instanceSeed(spec.seed, e.species.name, e.points[pi].seedKey, k);
-                char buf[64];
-                if (swept) {
-                    std::snprintf(buf, sizeof buf, "-p%03zu-%05lld", pi, static_cast<long long>(k));
-                } else {
-                    std::snprintf(buf, sizeof buf, "-%05lld", static_cast<long long>(k));
-                }
-                j.id = e.species.name + buf;
-                jobs.push_back(std::move(j));
-            }
-        }
+std::string instanceId(const std::string& species, bool swept, int pointIndex, int64_t index) {
+    char buf[64];
+    if (swept) {
+        std::snprintf(buf, sizeof buf, "-p%03d-%05lld", pointIndex, static_cast<long long>(index));
+    } else {
+        std::snprintf(buf, sizeof buf, "-%05lld", static_cast<long long>(index));
     }
+    return species + buf;
+}
+
+namespace {
+
+bool isSwept(const SpeciesEntry& e) { return e.points.size() > 1 || !e.points[0].key.empty(); }
+
+// A decimal number of 1–18 digits (no sign); nullopt otherwise. Canonical form (padding) is
+// checked by the caller, which formats the id again.
+std::optional<int64_t> parseDigits(std::string_view s) {
+    if (s.empty() || s.size() > 18) return std::nullopt;
+    int64_t v = 0;
+    for (char c : s) {
+        if (c < '0' || c > '9') return std::nullopt;
+        v = v * 10 + (c - '0');
+    }
+    return v;
+}
+
+}  // namespace
+
+DatasetInstances::DatasetInstances(const DatasetSpec& spec) : spec_(&spec) {
+    start_.reserve(spec.species.size() + 1);
+    start_.push_back(0);
+    for (size_t s = 0; s < spec.species.size(); ++s) {
+        const SpeciesEntry& e = spec.species[s];
+        // loadDataset keeps the sum ≤ kMaxInstances; a hand-made spec may not.
+        const auto points = static_cast<int64_t>(e.points.size());
+        if (e.count < 0 || (e.count > 0 && points > (kMaxInstances - start_.back()) / e.count)) {
+            throw std::length_error("DatasetInstances: over kMaxInstances instances");
+        }
+        start_.push_back(start_.back() + e.count * points);
+        byName_.emplace(e.species.name, s);
+    }
+}
+
+InstanceJob DatasetInstances::operator[](int64_t position) const {
+    if (position < 0 || position >= size()) {
+        throw std::out_of_range("DatasetInstances: position " + std::to_string(position) + " of " +
+                                std::to_string(size()));
+    }
+    // The last entry starting at or before `position` (entries without instances start where
+    // the next one does, so this is the non-empty one that holds it).
+    const size_t s = static_cast<size_t>(std::upper_bound(start_.begin(), start_.end(), position) -
+                                         start_.begin() - 1);
+    const SpeciesEntry& e = spec_->species[s];
+    const int64_t r = position - start_[s];
+    InstanceJob j;
+    j.entry = &e;
+    j.pointIndex = static_cast<int>(r / e.count);
+    j.point = &e.points[static_cast<size_t>(j.pointIndex)];
+    j.index = r % e.count;
+    j.seed = instanceSeed(spec_->seed, e.species.name, j.point->seedKey, j.index);
+    j.id = instanceId(e.species.name, isSwept(e), j.pointIndex, j.index);
+    j.position = position;
+    return j;
+}
+
+std::optional<int64_t> DatasetInstances::find(std::string_view id) const {
+    // The species name ends at one of the id's '-' (names may hold '-' themselves); at most one
+    // split gives an id of this dataset (checkIdsUnique).
+    for (size_t dash = id.find('-'); dash != std::string_view::npos;
+         dash = id.find('-', dash + 1)) {
+        auto it = byName_.find(id.substr(0, dash));
+        if (it == byName_.end()) continue;
+        const SpeciesEntry& e = spec_->species[it->second];
+        std::string_view rest = id.substr(dash + 1);
+        int64_t point = 0;
+        if (isSwept(e)) {
+            const size_t sep = rest.find('-');
+            if (rest.empty() || rest[0] != 'p' || sep == std::string_view::npos) continue;
+            const auto p = parseDigits(rest.substr(1, sep - 1));
+            if (!p || *p >= static_cast<int64_t>(e.points.size())) continue;
+            point = *p;
+            rest = rest.substr(sep + 1);
+        }
+        const auto index = parseDigits(rest);
+        if (!index || *index >= e.count) continue;
+        if (instanceId(e.species.name, isSwept(e), static_cast<int>(point), *index) != id) {
+            continue;  // not in canonical form ("p1" for "p001", extra zeros)
+        }
+        return start_[it->second] + point * e.count + *index;
+    }
+    return std::nullopt;
+}
+
+std::vector<InstanceJob> expandJobs(const DatasetSpec& spec) {
+    const DatasetInstances instances(spec);
+    if (instances.size() > 10'000'000) {
+        throw std::length_error("expandJobs: " + std::to_string(instances.size()) +
+                                " instances (use DatasetInstances)");
+    }
+    std::vector<InstanceJob> jobs;
+    jobs.reserve(static_cast<size_t>(instances.size()));
+    for (int64_t i = 0; i < instances.size(); ++i) jobs.push_back(instances[i]);
     return jobs;
 }
 

@@ -1,12 +1,16 @@
-// Dataset specs and their expansion into instance jobs:
-// species × sweep point × index, each with a seed hashed from (dataset seed, species,
-// sweep point, index) so any subset — a shard, a resumed run — draws the same trees.
+// Dataset specs and their instances: species × sweep point × index, each with a seed hashed
+// from (dataset seed, species, sweep point, index) so any subset — a shard, a resumed run —
+// draws the same trees. Instances are computed from their position (DatasetInstances), never
+// expanded into a list, so a dataset's size costs no memory.
 #pragma once
 
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "pipeline/render/camera.h"
@@ -35,12 +39,20 @@ struct SweepPoint {
 
 struct SpeciesEntry {
     SpeciesFile species;
-    BudgetTable budget;   // the dataset's [budget], over the species' own
-    SourcePos fileWhere;  // the entry's `file` key, and its path ("species[2].file"): errors
-    std::string fileKey;  // inside the species file are reported there too
+    BudgetTable budget;  // the dataset's [budget], over the species' own
     int64_t count = 0;
-    std::vector<SweepPoint> points;  // at least one (the empty point)
+    std::vector<SweepPoint> points;   // at least one (the empty point)
+    SourcePos fileWhere, countWhere;  // its `file` and `count` keys, for errors (errors inside
+    std::string fileKey;              // the species file name the `file` key too: fileKey is
+    std::string keyPath;              // its path, "species[2].file"; keyPath "species[2]")
 };
+
+// The largest dataset: 9 × 10¹⁵ instances in all (Σ count × sweep points), a round number
+// below 2⁵³. Positions and counts are int64 (no overflow below 2⁶³); every integer up to it is
+// exact in a double, so the spec reader (which passes integers through a double) and JSON
+// readers that hold numbers as doubles (JavaScript; dataset.json's counts, the manifest's
+// `index`) see it exactly; ids print the index in decimal, so they stay unique and stable.
+constexpr int64_t kMaxInstances = 9'000'000'000'000'000;
 
 struct OutputOptions {
     bool ply = true;       // skeleton.ply
@@ -81,9 +93,45 @@ struct InstanceJob {
     int pointIndex = 0;
     int64_t index = 0;  // index within (species, point)
     uint64_t seed = 0;
+    int64_t position = 0;  // place in the dataset's instance order, 0 … size − 1
 };
 
+// The instances of a dataset in their fixed order — species entries in spec order, within each
+// its sweep points in order, within each point index 0 … count − 1 — computed from their
+// position, never stored: the (species, point) blocks of one species have the same length, so
+// a prefix sum per species and a binary search over it place any position (O(log species)).
+// Memory: one integer and one name per species entry, whatever the count. `spec` must outlive
+// it (jobs point into it).
+class DatasetInstances {
+  public:
+    explicit DatasetInstances(const DatasetSpec& spec);
+
+    int64_t size() const { return start_.back(); }
+    // Instance `position` (0 ≤ position < size(); std::out_of_range otherwise).
+    InstanceJob operator[](int64_t position) const;
+    // The position of the instance with this id, if the dataset has one (the inverse of
+    // operator[]: instance(find(id)).id == id).
+    std::optional<int64_t> find(std::string_view id) const;
+    // Positions [begin, end) of species entry `entry` (spec order).
+    std::pair<int64_t, int64_t> speciesRange(size_t entry) const {
+        return {start_[entry], start_[entry + 1]};
+    }
+    size_t speciesCount() const { return start_.size() - 1; }
+    const DatasetSpec& spec() const { return *spec_; }
+
+  private:
+    const DatasetSpec* spec_;
+    std::vector<int64_t> start_;  // start_[s]: position of entry s's first instance; then size()
+    std::map<std::string, size_t, std::less<>> byName_;  // species name -> entry
+};
+
+// Every instance at once, in order: for tests and small tools only (a build never lists them).
+// Throws std::length_error above 10⁷ instances.
 std::vector<InstanceJob> expandJobs(const DatasetSpec& spec);
+
+// An instance's id: "<species>-<index>", or "<species>-p<point>-<index>" for a swept species
+// (index at least 5 digits, point at least 3, zero-padded).
+std::string instanceId(const std::string& species, bool swept, int pointIndex, int64_t index);
 
 // Instance seed: a hash of (dataset seed, species name, sweep point key, index).
 uint64_t instanceSeed(uint64_t datasetSeed, const std::string& species, const std::string& pointKey,

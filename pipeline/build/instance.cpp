@@ -79,7 +79,7 @@ fs::path instanceDir(const InstanceJob& job) {
 
 void growStage(InstanceWork& w) {
     auto t0 = Clock::now();
-    const InstanceJob& job = *w.job;
+    const InstanceJob& job = w.job;
     w.grown = growSpecies(job.entry->species, job.seed, job.point->overrides.get(), true,
                           &job.entry->budget);
     w.growMs = msSince(t0);
@@ -93,9 +93,9 @@ void meshStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
         w.mesh.leaves = leafMesh(w.grown.tree);
     }
     if (o.watertight) {
-        std::string vdb = o.vdb ? (out / instanceDir(*w.job) / "watertight.vdb").string() : "";
+        std::string vdb = o.vdb ? (out / instanceDir(w.job) / "watertight.vdb").string() : "";
         checkWatertightEstimate(w.grown, o.watertightOptions);
-        if (o.vdb) fs::create_directories(out / instanceDir(*w.job));
+        if (o.vdb) fs::create_directories(out / instanceDir(w.job));
         w.watertight = watertightMesh(w.grown.tree, o.watertightOptions, vdb);
         GrowthGuard(w.grown.budget)
             .triangles(static_cast<int64_t>(w.watertight.triangleCount()),
@@ -107,7 +107,7 @@ void meshStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
 void renderStage(InstanceWork& w, const OutputOptions& o) {
     if (o.views.count <= 0) return;
     auto t0 = Clock::now();
-    Rng camRng = Rng(w.job->seed).derive("cameras");
+    Rng camRng = Rng(w.job.seed).derive("cameras");
     w.cameras = makeCameras(w.grown.tree, o.views, camRng);
     // The views show the tubes as meshed: the mesh stage's, or made here when no mesh is written.
     Mesh ownWood;
@@ -130,7 +130,7 @@ void renderStage(InstanceWork& w, const OutputOptions& o) {
 
 void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     auto t0 = Clock::now();
-    const InstanceJob& job = *w.job;
+    const InstanceJob& job = w.job;
     const SpeciesFile& species = job.entry->species;
     const fs::path rel = instanceDir(job);
     nlohmann::json files = nlohmann::json::object();

@@ -16,7 +16,7 @@
 namespace sylva {
 
 struct InstanceWork {
-    const InstanceJob* job = nullptr;
+    InstanceJob job;  // computed from its position as the source reaches it (no list of jobs)
     GrownTree grown;
     TreeMesh mesh;                   // tubes + leaf cards (when a mesh format is asked for)
     std::vector<int32_t> woodNodes;  // per tube triangle, its skeleton node (tubeMesh)

@@ -1,0 +1,286 @@
+// Huge datasets through the real binary (issue 15, item 2): `validate` of a 10⁹-instance and of
+// the largest dataset, the last shard of 10⁹ building its one tree, shards of a huge dataset
+// concatenating to a coarser shard, and a huge shard resumed after a kill — each within a fixed
+// peak resident size over the binary's own start-up (getrusage of the child), under an
+// address-space limit and a watchdog so a binary that lists every instance fails fast instead
+// of taking the machine.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "pipeline/build/dataset.h"
+#include "tests/test_support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using sylva::test::slurp;
+using sylva::test::TempDir;
+
+const fs::path kExe = SYLVA_EXE;
+const fs::path kTiny = fs::path(SYLVA_SOURCE_DIR) / "tests" / "data" / "tiny.toml";
+
+// What one run may use beyond `sylva --help` (≈ 130 MiB here, nearly all of it the 260 shared
+// libraries OpenImageIO and OpenVDB bring, loaded before main): a build of one tiny tree adds
+// ≈ 8 MiB; a list of 10⁹ jobs would add ≈ 100 GB. And the limits that stop a binary sized by
+// the count (before issue 15: 8 GB and 20 s+ for 10⁹ instances) from running away.
+constexpr long kMaxRssOverStartKiB = 64 * 1024;
+constexpr rlim_t kAddressSpace = rlim_t{4} << 30;
+constexpr auto kWatchdog = std::chrono::seconds(60);
+
+struct RunResult {
+    int code = -1;  // exit status, or 128 + signal
+    std::string out, err;
+    long maxRssKiB = 0;
+};
+
+struct Command {
+    Command(std::vector<std::string> a, std::vector<std::string> e = {})
+        : args(std::move(a)), env(std::move(e)) {}
+    std::vector<std::string> args;
+    std::vector<std::string> env;  // "NAME=value", added to the test's (without the abort hook)
+};
+
+// Runs the commands at the same time (start-up dominates these runs) in `dir`, each under the
+// address-space limit, and waits for all (killing what outlives the watchdog).
+std::vector<RunResult> runAll(const std::vector<Command>& commands, const fs::path& dir) {
+    static int counter = 0;
+    struct Child {
+        pid_t pid = -1;
+        std::string outFile, errFile;
+    };
+    std::vector<Child> children;
+    for (const Command& c : commands) {
+        std::vector<std::string> argStore = {kExe.string()};
+        argStore.insert(argStore.end(), c.args.begin(), c.args.end());
+        std::vector<char*> argv;
+        for (auto& a : argStore) argv.push_back(a.data());
+        argv.push_back(nullptr);
+        std::vector<std::string> envStore;
+        for (char** e = environ; *e; ++e) {
+            if (std::strncmp(*e, "SYLVA_TEST_ABORT_AFTER=", 23) != 0) envStore.emplace_back(*e);
+        }
+        envStore.insert(envStore.end(), c.env.begin(), c.env.end());
+        std::vector<char*> envp;
+        for (auto& e : envStore) envp.push_back(e.data());
+        envp.push_back(nullptr);
+        Child child;
+        const std::string n = std::to_string(counter++);
+        child.outFile = (dir / ("run" + n + ".stdout")).string();
+        child.errFile = (dir / ("run" + n + ".stderr")).string();
+        const std::string cwd = dir.string();
+        child.pid = ::fork();
+        if (child.pid == 0) {  // only async-signal-safe calls from here
+            const rlimit as{kAddressSpace, kAddressSpace};
+            const int o = ::open(child.outFile.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+            const int e = ::open(child.errFile.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+            if (o < 0 || e < 0 || ::dup2(o, 1) < 0 || ::dup2(e, 2) < 0 ||
+                ::chdir(cwd.c_str()) != 0 || ::setrlimit(RLIMIT_AS, &as) != 0) {
+                ::_exit(126);
+            }
+            ::execve(argv[0], argv.data(), envp.data());
+            ::_exit(127);
+        }
+        EXPECT_GT(child.pid, 0) << "fork failed";
+        children.push_back(child);
+    }
+    const auto deadline = std::chrono::steady_clock::now() + kWatchdog;
+    std::vector<RunResult> results;
+    for (const Child& c : children) {
+        RunResult r;
+        if (c.pid > 0) {
+            int status = 0;
+            rusage usage{};
+            while (::wait4(c.pid, &status, WNOHANG, &usage) == 0) {
+                if (std::chrono::steady_clock::now() > deadline) {
+                    ::kill(c.pid, SIGKILL);
+                    ::wait4(c.pid, &status, 0, &usage);
+                    ADD_FAILURE() << "killed after " << kWatchdog.count() << " s";
+                    break;
+                }
+                std::this_thread::sleep_for(std::chrono::milliseconds(5));
+            }
+            r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+            r.maxRssKiB = usage.ru_maxrss;
+            r.out = slurp(c.outFile);
+            r.err = slurp(c.errFile);
+        }
+        results.push_back(std::move(r));
+    }
+    return results;
+}
+
+RunResult run(const std::vector<std::string>& args, const fs::path& dir,
+              const std::vector<std::string>& env = {}) {
+    return runAll({{args, env}}, dir).front();
+}
+
+// Peak resident size allowed: `sylva --help`'s (run beside the command) plus the margin.
+long bound(const RunResult& help) {
+    EXPECT_EQ(help.code, 0);
+    return help.maxRssKiB + kMaxRssOverStartKiB;
+}
+
+std::string describe(const RunResult& r) {
+    return "exit " + std::to_string(r.code) + ", peak RSS " + std::to_string(r.maxRssKiB / 1024) +
+           " MiB\n--- stdout:\n" + r.out + "--- stderr:\n" + r.err;
+}
+
+void spit(const fs::path& p, const std::string& bytes) {
+    std::ofstream out(p, std::ios::binary);
+    out << bytes;
+}
+
+std::vector<nlohmann::json> records(const fs::path& manifest) {
+    std::vector<nlohmann::json> out;
+    std::ifstream in(manifest, std::ios::binary);
+    for (std::string line; std::getline(in, line);) {
+        auto j = nlohmann::json::parse(line);
+        j.erase("timing");  // the only field that differs between identical builds
+        out.push_back(j);
+    }
+    return out;
+}
+
+// tiny.toml 10⁹ times, skeletons only: one instance is a few milliseconds.
+std::string billion(const std::string& name = "billion") {
+    return "name = \"" + name + "\"\nseed = 15\n[[species]]\nfile = '" + kTiny.string() +
+           "'\ncount = 1000000000\n[outputs]\nskeleton = [\"ply\"]\n";
+}
+
+TEST(CliHugeDataset, ValidateAnswersForABillionAndForTheLargestDataset) {
+    TempDir t;
+    spit(t / "billion.toml", billion());
+    // Exactly the largest dataset: 9 × 10¹⁵ = 10¹⁵ + 4 × 2 × 10¹⁵ over two species entries (one
+    // more is an error: tests/data/bad/dataset_instances_over_limit.toml).
+    spit(t / "largest.toml",
+         "name = \"largest\"\n[[species]]\nfile = '" + kTiny.string() +
+             "'\ncount = 1000000000000000\n[[species]]\nfile = '" +
+             (kTiny.parent_path() / "tiny_var.toml").string() +
+             "'\ncount = 2000000000000000\n[[sweep]]\npath = \"levels[1].endpoints\"\n"
+             "values = [2, 3, 4, 5]\nspecies = [\"tiny-var\"]\n");
+    const auto r = runAll(
+        {{{"--help"}}, {{"validate", "billion.toml"}}, {{"validate", "largest.toml"}}}, t.path());
+    EXPECT_EQ(r[1].out, "billion.toml: ok — dataset \"billion\", 1 species, 1000000000 instances\n")
+        << describe(r[1]);
+    EXPECT_EQ(r[2].out,
+              "largest.toml: ok — dataset \"largest\", 2 species, 9000000000000000 instances\n")
+        << describe(r[2]);
+    for (size_t i = 1; i < r.size(); ++i) {
+        EXPECT_EQ(r[i].code, 0) << describe(r[i]);
+        EXPECT_LT(r[i].maxRssKiB, bound(r[0])) << describe(r[i]);
+    }
+}
+
+TEST(CliHugeDataset, LastShardOfABillionBuildsItsOneTreeInBoundedMemory) {
+    TempDir t;
+    spit(t / "billion.toml", billion());
+    const auto runs = runAll({{{"--help"}},
+                              {{"build", "billion.toml", "--out", "out", "--shard",
+                                "999999999/1000000000", "--threads", "2"}}},
+                             t.path());
+    const RunResult& r = runs[1];
+    ASSERT_EQ(r.code, 0) << describe(r);
+    EXPECT_LT(r.maxRssKiB, bound(runs[0])) << describe(r);
+    const auto lines = records(t / "out" / "manifest.shard-0999999999-of-1000000000.jsonl");
+    ASSERT_EQ(lines.size(), 1u);
+    EXPECT_EQ(lines[0]["id"], "tiny-999999999");
+    EXPECT_EQ(lines[0]["index"], 999999999);
+    char seed[20];
+    std::snprintf(seed, sizeof seed, "%016llx",
+                  static_cast<unsigned long long>(sylva::instanceSeed(15, "tiny", "", 999999999)));
+    EXPECT_EQ(lines[0]["seed"], seed);
+    EXPECT_TRUE(
+        fs::is_regular_file(t / "out" / "trees" / "tiny" / "tiny-999999999" / "skeleton.ply"));
+    const auto ds =
+        nlohmann::json::parse(slurp(t / "out" / "dataset.shard-0999999999-of-1000000000.json"));
+    EXPECT_EQ(ds["status"], "complete");
+    EXPECT_EQ(ds["counts"]["instances_in_dataset"], 1000000000);
+    EXPECT_EQ(ds["counts"]["instances_in_shard"], 1);
+    EXPECT_EQ(ds["counts"]["built"], 1);
+}
+
+// Shards 99999998 and 99999999 of 10⁸ (10 instances each), built at once into one directory,
+// are, concatenated, shard 49999999 of 5 × 10⁷ ([10⁹ − 20, 10⁹)): contiguous blocks in the one
+// order, at any N.
+TEST(CliHugeDataset, FineShardsConcatenateToACoarseShard) {
+    TempDir t;
+    spit(t / "billion.toml", billion());
+    const std::vector<std::string> fine = {"099999998", "099999999"};
+    std::vector<Command> commands = {
+        {{"--help"}},
+        {{"build", "billion.toml", "--out", "coarse", "--shard", "49999999/50000000"}}};
+    for (const std::string& i : fine) {
+        commands.push_back(
+            {{"build", "billion.toml", "--out", "fine", "--shard", i.substr(1) + "/100000000"}});
+    }
+    const auto r = runAll(commands, t.path());
+    for (size_t i = 1; i < r.size(); ++i) {
+        ASSERT_EQ(r[i].code, 0) << describe(r[i]);
+        EXPECT_LT(r[i].maxRssKiB, bound(r[0])) << describe(r[i]);
+    }
+    const auto want = records(t / "coarse" / "manifest.shard-49999999-of-50000000.jsonl");
+    ASSERT_EQ(want.size(), 20u);
+    EXPECT_EQ(want.front()["id"], "tiny-999999980");
+    EXPECT_EQ(want.back()["id"], "tiny-999999999");
+    std::vector<nlohmann::json> got;
+    for (const std::string& i : fine) {
+        const auto part = records(t / "fine" / ("manifest.shard-" + i + "-of-100000000.jsonl"));
+        EXPECT_EQ(part.size(), 10u) << i;
+        got.insert(got.end(), part.begin(), part.end());
+    }
+    ASSERT_EQ(got.size(), want.size());
+    for (size_t i = 0; i < got.size(); ++i) EXPECT_EQ(got[i], want[i]) << i;
+    for (const auto& j : want) {
+        const fs::path f = fs::path("trees") / "tiny" / j["id"].get<std::string>() / "skeleton.ply";
+        EXPECT_EQ(slurp(t / "fine" / f), slurp(t / "coarse" / f)) << f;
+    }
+}
+
+// A huge shard killed after 4 of its 10 trees (and a torn line) resumes to the uninterrupted
+// shard; the rerun reads the manifest into runs of positions, not a set of every id.
+TEST(CliHugeDataset, HugeShardResumesAfterAKill) {
+    TempDir t;
+    spit(t / "billion.toml", billion());
+    auto build = [](const std::string& out) {
+        return std::vector<std::string>{"build", "billion.toml", "--out",
+                                        out,     "--shard",      "99999999/100000000"};
+    };
+    const auto first = runAll(
+        {{{"--help"}}, {build("ref")}, {build("out"), {"SYLVA_TEST_ABORT_AFTER=4"}}}, t.path());
+    ASSERT_EQ(first[1].code, 0) << describe(first[1]);
+    ASSERT_EQ(first[2].code, 137) << describe(first[2]);
+    const fs::path manifest = "manifest.shard-099999999-of-100000000.jsonl";
+    ASSERT_EQ(records(t / "out" / manifest).size(), 4u);
+    {
+        std::ofstream torn(t / "out" / manifest, std::ios::binary | std::ios::app);
+        torn << "{\"id\":\"tiny-9999999";
+    }
+    const RunResult rerun = run(build("out"), t.path());
+    ASSERT_EQ(rerun.code, 0) << describe(rerun);
+    EXPECT_NE(rerun.err.find("6 built, 4 already there, 0 failed of 10"), std::string::npos)
+        << rerun.err;
+    EXPECT_LT(rerun.maxRssKiB, bound(first[0])) << describe(rerun);
+    const auto got = records(t / "out" / manifest), want = records(t / "ref" / manifest);
+    ASSERT_EQ(got.size(), 10u);
+    for (size_t i = 0; i < got.size(); ++i) EXPECT_EQ(got[i], want[i]) << i;
+    for (const auto& j : want) {
+        const fs::path f = fs::path("trees") / "tiny" / j["id"].get<std::string>() / "skeleton.ply";
+        EXPECT_EQ(slurp(t / "out" / f), slurp(t / "ref" / f)) << f;
+    }
+}
+
+}  // namespace
