@@ -19,6 +19,9 @@
 //  - SpeciesTree/<species>: every shipped species (found at run time), time per
 //    tree with its mesh and 8 views at 256² as in datasets/species-gallery.toml, one thread,
 //    no file writes; GalleryBuild: the whole gallery built and written, all cores, trees/s.
+//  - InstanceLookup / InstanceFind / ValidateHuge / ResumeScan: huge datasets (issue 15) —
+//    instance i from i and its inverse, validating 4 × 10³…10¹⁵ instances, resume's manifest
+//    scan against parsing each line into a document.
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 #include <tbb/global_control.h>
@@ -27,6 +30,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <optional>
 #include <vector>
@@ -34,6 +38,8 @@
 #include "pipeline/build/build.h"
 #include "pipeline/build/dataset.h"
 #include "pipeline/build/instance.h"
+#include "pipeline/build/instance_set.h"
+#include "pipeline/build/resume.h"
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/view_writers.h"
 #include "pipeline/render/camera.h"
@@ -774,6 +780,145 @@ BENCHMARK_CAPTURE(ContinuousLimbs, radial_link3, "radial_link3")->Unit(benchmark
 BENCHMARK_CAPTURE(ContinuousLimbs, all, "all")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(ContinuousLimbs, merge, "merge")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(ContinuousLimbs, smooth, "smooth")->Unit(benchmark::kMillisecond);
+
+// --- huge datasets (issue 15) ------------------------------------------------------------------
+
+// A dataset spec in the temp directory: `species` entries (copies of tests/data/tiny.toml under
+// their own names), `count` instances each, every entry swept over 4 points; skeletons only.
+static fs::path hugeDatasetSpec(int species, int64_t count) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("sylva-bench-huge-" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    std::string tiny;
+    {
+        std::ifstream in(SYLVA_SOURCE_DIR "/tests/data/tiny.toml");
+        tiny.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    std::string spec = "name = \"huge\"\nseed = 15\n";
+    for (int s = 0; s < species; ++s) {
+        const std::string name = "tiny-" + std::to_string(s);
+        std::string text = tiny;
+        text.replace(text.find("name = \"tiny\""), 13, "name = \"" + name + "\"");
+        std::ofstream(dir / (name + ".toml")) << text;
+        spec +=
+            "[[species]]\nfile = \"" + name + ".toml\"\ncount = " + std::to_string(count) + "\n";
+    }
+    spec += "[[sweep]]\npath = \"levels[1].endpoints\"\nvalues = [2, 3, 4, 5]\n";
+    const fs::path file =
+        dir / ("huge-" + std::to_string(species) + "-" + std::to_string(count) + ".toml");
+    std::ofstream(file) << spec;
+    return file;
+}
+
+// Instance i from i: DatasetInstances::operator[] (binary search over the species' prefix sums,
+// the id formatted, the seed hashed) at random positions of a dataset of Arg species entries ×
+// 4 sweep points × 10⁹.
+static void InstanceLookup(benchmark::State& state) {
+    const int species = static_cast<int>(state.range(0));
+    const DatasetSpec spec = loadDataset(hugeDatasetSpec(species, 1'000'000'000).string());
+    const DatasetInstances instances(spec);
+    Rng rng(7);
+    for (auto _ : state) {
+        const auto i =
+            static_cast<int64_t>(rng.uniform(0, 1) * static_cast<double>(instances.size()));
+        InstanceJob job = instances[std::min(i, instances.size() - 1)];
+        benchmark::DoNotOptimize(job);
+    }
+    state.counters["instances"] = static_cast<double>(instances.size());
+}
+BENCHMARK(InstanceLookup)->Arg(1)->Arg(64)->Unit(benchmark::kNanosecond);
+
+// The inverse, DatasetInstances::find(id), which resume's manifest scan calls once per line.
+static void InstanceFind(benchmark::State& state) {
+    const int species = static_cast<int>(state.range(0));
+    const DatasetSpec spec = loadDataset(hugeDatasetSpec(species, 1'000'000'000).string());
+    const DatasetInstances instances(spec);
+    Rng rng(7);
+    std::vector<std::string> ids;
+    for (int k = 0; k < 1024; ++k) {
+        const auto i =
+            static_cast<int64_t>(rng.uniform(0, 1) * static_cast<double>(instances.size()));
+        ids.push_back(instances[std::min(i, instances.size() - 1)].id);
+    }
+    size_t k = 0;
+    for (auto _ : state) benchmark::DoNotOptimize(instances.find(ids[k++ & 1023]));
+}
+BENCHMARK(InstanceFind)->Arg(1)->Arg(64)->Unit(benchmark::kNanosecond);
+
+// What `sylva validate` does with a dataset of 4 × 10^Arg instances (one species, 4 sweep
+// points): load and check the spec and every sweep point, count the instances. The count does
+// not enter the cost.
+static void ValidateHuge(benchmark::State& state) {
+    int64_t count = 1;
+    for (int64_t k = 0; k < state.range(0); ++k) count *= 10;
+    const std::string file = hugeDatasetSpec(1, count).string();
+    int64_t n = 0;
+    for (auto _ : state) {
+        const DatasetSpec spec = loadDataset(file);
+        n = DatasetInstances(spec).size();
+        benchmark::DoNotOptimize(n);
+    }
+    state.counters["instances"] = static_cast<double>(n);
+    state.counters["peak_rss_MiB"] = peakRssMiB();
+}
+BENCHMARK(ValidateHuge)->Arg(3)->Arg(9)->Arg(15)->Unit(benchmark::kMillisecond);
+
+// Resume's manifest scan (recordedInstances): 20,000 lines like a build's — a real record of
+// tests/data/tiny_dataset.toml (4 views, every output), renumbered through a 10⁹-instance
+// dataset — read into runs of positions. Arg(1): the same lines parsed into json documents and
+// their ids looked up, as resume read them before issue 15.
+static void ResumeScan(benchmark::State& state) {
+    const bool dom = state.range(0) == 1;
+    const fs::path dir =
+        fs::temp_directory_path() / ("sylva-bench-resume-" + std::to_string(getpid()));
+    fs::remove_all(dir);
+    // One real record: the first instance of the tiny dataset, built.
+    DatasetSpec tiny = loadDataset(SYLVA_SOURCE_DIR "/tests/data/tiny_dataset.toml");
+    BuildOptions o;
+    o.out = dir / "tiny";
+    o.shardIndex = 0;
+    o.shardCount = 24;
+    o.progress = false;
+    buildDataset(tiny, o);
+    std::string line;
+    std::getline(std::ifstream(o.out / manifestName(0, 24)), line);
+    auto record = nlohmann::json::parse(line);
+    // The same record under the ids of a 10⁹-instance dataset of the tiny species.
+    const DatasetSpec spec = loadDataset(hugeDatasetSpec(1, 1'000'000'000).string());
+    const DatasetInstances instances(spec);
+    const fs::path manifest = dir / "manifest.jsonl";
+    const int lines = 20000;
+    {
+        std::ofstream out(manifest, std::ios::binary);
+        for (int k = 0; k < lines; ++k) {
+            record["id"] = instances[k].id;
+            out << record.dump() << '\n';
+        }
+    }
+    const double bytes = static_cast<double>(fs::file_size(manifest));
+    for (auto _ : state) {
+        if (dom) {
+            InstanceSet done;
+            std::ifstream in(manifest, std::ios::binary);
+            for (std::string l; std::getline(in, l);) {
+                auto j = nlohmann::json::parse(l, nullptr, false);
+                if (j.is_discarded() || !j.contains("id")) continue;
+                if (auto p = instances.find(j["id"].get<std::string>())) done.insert(*p);
+            }
+            benchmark::DoNotOptimize(done.size());
+        } else {
+            benchmark::DoNotOptimize(recordedInstances(manifest, instances).size());
+        }
+    }
+    fs::remove_all(dir);
+    state.counters["lines_per_second"] =
+        benchmark::Counter(static_cast<double>(lines) * static_cast<double>(state.iterations()),
+                           benchmark::Counter::kIsRate);
+    state.counters["MB_per_second"] = benchmark::Counter(
+        bytes * static_cast<double>(state.iterations()) / 1e6, benchmark::Counter::kIsRate);
+    state.counters["bytes_per_line"] = bytes / lines;
+}
+BENCHMARK(ResumeScan)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // BENCHMARK_MAIN(), plus the per-preset benchmarks registered before the run.
 int main(int argc, char** argv) {
