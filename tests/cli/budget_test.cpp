@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -110,69 +111,73 @@ void expectNothingWritten(const fs::path& dir, const std::set<fs::path>& mine) {
 }
 
 struct Bomb {
-    fs::path spec;     // a species file (validate, grow, build through a dataset) or a dataset
-    bool dataset;      // validate and build only
-    std::string want;  // "file:line:col: key" of the error
-    std::string budget;
+    const char* name;  // a fixture in tests/data/bad/, or "canopy-triangles" (made here)
+    bool dataset;      // validate and build only (a species: grow too, and build through a dataset)
+    const char* want;  // "file:line:col: key" of the error
+    const char* budget;
 };
 
 // One per size the issue found unbounded, and one per method and output stage.
-std::vector<Bomb> bombs(const fs::path& dir) {
-    const fs::path bad = kData / "bad";
+const Bomb kBombs[] = {
+    {"budget_ig_endpoints.toml", false, "budget_ig_endpoints.toml:25:13: levels[0].endpoints",
+     "max_skeleton_nodes = 1000000"},
+    {"budget_ig_nodes.toml", false, "budget_ig_nodes.toml:24:9: levels[0].nodes",
+     "max_graph_nodes = 4000000"},
+    {"budget_ig_levels.toml", false, "budget_ig_levels.toml:83:9: levels[15].nodes",
+     "max_graph_nodes = 4000000"},
+    {"budget_sc_markers.toml", false, "budget_sc_markers.toml:10:11: markers",
+     "max_graph_nodes = 4000000"},
+    {"budget_grammar_stems.toml", false, "budget_grammar_stems.toml:12:13: grammar.max_stems",
+     "max_skeleton_nodes = 1000000"},
     // A dataset that meshes a canopy of 10⁶ frond leaves (leaves × shape points).
-    const fs::path canopy = dir / "canopy-triangles.toml";
-    spit(canopy, "name = \"canopy-triangles\"\n[[species]]\nfile = '" +
-                     (kData / "budget" / "canopy-fronds.toml").string() +
-                     "'\ncount = 2\n[outputs]\nmesh = [\"ply\"]\n");
-    return {
-        {bad / "budget_ig_endpoints.toml", false,
-         "budget_ig_endpoints.toml:25:13: levels[0].endpoints", "max_skeleton_nodes = 1000000"},
-        {bad / "budget_ig_nodes.toml", false, "budget_ig_nodes.toml:24:9: levels[0].nodes",
-         "max_graph_nodes = 4000000"},
-        {bad / "budget_ig_levels.toml", false, "budget_ig_levels.toml:83:9: levels[15].nodes",
-         "max_graph_nodes = 4000000"},
-        {bad / "budget_sc_markers.toml", false, "budget_sc_markers.toml:10:11: markers",
-         "max_graph_nodes = 4000000"},
-        {bad / "budget_grammar_stems.toml", false,
-         "budget_grammar_stems.toml:12:13: grammar.max_stems", "max_skeleton_nodes = 1000000"},
-        {canopy, true, "canopy-fronds.toml:19:9: leaves.count", "max_triangles = 40000000"},
-        {bad / "budget_dataset_view_pixels.toml", true,
-         "budget_dataset_view_pixels.toml:14:14: views.resolution", "max_view_pixels = 100000000"},
-    };
+    {"canopy-triangles", true, "canopy-fronds.toml:19:9: leaves.count", "max_triangles = 40000000"},
+    {"budget_dataset_view_pixels.toml", true,
+     "budget_dataset_view_pixels.toml:14:14: views.resolution", "max_view_pixels = 100000000"},
+};
+
+class CliBudgetBomb : public ::testing::TestWithParam<Bomb> {};
+
+TEST_P(CliBudgetBomb, IsAOneLineSpecErrorBeforeAnythingGrows) {
+    const Bomb& b = GetParam();
+    TempDir t;
+    fs::path spec = kData / "bad" / b.name;
+    if (std::string(b.name) == "canopy-triangles") {
+        spec = t / "canopy-triangles.toml";
+        spit(spec, "name = \"canopy-triangles\"\n[[species]]\nfile = '" +
+                       (kData / "budget" / "canopy-fronds.toml").string() +
+                       "'\ncount = 2\n[outputs]\nmesh = [\"ply\"]\n");
+    }
+    fs::path dataset = spec;
+    if (!b.dataset) {
+        dataset = t / "uses-bomb.toml";
+        spit(dataset,
+             "name = \"uses-bomb\"\n[[species]]\nfile = '" + spec.string() + "'\ncount = 2\n");
+    }
+    const fs::path out = t / "out";
+    std::vector<std::vector<std::string>> runs = {
+        {"validate", spec.string()}, {"build", dataset.string(), "--out", out.string()}};
+    if (!b.dataset) runs.push_back({"grow", spec.string(), "--out", out.string()});
+    for (const auto& args : runs) {
+        SCOPED_TRACE(args[0]);
+        const RunResult r = run(args, t.path());
+        EXPECT_EQ(r.code, 2) << describe(r);
+        EXPECT_EQ(lineCount(r.err), 1u) << describe(r);
+        EXPECT_NE(r.err.find(b.want), std::string::npos) << describe(r);
+        EXPECT_NE(r.err.find(std::string("over the budget ") + b.budget), std::string::npos)
+            << describe(r);
+        EXPECT_NE(r.err.find("raise [budget]"), std::string::npos) << describe(r);
+    }
+    expectNothingWritten(t.path(), {spec, dataset});
 }
 
-TEST(CliBudget, BombsAreOneLineSpecErrorsBeforeAnythingGrows) {
-    TempDir t;
-    const std::vector<Bomb> all = bombs(t.path());
-    for (const Bomb& b : all) {
-        SCOPED_TRACE(b.spec.filename().string());
-        fs::path dataset = b.spec;
-        std::set<fs::path> mine;
-        for (const Bomb& other : all) mine.insert(other.spec);
-        if (!b.dataset) {
-            dataset = t / "uses-bomb.toml";
-            spit(dataset, "name = \"uses-bomb\"\n[[species]]\nfile = '" + b.spec.string() +
-                              "'\ncount = 2\n");
-        }
-        mine.insert(dataset);
-        const fs::path out = t / "out";
-        std::vector<std::vector<std::string>> runs = {
-            {"validate", b.spec.string()}, {"build", dataset.string(), "--out", out.string()}};
-        if (!b.dataset) runs.push_back({"grow", b.spec.string(), "--out", out.string()});
-        for (const auto& args : runs) {
-            SCOPED_TRACE(args[0]);
-            const RunResult r = run(args, t.path());
-            EXPECT_EQ(r.code, 2) << describe(r);
-            EXPECT_EQ(lineCount(r.err), 1u) << describe(r);
-            EXPECT_NE(r.err.find(b.want), std::string::npos) << describe(r);
-            EXPECT_NE(r.err.find("over the budget " + b.budget), std::string::npos) << describe(r);
-            EXPECT_NE(r.err.find("raise [budget]"), std::string::npos) << describe(r);
-            EXPECT_FALSE(fs::exists(out)) << "written: " << out;
-        }
-        expectNothingWritten(t.path(), mine);
-        if (!b.dataset) fs::remove(dataset);
-    }
-}
+INSTANTIATE_TEST_SUITE_P(Cli, CliBudgetBomb, ::testing::ValuesIn(kBombs),
+                         [](const ::testing::TestParamInfo<Bomb>& info) {
+                             std::string n = fs::path(info.param.name).stem().string();
+                             for (char& c : n) {
+                                 if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                             }
+                             return n;
+                         });
 
 // A species raises the budget it was over: the estimate then meets the next one (its level-1
 // graphs), and with both raised as far as its trees need it is valid.
