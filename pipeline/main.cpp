@@ -332,6 +332,16 @@ std::string parseErrorLine(const CLI::App& app, const CLI::ParseError& e, int ar
         return who + ": expected a subcommand (list)";
     }
     std::replace(message.begin(), message.end(), '\n', ' ');
+    if (dynamic_cast<const CLI::ConversionError*>(&e) &&
+        message.rfind("Could not convert: ", 0) == 0) {
+        // "Could not convert: --no-timing = x": a flag given a value.
+        const std::string rest = message.substr(19);
+        const size_t eq = rest.find(" = ");
+        if (eq != std::string::npos) {
+            return who + ": " + rest.substr(0, eq) + ": cannot take the value \"" +
+                   rest.substr(eq + 3) + "\"";
+        }
+    }
     if (dynamic_cast<const CLI::ArgumentMismatch*>(&e)) {
         // "--threads: 1 required INT missing", "--threads: At Most 1 required but received 2"
         const std::string option = message.substr(0, message.find(':'));

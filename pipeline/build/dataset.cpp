@@ -110,7 +110,13 @@ SweepAxis parseSweep(Params& p) {
 // fingerprint.
 void readSpeciesEntries(Params& p, DatasetSpec& d, std::string& fingerprintBytes) {
     std::vector<Params> entries = p.tableArray("species");
-    if (entries.empty()) p.fail("species", "expected at least one [[species]] entry");
+    if (entries.empty()) {
+        p.fail("species", p.has("method") && !p.has("species")
+                              ? "expected at least one [[species]] entry: this is a species "
+                                "file (it has a method), not a dataset (sylva grow grows one "
+                                "tree of it)"
+                              : "expected at least one [[species]] entry");
+    }
     std::set<std::string> names;
     fs::path base = fs::path(d.path).parent_path();
     for (Params& e : entries) {

@@ -66,8 +66,16 @@ std::string checkLSystemWord(const std::string& word) {
                                             "skeleton; use F)"
                                : c == '!' ? " (widths come from Murray's rule)"
                                           : "";
-            return std::string("unknown L-system symbol '") + c + "' at position " +
-                   std::to_string(i + 1) + " of \"" + word + "\"" + what +
+            // A non-ASCII symbol is named whole (all its UTF-8 bytes), not as a stray byte.
+            std::string symbol(1, c);
+            for (size_t j = i + 1;
+                 (static_cast<unsigned char>(c) & 0xC0) == 0xC0 && j < word.size() &&
+                 (static_cast<unsigned char>(word[j]) & 0xC0) == 0x80;
+                 ++j) {
+                symbol += word[j];
+            }
+            return "unknown L-system symbol '" + symbol + "' at position " + std::to_string(i + 1) +
+                   " of \"" + word + "\"" + what +
                    "; known: F (draw), A-Z (variables), + - & ^ \\ / | [ ]";
         }
         if (c == '[') ++depth;
