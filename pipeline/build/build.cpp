@@ -288,20 +288,20 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
         if (!p || *p < lo || *p >= hi) return std::nullopt;
         return static_cast<size_t>(*p - lo);
     };
-    ManifestOrder order = scanManifestOrder(manifestPath, instances, lo, hi);
-    if (!order.inOrder) {
+    ManifestOrder scanned = scanManifestOrder(manifestPath, instances, lo, hi);
+    if (!scanned.inOrder) {
         const ManifestRepair repair = repairManifest(manifestPath, positionOf);
         std::fprintf(stderr,
                      "sylva: build: repaired %s: %zu records kept, %zu duplicates and %zu "
                      "unreadable lines dropped%s\n",
                      manifestPath.string().c_str(), repair.ids.size(), repair.duplicates,
                      repair.unreadable, repair.reordered ? ", put back in job order" : "");
-        order.last =
+        scanned.last =
             repair.ids.empty() ? -1 : lo + static_cast<int64_t>(*positionOf(repair.ids.back()));
     }
     // Records appended now land after the recorded ones: out of job order when an earlier
     // run left a gap (a failed instance) that this run fills.
-    const int64_t lastRecorded = order.last;
+    const int64_t lastRecorded = scanned.last;
     bool fillsAGap = false;
     InstanceSet done = recordedInstances(manifestPath, instances);  // (cuts a torn last line)
     std::mutex doneMutex;  // the source reads `done` while the recorder adds to it
