@@ -238,9 +238,13 @@ class SpaceReserve {
         const bool ok = ::posix_fallocate(fd, 0, bytes) == 0;
         ::close(fd);
         if (!ok) ::unlink(file_.c_str());
+        unlinkOnSignal(file_);
     }
     ~SpaceReserve() { release(); }
-    void release() { ::unlink(file_.c_str()); }
+    void release() {
+        ::unlink(file_.c_str());
+        keepOnSignal(file_);
+    }
 
   private:
     fs::path file_;

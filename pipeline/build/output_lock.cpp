@@ -202,6 +202,13 @@ class DirGuard {
 
 }  // namespace
 
+void unlinkOnSignal(const fs::path& file) {
+    installSignalCleanup();
+    registerSlot(file);
+}
+
+void keepOnSignal(const fs::path& file) { unregisterSlot(file); }
+
 LockHolder currentHolder(const std::string& command) {
     LockHolder h;
     h.pid = ::getpid();
@@ -372,13 +379,13 @@ void checkOutputDir(const fs::path& dir, const std::string& option) {
         }
         return;
     }
-    if (errno != ENOENT) throw InputError(name + ": " + std::strerror(errno));
+    if (errno != ENOENT && errno != ENOTDIR) throw InputError(name + ": " + std::strerror(errno));
     // The nearest existing ancestor must be a writable directory.
     fs::path p = fs::absolute(dir).lexically_normal();
     while (p.has_parent_path() && p != p.parent_path()) {
         p = p.parent_path();
         if (::stat(p.c_str(), &st) != 0) {
-            if (errno == ENOENT) continue;
+            if (errno == ENOENT || errno == ENOTDIR) continue;
             throw InputError(name + ": cannot be created (" + p.string() + ": " +
                              std::strerror(errno) + ")");
         }

@@ -61,6 +61,11 @@ class OutputLock {
     int fd_ = -1;  // open and flock()ed while held
 };
 
+// Files unlinked, like the locks, should the process be ended by SIGINT, SIGTERM or SIGHUP
+// (at most a few at a time), and taken off that list again.
+void unlinkOnSignal(const std::filesystem::path& file);
+void keepOnSignal(const std::filesystem::path& file);
+
 // This process as a lock holder.
 LockHolder currentHolder(const std::string& command);
 

@@ -81,8 +81,11 @@ struct Child {
 };
 
 // Starts `sylva args…` in `dir`; fileSizeLimit > 0 sets RLIMIT_FSIZE (bytes) in the child
-// first, as `ulimit -f` would (SIGXFSZ keeps its default action: sylva must handle it).
-Child spawn(const std::vector<std::string>& args, const fs::path& dir, rlim_t fileSizeLimit = 0) {
+// first, as `ulimit -f` would (SIGXFSZ keeps its default action: sylva must handle it). With a
+// gate (a pipe) the child waits until the parent closes the pipe's write end, so that several
+// children start at the same moment.
+Child spawn(const std::vector<std::string>& args, const fs::path& dir, rlim_t fileSizeLimit = 0,
+            const int* gate = nullptr) {
     static std::atomic<int> counter{0};
     Child c;
     const int n = counter++;
@@ -103,6 +106,13 @@ Child spawn(const std::vector<std::string>& args, const fs::path& dir, rlim_t fi
         if (o < 0 || e < 0 || in < 0 || ::dup2(o, 1) < 0 || ::dup2(e, 2) < 0 || ::dup2(in, 0) < 0 ||
             ::chdir(dirStr.c_str()) != 0) {
             ::_exit(126);
+        }
+        if (gate) {
+            ::close(gate[1]);  // (the parent's copy is the one that counts)
+            char c;
+            while (::read(gate[0], &c, 1) < 0 && errno == EINTR) {
+            }
+            ::close(gate[0]);
         }
         ::signal(SIGXFSZ, SIG_DFL);
         if (fileSizeLimit > 0) {
@@ -233,7 +243,11 @@ TEST(CliLock, TwoBuildsAtOnceOneWinsAndTheDatasetIsASingleBuilds) {
 
     const fs::path out = t / "out";
     const std::vector<std::string> args = {"build", spec.string(), "--out", out.string()};
-    Child a = spawn(args, t.path()), b = spawn(args, t.path());
+    int gate[2];
+    ASSERT_EQ(::pipe(gate), 0);
+    Child a = spawn(args, t.path(), 0, gate), b = spawn(args, t.path(), 0, gate);
+    ::close(gate[0]);
+    ::close(gate[1]);  // both go
     RunResult ra = finish(a), rb = finish(b);
     const RunResult& loser = ra.code == 2 ? ra : rb;
     const RunResult& winner = ra.code == 2 ? rb : ra;
@@ -262,9 +276,22 @@ TEST(CliLock, ASecondBuildWhileTheFirstRunsWritesNothing) {
     const auto holder = nlohmann::json::parse(slurp(out / ".sylva.lock"));
     EXPECT_EQ(holder["pid"], first.pid);
     EXPECT_EQ(holder["host"], hostName());
-    RunResult second = build(spec, out, t.path());
+    // Paused (alive, lock held) so that it cannot finish while the second one starts up.
+    ASSERT_EQ(::kill(first.pid, SIGSTOP), 0);
     int status = 0;
-    EXPECT_EQ(::waitpid(first.pid, &status, WNOHANG), 0) << "the first build ended meanwhile";
+    ASSERT_EQ(::waitpid(first.pid, &status, WUNTRACED), first.pid);
+    ASSERT_TRUE(WIFSTOPPED(status));
+    const auto files = filesUnder(out);
+    RunResult second = build(spec, out, t.path());
+    const auto after = filesUnder(out);
+    EXPECT_TRUE(after == files) << "the second build wrote or removed something";
+    for (const auto& [rel, bytes] : files) {
+        if (!after.count(rel)) ADD_FAILURE() << "removed: " << rel;
+    }
+    for (const auto& [rel, bytes] : after) {
+        if (!files.count(rel)) ADD_FAILURE() << "added: " << rel;
+    }
+    ASSERT_EQ(::kill(first.pid, SIGCONT), 0);
     expectOneLine(second, 2);
     EXPECT_NE(second.err.find("(pid " + std::to_string(first.pid) + " on host "), std::string::npos)
         << second.err;
@@ -275,6 +302,21 @@ TEST(CliLock, ASecondBuildWhileTheFirstRunsWritesNothing) {
     ASSERT_EQ(third.code, 0) << describe(third);
     EXPECT_NE(third.err.find("0 built, 160 already there"), std::string::npos) << third.err;
     expectSameDataset(out, t / "ref");
+}
+
+// Ended by SIGTERM (a scheduler's cancel, Ctrl-C's cousin): the lock and the space reserve go
+// with the process; kill -9 cannot clean up, and the next run takes that lock over (CliRunLog).
+TEST(CliLock, TerminatedBuildLeavesNoLockBehind) {
+    TempDir t;
+    const fs::path spec = writeSpec(t.path(), 40);
+    const fs::path out = t / "out";
+    Child c = spawn({"build", spec.string(), "--out", out.string()}, t.path());
+    ASSERT_TRUE(waitForLines(c, out / "manifest.jsonl", 1)) << "the build ended early";
+    ASSERT_EQ(::kill(c.pid, SIGTERM), 0);
+    EXPECT_EQ(finish(c).code, 128 + SIGTERM);
+    for (const auto& e : fs::directory_iterator(out)) {
+        EXPECT_NE(e.path().filename().string().rfind(".sylva", 0), 0u) << e.path();
+    }
 }
 
 // Shards of one build may share a directory (each locks its own shard); an unsharded build or

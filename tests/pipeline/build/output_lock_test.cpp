@@ -141,7 +141,9 @@ TEST(CheckOutputDir, RejectsWhatCannotBeADatasetDirectory) {
     EXPECT_EQ(message(""), "--out: expected a directory, got an empty path");
     EXPECT_EQ(message(t / "file"),
               "--out " + (t / "file").string() + ": exists and is not a directory");
-    EXPECT_NE(message(t / "file" / "a" / "b"), "");
+    EXPECT_EQ(message(t / "file" / "a" / "b"), "--out " + (t / "file" / "a" / "b").string() +
+                                                   ": cannot be created (" + (t / "file").string() +
+                                                   " is not a directory)");
     EXPECT_EQ(message(t.path()), "");
     EXPECT_EQ(message(t / "new" / "deeper"), "");
     EXPECT_FALSE(fs::exists(t / "new"));  // checking creates nothing
