@@ -295,7 +295,10 @@ VolumeOutputResult writeSpeciesVolumes(const std::string& speciesPath, const fs:
     SpeciesFile species = loadSpecies(speciesPath);
     DrawContext draw;
     draw.seed = hashCombine(options.seed, 0x9a7a);  // as growSpecies draws the parameters
-    std::unique_ptr<GrowthMethod> method = instantiateSpecies(species, draw, nullptr);
+    BudgetTable budget;
+    std::unique_ptr<GrowthMethod> method =
+        instantiateSpecies(species, draw, nullptr, nullptr, nullptr, &budget);
+    checkSizeBounds(*method, effectiveBudget(budget), false);  // a bad species, as validate says
     result.species = species.name;
     result.parseMs = msSince(t0);
     const auto named = method->volumes();

@@ -20,7 +20,12 @@ GrowOneResult growOne(const std::string& speciesPath, uint64_t seed, const fs::p
     r.species = species.name;
     r.dir = dir.empty() ? fs::path("out") / "grow" / species.name : dir;
     const auto t0 = std::chrono::steady_clock::now();
-    GrownTree g = growSpecies(species, seed, nullptr, true);
+    GrownTree g;
+    try {
+        g = growSpecies(species, seed, nullptr, true);
+    } catch (const BudgetExceeded& e) {  // which tree, for the one line the command prints
+        throw BudgetExceeded(species.name + " seed " + std::to_string(seed) + ": " + e.what());
+    }
     r.growMs =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     r.stats = computeStats(g.tree);

@@ -921,8 +921,10 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     }
     for (int iteration = 0; iteration < maxIterations; ++iteration) {
         guard.time();
-        guard.skeletonNodes(static_cast<int64_t>(tree.nodes.size()),
-                            " (leaf-support twigs, round " + std::to_string(iteration) + ")");
+        if (static_cast<int64_t>(tree.nodes.size()) > guard.budget().maxSkeletonNodes) {
+            guard.skeletonNodes(static_cast<int64_t>(tree.nodes.size()),
+                                " (leaf-support twigs, round " + std::to_string(iteration) + ")");
+        }
         // Runions et al. 2007, §3: every marker pulls its nearest node.
         touched.clear();
         size_t alive = 0;

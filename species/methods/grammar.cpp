@@ -405,9 +405,12 @@ void drawStem(Derivation& d, const Pending& pd) {
         controlPoints(d, g, tropism, at.base, dir, len, bend, noiseOrigin, tau);
     const int m = static_cast<int>(ctrl.size());
     const double wanted = std::max(1.0, std::ceil(len / o.segmentLength - 1e-9));
-    d.guard.skeletonNodes(
-        static_cast<int64_t>(d.tree.nodes.size()) + static_cast<int64_t>(std::min(wanted, 1e18)),
-        " (stem " + std::to_string(d.stems.size()) + ", " + formatSize(wanted) + " segments)");
+    const int64_t nodes =
+        static_cast<int64_t>(d.tree.nodes.size()) + static_cast<int64_t>(std::min(wanted, 1e18));
+    if (nodes > d.guard.budget().maxSkeletonNodes) {  // (the message only when it is needed)
+        d.guard.skeletonNodes(nodes, " (stem " + std::to_string(d.stems.size()) + ", " +
+                                         formatSize(wanted) + " segments)");
+    }
     d.guard.work(d.work, static_cast<uint64_t>(wanted) + 64);
     int segments = static_cast<int>(wanted);
     if (bend > 0 || tau > 0) segments = std::max(segments, 2 * (m - 1));
@@ -491,9 +494,11 @@ void emitParticles(Derivation& d, size_t si, const HeightRange& y) {
         for (size_t i = 1; i < sc.point.size(); ++i) arc += distance(sc.point[i - 1], sc.point[i]);
         wanted += std::round(pp.perMetre * arc * (pp.alongHi - pp.alongLo));
     }
-    d.guard.leaves(
-        static_cast<int64_t>(d.tree.leaves.size()) + static_cast<int64_t>(std::min(wanted, 1e18)),
-        " (particles of stem " + std::to_string(si) + ")");
+    const int64_t leaves =
+        static_cast<int64_t>(d.tree.leaves.size()) + static_cast<int64_t>(std::min(wanted, 1e18));
+    if (leaves > d.guard.budget().maxLeaves) {
+        d.guard.leaves(leaves, " (particles of stem " + std::to_string(si) + ")");
+    }
     d.guard.work(d.work, static_cast<uint64_t>(wanted) * 16);
     const int n = static_cast<int>(wanted);
     for (int k = 0; k < n; ++k) {
@@ -542,8 +547,10 @@ void emitFruit(Derivation& d, size_t si) {
         return;
     }
     const Rng stream = d.rng.derive(hashCombine(st.key, kFruitTag));
-    d.guard.leaves(static_cast<int64_t>(d.tree.leaves.size()) + fr.count,
-                   " (fruit of stem " + std::to_string(si) + ")");
+    const int64_t leaves = static_cast<int64_t>(d.tree.leaves.size()) + fr.count;
+    if (leaves > d.guard.budget().maxLeaves) {
+        d.guard.leaves(leaves, " (fruit of stem " + std::to_string(si) + ")");
+    }
     for (int k = 0; k < fr.count; ++k) {
         Rng fr2 = stream.derive(static_cast<uint64_t>(k));
         const double a = fr2.uniform(fr.alongLo, fr.alongHi);

@@ -38,8 +38,6 @@ void checkCapacity(std::vector<Params>& ls, const GraphSystem& sys) {
     }
 }
 
-std::string sizeText(double v) { return formatSize(v); }
-
 // Lower bounds of a system's sizes (core/budget.h), level by level, as growSystem builds it:
 // level 0 is one graph; the graphs of level k + 1 hang from the endpoints (of level k, or of
 // every level before with from_all_levels) whose lifespan is surely still ≥ 1. Counts are the
@@ -92,16 +90,16 @@ void estimateSystem(const IteratedGraphOptions& o, const GraphSystem& sys,
         Params& t = tables[k];
         const std::string many =
             k == 0 ? ""
-                   : " (" + sizeText(jobs) +
+                   : " (" + formatSize(jobs) +
                          " graphs at this level, from the endpoints of the levels before)";
         sizes.add(
             BudgetKind::kGraphNodes, graphNodes, t.where("nodes"), t.path("nodes"),
             (k == 0 ? "this level alone makes ≈ " : "the levels up to this one make at least ≈ ") +
-                sizeText(graphNodes) + " graph nodes and endpoints" + many);
+                formatSize(graphNodes) + " graph nodes and endpoints" + many);
         sizes.add(
             BudgetKind::kSkeletonNodes, skeleton, t.where("endpoints"), t.path("endpoints"),
             (k == 0 ? "this level alone makes ≈ " : "the levels up to this one make at least ≈ ") +
-                sizeText(skeleton) + " endpoints, each a skeleton node" + many);
+                formatSize(skeleton) + " endpoints, each a skeleton node" + many);
     }
     skeletonAfter = skeleton;
 }
@@ -272,7 +270,7 @@ std::unique_ptr<GrowthMethod> makeIteratedGraphMethod(Params& sp) {
         skeleton += std::max(1.0, std::ceil(o.trunk.height / spacing - 1e-9));
         sizes.add(BudgetKind::kSkeletonNodes, skeleton, trunkTable->where("height"),
                   trunkTable->path("height"),
-                  "the bole alone is ≈ " + sizeText(skeleton) + " skeleton nodes (one every " +
+                  "the bole alone is ≈ " + formatSize(skeleton) + " skeleton nodes (one every " +
                       formatNumber(spacing, 3) + " m, the level-0 spacing)");
     }
     estimateSystem(o, o.crown, levelTables, false, skeleton, sizes, skeleton);

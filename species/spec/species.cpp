@@ -105,14 +105,18 @@ std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, Dra
     return m;
 }
 
-namespace {
 Budget effectiveBudget(const BudgetTable& species, const BudgetTable* dataset) {
     Budget b;
     species.applyTo(b);
     if (dataset) dataset->applyTo(b);
     return b;
 }
-}  // namespace
+
+void checkSizeBounds(const GrowthMethod& method, const Budget& budget, bool meshed) {
+    if (const SizeBound* over = method.sizes.over(budget, meshed)) {
+        throw SpecError(over->where, over->keyPath, overBudgetMessage(*over, budget));
+    }
+}
 
 GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
                       bool threaded, const BudgetTable* datasetBudget) {
@@ -173,9 +177,7 @@ Budget validateSpecies(const SpeciesFile& species, const Overrides* overrides,
     const std::unique_ptr<GrowthMethod> method =
         instantiateSpecies(species, draw, overrides, nullptr, nullptr, &table);
     const Budget budget = effectiveBudget(table, datasetBudget);
-    if (const SizeBound* over = method->sizes.over(budget, meshed)) {
-        throw SpecError(over->where, over->keyPath, overBudgetMessage(*over, budget));
-    }
+    checkSizeBounds(*method, budget, meshed);
     return budget;
 }
 

@@ -68,6 +68,13 @@ SpeciesCacheCounts speciesCacheCounts(const SpeciesFile& species);
 GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
                       bool threaded, const BudgetTable* datasetBudget = nullptr);
 
+// The budgets of a species' trees: the defaults, then the species' [budget] table (as
+// instantiateSpecies returns it), then a dataset's.
+Budget effectiveBudget(const BudgetTable& species, const BudgetTable* dataset = nullptr);
+// A SpecError at the key that dominates the first size bound of `method` over `budget` (the
+// triangle bounds only when `meshed`).
+void checkSizeBounds(const GrowthMethod& method, const Budget& budget, bool meshed);
+
 // Checks every key and value of the species (with overrides) without growing, and that its
 // parameters do not certainly exceed a budget (SpecError at the key that dominates; the
 // triangle budget only when `meshed`: a dataset that makes meshes or views). Returns the

@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <ostream>
 #include <set>
 #include <string>
 #include <thread>
@@ -134,6 +135,9 @@ const Bomb kBombs[] = {
     {"budget_dataset_view_pixels.toml", true,
      "budget_dataset_view_pixels.toml:14:14: views.resolution", "max_view_pixels = 100000000"},
 };
+
+// Test names print the bomb's name.
+void PrintTo(const Bomb& b, std::ostream* os) { *os << b.name; }
 
 class CliBudgetBomb : public ::testing::TestWithParam<Bomb> {};
 
@@ -260,8 +264,10 @@ TEST(CliBudget, GrowOverItsTimeBudgetExitsOneAndWritesNothing) {
     const RunResult r = run({"grow", spec.string(), "--out", out.string()}, t.path());
     EXPECT_EQ(r.code, 1) << describe(r);
     EXPECT_EQ(lineCount(r.err), 1u) << describe(r);
-    EXPECT_NE(r.err.find("sylva: grow: budget max_growth_seconds = 1e-09 exceeded: still growing"),
-              std::string::npos)
+    EXPECT_NE(
+        r.err.find(
+            "sylva: grow: slow seed 1: budget max_growth_seconds = 1e-09 exceeded: still growing"),
+        std::string::npos)
         << describe(r);
     EXPECT_TRUE(r.out.empty()) << describe(r);
     EXPECT_FALSE(fs::exists(out));
