@@ -246,7 +246,7 @@ TEST(CliBudget, ATreeOverItsBudgetFailsAloneAndIsLeftOutOfTheManifest) {
     EXPECT_FALSE(fs::exists(out / "trees" / "limited"));
     const auto d = nlohmann::json::parse(slurp(out / "dataset.json"));
     EXPECT_EQ(d["status"], "incomplete");
-    EXPECT_EQ(d["counts"]["failed"], 2);
+    EXPECT_EQ(d["counts"]["missing"], 2);  // failed: not recorded (runs.jsonl has the run's count)
 
     // The dataset's [budget] has the last word: raised there, every tree is built.
     const fs::path raised = t / "raised.toml";
