@@ -43,6 +43,11 @@ void sampleInto(openvdb::FloatGrid& grid, const Volume& source, const Aabb& boun
         const double l = std::floor(bounds.lo[a] * inv) - pad;
         const double h = std::ceil(bounds.hi[a] * inv) + pad;
         if (!(h - l < 1e7)) throw std::invalid_argument("levelSetGrid: grid would be too large");
+        // OpenVDB's voxel indices are 32-bit integers (casting beyond them is undefined).
+        if (!(std::abs(l) < 1e9 && std::abs(h) < 1e9)) {
+            throw std::invalid_argument(
+                "levelSetGrid: the volume lies over 10⁹ voxels from the origin");
+        }
         lo[a] = leafFloor(static_cast<int>(l));
         nb[a] = (leafFloor(static_cast<int>(h)) - lo[a]) / kLeafDim + 1;
     }

@@ -114,8 +114,12 @@ VolumePtr parseVolume(Params& p, bool topLevel) {
         double voxel = p.number("voxel_size", Range::positive());
         Vec3 size = v->bounds().size();
         double cells = (size.x / voxel) * (size.y / voxel) * (size.z / voxel);
-        if (cells > 2e9) {
+        if (cells > kMaxLevelSetVoxels) {
             p.fail("voxel_size", "too fine for a crown of this size (over 2·10⁹ voxels)");
+        }
+        const Aabb b = v->bounds();
+        for (double c : {b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z}) {
+            if (!withinVoxelReach(c, voxel)) p.fail("voxel_size", kVoxelReachMessage);
         }
         v = makeLevelSet(*v, voxel);
     } else if (!topLevel) {

@@ -8,11 +8,33 @@
 //   voxel_size = 0.05   # optional, top level only: realise as an OpenVDB level set
 #pragma once
 
+#include <cmath>
+
 #include "core/params.h"
 #include "volumes/mask.h"
 #include "volumes/volume.h"
 
 namespace sylva {
+
+// The most voxels a level set may span over its bounds (voxel_size, level_set_voxel): 2·10⁹, as
+// the errors say. The fuzz build (libFuzzer's FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION, set by
+// SYLVA_FUZZ) allows 2·10⁷, so a level set at the limit builds within the fuzzer's per-input
+// time limit: one near 2·10⁹ takes ~20 s and 800 MB to validate.
+#ifdef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION
+constexpr double kMaxLevelSetVoxels = 2e7;
+#else
+constexpr double kMaxLevelSetVoxels = 2e9;
+#endif
+// How far from the origin, in voxels, a level set may reach: OpenVDB indexes voxels with 32-bit
+// integers and meshes with floats (24-bit mantissa), so a crown 3·10⁹ m up overflowed the index
+// (undefined behaviour) or hung building the level set. 2²⁰ voxels: 50 km at 5 cm.
+constexpr double kMaxVoxelReach = 1048576.0;
+inline bool withinVoxelReach(double coordinate, double voxel) {
+    return std::abs(coordinate) / voxel < kMaxVoxelReach;
+}
+constexpr const char* kVoxelReachMessage =
+    "the level set would lie over 2²⁰ voxels from the origin: move the volume nearer to it or "
+    "use a coarser voxel";
 
 // Parses a volume table (and its parts); errors name file, line and key path. The kinds are
 // one table in volume_spec.cpp.

@@ -69,8 +69,11 @@ VolumePtr parseMaskRevolutionVolume(Params& p) {
         double widest = 0.0;
         for (const Vec2& q : stroke) widest = std::max(widest, q.x);
         const double tall = stroke.back().y - stroke.front().y;
-        if (std::pow(2.0 * widest / o.voxelSize, 2) * (tall / o.voxelSize) > 2e9) {
+        if (std::pow(2.0 * widest / o.voxelSize, 2) * (tall / o.voxelSize) > kMaxLevelSetVoxels) {
             p.fail("level_set_voxel", "too fine for a crown of this size (over 2·10⁹ voxels)");
+        }
+        for (double c : {widest, stroke.front().y, stroke.back().y}) {
+            if (!withinVoxelReach(c, o.voxelSize)) p.fail("level_set_voxel", kVoxelReachMessage);
         }
     }
     try {

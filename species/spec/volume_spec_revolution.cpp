@@ -83,8 +83,13 @@ VolumePtr parseRevolutionVolume(Params& p) {
     if (p.has("level_set_voxel")) {
         voxel = p.number("level_set_voxel", Range::positive());
         const double cells = std::pow(2.0 * maxR / voxel, 2) * ((hi - lo) / voxel);
-        if (cells > 2e9) {
+        if (cells > kMaxLevelSetVoxels) {
             p.fail("level_set_voxel", "too fine for a crown of this size (over 2·10⁹ voxels)");
+        }
+    }
+    for (double c : {maxR, lo, hi}) {
+        if (!withinVoxelReach(c, voxel)) {
+            p.fail(p.has("level_set_voxel") ? "level_set_voxel" : source, kVoxelReachMessage);
         }
     }
     try {
