@@ -27,14 +27,16 @@ const std::map<std::string, std::string> kExpected = {
     // toml++'s description quotes the bad text, here "fals" and the newline after it.
     {"spec/toml-syntax-error-quotes-a-newline",
      ":50:13: TOML syntax error: Error while parsing boolean: expected 'false', saw 'fals\\n'"},
-    // A level set 10¹² m from the origin: OpenVDB's int voxel index overflowed (UB).
+    // A level set 10¹² m from the origin: OpenVDB's int voxel index overflowed (UB). Numbers
+    // are now bounded at 1e9 m, which refuses it first; a level set within that bound but over
+    // 2²⁰ voxels from the origin is refused at its voxel_size / level_set_voxel / stroke.
     {"spec/level-set-far-from-origin",
-     ":10:14: crown.voxel_size: the level set would lie over 2²⁰ voxels from the origin"},
+     ":9:12: crown.position[0]: expected a finite number of magnitude at most 1e9"},
     // Revolution strokes 3·10⁹ m up: building the level set hung.
     {"spec/revolution-far-from-origin",
-     ":7:10: crown.stroke: the level set would lie over 2²⁰ voxels from the origin"},
+     ":7:11: crown.stroke: item 0: expected finite numbers of magnitude at most 1e9"},
     {"spec/revolution-far-from-origin-level-set-voxel",
-     ":8:19: crown.level_set_voxel: the level set would lie over 2²⁰ voxels from the origin"},
+     ":7:11: crown.stroke: item 0: expected finite numbers of magnitude at most 1e9"},
 };
 
 std::vector<fs::path> fixtures(const std::string& target) {
