@@ -32,6 +32,8 @@ const std::map<std::string, std::string> kExpected = {
     // 2²⁰ voxels from the origin is refused at its voxel_size / level_set_voxel / stroke.
     {"spec/level-set-far-from-origin",
      ":9:12: crown.position[0]: expected a finite number of magnitude at most 1e9"},
+    {"spec/level-set-far-within-bounds",
+     ":10:14: crown.voxel_size: the level set would lie over 2²⁰ voxels from the origin"},
     // Revolution strokes 3·10⁹ m up: building the level set hung.
     {"spec/revolution-far-from-origin",
      ":7:11: crown.stroke: item 0: expected finite numbers of magnitude at most 1e9"},
