@@ -1,5 +1,6 @@
 #include "pipeline/build/dataset.h"
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -80,6 +81,13 @@ SweepAxis parseSweep(Params& p) {
         double to = r.number("to", Range::any());
         int64_t steps = r.integer("steps", Range::closed(1, 100000));
         bool integer = r.boolean("integer", false);
+        // llround beyond int64 gives an unspecified value (-9.2·10¹⁸ on x86): the error would
+        // then quote a number the user never wrote.
+        for (const char* key : {"from", "to"}) {
+            if (integer && !(std::abs(key[0] == 'f' ? from : to) < 9.2e18)) {
+                r.fail(key, "expected a number within ±9.2·10¹⁸ (integer = true)");
+            }
+        }
         r.finish();
         for (int64_t k = 0; k < steps; ++k) {
             double t = steps == 1 ? 0.0 : static_cast<double>(k) / (steps - 1);
