@@ -1,6 +1,7 @@
 #include "pipeline/build/dataset.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>

@@ -10,6 +10,7 @@ OUT_DIR/spec/    every species and dataset file of the repository (species/**, d
 OUT_DIR/image/   every PNG and SVG a spec can name (species/sketches/, tests/data/)
 OUT_DIR/spec.dict   libFuzzer dictionary: every key, table name and word the specs use, and
                     TOML's syntax (numbers at the edges, dates, escapes, table headers)
+OUT_DIR/image.dict  PNG's signature and chunk names, SVG's markup and path commands
 """
 import os
 import re
@@ -29,6 +30,14 @@ TOML_TOKENS = [
     "4294967296", "0x7fffffffffffffff", "0o777", "0b1", "1_000", "1979-05-27T07:32:00Z",
     "1979-05-27", "07:32:00", "{uniform = [", "{normal = [", "[0, 0, 0]", "[[0, 0], [1, 1]]",
     "/dev/zero", "/dev/null", "/proc/self/mem", "../", "..", "/",
+]
+# The image target: PNG signature and chunks, SVG markup and path commands.
+IMAGE_TOKENS = [
+    r"\x89PNG\x0D\x0A\x1A\x0A", "IHDR", "IDAT", "IEND", "PLTE", "tRNS", "gAMA", "iCCP", "sBIT",
+    r"\x00\x00\x00\x0D", r"\xFF\xFF\xFF\xFF", r"\x7F\xFF\xFF\xFF", "<svg", "</svg>", "<path",
+    "/>", r" d=\x22", r"\x22", "<g>", "</g>", "transform=", "M", "m", "L", "l", "H", "h", "V", "v",
+    "C", "c", "S", "s", "Q", "q", "T", "t", "A", "a", "Z", "z", "1e308", "-1e308", "nan", "inf",
+    ".5.5", "1e", "-", ",",
 ]
 
 
@@ -101,6 +110,9 @@ def main():
                 chr(b) if 0x20 <= b < 0x7F and chr(b) not in '"\\' else "\\x%02X" % b
                 for b in w.encode("utf-8"))
             f.write('"%s"\n' % esc)
+    with open(os.path.join(out, "image.dict"), "w", encoding="utf-8") as f:
+        for w in IMAGE_TOKENS:  # already in libFuzzer's escaped form
+            f.write('"%s"\n' % w)
     print("corpus: %d spec files, %d images, %d dictionary words" % (n, images, len(words)))
 
 
