@@ -17,6 +17,7 @@
 #include "pipeline/render/render.h"
 #include "species/geometry/tube_mesh.h"
 #include "species/geometry/watertight.h"
+#include "species/plot/plot.h"
 #include "species/spec/species.h"
 
 namespace sylva {
@@ -75,6 +76,7 @@ struct DatasetSpec {
     uint64_t seed = 0;
     std::string description;
     std::vector<SpeciesEntry> species;
+    std::vector<PlotSpec> plots;  // [[plot]]: forest plots, each instance one plot
     std::vector<SweepAxis> sweeps;
     OutputOptions outputs;
     BudgetTable budget;       // [budget]: every tree's budgets, over the species' own

@@ -34,12 +34,12 @@ struct PlotArea {
 struct TerrainOptions {
     enum class Kind : uint8_t { kFlat, kSlope, kNoise, kDem };
     Kind kind = Kind::kFlat;
-    double slopeRad = 0.0;    // slope: inclination
-    double aspectRad = 0.0;   // slope: the azimuth the slope faces (downhill direction)
-    double amplitude = 0.0;   // noise: metres, peak height of the smooth noise
-    double wavelength = 30;   // noise: metres, its largest feature
-    int octaves = 3;          // noise: fBm octaves, each half the wavelength and amplitude
-    std::string demPath;      // dem: a single-channel PNG/TIFF read through OpenImageIO
+    double slopeRad = 0.0;        // slope: inclination
+    double aspectRad = 0.0;       // slope: the azimuth the slope faces (downhill direction)
+    double amplitude = 0.0;       // noise: metres, peak height of the smooth noise
+    double wavelength = 30;       // noise: metres, its largest feature
+    int octaves = 3;              // noise: fBm octaves, each half the wavelength and amplitude
+    std::string demPath;          // dem: a single-channel PNG/TIFF read through OpenImageIO
     double metresPerPixel = 1.0;  // dem: ground distance between pixel centres
     double heightScale = 1.0;     // dem: metres per pixel value (8/16-bit: per integer step)
     double heightOffset = 0.0;    // dem: metres added to every height
@@ -50,27 +50,27 @@ struct TerrainOptions {
 struct PointProcessOptions {
     enum class Kind : uint8_t { kPoisson, kHardCore, kStrauss, kThomas, kRows };
     Kind kind = Kind::kPoisson;
-    double minSpacing = 0.0;      // hard-core (Matérn): no pair closer; strauss: interaction r
-    double interaction = 0.0;     // strauss: γ ∈ [0, 1] (0 = hard core, 1 = Poisson)
-    double parentDensity = 0.0;   // thomas: cluster centres per hectare
-    double clusterSigma = 0.0;    // thomas: metres, sd of a cluster's Gaussian spread
-    double rowSpacing = 0.0;      // rows: metres between rows
-    double stemSpacing = 0.0;     // rows: metres between stems along a row
-    double rowAzimuthRad = 0.0;   // rows: direction the rows run
-    double jitter = 0.0;          // rows: metres, sd of each stem's offset from its grid place
+    double minSpacing = 0.0;     // hard-core (Matérn): no pair closer; strauss: interaction r
+    double interaction = 0.0;    // strauss: γ ∈ [0, 1] (0 = hard core, 1 = Poisson)
+    double parentDensity = 0.0;  // thomas: cluster centres per hectare
+    double clusterSigma = 0.0;   // thomas: metres, sd of a cluster's Gaussian spread
+    double rowSpacing = 0.0;     // rows: metres between rows
+    double stemSpacing = 0.0;    // rows: metres between stems along a row
+    double rowAzimuthRad = 0.0;  // rows: direction the rows run
+    double jitter = 0.0;         // rows: metres, sd of each stem's offset from its grid place
 };
 
 // One species of a plot's mix.
 struct PlotSpecies {
     SpeciesFile species;
-    std::string keyPath;        // "plot[0].species[2]", for errors
+    std::string keyPath;  // "plot[0].species[2]", for errors
     SourcePos where;
-    bool understory = false;    // [[plot.understory]]: shrubs/saplings, own Poisson process
-    double density = 0.0;       // stems per hectare (expected), or …
-    int64_t count = -1;         // … an exact count (−1: use density)
+    bool understory = false;  // [[plot.understory]]: shrubs/saplings, own Poisson process
+    double density = 0.0;     // stems per hectare (expected), or …
+    int64_t count = -1;       // … an exact count (−1: use density)
     // Size distribution: the tree is scaled uniformly about its base so its height is this
     // draw (metres); ≤ 0: the height it grew to.
-    toml::table height;         // holder["v"]: a number or a distribution, drawn per stem
+    toml::table height;  // holder["v"]: a number or a distribution, drawn per stem
     bool hasHeight = false;
     double lai = -1;            // this species' share of the plot's LAI (m²/m²); < 0: none
     double crownShyness = 0.1;  // gap between crowns, fraction of the crown radius
@@ -87,12 +87,12 @@ struct PlotSpec {
     std::string name;
     std::string keyPath;  // "plot[0]"
     SourcePos where;
-    int64_t count = 0;    // plot instances
+    int64_t count = 0;  // plot instances
     PlotArea area;
     double margin = 5.0;  // metres of terrain beyond the area on every side
     TerrainOptions terrain;
-    PointProcessOptions process;             // of the canopy trees (understory: Poisson)
-    std::vector<PlotSpecies> species;        // canopy species, then understory
+    PointProcessOptions process;       // of the canopy trees (understory: Poisson)
+    std::vector<PlotSpecies> species;  // canopy species, then understory
     GroundCoverOptions groundCover;
     double lai = -1;  // the plot's leaf area index target (m² one-sided leaf / m² ground); < 0
     bool neighbours = true;  // grow in a shared environment (false: each tree alone)
@@ -120,9 +120,9 @@ class Terrain {
 
 // One stem of a plot's layout.
 struct PlotStem {
-    int32_t id = 0;       // tree id within the plot, 1 … N (0 = terrain/background in ids)
-    int32_t species = 0;  // index into PlotSpec::species
-    Vec3 base;            // x, terrain height, z
+    int32_t id = 0;           // tree id within the plot, 1 … N (0 = terrain/background in ids)
+    int32_t species = 0;      // index into PlotSpec::species
+    Vec3 base;                // x, terrain height, z
     double targetHeight = 0;  // metres; ≤ 0: as grown
     uint64_t seed = 0;        // the tree's own seed (hashed from the plot seed and id)
 };
@@ -136,16 +136,16 @@ struct PlotLayout {
 // its base), and what was drawn for it.
 struct PlotTree {
     PlotStem stem;
-    GrownTree grown;     // grown.tree is in plot-local metres
+    GrownTree grown;         // grown.tree is in plot-local metres
     double leafScale = 1.0;  // factor applied to leaf areas to reach the LAI target
 };
 
 struct GrownPlot {
     const PlotSpec* spec = nullptr;
     PlotLayout layout;
-    std::vector<PlotTree> trees;  // in stem order
+    std::vector<PlotTree> trees;    // in stem order
     std::vector<Leaf> groundCover;  // low-vegetation cards on the terrain
-    double lai = 0;  // reached (m²/m²), over the plot area
+    double lai = 0;                 // reached (m²/m²), over the plot area
 };
 
 }  // namespace sylva
