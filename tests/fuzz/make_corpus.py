@@ -74,14 +74,16 @@ def main():
     words = set()
     n = 0
     for path in spec_files(src):
-        text = open(path, encoding="utf-8").read()
+        # Hostile fixtures hold invalid UTF-8 on purpose: their bytes go through unchanged.
+        text = open(path, encoding="utf-8", errors="surrogateescape").read()
         # The gallery and the realism gates list every species: validating them all takes
         # longer than the fuzzer's 10 s limit under the sanitizers, and each species they
         # list is a seed of its own.
         if text.count("[[species]]") > MAX_SPECIES_ENTRIES:
             continue
         rel = os.path.relpath(path, src).replace("/", "__")
-        with open(os.path.join(out, "spec", rel), "w", encoding="utf-8") as f:
+        with open(os.path.join(out, "spec", rel), "w", encoding="utf-8",
+                  errors="surrogateescape") as f:
             f.write(rewrite(src, path, text))
         n += 1
         for m in KEY.finditer(text):
@@ -108,7 +110,7 @@ def main():
             # libFuzzer's dictionary: printable ASCII, everything else as \xNN.
             esc = "".join(
                 chr(b) if 0x20 <= b < 0x7F and chr(b) not in '"\\' else "\\x%02X" % b
-                for b in w.encode("utf-8"))
+                for b in w.encode("utf-8", errors="surrogateescape"))
             f.write('"%s"\n' % esc)
     with open(os.path.join(out, "image.dict"), "w", encoding="utf-8") as f:
         for w in IMAGE_TOKENS:  # already in libFuzzer's escaped form
