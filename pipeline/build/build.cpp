@@ -198,6 +198,24 @@ void writeDatasetJson(const DatasetSpec& spec, const BuildOptions& o, const fs::
         sp.push_back(j);
     }
     d["species"] = sp;
+    if (!spec.plots.empty()) {
+        nlohmann::json plots = nlohmann::json::array();
+        for (const PlotSpec& p : spec.plots) {
+            nlohmann::json j;
+            j["name"] = p.name;
+            j["count"] = p.count;
+            j["area_m2"] = p.area.area();
+            nlohmann::json mix = nlohmann::json::array();
+            for (const PlotSpecies& s : p.species) {
+                mix.push_back({{"name", s.species.name},
+                               {"file", s.species.path},
+                               {"layer", s.understory ? "understory" : "canopy"}});
+            }
+            j["species"] = mix;
+            plots.push_back(j);
+        }
+        d["plots"] = plots;
+    }
     d["versions"] = versionInfo();
     d["shard"] = {{"index", o.shardIndex}, {"count", o.shardCount}};
     d["counts"] = {{"instances_in_dataset", allJobs},

@@ -444,6 +444,11 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
     return d;
 }
 
+uint64_t plotSeed(uint64_t datasetSeed, const std::string& plot, int64_t index) {
+    // "plot:" keeps a plot's seeds apart from a species' of the same name.
+    return instanceSeed(datasetSeed, "plot:" + plot, "", index);
+}
+
 std::string instanceId(const std::string& species, bool swept, int pointIndex, int64_t index) {
     char buf[64];
     if (swept) {
@@ -485,6 +490,15 @@ DatasetInstances::DatasetInstances(const DatasetSpec& spec) : spec_(&spec) {
         start_.push_back(start_.back() + e.count * points);
         byName_.emplace(e.species.name, s);
     }
+    // Plots follow the species, each plot instance one position (no sweep points).
+    for (size_t k = 0; k < spec.plots.size(); ++k) {
+        const PlotSpec& p = spec.plots[k];
+        if (p.count < 0 || p.count > kMaxInstances - start_.back()) {
+            throw std::length_error("DatasetInstances: over kMaxInstances instances");
+        }
+        start_.push_back(start_.back() + p.count);
+        byName_.emplace(p.name, spec.species.size() + k);
+    }
 }
 
 InstanceJob DatasetInstances::operator[](int64_t position) const {
@@ -496,6 +510,17 @@ InstanceJob DatasetInstances::operator[](int64_t position) const {
     // the next one does, so this is the non-empty one that holds it).
     const size_t s = static_cast<size_t>(std::upper_bound(start_.begin(), start_.end(), position) -
                                          start_.begin() - 1);
+    if (s >= spec_->species.size()) {
+        const PlotSpec& p = spec_->plots[s - spec_->species.size()];
+        InstanceJob j;
+        j.plot = &p;
+        j.datasetBudget = &spec_->budget;
+        j.index = position - start_[s];
+        j.seed = plotSeed(spec_->seed, p.name, j.index);
+        j.id = instanceId(p.name, false, 0, j.index);
+        j.position = position;
+        return j;
+    }
     const SpeciesEntry& e = spec_->species[s];
     const int64_t r = position - start_[s];
     InstanceJob j;
@@ -516,6 +541,12 @@ std::optional<int64_t> DatasetInstances::find(std::string_view id) const {
          dash = id.find('-', dash + 1)) {
         auto it = byName_.find(id.substr(0, dash));
         if (it == byName_.end()) continue;
+        if (it->second >= spec_->species.size()) {  // a plot
+            const PlotSpec& p = spec_->plots[it->second - spec_->species.size()];
+            const auto index = parseDigits(id.substr(dash + 1));
+            if (!index || *index >= p.count || instanceId(p.name, false, 0, *index) != id) continue;
+            return start_[it->second] + *index;
+        }
         const SpeciesEntry& e = spec_->species[it->second];
         std::string_view rest = id.substr(dash + 1);
         int64_t point = 0;
