@@ -153,6 +153,18 @@ void readStems(Params& t, PlotSpec& s) {
     if (o.kind == K::kThomas) {
         o.parentDensity = t.number("parent_density", 25.0, Range::leftOpen(0, 1e6));
         o.clusterSigma = t.number("cluster_sigma", 3.0, Range::leftOpen(0, 1000));
+        // Parents are drawn over the area grown by 4σ: at most kMaxPlotStems of them (more
+        // clusters than stems make no clusters).
+        const bool circle = s.area.shape == PlotArea::Shape::kCircle;
+        const double w = (circle ? 2 * s.area.radius : s.area.width) + 8 * o.clusterSigma;
+        const double d = (circle ? 2 * s.area.radius : s.area.depth) + 8 * o.clusterSigma;
+        const double parents = o.parentDensity * 1e-4 * w * d;
+        if (parents > static_cast<double>(kMaxPlotStems)) {
+            t.fail("parent_density",
+                   "expected at most " + std::to_string(kMaxPlotStems) +
+                       " cluster centres over the plot grown by 4 × cluster_sigma (" + number(w) +
+                       " × " + number(d) + " m), got " + number(parents) + " expected");
+        }
     }
     if (o.kind == K::kRows) {
         o.rowSpacing = t.number("row_spacing", Range::leftOpen(0, 1000));
@@ -258,7 +270,10 @@ PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed,
     }
 
     std::optional<Params> stems = p.optionalTable("stems");
-    if (stems) readStems(*stems, s);
+    if (stems) {
+        readStems(*stems, s);
+        stems->finish();
+    }
 
     std::vector<Params> canopy = p.tableArray("species");
     std::vector<Params> understory = p.tableArray("understory");
@@ -276,6 +291,13 @@ PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed,
     }
     if (auto g = p.optionalTable("ground_cover")) {
         s.groundCover.density = g->number("density", Range::closed(0, 1000));
+        if (s.groundCover.density * s.area.area() > kMaxGroundCards) {
+            g->fail("density", "expected at most " + number(kMaxGroundCards) +
+                                   " ground-cover cards per plot, got " +
+                                   number(s.groundCover.density * s.area.area()) + " (" +
+                                   number(s.groundCover.density) + " per m² on " +
+                                   number(s.area.area()) + " m²)");
+        }
         s.groundCover.height = g->number("height", s.groundCover.height, Range::leftOpen(0, 10));
         s.groundCover.width = g->number("width", s.groundCover.width, Range::leftOpen(0, 10));
         g->finish();
@@ -339,7 +361,7 @@ PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed,
         if (lattice > kMaxRowLattice) {
             stems->fail("row_spacing", "expected rows of at most " + number(kMaxRowLattice) +
                                            " lattice places over the plot, got " + number(lattice) +
-                                           ": the spacings are too small");
+                                           ": wider spacings or a smaller plot");
         }
         const size_t places = rowSites(o, s.area).size();
         if (canopyStems > static_cast<double>(places)) {

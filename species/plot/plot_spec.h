@@ -19,6 +19,7 @@ constexpr int64_t kMaxPlotCount = 1000000;  // plot instances per [[plot]]
 constexpr int64_t kMaxPlotStems = 100000;   // expected stems per plot instance, all species
 constexpr double kMaxPlotSide = 10000;      // metres: width, depth, 2 × radius
 constexpr double kMaxPlotLai = 15;          // m²/m²
+constexpr double kMaxGroundCards = 1e7;     // ground-cover cards per plot instance
 
 // One [[plot]] table, `p` (its keys are recorded under the documentation context "plot").
 // Species files are relative to the dataset file; each is loaded and validated with the

@@ -61,7 +61,7 @@ std::vector<Vec2> rowSites(const PointProcessOptions& options, const PlotArea& a
 // The lattice places rowSites examines (those in the square of the area's half-diagonal), a
 // bound on its work: the spec reader refuses more than kMaxRowLattice.
 double rowLatticeSize(const PointProcessOptions& options, const PlotArea& area);
-constexpr double kMaxRowLattice = 4e7;
+constexpr double kMaxRowLattice = 4e6;
 // n of the row places (all when n equals their number; otherwise a uniform random subset, kept
 // in row order: missing trees), each moved by an isotropic Gaussian of sd `jitter` (redrawn
 // up to 16 times to stay inside the area, else not moved). Throws std::invalid_argument when
