@@ -26,12 +26,14 @@ inline Terrain planeTerrain(double half, double sx, double sz) {
 
 // A small hand-built tree with its base at the origin: a trunk of `height` metres in 0.5 m
 // steps tapering from `radius` to a third of it, four first-order branches of `crown` metres
-// (azimuths `turn` + 0°, 90°, 180°, 270°) from 0.55·height up, each with three leaf cards.
+// (azimuths `turn` + 0°, 90°, 180°, 270°) from 0.55·height up, each with three leaf cards, and
+// a taproot 0.7 m down.
 inline Tree handTree(double height, double radius, double crown, double turn) {
     Tree t;
     const int steps = std::max(2, static_cast<int>(std::round(height / 0.5)));
     int32_t prev = addNode(t, -1, {0, 0, 0}, radius, 0);
     std::vector<int32_t> trunk{prev};
+    addNode(t, 0, {0.1, -0.7, 0.05}, 0.6 * radius, 0, kRootPart);  // a taproot under the ground
     for (int k = 1; k <= steps; ++k) {
         const double y = height * k / steps;
         prev = addNode(t, prev, {0, y, 0}, radius * (1.0 - 0.667 * k / steps), 0);
