@@ -9,6 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "species/plot/plot_spec.h"
 #include "species/spec/budget_spec.h"
 
 namespace sylva {
@@ -23,7 +24,8 @@ uint64_t instanceSeed(uint64_t datasetSeed, const std::string& species, const st
 }
 
 bool isDatasetFile(const toml::table& t) {
-    return t.contains("species") && t["species"].is_array();
+    return (t.contains("species") && t["species"].is_array()) ||
+           (t.contains("plot") && t["plot"].is_array());
 }
 
 namespace {
@@ -111,12 +113,12 @@ SweepAxis parseSweep(Params& p) {
 // fingerprint.
 void readSpeciesEntries(Params& p, DatasetSpec& d, std::string& fingerprintBytes) {
     std::vector<Params> entries = p.tableArray("species");
-    if (entries.empty()) {
+    if (entries.empty() && !p.has("plot")) {
         p.fail("species", p.has("method") && !p.has("species")
                               ? "expected at least one [[species]] entry: this is a species "
                                 "file (it has a method), not a dataset (sylva grow grows one "
                                 "tree of it)"
-                              : "expected at least one [[species]] entry");
+                              : "expected at least one [[species]] or [[plot]] entry");
     }
     std::set<std::string> names;
     fs::path base = fs::path(d.path).parent_path();
@@ -398,6 +400,33 @@ void checkIdsUnique(const DatasetSpec& d) {
     }
 }
 
+// The last plot's name is unique, and none of its instance ids ("<plot>-<index>") is a species
+// instance id: a plot is not named like a species, nor like a swept species' sweep point
+// ("<species>-p001"). `p` is its [[plot]] table, for the error's place.
+void checkPlotName(const DatasetSpec& d, const Params& p) {
+    const PlotSpec& plot = d.plots.back();
+    for (size_t k = 0; k + 1 < d.plots.size(); ++k) {
+        if (d.plots[k].name == plot.name) {
+            p.fail("name", "expected a name no other [[plot]] has, got \"" + plot.name +
+                               "\" again (also " + d.plots[k].keyPath + ")");
+        }
+    }
+    for (const SpeciesEntry& e : d.species) {
+        if (e.species.name == plot.name) {
+            p.fail("name", "expected a name that is not a species of the dataset, got \"" +
+                               plot.name + "\" (its instance ids would be the species' ids)");
+        }
+        for (size_t pi = 0; pi < e.points.size() && e.points.size() > 1; ++pi) {
+            if (instanceId(e.species.name, true, static_cast<int>(pi), 0) ==
+                plotInstanceId(plot.name, 0)) {
+                p.fail("name", "expected a name no instance id of species \"" + e.species.name +
+                                   "\" starts with, got \"" + plot.name + "\" (its sweep point " +
+                                   std::to_string(pi) + ")");
+            }
+        }
+    }
+}
+
 }  // namespace
 
 DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
@@ -429,11 +458,16 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
         readViews(*v, d.outputs.views, d.outputs.render);
         checkViewPixels(*v, d.outputs.views, d.budget);
     }
+    std::vector<Params> plots = p.tableArray("plot");  // [[plot]]: species/plot/plot_spec.h
     p.finish();
     const bool meshed = !d.outputs.meshFormats.empty() || d.outputs.views.count > 0;
     for (SpeciesEntry& entry : d.species) {
         entry.budget = d.budget;
         expandSweepPoints(entry, d.sweeps, meshed);
+    }
+    for (Params& plot : plots) {
+        d.plots.push_back(readPlot(plot, d.budget, meshed, fingerprintBytes));
+        checkPlotName(d, plot);
     }
     checkInstanceTotal(d);
     checkIdsUnique(d);
