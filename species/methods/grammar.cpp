@@ -399,6 +399,11 @@ void drawStem(Derivation& d, const Pending& pd) {
         refN = rotate(normalize(side - dir * dot(side, dir)), dir, roll);
         if (!(length(refN) > 1e-9)) refN = anyPerpendicular(dir);
     }
+    if (!root && !straight && length2(o.lightTropism) > 0) {
+        dir = normalize(dir + o.lightTropism);
+        refN = refN - dir * dot(refN, dir);
+        refN = length(refN) > 1e-9 ? normalize(refN) : anyPerpendicular(dir);
+    }
 
     double tau = 0.0;
     const std::vector<Vec3> ctrl =
