@@ -400,7 +400,8 @@ void drawStem(Derivation& d, const Pending& pd) {
         if (!(length(refN) > 1e-9)) refN = anyPerpendicular(dir);
     }
     if (!root && !straight && length2(o.lightTropism) > 0) {
-        dir = normalize(dir + o.lightTropism);
+        // A trunk (order 0) leans half as much as the branches turn toward the light.
+        dir = normalize(dir + o.lightTropism * (pd.order == 0 ? 0.5 : 1.0));
         refN = refN - dir * dot(refN, dir);
         refN = length(refN) > 1e-9 ? normalize(refN) : anyPerpendicular(dir);
     }

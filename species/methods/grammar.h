@@ -155,7 +155,8 @@ struct GrammarOptions {
     bool straightLeader = false;   // order-0 stems straight up (+y): no tilt, curve, tropism
     // Plots (species/plot/plot_growth.h): a light/shade tropism away from the neighbours'
     // crowns, horizontal, its length the strength; added to every shoot stem's initial
-    // direction (not a straight leader's, not roots') before it is normalised. Zero: none.
+    // direction (half of it to order-0 stems; not a straight leader's, not roots') before it is
+    // normalised. Zero: none.
     Vec3 lightTropism{0, 0, 0};
     Season season = Season::kSummer;
     std::array<GrammarSeason, 4> seasons = defaultSeasons();

@@ -23,8 +23,9 @@ constexpr double kMaxLeafScale = 4.0;
 // radii shape each other (clip planes, tropism).
 constexpr double kNeighbourReach = 1.25;
 // The grammar method's light/shade tropism at full strength (a neighbour crown touching this
-// one): the length of the horizontal vector added to each shoot stem's unit direction.
-constexpr double kShadeTropism = 0.35;
+// one): the length of the horizontal vector added to each branch's unit direction (half of it
+// to the trunk's).
+constexpr double kShadeTropism = 0.2;
 
 // Grows every stem of `layout` (PlotStem::species indexes spec.species) and places it: the
 // root node at the stem's base on the terrain, the tree vertical, scaled uniformly about its

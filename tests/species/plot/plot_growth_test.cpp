@@ -21,7 +21,8 @@ const std::string kData = std::string(SYLVA_SOURCE_DIR) + "/tests/data/plot/";
 
 PlotSpecies plotSpecies(const std::string& file, int index) {
     PlotSpecies s;
-    s.species = loadSpecies(kData + file);
+    const std::string preset = std::string(SYLVA_SOURCE_DIR) + "/species/presets/" + file;
+    s.species = loadSpecies(file.rfind("small-", 0) == 0 ? kData + file : preset);
     s.keyPath = "plot[0].species[" + std::to_string(index) + "]";
     s.where = SourcePos{"plot.toml", 3 + index, 1};
     return s;
@@ -143,6 +144,18 @@ TEST(PlotGrowth, ColonizersGrowAwayFromCloseNeighbours) {
     }
     // Shared space: less overlap than the trees grown alone.
     EXPECT_LT(maxCrownOverlap(crownOverlaps(together)), maxCrownOverlap(crownOverlaps(alone)));
+}
+
+TEST(PlotGrowth, GrammarCrownsTurnAwayFromCloseNeighbours) {
+    PlotSpec spec = makeSpec({"lemon.toml"}, 30, 60);  // a preset: grammar trees are fast
+    const PlotLayout layout = pairs(5, 2.0, 10.0);
+    const double together =
+        crownNeighbourCosine(crownAsymmetry(growPlot(spec, layout, nullptr, false)));
+    spec.neighbours = false;
+    const double alone =
+        crownNeighbourCosine(crownAsymmetry(growPlot(spec, layout, nullptr, false)));
+    EXPECT_GT(together, 0.6);
+    EXPECT_LT(alone, together - 0.4);
 }
 
 // The gap between two neighbouring crowns along the line between their bases: the distance
@@ -280,7 +293,7 @@ TEST(PlotGrowth, CrownStatisticsHaveKnownAnswers) {
         t.stem.base = {double(k), 0, 0};
         t.grown.tree.nodes.push_back(SkeletonNode{});
         t.grown.tree.nodes[0].position = t.stem.base;
-        for (int a = 0; a < 360; ++a) {
+        for (int a = 0; a < 360; a += 2) {
             Leaf l;
             const double th = a * kPi / 180;
             l.position = {k + std::cos(th), 2.0, std::sin(th)};
@@ -288,7 +301,7 @@ TEST(PlotGrowth, CrownStatisticsHaveKnownAnswers) {
         }
         plot.trees.push_back(t);
     }
-    const auto overlaps = crownOverlaps(plot, 0.005);
+    const auto overlaps = crownOverlaps(plot, 0.01);
     ASSERT_EQ(overlaps.size(), 1u);
     // Two unit discs 1 apart share 2π/3 − √3/2 of their π.
     EXPECT_NEAR(overlaps[0].fraction, (2 * kPi / 3 - std::sqrt(3.0) / 2) / kPi, 0.01);
