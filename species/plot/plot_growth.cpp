@@ -18,6 +18,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -333,32 +334,50 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
             }
         }
 
-        // 3a. Space colonization: one shared marker set, every tree at its target scale.
-        std::vector<size_t> colonizing;
-        std::vector<ColonizingTree> together;
+        // 3a. Space colonization: one shared marker set per group of trees that reach each
+        // other (connected through close neighbours), every tree at its target scale; the
+        // groups are independent and grow in parallel.
+        std::vector<size_t> group(n);
+        for (size_t i = 0; i < n; ++i) group[i] = i;
+        std::function<size_t(size_t)> find = [&](size_t i) {
+            return group[i] == i ? i : group[i] = find(group[i]);
+        };
         for (size_t i = 0; i < n; ++i) {
-            const SpaceColonizationOptions* o = prepared[i].method->spaceColonization();
-            if (!o) continue;
-            colonizing.push_back(i);
-            ColonizingTree c;
-            c.options = scaledOptions(*o, preScale[i]);
-            c.options.threaded = threaded;
-            c.origin = stems[i].base;
-            c.rng = Rng(prepared[i].seed);
-            together.push_back(std::move(c));
+            if (!prepared[i].method->spaceColonization()) continue;
+            for (size_t j : close[i]) {
+                if (!prepared[j].method->spaceColonization()) continue;
+                const size_t a = find(i), b = find(j);
+                if (a != b) group[std::max(a, b)] = std::min(a, b);
+            }
         }
-        std::vector<std::unique_ptr<GrowthGuard>> guards;
-        for (size_t k = 0; k < colonizing.size(); ++k) {
-            guards.push_back(std::make_unique<GrowthGuard>(prepared[colonizing[k]].out.budget));
-            together[k].guard = guards.back().get();
+        std::map<size_t, std::vector<size_t>> groups;  // by their first tree: a fixed order
+        for (size_t i = 0; i < n; ++i) {
+            if (prepared[i].method->spaceColonization()) groups[find(i)].push_back(i);
         }
-        growSpaceColonizationTogether(together, threaded);
-        for (size_t k = 0; k < colonizing.size(); ++k) {
-            const size_t i = colonizing[k];
-            grown[i] = std::move(together[k].tree);
-            for (auto& [key, v] : together[k].stats) prepared[i].out.methodStats[key] = v;
-            done[i] = 1;
-        }
+        std::vector<std::vector<size_t>> members;
+        for (auto& [first, m] : groups) members.push_back(std::move(m));
+        forEach(members.size(), threaded, [&](size_t g) {
+            const std::vector<size_t>& m = members[g];
+            std::vector<ColonizingTree> together(m.size());
+            std::vector<std::unique_ptr<GrowthGuard>> guards;
+            for (size_t k = 0; k < m.size(); ++k) {
+                const size_t i = m[k];
+                ColonizingTree& c = together[k];
+                c.options = scaledOptions(*prepared[i].method->spaceColonization(), preScale[i]);
+                c.options.threaded = threaded;
+                c.origin = stems[i].base;
+                c.rng = Rng(prepared[i].seed);
+                guards.push_back(std::make_unique<GrowthGuard>(prepared[i].out.budget));
+                c.guard = guards.back().get();
+            }
+            growSpaceColonizationTogether(together, threaded);
+            for (size_t k = 0; k < m.size(); ++k) {
+                const size_t i = m[k];
+                grown[i] = std::move(together[k].tree);
+                for (auto& [key, v] : together[k].stats) prepared[i].out.methodStats[key] = v;
+                done[i] = 1;
+            }
+        });
         for (size_t i = 0; i < n; ++i) {
             if (!prepared[i].method->spaceColonization()) preScale[i] = 1.0;
         }

@@ -272,14 +272,17 @@ TEST(PlotGrowth, UnreachableLeafAreaIndexIsRefusedAtItsKey) {
 
 TEST(PlotGrowth, OneAndTwoThreadsGrowTheSamePlot) {
     const PlotSpec spec = makeSpec({"small-colonizer.toml", "small-canopy.toml"});
-    const PlotLayout layout = row(6, 2.5, -1);
-    std::string one, two;
-    tbb::task_arena(1).execute([&] { one = serialize(growPlot(spec, layout, nullptr, true)); });
-    tbb::task_arena(2).execute([&] { two = serialize(growPlot(spec, layout, nullptr, true)); });
-    const std::string serial = serialize(growPlot(spec, layout, nullptr, false));
-    EXPECT_FALSE(one.empty());
-    EXPECT_TRUE(one == two);
-    EXPECT_TRUE(one == serial);
+    // A row of both species (one shared marker set), and pairs of colonizers (three
+    // independent marker sets, grown in parallel).
+    for (const PlotLayout& layout : {row(6, 2.5, -1), pairs(3, 2.4, 8.0)}) {
+        std::string one, two;
+        tbb::task_arena(1).execute([&] { one = serialize(growPlot(spec, layout, nullptr, true)); });
+        tbb::task_arena(2).execute([&] { two = serialize(growPlot(spec, layout, nullptr, true)); });
+        const std::string serial = serialize(growPlot(spec, layout, nullptr, false));
+        EXPECT_FALSE(one.empty());
+        EXPECT_TRUE(one == two);
+        EXPECT_TRUE(one == serial);
+    }
 }
 
 TEST(PlotGrowth, CrownStatisticsHaveKnownAnswers) {
