@@ -6,7 +6,8 @@
 //     its method's volumes (a method without volumes — the grammar — is grown alone first and
 //     measured); the scale s = targetHeight / predicted height;
 //  3. the trees grown: space-colonization trees together (one shared marker set, each at scale
-//     s), the others each with its neighbourhood (clip planes or tropism, in its own frame);
+//     s, then brought back to the species' scale), the others each with its neighbourhood
+//     (clip planes or tropism, in its own frame);
 //  4. form and leaves (finishSpecies), then each tree placed: node 0 at the stem base, scaled
 //     about it so its highest shoot node is targetHeight above it;
 //  5. leaves scaled to the LAI targets.
@@ -92,9 +93,8 @@ SpaceColonizationOptions scaledOptions(const SpaceColonizationOptions& o, double
     return c;
 }
 
-// Places a grown tree: node 0 at `base`, everything scaled by `s` about it (leaf sizes by
-// s · leafScale).
-void place(Tree& tree, const Vec3& base, double s, double leafScale) {
+// Places a grown tree: node 0 at `base`, everything scaled by `s` about it (leaf sizes too).
+void place(Tree& tree, const Vec3& base, double s) {
     if (tree.nodes.empty()) return;
     const Vec3 root = tree.nodes[0].position;
     for (SkeletonNode& n : tree.nodes) {
@@ -104,7 +104,7 @@ void place(Tree& tree, const Vec3& base, double s, double leafScale) {
     tree.nodes[0].position = base;
     for (Leaf& l : tree.leaves) {
         l.position = base + (l.position - root) * s;
-        l.size *= s * leafScale;
+        l.size *= s;
     }
 }
 
@@ -294,7 +294,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
     });
     std::vector<Tree> grown(n);
     std::vector<uint8_t> done(n, 0);
-    std::vector<double> preScale(n, 1.0);  // the scale a tree was grown at
+    std::vector<double> preScale(n, 1.0);  // target height / predicted height
     // The clip planes of crown-shy trees in the plot's frame: the placed tree is cut at them
     // (its leaves and the parts its method grew beyond its clipped volume).
     std::vector<std::vector<HalfSpace>> plotClip(n);
@@ -374,20 +374,23 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
             for (size_t k = 0; k < m.size(); ++k) {
                 const size_t i = m[k];
                 grown[i] = std::move(together[k].tree);
+                // Back to the species' own scale, where its form and leaves (in metres) apply
+                // as to any tree of it; step 4 scales it to its height with them.
+                if (preScale[i] != 1.0) {
+                    for (SkeletonNode& node : grown[i].nodes) {
+                        node.position = node.position / preScale[i];
+                        node.radius /= preScale[i];
+                    }
+                }
                 for (auto& [key, v] : together[k].stats) prepared[i].out.methodStats[key] = v;
                 done[i] = 1;
             }
         });
-        for (size_t i = 0; i < n; ++i) {
-            if (!prepared[i].method->spaceColonization()) preScale[i] = 1.0;
-        }
 
         // 3b. The others, each with its neighbourhood in its own frame (plot metres / s).
         forEach(n, threaded, [&](size_t i) {
             if (done[i] && prepared[i].method->spaceColonization()) return;
-            const double s = stems[i].targetHeight > 0
-                                 ? stems[i].targetHeight / std::max(own[i].height, 1e-3)
-                                 : 1.0;
+            const double s = preScale[i];
             const PlotSpecies& me = spec.species[stems[i].species];
             Neighbourhood nb;
             Vec3 away{0, 0, 0};
@@ -427,11 +430,9 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
         PlotTree& t = plot.trees[i];
         t.stem = stems[i];
         t.grown = finishSpecies(prepared[i], std::move(grown[i]), guard);
-        // A tree grown at its target scale has its leaves (sized in metres by the species)
-        // scaled with it here.
         const double h = measure(t.grown.tree).height;
         const double s = t.stem.targetHeight > 0 && h > 0 ? t.stem.targetHeight / h : 1.0;
-        place(t.grown.tree, t.stem.base, s, preScale[i]);
+        place(t.grown.tree, t.stem.base, s);
         if (!plotClip[i].empty()) {
             pruneTree(t.grown.tree, [&](const Vec3& p) { return insideAll(plotClip[i], p); });
         }

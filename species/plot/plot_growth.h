@@ -33,8 +33,9 @@ constexpr double kShadeTropism = 0.2;
 // node radii and leaf sizes with it. With spec.neighbours (the default) the trees know their
 // neighbours:
 //  - space colonization: the plot's space-colonization trees compete for one shared marker
-//    set (growSpaceColonizationTogether; Palubicki et al. 2009), each grown at its target
-//    scale;
+//    set per group of trees linked through close neighbours (growSpaceColonizationTogether;
+//    Palubicki et al. 2009), each grown at its target scale (internode, bole, crown), then
+//    brought back to the species' scale for its form and leaves like any tree of it;
 //  - iterated graph and canopy: the crown volume is clipped by a half-space per close
 //    neighbour, its plane between the two stems split in proportion to their crown radii and
 //    moved back by half the gap, the gap being crown_shyness × the larger of the two crown
