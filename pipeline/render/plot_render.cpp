@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include "species/geometry/leaf_mesh.h"
 #include "species/plot/inventory.h"
@@ -153,6 +154,12 @@ PlotRenderScene makePlotRenderScene(const GrownPlot& plot, const PlotScene& scen
                                     bool withGroundCover) {
     if (scene.trees.size() != plot.trees.size()) {
         throw std::invalid_argument("makePlotRenderScene: the scene is not the plot's");
+    }
+    for (const PlotTree& t : plot.trees) {
+        if (t.stem.id < 1 || t.stem.id > 65535) {
+            throw std::invalid_argument("plot views: tree id " + std::to_string(t.stem.id) +
+                                        " does not fit a 16-bit id image (1 … 65535)");
+        }
     }
     PlotRenderScene r;
     size_t nodes = 1, leaves = 0, vertices = scene.terrain.vertexCount(),
