@@ -57,7 +57,7 @@ BoundingSphere plotSphere(const GrownPlot& plot) {
 
 }  // namespace
 
-PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes) {
+PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes, bool leafMeshes) {
     PlotScene scene;
     scene.trees.reserve(plot.trees.size());
     for (const PlotTree& t : plot.trees) {
@@ -65,7 +65,7 @@ PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes) {
         st.id = t.stem.id;
         st.name = treeName(t.stem.id);
         st.mesh.wood = tubeMesh(t.grown.tree, tubes, &st.woodNodes);
-        st.mesh.leaves = leafMesh(t.grown.tree);
+        if (leafMeshes) st.mesh.leaves = leafMesh(t.grown.tree);
         st.woodParts.assign(st.mesh.wood.vertexCount(), kPartBranch);
         for (size_t f = 0; f < st.woodNodes.size(); ++f) {
             const uint8_t part = woodPart(t.grown.tree.nodes[st.woodNodes[f]]);

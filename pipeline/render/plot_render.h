@@ -47,7 +47,9 @@ struct PlotScene {
     Mesh groundCover;                  // the ground-cover cards as leafMesh makes them
 };
 
-PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes);
+// The scene of a grown plot; without `leafMeshes` the trees' leaf meshes stay empty (the views
+// draw the leaves from the trees themselves).
+PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes, bool leafMeshes = true);
 
 // The plot's views, in this order.
 constexpr std::array<const char*, 3> kPlotViewNames = {"overview", "oblique", "top"};
