@@ -118,7 +118,7 @@ void readSpeciesEntries(Params& p, DatasetSpec& d, std::string& fingerprintBytes
                               ? "expected at least one [[species]] entry: this is a species "
                                 "file (it has a method), not a dataset (sylva grow grows one "
                                 "tree of it)"
-                              : "expected at least one [[species]] or [[plot]] entry");
+                              : "expected at least one [[species]] entry (or a [[plot]])");
     }
     std::set<std::string> names;
     fs::path base = fs::path(d.path).parent_path();

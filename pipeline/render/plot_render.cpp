@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include "species/geometry/leaf_mesh.h"
 #include "species/plot/inventory.h"
@@ -56,7 +57,7 @@ BoundingSphere plotSphere(const GrownPlot& plot) {
 
 }  // namespace
 
-PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes) {
+PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes, bool leafMeshes) {
     PlotScene scene;
     scene.trees.reserve(plot.trees.size());
     for (const PlotTree& t : plot.trees) {
@@ -64,7 +65,7 @@ PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes) {
         st.id = t.stem.id;
         st.name = treeName(t.stem.id);
         st.mesh.wood = tubeMesh(t.grown.tree, tubes, &st.woodNodes);
-        st.mesh.leaves = leafMesh(t.grown.tree);
+        if (leafMeshes) st.mesh.leaves = leafMesh(t.grown.tree);
         st.woodParts.assign(st.mesh.wood.vertexCount(), kPartBranch);
         for (size_t f = 0; f < st.woodNodes.size(); ++f) {
             const uint8_t part = woodPart(t.grown.tree.nodes[st.woodNodes[f]]);
@@ -86,11 +87,9 @@ std::vector<Camera> makePlotCameras(const GrownPlot& plot, const ViewOptions& op
         throw std::invalid_argument("views: image size must be positive");
     }
     const Aabb box = plotBox(plot);
-    const BoundingSphere sphere = plotSphere(plot);
     const double aspect = static_cast<double>(options.width) / options.height;
     const double fovY = options.fovDeg * kPi / 180.0;
     const double fovX = 2.0 * std::atan(std::tan(0.5 * fovY) * aspect);
-    const double fovMin = std::min(fovY, fovX);
     const double margin = options.margin > 0 ? options.margin : 1.05;
     std::vector<Camera> cameras;
     auto perspective = [&](double azDeg, double elDeg) {
@@ -104,11 +103,22 @@ std::vector<Camera> makePlotCameras(const GrownPlot& plot, const ViewOptions& op
         const Vec3 back{std::cos(el) * std::sin(az), std::sin(el), std::cos(el) * std::cos(az)};
         const Vec3 right{std::cos(az), 0.0, -std::sin(az)};
         const Vec3 up = cross(back, right);
-        const double dist = sphere.radius * margin / std::sin(0.5 * fovMin);
+        // The nearest distance along `back` from the box centre at which every box corner is
+        // inside the frustum narrowed by `margin`.
+        const Vec3 centre = box.center();
+        const double tx = std::tan(0.5 * fovX) / margin, ty = std::tan(0.5 * fovY) / margin;
+        double dist = 0.0;
+        for (int k = 0; k < 8; ++k) {
+            const Vec3 corner{(k & 1) ? box.hi.x : box.lo.x, (k & 2) ? box.hi.y : box.lo.y,
+                              (k & 4) ? box.hi.z : box.lo.z};
+            const Vec3 d = corner - centre;
+            dist = std::max({dist, dot(d, back) + std::abs(dot(d, right)) / tx,
+                             dot(d, back) + std::abs(dot(d, up)) / ty});
+        }
         setColumn(cam, 0, right);
         setColumn(cam, 1, up);
         setColumn(cam, 2, back);
-        setColumn(cam, 3, sphere.centre + back * dist);
+        setColumn(cam, 3, centre + back * dist);
         cam.cameraToWorld[3][3] = 1.0;
         cameras.push_back(cam);
     };
@@ -144,6 +154,12 @@ PlotRenderScene makePlotRenderScene(const GrownPlot& plot, const PlotScene& scen
                                     bool withGroundCover) {
     if (scene.trees.size() != plot.trees.size()) {
         throw std::invalid_argument("makePlotRenderScene: the scene is not the plot's");
+    }
+    for (const PlotTree& t : plot.trees) {
+        if (t.stem.id < 1 || t.stem.id > 65535) {
+            throw std::invalid_argument("plot views: tree id " + std::to_string(t.stem.id) +
+                                        " does not fit a 16-bit id image (1 … 65535)");
+        }
     }
     PlotRenderScene r;
     size_t nodes = 1, leaves = 0, vertices = scene.terrain.vertexCount(),

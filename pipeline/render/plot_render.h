@@ -47,7 +47,9 @@ struct PlotScene {
     Mesh groundCover;                  // the ground-cover cards as leafMesh makes them
 };
 
-PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes);
+// The scene of a grown plot; without `leafMeshes` the trees' leaf meshes stay empty (the views
+// draw the leaves from the trees themselves).
+PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes, bool leafMeshes = true);
 
 // The plot's views, in this order.
 constexpr std::array<const char*, 3> kPlotViewNames = {"overview", "oblique", "top"};
@@ -59,7 +61,8 @@ constexpr std::array<const char*, 3> kPlotViewNames = {"overview", "oblique", "t
 //   oblique: perspective, from the south-west (azimuth 315°), 12° above the horizon;
 //   top: orthographic, looking straight down (image up = north, −z; right = east, +x),
 //     spanning the box × options.margin.
-// The perspective cameras frame the box's bounding sphere × options.margin.
+// The perspective cameras aim at the box's centre from the nearest distance at which all its
+// corners are inside the field of view narrowed by options.margin (tan(fov/2) / margin).
 std::vector<Camera> makePlotCameras(const GrownPlot& plot, const ViewOptions& options);
 
 // Where instant-ngp's loader puts the plot (camera.h ngpPlacement, for the same box's sphere).

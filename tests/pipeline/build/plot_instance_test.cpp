@@ -94,6 +94,34 @@ TEST(PlotInstance, WritesEveryFileAndTheRecord) {
     EXPECT_EQ(transforms["frames"][2]["id_file_path"], "views/top_id.png");
 }
 
+// Without mesh formats: no scene or tree meshes, the views and tables all the same; without
+// views: no views or transforms.json.
+TEST(PlotInstance, WritesOnlyWhatTheOutputsAsk) {
+    PlotSpec spec;
+    const GrownPlot plot = test::handPlot(spec, {{-4, -3}, {1, 0}});
+    test::TempDir dir;
+    OutputOptions o = plotOutputs(64, 48);
+    o.meshFormats.clear();
+    o.ply = false;
+    nlohmann::json rec = writePlot(plot, o, dir.path(), "a");
+    const fs::path a = dir.path() / "plots" / "hand" / "a";
+    EXPECT_FALSE(rec["files"].contains("scene_glb"));
+    EXPECT_FALSE(fs::exists(a / "scene.glb"));
+    EXPECT_FALSE(fs::exists(a / "scene.ply"));
+    EXPECT_FALSE(fs::exists(a / "trees" / "tree-0001" / "mesh.ply"));
+    EXPECT_FALSE(fs::exists(a / "trees" / "tree-0001" / "skeleton.ply"));
+    EXPECT_TRUE(fs::exists(a / "trees" / "tree-0001" / "stats.json"));
+    EXPECT_TRUE(fs::exists(a / "views" / "top_id.png"));
+    EXPECT_TRUE(fs::exists(a / "trees.csv"));
+    o.views.count = 0;
+    rec = writePlot(plot, o, dir.path(), "b");
+    const fs::path b = dir.path() / "plots" / "hand" / "b";
+    EXPECT_FALSE(fs::exists(b / "views"));
+    EXPECT_FALSE(fs::exists(b / "transforms.json"));
+    EXPECT_FALSE(rec["files"].contains("views"));
+    EXPECT_TRUE(fs::exists(b / "plot.json"));
+}
+
 // The same plot written with 1 thread and with many gives the same bytes in every file.
 TEST(PlotInstance, SameBytesWhateverTheThreadCount) {
     PlotSpec spec;

@@ -3,14 +3,17 @@
 // and ids; the same seed gives the same layout.
 #include "species/plot/layout.h"
 
+#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <map>
+#include <vector>
 
 #include "pipeline/build/dataset.h"
 #include "species/plot/point_process.h"
 #include "species/plot/terrain.h"
+#include "tests/test_support.h"
 
 namespace sylva {
 namespace {
@@ -106,6 +109,54 @@ TEST(PlotLayout, StemsOnTheDem) {
     EXPECT_NEAR(l.terrain.height(-12, -12), analytic(-12, -12), 1e-3);
     EXPECT_NEAR(l.terrain.height(12, 12), analytic(12, 12), 1e-3);
     EXPECT_NEAR(analytic(0, 0), 0.01 * (1000 + 40 * 31.5 + 25 * 27.5) - 20, 1e-12);
+}
+
+// TIFF DEMs through OpenImageIO: a float image's values are metres as stored, an 8-bit
+// image's are its integers (not the [0, 1] OpenImageIO scales them to), each × height_scale +
+// height_offset; the 12 × 10 plane value = column + 2·row is resampled exactly.
+TEST(PlotLayout, TiffDemsFloatAndEightBit) {
+    test::TempDir t;
+    const int w = 12, h = 10;
+    for (const OIIO::TypeDesc& type :
+         {OIIO::TypeDesc(OIIO::TypeDesc::FLOAT), OIIO::TypeDesc(OIIO::TypeDesc::UINT8)}) {
+        SCOPED_TRACE(type.c_str());
+        const std::string file = (t / (std::string(type.c_str()) + ".tif")).string();
+        std::vector<float> f;
+        std::vector<uint8_t> b;
+        for (int r = 0; r < h; ++r) {
+            for (int c = 0; c < w; ++c) {
+                f.push_back(float(c + 2 * r));
+                b.push_back(uint8_t(c + 2 * r));
+            }
+        }
+        auto out = OIIO::ImageOutput::create(file);
+        ASSERT_TRUE(out);
+        ASSERT_TRUE(out->open(file, OIIO::ImageSpec(w, h, 1, type)));
+        if (type == OIIO::TypeDesc::FLOAT) {
+            ASSERT_TRUE(out->write_image(type, f.data()));
+        } else {
+            ASSERT_TRUE(out->write_image(type, b.data()));
+        }
+        out->close();
+        TerrainOptions o;
+        o.kind = TerrainOptions::Kind::kDem;
+        o.demPath = file;
+        o.metresPerPixel = 2;
+        o.heightScale = 0.5;
+        o.heightOffset = 3;
+        o.cell = 1;
+        PlotArea a;
+        a.width = 16;
+        a.depth = 14;
+        const Terrain terrain = makeTerrain(o, a, 2, 1);  // 20 × 18 m: 11 × 10 pixels needed
+        for (double x = -10; x <= 10; x += 2.5) {
+            for (double z = -9; z <= 9; z += 3) {
+                const double column = x / 2 + 5.5, row = z / 2 + 4.5;
+                EXPECT_NEAR(terrain.height(x, z), 0.5 * (column + 2 * row) + 3, 1e-5)
+                    << x << ", " << z;
+            }
+        }
+    }
 }
 
 // The species mix: counts as asked (count exactly; density × area rounded under hard-core),
