@@ -316,7 +316,9 @@ class Grower {
     Tree grow(std::map<std::string, double>* stats);
 
     // The steps of grow(), for the multi-tree driver.
-    void begin();
+    void begin();       // addMarkers(), then plant()
+    void addMarkers();  // the guides' and (baseline) the crown's markers
+    void plant();       // the root, the bole and the first bud
     bool live() const {
         return iterations_ < o_.maxIterations && !buds_.empty() &&
                static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes;
@@ -739,6 +741,11 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
 }
 
 void Grower::begin() {
+    addMarkers();
+    plant();
+}
+
+void Grower::addMarkers() {
     const bool improved = o_.variant == ColonizationVariant::kImproved;
     const bool allocating = o_.allocation == Allocation::kBorchertHonda;
     for (const GuideMarker& g : o_.guides) {
@@ -768,7 +775,10 @@ void Grower::begin() {
             }
         }
     }
+}
 
+void Grower::plant() {
+    const bool improved = o_.variant == ColonizationVariant::kImproved;
     // Root and trunk; their occupancy zones clear the markers around them.
     addNode(world({0, 0, 0}), -1, 0, 0);
     const int trunk =
@@ -936,8 +946,10 @@ void growSpaceColonizationTogether(std::vector<ColonizingTree>& trees, bool thre
         growers.push_back(std::make_unique<Grower>(trees[t].options, trees[t].rng, guardOf(t),
                                                    &shared, trees[t].origin));
     }
-    // Markers and boles in tree order: the shared set's order is fixed.
-    for (auto& g : growers) g->begin();
+    // Every tree's markers, then every bole (whose occupancy zones clear any tree's markers),
+    // in tree order: the shared set's order is fixed.
+    for (auto& g : growers) g->addMarkers();
+    for (auto& g : growers) g->plant();
 
     const size_t n = growers.size();
     std::vector<int32_t> owner;

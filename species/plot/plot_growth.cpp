@@ -334,6 +334,22 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
             }
         }
 
+        // The crown-shyness plane between tree i and its close neighbour j: normal u (unit,
+        // horizontal, toward j), offset from i's base in plot metres; false when it does not
+        // cut i's crown.
+        auto shyPlane = [&](size_t i, size_t j, Vec3& u, double& offset) {
+            u = {stems[j].base.x - stems[i].base.x, 0, stems[j].base.z - stems[i].base.z};
+            const double d = length(u);
+            if (!(d > 1e-9)) return false;
+            u = u / d;
+            const double gap = std::max(spec.species[stems[i].species].crownShyness,
+                                        spec.species[stems[j].species].crownShyness) *
+                               std::max(radius[i], radius[j]);
+            offset = d * radius[i] / (radius[i] + radius[j]) - 0.5 * gap;
+            offset = std::max(offset, 0.1 * radius[i]);  // never cut to a sliver
+            return offset < radius[i];
+        };
+
         // 3a. Space colonization: one shared marker set per group of trees that reach each
         // other (connected through close neighbours), every tree at its target scale; the
         // groups are independent and grow in parallel.
@@ -364,6 +380,19 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
                 const size_t i = m[k];
                 ColonizingTree& c = together[k];
                 c.options = scaledOptions(*prepared[i].method->spaceColonization(), preScale[i]);
+                // Neighbours of other methods take no markers: the crown keeps clear of them
+                // as theirs keep clear of it (crown shyness; the crown is at plot scale here).
+                std::vector<HalfSpace> cut;
+                for (size_t j : close[i]) {
+                    Vec3 u;
+                    double offset = 0;
+                    if (!prepared[j].method->spaceColonization() && shyPlane(i, j, u, offset)) {
+                        cut.push_back({u, offset});
+                    }
+                }
+                if (c.options.crown && !cut.empty()) {
+                    c.options.crown = makeClipped(c.options.crown, std::move(cut));
+                }
                 c.options.threaded = threaded;
                 c.origin = stems[i].base;
                 c.rng = Rng(prepared[i].seed);
@@ -391,24 +420,18 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
         forEach(n, threaded, [&](size_t i) {
             if (done[i] && prepared[i].method->spaceColonization()) return;
             const double s = preScale[i];
-            const PlotSpecies& me = spec.species[stems[i].species];
             Neighbourhood nb;
             Vec3 away{0, 0, 0};
             for (size_t j : close[i]) {
-                Vec3 u{stems[j].base.x - stems[i].base.x, 0, stems[j].base.z - stems[i].base.z};
-                const double d = length(u);
-                if (!(d > 1e-9)) continue;
-                u = u / d;
-                const PlotSpecies& other = spec.species[stems[j].species];
-                const double gap =
-                    std::max(me.crownShyness, other.crownShyness) * std::max(radius[i], radius[j]);
-                double offset = d * radius[i] / (radius[i] + radius[j]) - 0.5 * gap;
-                offset = std::max(offset, 0.1 * radius[i]);  // never cut to a sliver
-                if (offset < radius[i]) {
+                Vec3 u;
+                double offset = 0;
+                if (shyPlane(i, j, u, offset)) {
                     nb.clip.push_back({u, offset / s});
                     plotClip[i].push_back({u, dot(u, stems[i].base) + offset});
                 }
-                away -= u * (radius[j] / d);
+                const double d = std::hypot(stems[j].base.x - stems[i].base.x,
+                                            stems[j].base.z - stems[i].base.z);
+                if (d > 1e-9) away -= u * (radius[j] / d);
             }
             const double a = length(away);
             if (a > 1e-12) nb.away = away * (kShadeTropism * std::min(1.0, a) / a);

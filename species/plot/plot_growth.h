@@ -36,6 +36,7 @@ constexpr double kShadeTropism = 0.2;
 //    set per group of trees linked through close neighbours (growSpaceColonizationTogether;
 //    Palubicki et al. 2009), each grown at its target scale (internode, bole, crown), then
 //    brought back to the species' scale for its form and leaves like any tree of it;
+//    toward close neighbours of other methods its crown volume is clipped as below;
 //  - iterated graph and canopy: the crown volume is clipped by a half-space per close
 //    neighbour, its plane between the two stems split in proportion to their crown radii and
 //    moved back by half the gap, the gap being crown_shyness × the larger of the two crown

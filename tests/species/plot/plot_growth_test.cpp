@@ -199,6 +199,19 @@ void expectShyness(const std::string& file, double spacing) {
 TEST(PlotGrowth, CanopyCrownsKeepTheShynessGap) { expectShyness("small-canopy.toml", 3.0); }
 TEST(PlotGrowth, IteratedGraphCrownsKeepTheShynessGap) { expectShyness("small-graph.toml", 2.6); }
 
+// Colonizers between canopy trees: each side keeps its half of the gap (the colonizer's crown
+// is clipped toward neighbours that take no markers).
+TEST(PlotGrowth, MixedMethodsKeepTheShynessGap) {
+    PlotSpec spec = makeSpec({"small-colonizer.toml", "small-canopy.toml"});
+    const PlotLayout layout = row(4, 3.0, -1);
+    const GrownPlot plot = growPlot(spec, layout, nullptr, false);
+    for (size_t k = 0; k + 1 < plot.trees.size(); ++k) {
+        EXPECT_GE(gapBetween(plot.trees[k], plot.trees[k + 1]), 0.1 * 2.0 * 0.95)
+            << "trees " << k + 1 << "–" << k + 2;
+    }
+    EXPECT_LE(maxCrownOverlap(crownOverlaps(plot)), 0.05);
+}
+
 TEST(PlotGrowth, TreesStandVerticalOnTheTerrainAtTheirHeight) {
     const PlotSpec spec = makeSpec({"small-colonizer.toml", "small-canopy.toml"});
     const PlotLayout layout = row(4, 6.0, -1, 0.3, 5.0);  // a 0.3 slope (17°)
