@@ -188,6 +188,7 @@ void readOutputs(Params& o, OutputOptions& out) {
         }
     }
     out.preview = o.boolean("preview", out.preview);
+    out.leafOutlines = o.boolean("leaf_outlines", out.leafOutlines);
     out.previewSize =
         static_cast<int>(o.integer("preview_size", out.previewSize, Range::closed(16, 8192)));
     for (const auto& f : o.stringArray("mesh")) {

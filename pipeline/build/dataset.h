@@ -61,8 +61,11 @@ struct OutputOptions {
     bool preview = false;  // preview.png per instance
     int previewSize = 512;
     std::vector<std::string> meshFormats;  // of "ply", "glb", "obj"; empty: no mesh
-    TubeOptions tubes;                     // level of detail of branch tubes
-    bool watertight = false;               // watertight.<format> (union of capsules)
+    // Leaves meshed and drawn as their shapes' outlines (true), or every leaf as its card, one
+    // quad (false): a plot's level of detail (a compound leaf's outline is ~100 triangles).
+    bool leafOutlines = true;
+    TubeOptions tubes;        // level of detail of branch tubes
+    bool watertight = false;  // watertight.<format> (union of capsules)
     WatertightOptions watertightOptions;
     bool vdb = false;       // watertight.vdb (the level set itself)
     ViewOptions views;      // [views]
@@ -123,6 +126,8 @@ class DatasetInstances {
         return {start_[entry], start_[entry + 1]};
     }
     size_t speciesCount() const { return spec_->species.size(); }
+    // The position of the first plot instance (size() without plots).
+    int64_t plotStart() const { return start_[spec_->species.size()]; }
     const DatasetSpec& spec() const { return *spec_; }
 
   private:

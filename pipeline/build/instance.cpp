@@ -95,9 +95,15 @@ void growStage(InstanceWork& w) {
     w.growMs = msSince(t0);
 }
 
+// [outputs] leaf_outlines = false: every leaf meshed and drawn as its card.
+static void leavesAsCards(Tree& tree) {
+    for (Leaf& leaf : tree.leaves) leaf.shape = LeafShape::kCard;
+}
+
 void meshStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     if (w.job.plot) return;  // writePlot meshes a plot as it writes it
     auto t0 = Clock::now();
+    if (!o.leafOutlines) leavesAsCards(w.grown.tree);
     if (!o.meshFormats.empty()) {
         checkMeshTriangles(w.grown, o.tubes);
         w.mesh.wood = tubeMesh(w.grown.tree, o.tubes, &w.woodNodes);

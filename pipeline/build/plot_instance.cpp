@@ -54,7 +54,8 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     const bool meshes = !o.meshFormats.empty();
     const bool views = o.views.count > 0;
     PlotScene scene;
-    if (meshes || views) scene = makePlotScene(plot, o.tubes, /*leafMeshes=*/meshes);
+    if (meshes || views)
+        scene = makePlotScene(plot, o.tubes, /*leafMeshes=*/meshes, o.leafOutlines);
     if (meshes) {
         put("scene_glb", "scene.glb", sceneGlb(scene));
         put("scene_ply", "scene.ply", scenePly(scene));

@@ -57,15 +57,23 @@ BoundingSphere plotSphere(const GrownPlot& plot) {
 
 }  // namespace
 
-PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes, bool leafMeshes) {
+PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes, bool leafMeshes,
+                        bool leafOutlines) {
     PlotScene scene;
+    scene.leafOutlines = leafOutlines;
     scene.trees.reserve(plot.trees.size());
     for (const PlotTree& t : plot.trees) {
         PlotSceneTree st;
         st.id = t.stem.id;
         st.name = treeName(t.stem.id);
         st.mesh.wood = tubeMesh(t.grown.tree, tubes, &st.woodNodes);
-        if (leafMeshes) st.mesh.leaves = leafMesh(t.grown.tree);
+        if (leafMeshes && leafOutlines) st.mesh.leaves = leafMesh(t.grown.tree);
+        if (leafMeshes && !leafOutlines) {
+            Tree cards;
+            cards.leaves = t.grown.tree.leaves;
+            for (Leaf& l : cards.leaves) l.shape = LeafShape::kCard;
+            st.mesh.leaves = leafMesh(cards);
+        }
         st.woodParts.assign(st.mesh.wood.vertexCount(), kPartBranch);
         for (size_t f = 0; f < st.woodNodes.size(); ++f) {
             const uint8_t part = woodPart(t.grown.tree.nodes[st.woodNodes[f]]);
@@ -200,6 +208,7 @@ PlotRenderScene makePlotRenderScene(const GrownPlot& plot, const PlotScene& scen
         for (const Leaf& leaf : t.leaves) {
             Leaf l = leaf;
             if (l.node >= 0) l.node += nodeBase;
+            if (!scene.leafOutlines) l.shape = LeafShape::kCard;
             r.tree.leaves.push_back(l);
             L.leafLabels.push_back(kPartLeaf + 1);
             L.leafIds.push_back(id);

@@ -45,11 +45,15 @@ struct PlotScene {
     std::vector<PlotSceneTree> trees;  // in the plot's tree order
     Mesh terrain;                      // terrainMesh
     Mesh groundCover;                  // the ground-cover cards as leafMesh makes them
+    bool leafOutlines = true;          // leaves as their outlines, or as cards (below)
 };
 
 // The scene of a grown plot; without `leafMeshes` the trees' leaf meshes stay empty (the views
-// draw the leaves from the trees themselves).
-PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes, bool leafMeshes = true);
+// draw the leaves from the trees themselves). Without `leafOutlines` ([outputs] leaf_outlines
+// = false) every leaf is meshed and drawn as its card, one quad: the trees keep their shapes
+// (the tree table's leaf areas are the outlines').
+PlotScene makePlotScene(const GrownPlot& plot, const TubeOptions& tubes, bool leafMeshes = true,
+                        bool leafOutlines = true);
 
 // The plot's views, in this order.
 constexpr std::array<const char*, 3> kPlotViewNames = {"overview", "oblique", "top"};
