@@ -94,7 +94,7 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
 
     if (views) {
         const std::vector<Camera> cameras = makePlotCameras(plot, o.views);
-        const PlotRenderScene rs = makePlotRenderScene(plot, scene);
+        const PlotRenderScene rs = makePlotRenderScene(plot, std::move(scene));  // (last use)
         std::vector<ViewImage> images;
         images.reserve(cameras.size());
         for (const Camera& c : cameras) {

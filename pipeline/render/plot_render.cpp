@@ -158,8 +158,11 @@ NgpPlacement plotNgpPlacement(const GrownPlot& plot) {
     return p;
 }
 
-PlotRenderScene makePlotRenderScene(const GrownPlot& plot, const PlotScene& scene, bool withTerrain,
-                                    bool withGroundCover) {
+namespace {
+
+// The merge; with `freeFrom` (the scene itself), each tree's meshes are freed once merged.
+PlotRenderScene mergeScene(const GrownPlot& plot, const PlotScene& scene, PlotScene* freeFrom,
+                           bool withTerrain, bool withGroundCover) {
     if (scene.trees.size() != plot.trees.size()) {
         throw std::invalid_argument("makePlotRenderScene: the scene is not the plot's");
     }
@@ -214,6 +217,7 @@ PlotRenderScene makePlotRenderScene(const GrownPlot& plot, const PlotScene& scen
             L.leafIds.push_back(id);
         }
         addWood(scene.trees[k].mesh.wood, &scene.trees[k].woodNodes, nodeBase, 0);
+        if (freeFrom) freeFrom->trees[k] = PlotSceneTree{};
     }
     if (withTerrain) {
         SkeletonNode ground;
@@ -233,6 +237,18 @@ PlotRenderScene makePlotRenderScene(const GrownPlot& plot, const PlotScene& scen
         }
     }
     return r;
+}
+
+}  // namespace
+
+PlotRenderScene makePlotRenderScene(const GrownPlot& plot, const PlotScene& scene, bool withTerrain,
+                                    bool withGroundCover) {
+    return mergeScene(plot, scene, nullptr, withTerrain, withGroundCover);
+}
+
+PlotRenderScene makePlotRenderScene(const GrownPlot& plot, PlotScene&& scene, bool withTerrain,
+                                    bool withGroundCover) {
+    return mergeScene(plot, scene, &scene, withTerrain, withGroundCover);
 }
 
 ViewImage renderPlotView(const PlotRenderScene& scene, const Camera& camera, bool wantDepth,

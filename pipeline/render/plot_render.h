@@ -82,6 +82,10 @@ struct PlotRenderScene {
 };
 PlotRenderScene makePlotRenderScene(const GrownPlot& plot, const PlotScene& scene,
                                     bool withTerrain = true, bool withGroundCover = true);
+// The same, freeing each tree's meshes in `scene` as they are merged: the peak memory of a
+// plot's views is then about one copy of its tubes, not two (a hectare's tubes are gigabytes).
+PlotRenderScene makePlotRenderScene(const GrownPlot& plot, PlotScene&& scene,
+                                    bool withTerrain = true, bool withGroundCover = true);
 
 // One view of the plot: silhouette 255 where a tree (id ≥ 1) is the nearest surface, else 0;
 // depth (metres along the view axis, terrain and ground cover included, 0 = sky); labels the
