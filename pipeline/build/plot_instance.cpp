@@ -1,5 +1,6 @@
 #include "pipeline/build/plot_instance.h"
 
+#include <cmath>
 #include <cstdio>
 
 #include "pipeline/formats/atomic_file.h"
@@ -12,6 +13,7 @@
 #include "pipeline/render/plot_render.h"
 #include "species/model/tree_stats.h"
 #include "species/plot/inventory.h"
+#include "species/plot/plot_growth.h"
 
 namespace sylva {
 
@@ -137,7 +139,15 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     const PlotStatistics stats = plotStatistics(plot, table);
     put("trees_csv", "trees.csv", treeTableCsv(table));
     put("trees_json", "trees.json", treeTableJson(table).dump(2) + "\n");
-    const nlohmann::json statsJson = toJson(stats);
+    nlohmann::json statsJson = toJson(stats);
+    // The neighbours' mark on the crowns (plot_growth.h): the mean cosine between crown-centre
+    // offsets and the vectors away from close neighbours (> 0: crowns grow away from them), and
+    // the largest share of a crown's projection another crown covers.
+    const double cosine = crownNeighbourCosine(crownAsymmetry(plot));
+    const double overlap = maxCrownOverlap(crownOverlaps(plot));
+    statsJson["crown_neighbour_cosine"] = cosine;
+    statsJson["max_crown_overlap"] =
+        std::isfinite(overlap) ? nlohmann::json(overlap) : nlohmann::json(nullptr);
     put("plot_json", "plot.json", statsJson.dump(2) + "\n");
 
     nlohmann::json rec;

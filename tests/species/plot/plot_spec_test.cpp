@@ -19,7 +19,7 @@ TEST(PlotSpec, ReadsEveryKey) {
     EXPECT_TRUE(isDatasetFile(t));  // [[plot]] without [[species]]
     const DatasetSpec d = loadDataset(kPlotData + "plots.toml");
     EXPECT_TRUE(d.species.empty());
-    EXPECT_EQ(DatasetInstances(d).size(), 0);
+    EXPECT_EQ(DatasetInstances(d).size(), 6);  // every plot instance is an instance
     ASSERT_EQ(d.plots.size(), 5u);
 
     const PlotSpec& a = d.plots[0];
