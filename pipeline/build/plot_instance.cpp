@@ -144,7 +144,9 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     // offsets and the vectors away from close neighbours (> 0: crowns grow away from them), and
     // the largest share of a crown's projection another crown covers.
     const double cosine = crownNeighbourCosine(crownAsymmetry(plot));
-    const double overlap = maxCrownOverlap(crownOverlaps(plot));
+    // 0.1 m cells, as canopy cover's: the default (1/50 of the smallest crown radius) made the
+    // hectare of PlotBuild/1ha take 49 s instead of 43.
+    const double overlap = maxCrownOverlap(crownOverlaps(plot, 0.1));
     statsJson["crown_neighbour_cosine"] = cosine;
     statsJson["max_crown_overlap"] =
         std::isfinite(overlap) ? nlohmann::json(overlap) : nlohmann::json(nullptr);
