@@ -313,6 +313,56 @@ BENCHMARK_CAPTURE(DatasetBuild, ez_size, "bench/ez-size.toml")
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();
+// The same five species as the benchmark plots (bench/plot-singles.toml: 400 trees, 80 each),
+// each tree alone: the per-tree cost a plot is compared with.
+BENCHMARK_CAPTURE(DatasetBuild, plot_singles, "bench/plot-singles.toml")
+    ->Arg(0)
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
+
+// One forest plot built and written (bench/plot-<size>ha.toml: five species, one per growth
+// method and a second conifer, 400 stems/ha, grown together, meshed, three views with depth,
+// labels and instance ids) on all cores: seconds per plot, per tree, and the process's peak
+// RSS — run each size in its own process (--benchmark_filter=PlotBuild/1ha), since peak RSS
+// is the process's.
+static void PlotBuild(benchmark::State& state, const char* specPath) {
+    DatasetSpec spec = loadDataset(std::string(SYLVA_SOURCE_DIR "/") + specPath);
+    fs::path out = fs::temp_directory_path() / ("sylva-bench-plot-" + std::to_string(getpid()));
+    int64_t trees = 0;
+    for (auto _ : state) {
+        state.PauseTiming();
+        fs::remove_all(out);
+        state.ResumeTiming();
+        BuildOptions o;
+        o.out = out;
+        o.threads = tbb::info::default_concurrency();
+        o.progress = false;
+        buildDataset(spec, o);
+        state.PauseTiming();
+        for (const auto& d : fs::recursive_directory_iterator(out)) {
+            if (d.is_directory() && d.path().parent_path().filename() == "trees") ++trees;
+        }
+        state.ResumeTiming();
+    }
+    fs::remove_all(out);
+    state.counters["trees"] = static_cast<double>(trees) / static_cast<double>(state.iterations());
+    state.counters["trees_per_second"] =
+        benchmark::Counter(static_cast<double>(trees), benchmark::Counter::kIsRate);
+    state.counters["peak_rss_MiB"] = peakRssMiB();
+}
+BENCHMARK_CAPTURE(PlotBuild, 0.1ha, "bench/plot-0.1ha.toml")
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(PlotBuild, 1ha, "bench/plot-1ha.toml")
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(PlotBuild, 4ha, "bench/plot-4ha.toml")
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
 
 // --- crown volumes -----------------------------------------------------------------------------
 

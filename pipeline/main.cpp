@@ -106,8 +106,15 @@ int runValidate(const std::string& path) {
     if (isDatasetFile(t)) {
         DatasetSpec spec = loadDataset(path);
         const int64_t instances = DatasetInstances(spec).size();  // computed, not listed
-        std::printf("%s: ok — dataset \"%s\", %zu species, %lld instances\n", path.c_str(),
-                    spec.name.c_str(), spec.species.size(), static_cast<long long>(instances));
+        int64_t plotInstances = 0;
+        for (const PlotSpec& plot : spec.plots) plotInstances += plot.count;
+        const std::string plots = spec.plots.empty()
+                                      ? ""
+                                      : ", " + std::to_string(spec.plots.size()) + " plots (" +
+                                            std::to_string(plotInstances) + " plot instances)";
+        std::printf("%s: ok — dataset \"%s\", %zu species, %lld instances%s\n", path.c_str(),
+                    spec.name.c_str(), spec.species.size(), static_cast<long long>(instances),
+                    plots.c_str());
     } else {
         SpeciesFile s = loadSpecies(path);
         validateSpecies(s, nullptr);

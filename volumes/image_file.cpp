@@ -147,6 +147,7 @@ ImageFile readPng(const std::string& path, std::FILE* file, const unsigned char 
 
     const size_t samples = static_cast<size_t>(img.width) * img.height * img.channels;
     img.pixels.resize(samples);
+    img.integerMax = bitDepth == 16 ? 65535.0 : 255.0;
     if (bitDepth == 16) {
         const float scale = 1.0f / 65535.0f;
         for (int y = 0; y < img.height; ++y) {
@@ -183,6 +184,29 @@ ImageFile readWithOiio(const std::string& path) {
     img.height = spec.height;
     img.channels = spec.nchannels;
     img.alphaChannel = spec.alpha_channel < spec.nchannels ? spec.alpha_channel : -1;
+    switch (spec.format.basetype) {
+        case OIIO::TypeDesc::UINT8:
+            img.integerMax = 255.0;
+            break;
+        case OIIO::TypeDesc::INT8:
+            img.integerMax = 127.0;
+            break;
+        case OIIO::TypeDesc::UINT16:
+            img.integerMax = 65535.0;
+            break;
+        case OIIO::TypeDesc::INT16:
+            img.integerMax = 32767.0;
+            break;
+        case OIIO::TypeDesc::UINT32:
+            img.integerMax = 4294967295.0;
+            break;
+        case OIIO::TypeDesc::INT32:
+            img.integerMax = 2147483647.0;
+            break;
+        default:
+            img.integerMax = 0.0;
+            break;  // half, float, double
+    }
     img.pixels.resize(static_cast<size_t>(img.width) * img.height * img.channels);
     if (!in->read_image(0, 0, 0, img.channels, OIIO::TypeDesc::FLOAT, img.pixels.data())) {
         const std::string why = oneLine(in->geterror());

@@ -34,6 +34,9 @@ class ImageError : public std::runtime_error {
 struct ImageFile {
     int width = 0, height = 0, channels = 0;
     int alphaChannel = -1;  // -1: none (PNG: the last channel of grey + alpha and RGBA)
+    // Integer formats: the largest sample value (255, 65535, …), which `pixels` divides by;
+    // 0 for floating-point formats (stored as read). pixels × integerMax is the stored integer.
+    double integerMax = 0;
     // Row-major, top row first, channels interleaved; integer formats scaled to [0, 1]
     // (v / 255, v / 65535); alpha unassociated (colour as stored, not multiplied by alpha).
     std::vector<float> pixels;

@@ -72,6 +72,23 @@ VolumePtr makeUnion(std::vector<VolumePtr> parts);
 VolumePtr makeIntersection(std::vector<VolumePtr> parts);
 VolumePtr makeDifference(VolumePtr base, std::vector<VolumePtr> cut);
 
+// --- Half-space clips (crown shyness between the trees of a plot) -----------------------------
+// The half-space {p : dot(normal, p) ≤ offset}; `normal` is unit.
+struct HalfSpace {
+    Vec3 normal{1, 0, 0};
+    double offset = 0.0;
+    double distance(const Vec3& p) const { return dot(normal, p) - offset; }  // > 0: outside
+};
+// `inner` ∩ every half-space of `cut`: signed distance max(inner, planes) (sign exact), the
+// inner volume's bounds, samples by rejection from them.
+VolumePtr makeClipped(VolumePtr inner, std::vector<HalfSpace> cut);
+// True when p lies in every half-space.
+bool insideAll(const std::vector<HalfSpace>& cut, const Vec3& p);
+// p moved onto the boundary of each half-space it lies outside of, in order (for a point just
+// outside a corner of two planes, the second projection may leave it slightly outside the
+// first: callers that need it exactly inside test insideAll).
+Vec3 projectInside(const std::vector<HalfSpace>& cut, Vec3 p);
+
 // --- OpenVDB realisation -------------------------------------------------------------------
 // The volume sampled into a narrow-band OpenVDB level set (FloatGrid) with voxel size
 // `voxelSize` metres and a band of `halfWidth` voxels, inside tiles flood-filled, so that

@@ -304,19 +304,24 @@ void readManifest(const fs::path& path, const std::string& name, std::vector<Rec
         pos = nl + 1;
         if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
         nlohmann::json j = nlohmann::json::parse(line, nullptr, false);
+        // A plot's record names its plot instead of a species: its statistics are grouped
+        // under the plot's name, as a species' are under the species'.
+        const char* group =
+            j.is_object() && j.contains("plot") && !j.contains("species") ? "plot" : "species";
         if (j.is_discarded() || !j.is_object() || !j.contains("id") || !j["id"].is_string() ||
-            !j.contains("species") || !j["species"].is_string() || !j.contains("index") ||
+            !j.contains(group) || !j[group].is_string() || !j.contains("index") ||
             !j["index"].is_number_integer()) {
             throw DatasetStatsInputError(name + ":" + std::to_string(lineNo) +
                                          ": not a manifest record (a JSON object with id, index "
-                                         "and species)");
+                                         "and species or plot)");
         }
         Record r;
         r.id = j["id"].get<std::string>();
         if (!seen.insert(r.id).second) continue;  // the same instance in two files
         r.index = j["index"].get<int64_t>();
-        r.species = j["species"].get<std::string>();
+        r.species = j[group].get<std::string>();
         if (j.contains("habit") && j["habit"].is_string()) r.habit = j["habit"].get<std::string>();
+        if (std::string(group) == "plot") r.habit = "plot";
         if (j.contains("files") && j["files"].is_object() && j["files"].contains("skeleton_ply") &&
             j["files"]["skeleton_ply"].is_string()) {
             r.skeleton = j["files"]["skeleton_ply"].get<std::string>();

@@ -31,8 +31,9 @@ struct Shard {
 };
 
 struct Record {
-    std::string line;  // verbatim manifest line
-    std::string id, species;
+    std::string line;           // verbatim manifest line
+    std::string id, species;    // species: the plot's name for a plot
+    std::filesystem::path dir;  // trees/<species>/<id> or plots/<plot>/<id>
     const Shard* shard = nullptr;
 };
 
@@ -164,18 +165,21 @@ MergeSummary mergeShards(const MergeOptions& o) {
             const std::string where = mpath.string() + ":" + std::to_string(lineNo);
             if (in.eof()) fail(where + ": torn last line (rerun the shard's build)");
             auto j = nlohmann::json::parse(line, nullptr, false);
-            if (j.is_discarded() || !j.is_object() || !j.contains("id") || !j.contains("species")) {
+            const bool plot = j.is_object() && j.contains("plot") && j["plot"].is_string();
+            if (j.is_discarded() || !j.is_object() || !j.contains("id") || !j["id"].is_string() ||
+                !(plot || (j.contains("species") && j["species"].is_string()))) {
                 fail(where + ": not a manifest record");
             }
             Record r;
             r.id = j["id"].get<std::string>();
-            r.species = j["species"].get<std::string>();
+            r.species = j[plot ? "plot" : "species"].get<std::string>();
+            r.dir = fs::path(plot ? "plots" : "trees") / r.species / r.id;
             r.shard = s;
             if (auto [it, fresh] = seen.emplace(r.id, where); !fresh) {
                 fail(where + ": instance " + r.id + " already recorded at " + it->second);
             }
-            if (!fs::is_directory(s->dir / "trees" / r.species / r.id)) {
-                fail(where + ": " + (s->dir / "trees" / r.species / r.id).string() + " missing");
+            if (!fs::is_directory(s->dir / r.dir)) {
+                fail(where + ": " + (s->dir / r.dir).string() + " missing");
             }
             r.line = std::move(line);
             records.push_back(std::move(r));
@@ -208,8 +212,7 @@ MergeSummary mergeShards(const MergeOptions& o) {
     try {
         std::string manifest;
         for (const Record& r : records) {
-            const fs::path rel = fs::path("trees") / r.species / r.id;
-            transfer(r.shard->dir / rel, stage / rel, o.move);
+            transfer(r.shard->dir / r.dir, stage / r.dir, o.move);
             manifest += r.line;
             manifest += '\n';
         }

@@ -21,6 +21,7 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <tuple>
 #include <unordered_map>
 
 #include "pipeline/build/instance.h"
@@ -198,6 +199,24 @@ void writeDatasetJson(const DatasetSpec& spec, const BuildOptions& o, const fs::
         sp.push_back(j);
     }
     d["species"] = sp;
+    if (!spec.plots.empty()) {
+        nlohmann::json plots = nlohmann::json::array();
+        for (const PlotSpec& p : spec.plots) {
+            nlohmann::json j;
+            j["name"] = p.name;
+            j["count"] = p.count;
+            j["area_m2"] = p.area.area();
+            nlohmann::json mix = nlohmann::json::array();
+            for (const PlotSpecies& s : p.species) {
+                mix.push_back({{"name", s.species.name},
+                               {"file", s.species.path},
+                               {"layer", s.understory ? "understory" : "canopy"}});
+            }
+            j["species"] = mix;
+            plots.push_back(j);
+        }
+        d["plots"] = plots;
+    }
     d["versions"] = versionInfo();
     d["shard"] = {{"index", o.shardIndex}, {"count", o.shardCount}};
     d["counts"] = {{"instances_in_dataset", allJobs},
@@ -336,90 +355,103 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
         return e ? std::atoll(e) : -1;
     }();
 
-    using namespace tbb::flow;
-    graph g;
-    int64_t next = lo;  // the next position to consider
-    size_t seq = 0;
-    input_node<Message> source(g, [&](tbb::flow_control& fc) -> Message {
-        if (!stop.requested) {
-            std::lock_guard<std::mutex> hold(doneMutex);
-            next = done.nextMissing(next, hi);  // skip what is recorded, a run at a time
-        }
-        if (next >= hi || stop.requested) {
-            fc.stop();
-            return {};
-        }
-        Message m;
-        m.seq = seq++;
-        m.work = std::make_shared<InstanceWork>();
-        m.work->job = instances[next++];
-        return m;
-    });
-    const size_t inFlight = o.maxInFlight > 0 ? o.maxInFlight : 4 * static_cast<size_t>(threads);
-    limiter_node<Message> limiter(g, inFlight);
-    function_node<Message, Message> grow(g, unlimited,
-                                         stageBody([](InstanceWork& w) { growStage(w); }, stop));
-    function_node<Message, Message> mesh(
-        g, unlimited, stageBody([&](InstanceWork& w) { meshStage(w, spec.outputs, o.out); }, stop));
-    function_node<Message, Message> render(
-        g, unlimited, stageBody([&](InstanceWork& w) { renderStage(w, spec.outputs); }, stop));
-    function_node<Message, Message> write(g, unlimited, [&](Message m) {
-        m = stageBody([&](InstanceWork& w) { writeStage(w, spec.outputs, o.out); }, stop)(m);
-        // Free the heavy parts before the message waits in the sequencer.
-        InstanceWork& w = *m.work;
-        w.grown = GrownTree{};
-        w.mesh = TreeMesh{};
-        w.watertight = Mesh{};
-        w.views.clear();
-        return m;
-    });
-    sequencer_node<Message> order(g, [](const Message& m) { return m.seq; });
+    // Two phases, in job order: the trees of the species, many in flight; then the plots, one
+    // at a time — a plot holds hundreds of trees and grows, meshes and renders them in parallel
+    // itself, so memory stays that of one plot whatever the dataset's number of plots.
     bool recording = true;             // until the first instance dropped by a stop, in job order
     std::vector<InstanceJob> dropped;  // at most the instances in flight
-    function_node<Message, continue_msg> record(g, serial, [&](const Message& m) {
-        const InstanceWork& w = *m.work;
-        if (!recording || m.discarded) {
-            recording = false;  // the manifest stays a prefix of the job order
-            dropped.push_back(w.job);
-            return continue_msg();
-        }
-        if (w.error.empty()) {
-            try {
-                manifest.append(w.record.dump());
-            } catch (const ResourceError& e) {
-                stop.note(e);
-                recording = false;
+    const int64_t plotStart = instances.plotStart();
+    const size_t treesInFlight =
+        o.maxInFlight > 0 ? o.maxInFlight : 4 * static_cast<size_t>(threads);
+    for (const auto& [from, to, inFlight] :
+         {std::tuple<int64_t, int64_t, size_t>{lo, std::min(hi, plotStart), treesInFlight},
+          std::tuple<int64_t, int64_t, size_t>{std::max(lo, plotStart), hi, 1}}) {
+        if (from >= to || stop.requested) continue;
+        using namespace tbb::flow;
+        graph g;
+        int64_t next = from;  // the next position to consider
+        const int64_t end = to;
+        size_t seq = 0;
+        input_node<Message> source(g, [&](tbb::flow_control& fc) -> Message {
+            if (!stop.requested) {
+                std::lock_guard<std::mutex> hold(doneMutex);
+                next = done.nextMissing(next, end);  // skip what is recorded, a run at a time
+            }
+            if (next >= end || stop.requested) {
+                fc.stop();
+                return {};
+            }
+            Message m;
+            m.seq = seq++;
+            m.work = std::make_shared<InstanceWork>();
+            m.work->job = instances[next++];
+            return m;
+        });
+        limiter_node<Message> limiter(g, inFlight);
+        function_node<Message, Message> grow(
+            g, unlimited, stageBody([](InstanceWork& w) { growStage(w); }, stop));
+        function_node<Message, Message> mesh(
+            g, unlimited,
+            stageBody([&](InstanceWork& w) { meshStage(w, spec.outputs, o.out); }, stop));
+        function_node<Message, Message> render(
+            g, unlimited, stageBody([&](InstanceWork& w) { renderStage(w, spec.outputs); }, stop));
+        function_node<Message, Message> write(g, unlimited, [&](Message m) {
+            m = stageBody([&](InstanceWork& w) { writeStage(w, spec.outputs, o.out); }, stop)(m);
+            // Free the heavy parts before the message waits in the sequencer.
+            InstanceWork& w = *m.work;
+            w.grown = GrownTree{};
+            w.mesh = TreeMesh{};
+            w.watertight = Mesh{};
+            w.views.clear();
+            w.plot.reset();
+            return m;
+        });
+        sequencer_node<Message> order(g, [](const Message& m) { return m.seq; });
+        function_node<Message, continue_msg> record(g, serial, [&](const Message& m) {
+            const InstanceWork& w = *m.work;
+            if (!recording || m.discarded) {
+                recording = false;  // the manifest stays a prefix of the job order
                 dropped.push_back(w.job);
                 return continue_msg();
             }
-            {
-                std::lock_guard<std::mutex> hold(doneMutex);
-                done.insert(w.job.position);
+            if (w.error.empty()) {
+                try {
+                    manifest.append(w.record.dump());
+                } catch (const ResourceError& e) {
+                    stop.note(e);
+                    recording = false;
+                    dropped.push_back(w.job);
+                    return continue_msg();
+                }
+                {
+                    std::lock_guard<std::mutex> hold(doneMutex);
+                    done.insert(w.job.position);
+                }
+                if (w.job.position < lastRecorded) fillsAGap = true;
+                ++summary.built;
+                if (abortAfter >= 0 && summary.built >= abortAfter) std::_Exit(137);
+            } else {
+                ++failed;
+                if (summary.failedIds.size() < BuildSummary::kMaxFailedIds) {
+                    summary.failedIds.push_back(w.job.id);
+                }
+                std::fprintf(stderr, "%ssylva: %s: %s\n", isatty(2) ? "\r\033[K" : "",
+                             w.job.id.c_str(), w.error.c_str());
             }
-            if (w.job.position < lastRecorded) fillsAGap = true;
-            ++summary.built;
-            if (abortAfter >= 0 && summary.built >= abortAfter) std::_Exit(137);
-        } else {
-            ++failed;
-            if (summary.failedIds.size() < BuildSummary::kMaxFailedIds) {
-                summary.failedIds.push_back(w.job.id);
-            }
-            std::fprintf(stderr, "%ssylva: %s: %s\n", isatty(2) ? "\r\033[K" : "", w.job.id.c_str(),
-                         w.error.c_str());
-        }
-        progress.tick(summary.built + failed, failed);
-        return continue_msg();
-    });
-    make_edge(source, limiter);
-    make_edge(limiter, grow);
-    make_edge(grow, mesh);
-    make_edge(mesh, render);
-    make_edge(render, write);
-    make_edge(write, order);
-    make_edge(order, record);
-    make_edge(record, limiter.decrementer());
-    source.activate();
-    g.wait_for_all();
+            progress.tick(summary.built + failed, failed);
+            return continue_msg();
+        });
+        make_edge(source, limiter);
+        make_edge(limiter, grow);
+        make_edge(grow, mesh);
+        make_edge(mesh, render);
+        make_edge(render, write);
+        make_edge(write, order);
+        make_edge(order, record);
+        make_edge(record, limiter.decrementer());
+        source.activate();
+        g.wait_for_all();
+    }
 
     if (stop.requested) {
         // What the dropped instances wrote is not part of the dataset (a rerun makes them

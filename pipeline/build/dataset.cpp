@@ -9,6 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "species/plot/plot_spec.h"
 #include "species/spec/budget_spec.h"
 
 namespace sylva {
@@ -23,7 +24,8 @@ uint64_t instanceSeed(uint64_t datasetSeed, const std::string& species, const st
 }
 
 bool isDatasetFile(const toml::table& t) {
-    return t.contains("species") && t["species"].is_array();
+    return (t.contains("species") && t["species"].is_array()) ||
+           (t.contains("plot") && t["plot"].is_array());
 }
 
 namespace {
@@ -111,12 +113,12 @@ SweepAxis parseSweep(Params& p) {
 // fingerprint.
 void readSpeciesEntries(Params& p, DatasetSpec& d, std::string& fingerprintBytes) {
     std::vector<Params> entries = p.tableArray("species");
-    if (entries.empty()) {
+    if (entries.empty() && !p.has("plot")) {
         p.fail("species", p.has("method") && !p.has("species")
                               ? "expected at least one [[species]] entry: this is a species "
                                 "file (it has a method), not a dataset (sylva grow grows one "
                                 "tree of it)"
-                              : "expected at least one [[species]] entry");
+                              : "expected at least one [[species]] entry (or a [[plot]])");
     }
     std::set<std::string> names;
     fs::path base = fs::path(d.path).parent_path();
@@ -186,6 +188,7 @@ void readOutputs(Params& o, OutputOptions& out) {
         }
     }
     out.preview = o.boolean("preview", out.preview);
+    out.leafOutlines = o.boolean("leaf_outlines", out.leafOutlines);
     out.previewSize =
         static_cast<int>(o.integer("preview_size", out.previewSize, Range::closed(16, 8192)));
     for (const auto& f : o.stringArray("mesh")) {
@@ -398,6 +401,33 @@ void checkIdsUnique(const DatasetSpec& d) {
     }
 }
 
+// The last plot's name is unique, and none of its instance ids ("<plot>-<index>") is a species
+// instance id: a plot is not named like a species, nor like a swept species' sweep point
+// ("<species>-p001"). `p` is its [[plot]] table, for the error's place.
+void checkPlotName(const DatasetSpec& d, const Params& p) {
+    const PlotSpec& plot = d.plots.back();
+    for (size_t k = 0; k + 1 < d.plots.size(); ++k) {
+        if (d.plots[k].name == plot.name) {
+            p.fail("name", "expected a name no other [[plot]] has, got \"" + plot.name +
+                               "\" again (also " + d.plots[k].keyPath + ")");
+        }
+    }
+    for (const SpeciesEntry& e : d.species) {
+        if (e.species.name == plot.name) {
+            p.fail("name", "expected a name that is not a species of the dataset, got \"" +
+                               plot.name + "\" (its instance ids would be the species' ids)");
+        }
+        for (size_t pi = 0; pi < e.points.size() && e.points.size() > 1; ++pi) {
+            if (instanceId(e.species.name, true, static_cast<int>(pi), 0) ==
+                plotInstanceId(plot.name, 0)) {
+                p.fail("name", "expected a name no instance id of species \"" + e.species.name +
+                                   "\" starts with, got \"" + plot.name + "\" (its sweep point " +
+                                   std::to_string(pi) + ")");
+            }
+        }
+    }
+}
+
 }  // namespace
 
 DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
@@ -429,11 +459,16 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
         readViews(*v, d.outputs.views, d.outputs.render);
         checkViewPixels(*v, d.outputs.views, d.budget);
     }
+    std::vector<Params> plots = p.tableArray("plot");  // [[plot]]: species/plot/plot_spec.h
     p.finish();
     const bool meshed = !d.outputs.meshFormats.empty() || d.outputs.views.count > 0;
     for (SpeciesEntry& entry : d.species) {
         entry.budget = d.budget;
         expandSweepPoints(entry, d.sweeps, meshed);
+    }
+    for (Params& plot : plots) {
+        d.plots.push_back(readPlot(plot, d.budget, meshed, fingerprintBytes));
+        checkPlotName(d, plot);
     }
     checkInstanceTotal(d);
     checkIdsUnique(d);
@@ -442,6 +477,11 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
                   static_cast<unsigned long long>(hashString(fingerprintBytes)));
     d.fingerprint = fingerprint;
     return d;
+}
+
+uint64_t plotSeed(uint64_t datasetSeed, const std::string& plot, int64_t index) {
+    // "plot:" keeps a plot's seeds apart from a species' of the same name.
+    return instanceSeed(datasetSeed, "plot:" + plot, "", index);
 }
 
 std::string instanceId(const std::string& species, bool swept, int pointIndex, int64_t index) {
@@ -485,6 +525,15 @@ DatasetInstances::DatasetInstances(const DatasetSpec& spec) : spec_(&spec) {
         start_.push_back(start_.back() + e.count * points);
         byName_.emplace(e.species.name, s);
     }
+    // Plots follow the species, each plot instance one position (no sweep points).
+    for (size_t k = 0; k < spec.plots.size(); ++k) {
+        const PlotSpec& p = spec.plots[k];
+        if (p.count < 0 || p.count > kMaxInstances - start_.back()) {
+            throw std::length_error("DatasetInstances: over kMaxInstances instances");
+        }
+        start_.push_back(start_.back() + p.count);
+        byName_.emplace(p.name, spec.species.size() + k);
+    }
 }
 
 InstanceJob DatasetInstances::operator[](int64_t position) const {
@@ -496,6 +545,17 @@ InstanceJob DatasetInstances::operator[](int64_t position) const {
     // the next one does, so this is the non-empty one that holds it).
     const size_t s = static_cast<size_t>(std::upper_bound(start_.begin(), start_.end(), position) -
                                          start_.begin() - 1);
+    if (s >= spec_->species.size()) {
+        const PlotSpec& p = spec_->plots[s - spec_->species.size()];
+        InstanceJob j;
+        j.plot = &p;
+        j.datasetBudget = &spec_->budget;
+        j.index = position - start_[s];
+        j.seed = plotSeed(spec_->seed, p.name, j.index);
+        j.id = instanceId(p.name, false, 0, j.index);
+        j.position = position;
+        return j;
+    }
     const SpeciesEntry& e = spec_->species[s];
     const int64_t r = position - start_[s];
     InstanceJob j;
@@ -516,6 +576,12 @@ std::optional<int64_t> DatasetInstances::find(std::string_view id) const {
          dash = id.find('-', dash + 1)) {
         auto it = byName_.find(id.substr(0, dash));
         if (it == byName_.end()) continue;
+        if (it->second >= spec_->species.size()) {  // a plot
+            const PlotSpec& p = spec_->plots[it->second - spec_->species.size()];
+            const auto index = parseDigits(id.substr(dash + 1));
+            if (!index || *index >= p.count || instanceId(p.name, false, 0, *index) != id) continue;
+            return start_[it->second] + *index;
+        }
         const SpeciesEntry& e = spec_->species[it->second];
         std::string_view rest = id.substr(dash + 1);
         int64_t point = 0;

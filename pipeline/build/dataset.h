@@ -61,8 +61,11 @@ struct OutputOptions {
     bool preview = false;  // preview.png per instance
     int previewSize = 512;
     std::vector<std::string> meshFormats;  // of "ply", "glb", "obj"; empty: no mesh
-    TubeOptions tubes;                     // level of detail of branch tubes
-    bool watertight = false;               // watertight.<format> (union of capsules)
+    // Leaves meshed and drawn as their shapes' outlines (true), or every leaf as its card, one
+    // quad (false): a plot's level of detail (a compound leaf's outline is ~100 triangles).
+    bool leafOutlines = true;
+    TubeOptions tubes;        // level of detail of branch tubes
+    bool watertight = false;  // watertight.<format> (union of capsules)
     WatertightOptions watertightOptions;
     bool vdb = false;       // watertight.vdb (the level set itself)
     ViewOptions views;      // [views]
@@ -89,8 +92,10 @@ struct DatasetSpec {
 DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog = nullptr);
 
 struct InstanceJob {
-    std::string id;  // "<species>[-p<point>]-<index>"
-    const SpeciesEntry* entry = nullptr;
+    std::string id;                       // "<species>[-p<point>]-<index>", or "<plot>-<index>"
+    const SpeciesEntry* entry = nullptr;  // a tree of a species, or …
+    const PlotSpec* plot = nullptr;       // … a plot (entry and point null)
+    const BudgetTable* datasetBudget = nullptr;  // a plot's: the dataset's [budget]
     const SweepPoint* point = nullptr;
     int pointIndex = 0;
     int64_t index = 0;  // index within (species, point)
@@ -99,7 +104,8 @@ struct InstanceJob {
 };
 
 // The instances of a dataset in their fixed order — species entries in spec order, within each
-// its sweep points in order, within each point index 0 … count − 1 — computed from their
+// its sweep points in order, within each point index 0 … count − 1; then the plots in spec
+// order, each index 0 … count − 1 — computed from their
 // position, never stored: the (species, point) blocks of one species have the same length, so
 // a prefix sum per species and a binary search over it place any position (O(log species)).
 // Memory: one integer and one name per species entry, whatever the count. `spec` must outlive
@@ -114,11 +120,14 @@ class DatasetInstances {
     // The position of the instance with this id, if the dataset has one (the inverse of
     // operator[]: instance(find(id)).id == id).
     std::optional<int64_t> find(std::string_view id) const;
-    // Positions [begin, end) of species entry `entry` (spec order).
+    // Positions [begin, end) of species entry `entry` (spec order); plot k is entry
+    // speciesCount() + k.
     std::pair<int64_t, int64_t> speciesRange(size_t entry) const {
         return {start_[entry], start_[entry + 1]};
     }
-    size_t speciesCount() const { return start_.size() - 1; }
+    size_t speciesCount() const { return spec_->species.size(); }
+    // The position of the first plot instance (size() without plots).
+    int64_t plotStart() const { return start_[spec_->species.size()]; }
     const DatasetSpec& spec() const { return *spec_; }
 
   private:
@@ -138,6 +147,9 @@ std::string instanceId(const std::string& species, bool swept, int pointIndex, i
 // Instance seed: a hash of (dataset seed, species name, sweep point key, index).
 uint64_t instanceSeed(uint64_t datasetSeed, const std::string& species, const std::string& pointKey,
                       int64_t index);
+
+// A plot instance's seed: a hash of (dataset seed, "plot:" + plot name, index).
+uint64_t plotSeed(uint64_t datasetSeed, const std::string& plot, int64_t index);
 
 // Whether a TOML file is a dataset (has [[species]]) rather than a species file.
 bool isDatasetFile(const toml::table& t);

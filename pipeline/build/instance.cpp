@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "pipeline/build/plot_instance.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/skeleton_writers.h"
@@ -14,6 +15,8 @@
 #include "species/geometry/watertight.h"
 #include "species/model/leaf_shape.h"
 #include "species/model/tree_stats.h"
+#include "species/plot/layout.h"
+#include "species/plot/plot_growth.h"
 
 namespace sylva {
 
@@ -74,19 +77,33 @@ void checkWatertightEstimate(const GrownTree& g, const WatertightOptions& o) {
 }  // namespace
 
 fs::path instanceDir(const InstanceJob& job) {
+    if (job.plot) return fs::path("plots") / job.plot->name / job.id;
     return fs::path("trees") / job.entry->species.name / job.id;
 }
 
 void growStage(InstanceWork& w) {
     auto t0 = Clock::now();
     const InstanceJob& job = w.job;
+    if (job.plot) {  // a plot: its layout, then its trees grown together
+        w.plot = std::make_shared<GrownPlot>(
+            growPlot(*job.plot, layoutPlot(*job.plot, job.seed), job.datasetBudget, true));
+        w.growMs = msSince(t0);
+        return;
+    }
     w.grown = growSpecies(job.entry->species, job.seed, job.point->overrides.get(), true,
                           &job.entry->budget);
     w.growMs = msSince(t0);
 }
 
+// [outputs] leaf_outlines = false: every leaf meshed and drawn as its card.
+static void leavesAsCards(Tree& tree) {
+    for (Leaf& leaf : tree.leaves) leaf.shape = LeafShape::kCard;
+}
+
 void meshStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
+    if (w.job.plot) return;  // writePlot meshes a plot as it writes it
     auto t0 = Clock::now();
+    if (!o.leafOutlines) leavesAsCards(w.grown.tree);
     if (!o.meshFormats.empty()) {
         checkMeshTriangles(w.grown, o.tubes);
         w.mesh.wood = tubeMesh(w.grown.tree, o.tubes, &w.woodNodes);
@@ -105,7 +122,7 @@ void meshStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
 }
 
 void renderStage(InstanceWork& w, const OutputOptions& o) {
-    if (o.views.count <= 0) return;
+    if (o.views.count <= 0 || w.job.plot) return;  // writePlot renders a plot's views
     auto t0 = Clock::now();
     Rng camRng = Rng(w.job.seed).derive("cameras");
     w.cameras = makeCameras(w.grown.tree, o.views, camRng);
@@ -131,6 +148,17 @@ void renderStage(InstanceWork& w, const OutputOptions& o) {
 void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     auto t0 = Clock::now();
     const InstanceJob& job = w.job;
+    if (job.plot) {
+        w.record = writePlot(*w.plot, o, out, job.id);
+        w.record["id"] = job.id;
+        w.record["kind"] = "plot";
+        w.record["plot"] = job.plot->name;
+        w.record["index"] = job.index;
+        w.record["seed"] = hex64(job.seed);
+        w.writeMs = msSince(t0);
+        w.record["timing"] = {{"grow_ms", w.growMs}, {"write_ms", w.writeMs}};
+        return;
+    }
     const SpeciesFile& species = job.entry->species;
     const fs::path rel = instanceDir(job);
     nlohmann::json files = nlohmann::json::object();

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -24,8 +25,9 @@ struct InstanceWork {
     std::vector<Camera> cameras;
     std::vector<ViewImage> views;
     double growMs = 0, meshMs = 0, renderMs = 0, writeMs = 0;
-    nlohmann::json record;  // the manifest line, made by write()
-    std::string error;      // set by the first stage that fails; later stages skip
+    std::shared_ptr<GrownPlot> plot;  // a plot instance's trees (job.plot), instead of grown
+    nlohmann::json record;            // the manifest line, made by write()
+    std::string error;                // set by the first stage that fails; later stages skip
 };
 
 void growStage(InstanceWork& w);
@@ -33,7 +35,7 @@ void meshStage(InstanceWork& w, const OutputOptions& outputs, const std::filesys
 void renderStage(InstanceWork& w, const OutputOptions& outputs);
 void writeStage(InstanceWork& w, const OutputOptions& outputs, const std::filesystem::path& out);
 
-// Relative directory of an instance's files: trees/<species>/<id>.
+// Relative directory of an instance's files: trees/<species>/<id>, or plots/<plot>/<id>.
 std::filesystem::path instanceDir(const InstanceJob& job);
 
 }  // namespace sylva

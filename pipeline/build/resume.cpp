@@ -137,10 +137,13 @@ ManifestOrder scanManifestOrder(const fs::path& manifest, const DatasetInstances
 
 void removeStaleTemporaries(const fs::path& out, const DatasetInstances& instances,
                             const InstanceSet& recorded, int64_t lo, int64_t hi) {
-    for (size_t s = 0; s < instances.speciesCount(); ++s) {
+    const DatasetSpec& spec = instances.spec();
+    for (size_t s = 0; s < instances.speciesCount() + spec.plots.size(); ++s) {
         const auto [begin, end] = instances.speciesRange(s);
         if (end <= lo || begin >= hi) continue;
-        const fs::path dir = out / "trees" / instances.spec().species[s].species.name;
+        const fs::path dir = s < instances.speciesCount()
+                                 ? out / "trees" / spec.species[s].species.name
+                                 : out / "plots" / spec.plots[s - instances.speciesCount()].name;
         std::error_code ec;
         for (fs::directory_iterator it(dir, ec), stop; !ec && it != stop; it.increment(ec)) {
             const auto position = instances.find(it->path().filename().string());

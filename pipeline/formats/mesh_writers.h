@@ -7,6 +7,7 @@
 
 #include <string>
 
+#include "pipeline/render/plot_render.h"
 #include "species/geometry/mesh.h"
 
 namespace sylva {
@@ -38,5 +39,20 @@ std::string meshMtl(const TreeMesh& mesh);
 // leaves also _COLOUR (SCALAR float: colour class). Indices: UNSIGNED_INT always. One buffer in the
 // BIN chunk. A part with no triangles is left out (glTF forbids empty accessors).
 std::string meshGlb(const TreeMesh& mesh);
+
+// A plot's scene (pipeline/render/plot_render.h) as one binary little-endian PLY: the
+// terrain, the ground cover, then per tree its wood and its leaves, faces in the same order;
+//   element vertex N: float x, y, z, nx, ny, nz; int tree_id (0 terrain and ground cover);
+//                     uchar part (PlotPart: 0 terrain, 1 stem, 2 branch, 3 leaf, 4 root,
+//                     5 low vegetation)
+//   element face F:   property list uchar uint vertex_indices (always 3)
+std::string scenePly(const PlotScene& scene);
+
+// The same scene as GLB: nodes "terrain" (material "ground"), "ground-cover" (material
+// "low-vegetation", double-sided), then one node per tree named by its tree name ("tree-0007"),
+// whose mesh of the same name has a wood primitive ("bark") and a leaf primitive ("leaf"),
+// attributes as meshGlb's. Every node's extras hold {"tree_id": id} (0: terrain, ground cover).
+// Empty parts and nodes are left out; materials only when used.
+std::string sceneGlb(const PlotScene& scene);
 
 }  // namespace sylva

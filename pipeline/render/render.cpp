@@ -131,6 +131,7 @@ struct Triangle {
     double area;        // signed, twice the screen area
     float zmin;
     uint8_t label;
+    uint16_t id;  // instance id (scene renders; 0 otherwise)
     Box box;
 };
 
@@ -155,6 +156,7 @@ bool setupTriangle(const Corner& a, const Corner& b, const Corner& c, uint8_t la
     }
     t.zmin = static_cast<float>(zmin);
     t.label = label;
+    t.id = 0;
     return pixelBox(lox, hix, loy, hiy, w, h, t.box);
 }
 
@@ -206,6 +208,7 @@ struct Line {
     double radius;  // pixels: half the width
     float zmin;
     uint8_t label;
+    uint16_t id;
     Box box;
 };
 
@@ -215,6 +218,7 @@ struct Line {
 struct Fragment {
     uint32_t pixel;
     uint8_t label;
+    uint16_t id;
     double zi;
 };
 
@@ -279,7 +283,7 @@ void appendFragments(const Triangle& t, int w, Fragments& out) {
             const double b1 = (r1 - dy[1] * (pxc - t.x[2])) * inv;
             const double b2 = (r2 - dy[2] * (pxc - t.x[0])) * inv;
             const double zi = b0 * t.z[0] + b1 * t.z[1] + b2 * t.z[2];
-            f[n] = {static_cast<uint32_t>(rowOff + x), t.label, zi};
+            f[n] = {static_cast<uint32_t>(rowOff + x), t.label, t.id, zi};
             n += (b0 >= 0.0) & (b1 >= 0.0) & (b2 >= 0.0);
         }
     }
@@ -295,7 +299,11 @@ struct Scene {
     std::unique_ptr<Corner[]> corners;  // tube vertices, then leaf outline points
     const Mesh* wood = nullptr;
     const int32_t* woodNodes = nullptr;
-    std::vector<uint8_t> nodeLabels;  // segmentLabel per skeleton node
+    std::vector<uint8_t> nodeLabels;    // segmentLabel per skeleton node (or the caller's)
+    const uint16_t* nodeIds = nullptr;  // instance id per node (scene renders)
+    // Per leaf triangle, its label and instance id (scene renders; empty: kLabelLeaf, id 0).
+    std::vector<uint8_t> leafTriLabels;
+    std::vector<uint16_t> leafTriIds;
     size_t woodTriangles = 0;
     std::vector<Vec3> leafPoints;       // leaf outline points in camera space
     std::vector<uint32_t> leafIndices;  // into corners
@@ -324,7 +332,13 @@ inline void cornersOf(const Scene& s, size_t id, uint32_t v[3]) {
 }
 
 inline uint8_t labelOf(const Scene& s, const Tree& tree, size_t id) {
-    return id < s.woodTriangles ? s.nodeLabels[s.woodNodes[id]] : kLabelLeaf;
+    if (id < s.woodTriangles) return s.nodeLabels[s.woodNodes[id]];
+    return s.leafTriLabels.empty() ? kLabelLeaf : s.leafTriLabels[id - s.woodTriangles];
+}
+
+inline uint16_t idOf(const Scene& s, size_t id) {
+    if (id < s.woodTriangles) return s.nodeIds ? s.nodeIds[s.woodNodes[id]] : 0;
+    return s.leafTriIds.empty() ? 0 : s.leafTriIds[id - s.woodTriangles];
 }
 
 // Camera-space position of corner v (wood vertices recomputed from the mesh).
@@ -372,7 +386,8 @@ void addLines(const Tree& tree, const View& view, double radius, Scene& scene) {
         s.invLen2 = len2 > 1e-18 ? 1.0 / len2 : 0.0;
         s.radius = radius;
         s.zmin = static_cast<float>(std::min(da, db));
-        s.label = segmentLabel(nodes[i]);
+        s.label = scene.nodeLabels[i];
+        s.id = scene.nodeIds ? scene.nodeIds[i] : 0;
         if (!pixelBox(std::min(s.ax, s.bx) - radius, std::max(s.ax, s.bx) + radius,
                       std::min(s.ay, s.by) - radius, std::max(s.ay, s.by) + radius, view.width,
                       view.height, s.box)) {
@@ -384,7 +399,7 @@ void addLines(const Tree& tree, const View& view, double radius, Scene& scene) {
 }
 
 Scene buildScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
-                 const View& view, const RenderOptions& options) {
+                 const SceneLabels* labels, const View& view, const RenderOptions& options) {
     Scene scene;
     const int w = view.width, h = view.height;
     const int bands = (h + kBandRows - 1) / kBandRows;
@@ -392,9 +407,14 @@ Scene buildScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>&
     scene.wood = &wood;
     scene.woodNodes = woodNodes.data();
     scene.woodTriangles = wood.triangleCount();
-    scene.nodeLabels.resize(tree.nodes.size());
-    for (size_t i = 0; i < tree.nodes.size(); ++i)
-        scene.nodeLabels[i] = segmentLabel(tree.nodes[i]);
+    if (labels) {
+        scene.nodeLabels = labels->nodeLabels;
+        scene.nodeIds = labels->nodeIds.data();
+    } else {
+        scene.nodeLabels.resize(tree.nodes.size());
+        for (size_t i = 0; i < tree.nodes.size(); ++i)
+            scene.nodeLabels[i] = segmentLabel(tree.nodes[i]);
+    }
 
     // Vertices: the tubes' (in parallel), then every leaf's outline points.
     const size_t nWood = wood.vertexCount();
@@ -416,8 +436,19 @@ Scene buildScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>&
     scene.leafPoints.reserve(nLeafPoints);
     scene.leafIndices.reserve(nLeafIndices);
     std::vector<Vec3> points;
-    for (const Leaf& leaf : tree.leaves) {
+    if (labels) {
+        scene.leafTriLabels.reserve(nLeafIndices / 3);
+        scene.leafTriIds.reserve(nLeafIndices / 3);
+    }
+    for (size_t li = 0; li < tree.leaves.size(); ++li) {
+        const Leaf& leaf = tree.leaves[li];
         const LeafOutline& outline = leafOutline(leaf.shape);
+        if (labels) {
+            scene.leafTriLabels.insert(scene.leafTriLabels.end(), outline.triangleCount(),
+                                       labels->leafLabels[li]);
+            scene.leafTriIds.insert(scene.leafTriIds.end(), outline.triangleCount(),
+                                    labels->leafIds[li]);
+        }
         sylva::leafPoints(leaf, leafFrame(leaf), outline, points);
         const uint32_t first = static_cast<uint32_t>(nWood + scene.leafPoints.size());
         for (const Vec3& p : points) {
@@ -455,6 +486,7 @@ Scene buildScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>&
                 continue;
             }
             t.label = labelOf(scene, tree, id);
+            t.id = idOf(scene, id);
             appendFragments(t, w, found);
         }
         // Counting sort by band.
@@ -495,6 +527,7 @@ Scene buildScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>&
                     missesEveryCentre(t)) {
                     continue;
                 }
+                t.id = idOf(scene, id);
                 addToBins(scene, t.box, static_cast<uint32_t>(n + scene.clipped.size()));
                 scene.clipped.push_back(t);
             }
@@ -504,12 +537,22 @@ Scene buildScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>&
     return scene;
 }
 
-// The z-buffer test and write. Equal depths go to the lower label.
-inline void plot(float* zbuf, uint8_t* lbuf, size_t k, double depth, uint8_t label) {
+// The z-buffer test and write. Equal depths go to the lower label, then (with an id buffer)
+// to the lower id.
+inline void plot(float* zbuf, uint8_t* lbuf, uint16_t* ibuf, size_t k, double depth, uint8_t label,
+                 uint16_t id) {
     const float z = storedDepth(depth);
-    if (z < zbuf[k] || (z == zbuf[k] && label < lbuf[k])) {
+    if (!ibuf) {
+        if (z < zbuf[k] || (z == zbuf[k] && label < lbuf[k])) {
+            zbuf[k] = z;
+            lbuf[k] = label;
+        }
+        return;
+    }
+    if (z < zbuf[k] || (z == zbuf[k] && (label < lbuf[k] || (label == lbuf[k] && id < ibuf[k])))) {
         zbuf[k] = z;
         lbuf[k] = label;
+        ibuf[k] = id;
     }
 }
 
@@ -527,7 +570,8 @@ double nearestAxisDepth(const Line& s, double tRaw, double pa2, double radius) {
     return s.ortho ? s.da + u * (s.db - s.da) : 1.0 / (s.invDa + u * (s.invDb - s.invDa));
 }
 
-void drawLine(const Line& s, int w, int row0, int row1, float* zbuf, uint8_t* lbuf) {
+void drawLine(const Line& s, int w, int row0, int row1, float* zbuf, uint8_t* lbuf,
+              uint16_t* ibuf) {
     const double dx = s.bx - s.ax, dy = s.by - s.ay;
     const double reach = s.radius;
     for (int y = std::max(s.box.y0, row0); y <= std::min(s.box.y1, row1 - 1); ++y) {
@@ -551,13 +595,14 @@ void drawLine(const Line& s, int w, int row0, int row1, float* zbuf, uint8_t* lb
             const double t = std::clamp(tRaw, 0.0, 1.0);
             const double ex = pxc - (s.ax + t * dx), ey = pyc - (s.ay + t * dy);
             if (ex * ex + ey * ey > reach * reach) continue;
-            plot(zbuf, lbuf, k, nearestAxisDepth(s, tRaw, pax * pax + pay * pay, reach), s.label);
+            plot(zbuf, lbuf, ibuf, k, nearestAxisDepth(s, tRaw, pax * pax + pay * pay, reach),
+                 s.label, s.id);
         }
     }
 }
 
 void drawTriangle(const Triangle& t, bool ortho, int w, int row0, int row1, float* zbuf,
-                  uint8_t* lbuf) {
+                  uint8_t* lbuf, uint16_t* ibuf) {
     const double inv = 1.0 / t.area;
     // Each weight is linear along a row, so the inside of a row is an interval: per edge, the
     // x where the weight opposite it crosses 0, linear in the row's y.
@@ -598,16 +643,14 @@ void drawTriangle(const Triangle& t, bool ortho, int w, int row0, int row1, floa
             const double b2 = weight(t, 2, pxc, pyc, inv);
             if (b2 < 0.0) continue;
             const double zi = b0 * t.z[0] + b1 * t.z[1] + b2 * t.z[2];
-            plot(zbuf, lbuf, k, ortho ? zi : 1.0 / zi, t.label);
+            plot(zbuf, lbuf, ibuf, k, ortho ? zi : 1.0 / zi, t.label, t.id);
         }
     }
 }
 
-}  // namespace
-
-ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
-                     const Camera& camera, bool wantDepth, bool wantLabels,
-                     const RenderOptions& options) {
+ViewImage renderImpl(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+                     const SceneLabels* labels, const Camera& camera, bool wantDepth,
+                     bool wantLabels, bool wantIds, const RenderOptions& options) {
     if (camera.width <= 0 || camera.height <= 0) {
         throw std::invalid_argument("renderView: image size must be positive");
     }
@@ -622,14 +665,22 @@ ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32
             throw std::invalid_argument("renderView: woodNodes holds a node the tree lacks");
         }
     }
+    if (labels && (labels->nodeLabels.size() != tree.nodes.size() ||
+                   labels->nodeIds.size() != tree.nodes.size() ||
+                   labels->leafLabels.size() != tree.leaves.size() ||
+                   labels->leafIds.size() != tree.leaves.size())) {
+        throw std::invalid_argument("renderScene: one label and id per node and per leaf");
+    }
     const View view(camera);
     const int w = camera.width, h = camera.height;
     const size_t n = static_cast<size_t>(w) * h;
     std::vector<float> zbuf(n, std::numeric_limits<float>::infinity());
     std::vector<uint8_t> lbuf(n, kLabelBackground);
+    std::vector<uint16_t> ibuf(labels ? n : 0, 0);
+    uint16_t* ids = labels ? ibuf.data() : nullptr;
 
     if (view.f > 0 && std::isfinite(view.f)) {
-        const Scene scene = buildScene(tree, wood, woodNodes, view, options);
+        const Scene scene = buildScene(tree, wood, woodNodes, labels, view, options);
         const size_t firstClipped = scene.indexedTriangles;
         const size_t firstLine = firstClipped + scene.clipped.size();
         const int bands = static_cast<int>(scene.bins.size());
@@ -641,7 +692,7 @@ ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32
                 for (const Scene::Chunk& chunk : scene.chunks) {
                     for (uint32_t i = chunk.bandStart[band]; i < chunk.bandStart[band + 1]; ++i) {
                         const Fragment& f = chunk.fragments[i];
-                        plot(z, l, f.pixel, view.ortho ? f.zi : 1.0 / f.zi, f.label);
+                        plot(z, l, ids, f.pixel, view.ortho ? f.zi : 1.0 / f.zi, f.label, f.id);
                     }
                 }
                 for (uint32_t id : scene.bins[band]) {
@@ -651,12 +702,13 @@ ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32
                         Triangle t;
                         setupTriangle(scene.corners[v[0]], scene.corners[v[1]], scene.corners[v[2]],
                                       labelOf(scene, tree, id), w, h, false, t);
-                        drawTriangle(t, view.ortho, w, row0, row1, z, l);
+                        t.id = idOf(scene, id);
+                        drawTriangle(t, view.ortho, w, row0, row1, z, l, ids);
                     } else if (id < firstLine) {
                         drawTriangle(scene.clipped[id - firstClipped], view.ortho, w, row0, row1, z,
-                                     l);
+                                     l, ids);
                     } else {
-                        drawLine(scene.lines[id - firstLine], w, row0, row1, z, l);
+                        drawLine(scene.lines[id - firstLine], w, row0, row1, z, l, ids);
                     }
                 }
             }
@@ -678,7 +730,24 @@ ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32
     }
     if (wantDepth) out.depth = std::move(zbuf);
     if (wantLabels) out.labels = std::move(lbuf);
+    if (wantIds) out.ids = std::move(ibuf);
     return out;
+}
+
+}  // namespace
+
+ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+                     const Camera& camera, bool wantDepth, bool wantLabels,
+                     const RenderOptions& options) {
+    return renderImpl(tree, wood, woodNodes, nullptr, camera, wantDepth, wantLabels, false,
+                      options);
+}
+
+ViewImage renderScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+                      const SceneLabels& labels, const Camera& camera, bool wantDepth,
+                      bool wantLabels, bool wantIds, const RenderOptions& options) {
+    return renderImpl(tree, wood, woodNodes, &labels, camera, wantDepth, wantLabels, wantIds,
+                      options);
 }
 
 ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, bool wantLabels,

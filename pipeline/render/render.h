@@ -40,6 +40,7 @@ struct ViewImage {
     std::vector<uint8_t> silhouette;  // 0 background, 255 tree; row-major, row 0 at the top
     std::vector<float> depth;         // metres along the view axis; 0 = background
     std::vector<uint8_t> labels;      // 0 background, 1 + branch order for wood, 255 leaves
+    std::vector<uint16_t> ids;        // renderScene: instance id of the nearest surface
 };
 
 // Options of the renderer beyond the camera.
@@ -62,6 +63,23 @@ struct RenderOptions {
 ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
                      const Camera& camera, bool wantDepth, bool wantLabels,
                      const RenderOptions& options = {});
+
+// Many objects in one z-buffer pass (a plot's trees, terrain and ground cover), `tree` and
+// `wood` holding all of them (nodes, leaves and tube triangles concatenated; non-tree surfaces
+// such as the terrain as wood triangles of a node of their own): the caller's label per node
+// (the wood ending there) and per leaf, and an instance id per node and per leaf. Internal
+// labels must be ≥ 1 (0 is the background). The same rasteriser and rules as renderView; equal
+// depths go to the lower label, then to the lower id. With wantIds, `ids` holds the id of the
+// nearest surface per pixel (0 where nothing is drawn). Deterministic whatever the thread count.
+struct SceneLabels {
+    std::vector<uint8_t> nodeLabels;  // per node of `tree`
+    std::vector<uint16_t> nodeIds;    // per node
+    std::vector<uint8_t> leafLabels;  // per leaf
+    std::vector<uint16_t> leafIds;    // per leaf
+};
+ViewImage renderScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+                      const SceneLabels& labels, const Camera& camera, bool wantDepth,
+                      bool wantLabels, bool wantIds, const RenderOptions& options = {});
 
 // The same, making the tubes first (tubeMesh(tree, tubes)): for one-off views.
 ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, bool wantLabels,

@@ -506,6 +506,7 @@ Tree clipTemplate(const FittedTemplate& f, const CanopyOptions& o,
     const double limit = 1.0 + o.branches.clipThreshold;
     const double margin = o.branches.leafMargin;
     auto keeps = [&](const Vec3& p) {
+        if (!o.clip.empty() && !insideAll(o.clip, p)) return false;
         const Vec3 local = p - o.position;
         if (envelopeRatio(*o.envelope, local) > limit) return false;
         return !(margin > 0.0 && envelopeDepth(*o.envelope, local) < margin);
@@ -577,7 +578,8 @@ void placeCanopyLeaves(Tree& tree, const CanopyOptions& o, const CanopySurfaceSa
         const Vec3 centre =
             env.domain() == CanopyDomain::kEllipsoid ? Vec3{0, 0, 0} : Vec3{0, s.y, 0};
         const double depth = lo.depth > 0.0 ? positions.uniform(0.0, lo.depth) : 0.0;
-        const Vec3 at = o.position + centre + (s - centre) * (1.0 - depth);
+        Vec3 at = o.position + centre + (s - centre) * (1.0 - depth);
+        if (!o.clip.empty()) at = projectInside(o.clip, at);
         const Vec3 outward = length(s - centre) > 0.0 ? normalize(s - centre) : Vec3{0, 1, 0};
         const Vec3 n0 = leafNormal(lo, sun, positions);
         if (lo.cluster == 1) {
@@ -1151,8 +1153,11 @@ Tree growCanopy(const CanopyOptions& o, Rng& rng, CanopyStats* stats,
     const Vec3 centre = o.position;
     st.droppedLeaves = growSupportTwigs(
         tree, sprouts, o.support,
-        [&](const Vec3& p) { return envelopeRatio(env, p - centre) <= 1.0 + 1e-9; }, &st.twigNodes,
-        guard);
+        [&](const Vec3& p) {
+            return envelopeRatio(env, p - centre) <= 1.0 + 1e-9 &&
+                   (o.clip.empty() || insideAll(o.clip, p));
+        },
+        &st.twigNodes, guard);
     if (o.support.pruneBare) {
         // Self-pruning: crown branches that carry no leaf die (the bole stays); `own` follows.
         std::vector<char> keep(sprouts.size());

@@ -210,6 +210,10 @@ struct CanopyOptions {
     CanopyBranchOptions branches;
     CanopyLeafOptions leaves;
     CanopySupportOptions support;
+    // Plots (crown shyness): half-spaces the crown keeps to, tree frame. Branch nodes outside
+    // are cut like nodes beyond the envelope, leaf positions outside are moved onto the
+    // nearest clip plane (the crown's cut face), twigs stay inside. Empty: no clip.
+    std::vector<HalfSpace> clip;
 };
 
 struct CanopyStats {

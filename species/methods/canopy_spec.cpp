@@ -27,23 +27,19 @@ class CanopyMethod : public GrowthMethod {
     explicit CanopyMethod(CanopyOptions o)
         : o_(std::move(o)), sampler_(std::make_shared<CanopySurfaceSampler>(*o_.envelope)) {}
 
-    Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats,
+    Tree grow(Rng& rng, bool, std::map<std::string, double>& stats,
               const GrowthGuard& guard) const override {
-        CanopyStats s;
-        Tree t = growCanopy(o_, rng, &s, sampler_.get(), guard);
-        stats["template"] = s.templateIndex;
-        stats["template_segments"] = static_cast<double>(s.templateSegments);
-        stats["kept_segments"] = static_cast<double>(s.keptSegments);
-        stats["template_scale_y"] = s.scaleY;
-        stats["template_scale_xz"] = s.scaleXZ;
-        stats["trunk_height"] = s.trunkHeight;
-        stats["unsupported_leaves"] = static_cast<double>(s.unsupportedLeaves);
-        stats["unsupported_leaf_fraction"] = s.unsupportedLeafFraction;
-        if (o_.support.mode != LeafSupport::kNone) {
-            stats["twig_nodes"] = static_cast<double>(s.twigNodes);
-            stats["dropped_leaves"] = static_cast<double>(s.droppedLeaves);
-        }
-        return t;
+        return growWith(o_, rng, stats, guard);
+    }
+
+    // Crown shyness: branches and leaves kept inside the half-spaces between this tree and
+    // its neighbours (CanopyOptions::clip).
+    Tree growAmong(Rng& rng, bool, std::map<std::string, double>& stats, const GrowthGuard& guard,
+                   const Neighbourhood& neighbours) const override {
+        if (neighbours.clip.empty()) return growWith(o_, rng, stats, guard);
+        CanopyOptions o = o_;
+        o.clip = neighbours.clip;
+        return growWith(o, rng, stats, guard);
     }
 
     bool placesOwnLeaves() const override { return true; }
@@ -53,6 +49,25 @@ class CanopyMethod : public GrowthMethod {
     }
 
   private:
+    Tree growWith(const CanopyOptions& o, Rng& rng, std::map<std::string, double>& stats,
+                  const GrowthGuard& guard) const {
+        CanopyStats s;
+        Tree t = growCanopy(o, rng, &s, sampler_.get(), guard);
+        stats["template"] = s.templateIndex;
+        stats["template_segments"] = static_cast<double>(s.templateSegments);
+        stats["kept_segments"] = static_cast<double>(s.keptSegments);
+        stats["template_scale_y"] = s.scaleY;
+        stats["template_scale_xz"] = s.scaleXZ;
+        stats["trunk_height"] = s.trunkHeight;
+        stats["unsupported_leaves"] = static_cast<double>(s.unsupportedLeaves);
+        stats["unsupported_leaf_fraction"] = s.unsupportedLeafFraction;
+        if (o.support.mode != LeafSupport::kNone) {
+            stats["twig_nodes"] = static_cast<double>(s.twigNodes);
+            stats["dropped_leaves"] = static_cast<double>(s.droppedLeaves);
+        }
+        return t;
+    }
+
     CanopyOptions o_;
     std::shared_ptr<const CanopySurfaceSampler> sampler_;
 };

@@ -399,6 +399,12 @@ void drawStem(Derivation& d, const Pending& pd) {
         refN = rotate(normalize(side - dir * dot(side, dir)), dir, roll);
         if (!(length(refN) > 1e-9)) refN = anyPerpendicular(dir);
     }
+    if (!root && !straight && length2(o.lightTropism) > 0) {
+        // A trunk (order 0) leans half as much as the branches turn toward the light.
+        dir = normalize(dir + o.lightTropism * (pd.order == 0 ? 0.5 : 1.0));
+        refN = refN - dir * dot(refN, dir);
+        refN = length(refN) > 1e-9 ? normalize(refN) : anyPerpendicular(dir);
+    }
 
     double tau = 0.0;
     const std::vector<Vec3> ctrl =

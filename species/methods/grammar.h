@@ -153,6 +153,11 @@ struct GrammarOptions {
     double groundClearance = 0.0;  // metres; > 0: a shoot stem descending below this height
                                    // bends toward the horizontal and never reaches y = 0
     bool straightLeader = false;   // order-0 stems straight up (+y): no tilt, curve, tropism
+    // Plots (species/plot/plot_growth.h): a light/shade tropism away from the neighbours'
+    // crowns, horizontal, its length the strength; added to every shoot stem's initial
+    // direction (half of it to order-0 stems; not a straight leader's, not roots') before it is
+    // normalised. Zero: none.
+    Vec3 lightTropism{0, 0, 0};
     Season season = Season::kSummer;
     std::array<GrammarSeason, 4> seasons = defaultSeasons();
 

@@ -152,6 +152,15 @@ class GrammarMethod : public GrowthMethod {
         return t;
     }
 
+    // A light/shade tropism away from the neighbours' crowns (GrammarOptions::lightTropism).
+    Tree growAmong(Rng& rng, bool threaded, std::map<std::string, double>& stats,
+                   const GrowthGuard& guard, const Neighbourhood& neighbours) const override {
+        if (!(length2(neighbours.away) > 0)) return grow(rng, threaded, stats, guard);
+        GrammarOptions o = o_;
+        o.lightTropism = neighbours.away;
+        return GrammarMethod(std::move(o)).grow(rng, threaded, stats, guard);
+    }
+
   private:
     GrammarOptions o_;
 };

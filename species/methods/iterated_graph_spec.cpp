@@ -169,6 +169,23 @@ class IteratedGraphMethod : public GrowthMethod {
         return t;
     }
 
+    // Crown shyness: the crown's volumes (the graph's and the endpoints') clipped by the
+    // half-spaces between this tree and its neighbours, and the grown tree cut at them.
+    Tree growAmong(Rng& rng, bool threaded, std::map<std::string, double>& stats,
+                   const GrowthGuard& guard, const Neighbourhood& neighbours) const override {
+        if (neighbours.clip.empty()) return grow(rng, threaded, stats, guard);
+        IteratedGraphOptions o = o_;
+        o.crown.volume = makeClipped(o.crown.volume, neighbours.clip);
+        if (o.crown.endpointVolume) {
+            o.crown.endpointVolume = makeClipped(o.crown.endpointVolume, neighbours.clip);
+        }
+        // The sub-graphs grow from the level-0 endpoints beyond the crown volume: cut at the
+        // planes too.
+        Tree tree = IteratedGraphMethod(std::move(o)).grow(rng, threaded, stats, guard);
+        pruneTree(tree, [&](const Vec3& p) { return insideAll(neighbours.clip, p); });
+        return tree;
+    }
+
     // "crown", then "endpoints" when [endpoints] is given, then "roots" when [roots] is.
     std::vector<std::pair<std::string, VolumePtr>> volumes() const override {
         std::vector<std::pair<std::string, VolumePtr>> v = {{"crown", o_.crown.volume}};

@@ -200,12 +200,14 @@ std::vector<Perceived> perceive(const MarkerSet& set, const Vec3& at, const Vec3
 
 // The baseline competition: each perceived marker goes to the closest bud, ties to the lower
 // bud index (serial, in bud order). `owner` must hold −1 for every listed marker on entry.
+// Bud b of `lists` is bud base + b of the competition (several trees: each tree's buds after
+// the previous trees').
 void resolveOwners(const std::vector<std::vector<Perceived>>& lists, std::vector<int32_t>& owner,
-                   std::vector<double>& best) {
+                   std::vector<double>& best, int32_t base = 0) {
     for (size_t b = 0; b < lists.size(); ++b) {
         for (const Perceived& p : lists[b]) {
             if (owner[p.marker] < 0 || p.d2 < best[p.marker]) {
-                owner[p.marker] = static_cast<int32_t>(b);
+                owner[p.marker] = base + static_cast<int32_t>(b);
                 best[p.marker] = p.d2;
             }
         }
@@ -289,7 +291,11 @@ VolumePtr treeCrown(const SpaceColonizationOptions& o, const Rng& rng) {
 
 class Grower {
   public:
-    Grower(const SpaceColonizationOptions& o, Rng& rng, const GrowthGuard& guard)
+    // Alone (shared == nullptr): the tree's own markers, root at the origin. Together
+    // (growSpaceColonizationTogether): the crown's markers go into the plot's shared set, the
+    // root stands at `origin` and the tree grows in the plot's frame until end() moves it back.
+    Grower(const SpaceColonizationOptions& o, Rng& rng, const GrowthGuard& guard,
+           MarkerSet* shared = nullptr, const Vec3& origin = {0, 0, 0})
         : o_(o),
           rng_(rng),
           guard_(guard),
@@ -300,13 +306,41 @@ class Grower {
           crown_(treeCrown(o, rng)),
           allocating_(o.allocation == Allocation::kBorchertHonda),
           nodeGrid_(std::max(o.occupancy, 0.5) * o.internode),
-          persistent_(o.perception * o.internode),
+          own_(o.perception * o.internode),
+          persistent_(shared ? *shared : own_),
+          shared_(shared != nullptr),
+          origin_(origin),
           owner_(),
           best_() {}
 
     Tree grow(std::map<std::string, double>* stats);
 
+    // The steps of grow(), for the multi-tree driver.
+    void begin();       // addMarkers(), then plant()
+    void addMarkers();  // the guides' and (baseline) the crown's markers
+    void plant();       // the root, the bole and the first bud
+    bool live() const {
+        return iterations_ < o_.maxIterations && !buds_.empty() &&
+               static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes;
+    }
+    void beginIteration();  // counts the iteration, checks the budgets
+    std::vector<std::vector<Perceived>> perceiveBuds() const;
+    // Apical dominance of a held leader: every marker its order-0 bud perceives is its own.
+    void leaderOwns(const std::vector<std::vector<Perceived>>& lists, std::vector<int32_t>& owner,
+                    int32_t base) const;
+    // The baseline's steps once the competition has given every perceived marker an owner
+    // (bud base + i is this tree's bud i).
+    std::vector<Step> stepsFrom(const std::vector<std::vector<Perceived>>& lists,
+                                const std::vector<int32_t>& owner, int32_t base);
+    bool advance(std::vector<Step> steps);  // grows the steps' buds; true when anything grew
+    Tree end(std::map<std::string, double>* stats);
+    int iterations() const { return iterations_; }
+    bool improved() const { return o_.variant == ColonizationVariant::kImproved; }
+
   private:
+    Vec3 world(const Vec3& p) const { return shared_ ? p + origin_ : p; }  // tree → plot
+    Vec3 local(const Vec3& p) const { return shared_ ? p - origin_ : p; }  // plot → tree
+
     int32_t addNode(const Vec3& p, int32_t parent, int32_t order, int32_t level);
     bool occupied(const Vec3& p) const;
     Vec3 finish(Vec3 v, const Vec3& fallback, int32_t order) const;
@@ -326,7 +360,11 @@ class Grower {
     std::unique_ptr<detail::ShadowGrid> shadow_;  // light = "shadow" only
     std::vector<SkeletonNode> nodes_;
     HashGrid nodeGrid_;
-    MarkerSet persistent_;
+    MarkerSet own_;          // the tree's markers when it grows alone
+    MarkerSet& persistent_;  // own_, or the plot's shared set
+    const bool shared_;
+    const Vec3 origin_;  // the root's place in the plot (shared only)
+    int iterations_ = 0;
     std::vector<int32_t> owner_;  // baseline competition scratch, −1 between iterations
     std::vector<double> best_;
     std::vector<Bud> buds_;
@@ -377,24 +415,29 @@ Vec3 Grower::finish(Vec3 v, const Vec3& fallback, int32_t order) const {
 // Baseline (Palubicki 2009 §4; Runions 2007): perception per bud in parallel, the
 // competition serially, then each bud's direction v = norm(Σ unit vectors to its markers)
 // plus Σ ω·v_stroke over the guide markers it perceives (Liu 2020 §4.3).
-std::vector<Step> Grower::baselineSteps() {
+std::vector<std::vector<Perceived>> Grower::perceiveBuds() const {
     const size_t n = buds_.size();
     std::vector<std::vector<Perceived>> lists(n);
     forEachIndex(n, o_.threaded, [&](size_t i) {
         lists[i] = perceive(persistent_, buds_[i].position, buds_[i].direction, r_, cosTheta_);
     });
-    owner_.resize(persistent_.position.size(), -1);
-    best_.resize(persistent_.position.size(), 0.0);
-    resolveOwners(lists, owner_, best_);
-    // A held leader (leaderWeight > 0) is apically dominant: every marker it perceives is its
-    // own, however close another bud is, so laterals crowding round it never starve it.
-    if (o_.leaderWeight > 0) {
-        for (size_t b = 0; b < n; ++b) {
-            if (buds_[b].order != 0) continue;
-            for (const Perceived& p : lists[b]) owner_[p.marker] = static_cast<int32_t>(b);
-        }
-    }
+    return lists;
+}
 
+// A held leader (leaderWeight > 0) is apically dominant: every marker it perceives is its
+// own, however close another bud is, so laterals crowding round it never starve it.
+void Grower::leaderOwns(const std::vector<std::vector<Perceived>>& lists,
+                        std::vector<int32_t>& owner, int32_t base) const {
+    if (o_.leaderWeight <= 0) return;
+    for (size_t b = 0; b < lists.size(); ++b) {
+        if (buds_[b].order != 0) continue;
+        for (const Perceived& p : lists[b]) owner[p.marker] = base + static_cast<int32_t>(b);
+    }
+}
+
+std::vector<Step> Grower::stepsFrom(const std::vector<std::vector<Perceived>>& lists,
+                                    const std::vector<int32_t>& owner, int32_t base) {
+    const size_t n = buds_.size();
     std::vector<Step> steps(n);
     forEachIndex(n, o_.threaded, [&](size_t i) {
         const Bud& b = buds_[i];
@@ -407,7 +450,7 @@ std::vector<Step> Grower::baselineSteps() {
         int count = 0;
         for (const Perceived& p : lists[i]) {
             pull += persistent_.pull[p.marker];
-            if (owner_[p.marker] != static_cast<int32_t>(i)) continue;
+            if (owner[p.marker] != base + static_cast<int32_t>(i)) continue;
             sum += (persistent_.position[p.marker] - b.position) / std::sqrt(p.d2);
             ++count;
             if (allocating_) s.won.push_back(p.marker);
@@ -422,7 +465,7 @@ std::vector<Step> Grower::baselineSteps() {
         for (size_t b = 0; b < n; ++b) {
             Step& st = steps[b];
             if (buds_[b].order != 0 || st.grow || !crown_ ||
-                !crown_->inside(buds_[b].position + Vec3{0, r_, 0})) {
+                !crown_->inside(local(buds_[b].position) + Vec3{0, r_, 0})) {
                 continue;
             }
             st.grow = true;
@@ -430,6 +473,19 @@ std::vector<Step> Grower::baselineSteps() {
             st.direction = finish({0, 1, 0}, buds_[b].direction, 0);
         }
     }
+    return steps;
+}
+
+// Baseline (Palubicki 2009 §4; Runions 2007): perception per bud in parallel, the
+// competition serially, then each bud's direction v = norm(Σ unit vectors to its markers)
+// plus Σ ω·v_stroke over the guide markers it perceives (Liu 2020 §4.3).
+std::vector<Step> Grower::baselineSteps() {
+    const std::vector<std::vector<Perceived>> lists = perceiveBuds();
+    owner_.resize(persistent_.position.size(), -1);
+    best_.resize(persistent_.position.size(), 0.0);
+    resolveOwners(lists, owner_, best_);
+    leaderOwns(lists, owner_, 0);
+    std::vector<Step> steps = stepsFrom(lists, owner_, 0);
     for (const auto& l : lists) {
         for (const Perceived& p : l) owner_[p.marker] = -1;
     }
@@ -675,8 +731,26 @@ void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
 
 Tree Grower::grow(std::map<std::string, double>* stats) {
     const bool improved = o_.variant == ColonizationVariant::kImproved;
+    begin();
+    while (live()) {
+        beginIteration();
+        std::vector<Step> steps = improved ? improvedSteps(iterations_) : baselineSteps();
+        if (!advance(std::move(steps)) && !improved) break;  // the baseline's state is fixed
+    }
+    return end(stats);
+}
+
+void Grower::begin() {
+    addMarkers();
+    plant();
+}
+
+void Grower::addMarkers() {
+    const bool improved = o_.variant == ColonizationVariant::kImproved;
     const bool allocating = o_.allocation == Allocation::kBorchertHonda;
-    for (const GuideMarker& g : o_.guides) persistent_.add(g.position, g.direction * g.weight);
+    for (const GuideMarker& g : o_.guides) {
+        persistent_.add(world(g.position), g.direction * g.weight);
+    }
     if (allocating && o_.light == Light::kShadow) {
         // The shade grid covers everything the tree can reach: the crown, the guides and the
         // root, with room for a pyramid's spread (depth voxels) and a step outside.
@@ -684,8 +758,8 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
         box.extend(Vec3{0, 0, 0});
         for (const GuideMarker& g : o_.guides) box.extend(g.position);
         const double margin = (o_.shadowDepth + 2) * L_ + r_;
-        box.lo -= Vec3{margin, margin, margin};
-        box.hi += Vec3{margin, margin, margin};
+        box.lo = world(box.lo - Vec3{margin, margin, margin});
+        box.hi = world(box.hi + Vec3{margin, margin, margin});
         shadow_ = std::make_unique<detail::ShadowGrid>(box, L_, o_.shadowStrength, o_.shadowDecay,
                                                        o_.shadowDepth);
     }
@@ -696,27 +770,30 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
         Rng markerRng = rng_.derive("crown-markers");
         for (int i = 0; i < o_.markers; ++i) {
             if (auto p = crown_->sample(markerRng)) {
-                persistent_.add(*p, {0, 0, 0});
+                persistent_.add(world(*p), {0, 0, 0});
                 generated_ += 1;
             }
         }
     }
+}
 
+void Grower::plant() {
+    const bool improved = o_.variant == ColonizationVariant::kImproved;
     // Root and trunk; their occupancy zones clear the markers around them.
-    addNode({0, 0, 0}, -1, 0, 0);
+    addNode(world({0, 0, 0}), -1, 0, 0);
     const int trunk =
         std::min(o_.maxInternodes, static_cast<int>(std::floor(o_.trunkLength / L_ + 1e-9)));
-    for (int k = 1; k <= trunk; ++k) addNode({0, k * L_, 0}, k - 1, 0, 0);
+    for (int k = 1; k <= trunk; ++k) addNode(world({0, k * L_, 0}), k - 1, 0, 0);
     // A tree's own deformed crown may have moved out of the bole top's reach (the spec reader
     // checks the crown as given): the bole then grows on, straight up, until its top perceives
     // the crown — a longer bole for this instance rather than a bare pole.
     if (crown_ != o_.crown) {
         const double top = crown_->bounds().hi.y;
         auto inReach = [&](const Vec3& p) {
-            return improved ? crown_->signedDistance(p) < r_
+            return improved ? crown_->signedDistance(local(p)) < r_
                             : !perceive(persistent_, p, {0, 1, 0}, r_, cosTheta_).empty();
         };
-        while (!inReach(nodes_.back().position) && nodes_.back().position.y < top &&
+        while (!inReach(nodes_.back().position) && local(nodes_.back().position).y < top &&
                static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes) {
             const int32_t last = static_cast<int32_t>(nodes_.size()) - 1;
             addNode(nodes_.back().position + Vec3{0, L_, 0}, last, 0, 0);
@@ -730,60 +807,70 @@ Tree Grower::grow(std::map<std::string, double>* stats) {
                      0,
                      nextBudId_++,
                      0});
+}
 
-    int iterations = 0;
-    while (iterations < o_.maxIterations && !buds_.empty() &&
-           static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes) {
-        ++iterations;
-        guard_.time();
-        guard_.skeletonNodes(static_cast<int64_t>(nodes_.size()),
-                             " at iteration " + std::to_string(iterations));
-        guard_.graphNodes(static_cast<int64_t>(generated_),
-                          " at iteration " + std::to_string(iterations));
-        budIterations_ += static_cast<double>(buds_.size());
-        std::vector<Step> steps = improved ? improvedSteps(iterations) : baselineSteps();
-        // Borchert–Honda: each bud's resource v (and shedding, which may drop buds).
-        const std::vector<double> resource = allocating ? allocate(steps) : std::vector<double>{};
-        std::vector<Bud> kept, born;
-        bool grew = false;
-        int firstStarved = -1;  // improved: the first bud that just died of failures
-        for (size_t i = 0; i < buds_.size(); ++i) {
-            const Step& s = steps[i];
-            const bool room = static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes;
-            if (s.grow && room) {
-                const int metamers =
-                    allocating ? static_cast<int>(std::floor(resource[i] + 1e-9)) : 1;
-                if (metamers >= 1) {
-                    growShoot(buds_[i], s, metamers, iterations, born);
-                    grew = true;
-                    continue;
-                }
-                // Too little resource this iteration: the bud waits (Palubicki 2009 §4).
-            }
-            if (s.dies) continue;
-            Bud b = buds_[i];
-            if (improved && !s.grow && ++b.failures >= kMaxFailures) {
-                if (firstStarved < 0) firstStarved = static_cast<int>(i);
+void Grower::beginIteration() {
+    ++iterations_;
+    guard_.time();
+    guard_.skeletonNodes(static_cast<int64_t>(nodes_.size()),
+                         " at iteration " + std::to_string(iterations_));
+    guard_.graphNodes(static_cast<int64_t>(generated_),
+                      " at iteration " + std::to_string(iterations_));
+    budIterations_ += static_cast<double>(buds_.size());
+}
+
+bool Grower::advance(std::vector<Step> steps) {
+    const bool improved = o_.variant == ColonizationVariant::kImproved;
+    const bool allocating = o_.allocation == Allocation::kBorchertHonda;
+    const int iterations = iterations_;
+    // Borchert–Honda: each bud's resource v (and shedding, which may drop buds).
+    const std::vector<double> resource = allocating ? allocate(steps) : std::vector<double>{};
+    std::vector<Bud> kept, born;
+    bool grew = false;
+    int firstStarved = -1;  // improved: the first bud that just died of failures
+    for (size_t i = 0; i < buds_.size(); ++i) {
+        const Step& s = steps[i];
+        const bool room = static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes;
+        if (s.grow && room) {
+            const int metamers = allocating ? static_cast<int>(std::floor(resource[i] + 1e-9)) : 1;
+            if (metamers >= 1) {
+                growShoot(buds_[i], s, metamers, iterations, born);
+                grew = true;
                 continue;
             }
-            kept.push_back(b);
+            // Too little resource this iteration: the bud waits (Palubicki 2009 §4).
         }
-        // Improved: the tree's last bud is not given up. A bud in free space still finds no
-        // marker in its perception volume with probability e^(−N·(1/κ)³·(1−cos θ)/2) per
-        // iteration (N = markersPerBud), so a young tree of one or two buds would otherwise
-        // end as a bare trunk in a few percent of seeds.
-        if (kept.empty() && born.empty() && firstStarved >= 0) {
-            kept.push_back(buds_[firstStarved]);
-            kept.back().failures = kMaxFailures - 1;
+        if (s.dies) continue;
+        Bud b = buds_[i];
+        if (improved && !s.grow && ++b.failures >= kMaxFailures) {
+            if (firstStarved < 0) firstStarved = static_cast<int>(i);
+            continue;
         }
-        // Survivors first, then the new buds: the list stays in creation (id) order.
-        kept.insert(kept.end(), born.begin(), born.end());
-        buds_ = std::move(kept);
-        if (!grew && !improved) break;  // the baseline's state cannot change any more
+        kept.push_back(b);
     }
+    // Improved: the tree's last bud is not given up. A bud in free space still finds no
+    // marker in its perception volume with probability e^(−N·(1/κ)³·(1−cos θ)/2) per
+    // iteration (N = markersPerBud), so a young tree of one or two buds would otherwise
+    // end as a bare trunk in a few percent of seeds.
+    if (kept.empty() && born.empty() && firstStarved >= 0) {
+        kept.push_back(buds_[firstStarved]);
+        kept.back().failures = kMaxFailures - 1;
+    }
+    // Survivors first, then the new buds: the list stays in creation (id) order.
+    kept.insert(kept.end(), born.begin(), born.end());
+    buds_ = std::move(kept);
+    return grew;
+}
 
+Tree Grower::end(std::map<std::string, double>* stats) {
+    const bool improved = o_.variant == ColonizationVariant::kImproved;
+    const bool allocating = o_.allocation == Allocation::kBorchertHonda;
+    const int iterations = iterations_;
     Tree tree;
     tree.nodes = std::move(nodes_);
+    if (shared_) {
+        for (SkeletonNode& node : tree.nodes) node.position = local(node.position);
+    }
     // Pipe model (da Vinci / Murray; Palubicki 2009 §3): from the tips down, rⁿ = Σ childrenⁿ.
     const double n = o_.pipeExponent;
     std::vector<double> sum(tree.nodes.size(), 0.0);
@@ -827,6 +914,102 @@ Tree growSpaceColonization(const SpaceColonizationOptions& options, Rng& rng,
     validate(options);
     Grower grower(options, rng, guard);
     return grower.grow(stats);
+}
+
+void growSpaceColonizationTogether(std::vector<ColonizingTree>& trees, bool threaded) {
+    std::vector<size_t> together;
+    for (size_t t = 0; t < trees.size(); ++t) {
+        validate(trees[t].options);
+        if (trees[t].options.variant == ColonizationVariant::kBaseline) together.push_back(t);
+    }
+    auto guardOf = [&](size_t t) -> const GrowthGuard& {
+        return trees[t].guard ? *trees[t].guard : GrowthGuard::unlimited();
+    };
+    // The improved variant's trees, alone (in parallel: they share nothing).
+    std::vector<size_t> alone;
+    for (size_t t = 0; t < trees.size(); ++t) {
+        if (trees[t].options.variant != ColonizationVariant::kBaseline) alone.push_back(t);
+    }
+    forEachIndex(alone.size(), threaded, [&](size_t k) {
+        ColonizingTree& c = trees[alone[k]];
+        c.tree = growSpaceColonization(c.options, c.rng, &c.stats, guardOf(alone[k]));
+    });
+    if (together.empty()) return;
+
+    double cell = 0;
+    for (size_t t : together) {
+        cell = std::max(cell, trees[t].options.perception * trees[t].options.internode);
+    }
+    MarkerSet shared(cell);
+    std::vector<std::unique_ptr<Grower>> growers;
+    for (size_t t : together) {
+        growers.push_back(std::make_unique<Grower>(trees[t].options, trees[t].rng, guardOf(t),
+                                                   &shared, trees[t].origin));
+    }
+    // Every tree's markers, then every bole (whose occupancy zones clear any tree's markers),
+    // in tree order: the shared set's order is fixed.
+    for (auto& g : growers) g->addMarkers();
+    for (auto& g : growers) g->plant();
+
+    const size_t n = growers.size();
+    std::vector<int32_t> owner;
+    std::vector<double> best;
+    std::vector<std::vector<std::vector<Perceived>>> lists(n);
+    std::vector<std::vector<Step>> steps(n);
+    std::vector<uint8_t> active(n);
+    std::vector<int32_t> base(n);
+    auto eachTree = [&](const auto& f) {
+        if (threaded && n > 1) {
+            tbb::parallel_for(size_t(0), n, f);
+        } else {
+            for (size_t t = 0; t < n; ++t) f(t);
+        }
+    };
+    for (;;) {
+        bool any = false;
+        for (size_t t = 0; t < n; ++t) {
+            active[t] = growers[t]->live();
+            if (active[t]) {
+                growers[t]->beginIteration();
+                any = true;
+            }
+        }
+        if (!any) break;
+        // Perception: each tree reads the shared markers only.
+        eachTree([&](size_t t) {
+            lists[t].clear();
+            if (active[t]) lists[t] = growers[t]->perceiveBuds();
+        });
+        // The competition over every tree's buds, serially in tree then bud order.
+        owner.resize(shared.position.size(), -1);
+        best.resize(shared.position.size(), 0.0);
+        int32_t next = 0;
+        for (size_t t = 0; t < n; ++t) {
+            base[t] = next;
+            resolveOwners(lists[t], owner, best, next);
+            next += static_cast<int32_t>(lists[t].size());
+        }
+        for (size_t t = 0; t < n; ++t) growers[t]->leaderOwns(lists[t], owner, base[t]);
+        eachTree([&](size_t t) {
+            steps[t].clear();
+            if (active[t]) steps[t] = growers[t]->stepsFrom(lists[t], owner, base[t]);
+        });
+        for (size_t t = 0; t < n; ++t) {
+            for (const auto& l : lists[t]) {
+                for (const Perceived& p : l) owner[p.marker] = -1;
+            }
+        }
+        // Growth changes the shared markers: serially, in tree order.
+        bool grew = false;
+        for (size_t t = 0; t < n; ++t) {
+            if (active[t] && growers[t]->advance(std::move(steps[t]))) grew = true;
+        }
+        if (!grew) break;  // nothing changed: no tree can grow any more
+    }
+    for (size_t k = 0; k < n; ++k) {
+        ColonizingTree& c = trees[together[k]];
+        c.tree = growers[k]->end(&c.stats);
+    }
 }
 
 namespace detail {

@@ -145,4 +145,26 @@ Tree growSpaceColonization(const SpaceColonizationOptions& options, Rng& rng,
                            std::map<std::string, double>* stats = nullptr,
                            const GrowthGuard& guard = GrowthGuard::unlimited());
 
+// One tree of a plot's space-colonization trees, grown together.
+struct ColonizingTree {
+    SpaceColonizationOptions options;
+    Vec3 origin;  // where its root stands in the shared space (plot metres)
+    Rng rng;      // the tree's own stream, as growSpaceColonization would get it
+    const GrowthGuard* guard = nullptr;  // nullptr: unlimited
+    std::map<std::string, double> stats;
+    Tree tree;  // out: in the tree's own frame (root at the origin)
+};
+
+// Several trees in one environment (Palubicki et al. 2009 §4): the crowns' markers (each
+// tree's own crown about its origin, drawn from its own stream) form one shared set, every
+// node's occupancy zone removes markers whatever its tree, and a marker perceived by several
+// buds goes to the closest bud of any tree (ties to the earlier tree, then the lower bud), so
+// trees take space from each other. Each iteration: perception per tree (in parallel when
+// `threaded`), the competition over all buds, then each tree grows in tree order; it ends when
+// no tree grew (or each met its own limits). Trees of the improved variant (whose markers are
+// per bud, not shared) grow alone. A single baseline tree grows exactly as
+// growSpaceColonization would, up to the move of the origin. Deterministic whatever the thread
+// count.
+void growSpaceColonizationTogether(std::vector<ColonizingTree>& trees, bool threaded);
+
 }  // namespace sylva

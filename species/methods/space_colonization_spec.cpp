@@ -47,6 +47,8 @@ class SpaceColonizationMethod : public GrowthMethod {
         return growSpaceColonization(o, rng, &stats, guard);
     }
 
+    const SpaceColonizationOptions* spaceColonization() const override { return &o_; }
+
     std::vector<std::pair<std::string, VolumePtr>> volumes() const override {
         if (!o_.crown) return {};
         return {{"crown", o_.crown}};

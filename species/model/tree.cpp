@@ -3,6 +3,8 @@
 
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace sylva {
 
@@ -73,6 +75,48 @@ void assignBranchOrder(Tree& tree) {
             nodes[c].order = nodes[i].order + ((c == keepA || c == keepB) ? 0 : 1);
         }
     }
+}
+
+void pruneTree(Tree& tree, const std::function<bool(const Vec3&)>& keep) {
+    const size_t n = tree.nodes.size();
+    std::vector<int32_t> index(n, -1);
+    std::vector<SkeletonNode> kept;
+    kept.reserve(n);
+    for (size_t i = 0; i < n; ++i) {
+        const SkeletonNode& node = tree.nodes[i];
+        if (i > 0 && (node.parent < 0 || index[node.parent] < 0 || !keep(node.position))) continue;
+        index[i] = static_cast<int32_t>(kept.size());
+        kept.push_back(node);
+        if (node.parent >= 0) kept.back().parent = index[node.parent];
+    }
+    std::vector<Leaf> leaves;
+    leaves.reserve(tree.leaves.size());
+    bool cut = kept.size() != n;
+    for (Leaf leaf : tree.leaves) {
+        if (leaf.node >= 0) {
+            if (static_cast<size_t>(leaf.node) >= n || index[leaf.node] < 0) {
+                cut = true;
+                continue;
+            }
+            leaf.node = index[leaf.node];
+        }
+        if (!keep(leaf.position)) {
+            cut = true;
+            continue;
+        }
+        leaves.push_back(leaf);
+    }
+    if (!cut) return;  // nothing cut: the method's own endpoints stay
+    std::vector<uint8_t> parentOf(kept.size(), 0);
+    for (const SkeletonNode& node : kept) {
+        if (node.parent >= 0) parentOf[node.parent] = 1;
+    }
+    tree.endpoints.clear();
+    for (size_t i = 0; i < kept.size(); ++i) {
+        if (!parentOf[i]) tree.endpoints.push_back(static_cast<int32_t>(i));
+    }
+    tree.nodes = std::move(kept);
+    tree.leaves = std::move(leaves);
 }
 
 }  // namespace sylva

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -56,5 +57,12 @@ struct ChildIndex {
 // Branch order from topology: at every fork the child carrying the longest downstream path
 // continues its parent's order, every other child gets parent order + 1.
 void assignBranchOrder(Tree& tree);
+
+// Cuts every node (but the root) where keep(position) is false, with everything above it, and
+// the leaves on cut nodes or at positions keep rejects; the kept nodes stay in
+// order, their parents and the leaves' nodes renumbered, the endpoints recomputed (nodes
+// without children; untouched when nothing is cut). Plots cut crowns at the planes between
+// neighbours with it.
+void pruneTree(Tree& tree, const std::function<bool(const Vec3&)>& keep);
 
 }  // namespace sylva

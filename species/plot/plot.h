@@ -146,6 +146,7 @@ struct GrownPlot {
     std::vector<PlotTree> trees;    // in stem order
     std::vector<Leaf> groundCover;  // low-vegetation cards on the terrain
     double lai = 0;                 // reached (m²/m²), over the plot area
+    uint64_t seed = 0;              // the plot instance's seed (the manifest record's "seed")
 };
 
 }  // namespace sylva

@@ -15,6 +15,18 @@
 
 namespace sylva {
 
+struct SpaceColonizationOptions;
+
+// What a tree growing in a plot knows of its neighbours (species/plot/plot_growth.h), in the
+// tree's own frame: its root at the origin, metres at the scale the species grows.
+struct Neighbourhood {
+    // Crown shyness: the crown keeps inside every half-space (iterated-graph, canopy).
+    std::vector<HalfSpace> clip;
+    // Light/shade tropism (grammar): horizontal, away from the neighbours' crowns; its length
+    // is the strength, added to every shoot stem's direction before it is normalised.
+    Vec3 away{0, 0, 0};
+};
+
 class GrowthMethod {
   public:
     virtual ~GrowthMethod() = default;
@@ -23,6 +35,15 @@ class GrowthMethod {
     // growth loops hold what they build to `guard`'s budget and deadline (BudgetExceeded).
     virtual Tree grow(Rng& rng, bool threaded, std::map<std::string, double>& stats,
                       const GrowthGuard& guard) const = 0;
+    // Grows the tree among neighbours; a method that makes no use of them grows as grow().
+    virtual Tree growAmong(Rng& rng, bool threaded, std::map<std::string, double>& stats,
+                           const GrowthGuard& guard, const Neighbourhood& neighbours) const {
+        (void)neighbours;
+        return grow(rng, threaded, stats, guard);
+    }
+    // A space-colonization method's options (a plot grows those trees together in one marker
+    // set, species/methods/space_colonization.h), else nullptr.
+    virtual const SpaceColonizationOptions* spaceColonization() const { return nullptr; }
     // The method's named volumes, as parsed for this instance ("crown", ...), for
     // `sylva volume`; a method without volumes returns none.
     virtual std::vector<std::pair<std::string, VolumePtr>> volumes() const { return {}; }

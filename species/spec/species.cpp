@@ -118,20 +118,22 @@ void checkSizeBounds(const GrowthMethod& method, const Budget& budget, bool mesh
     }
 }
 
-GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
-                      bool threaded, const BudgetTable* datasetBudget) {
+PreparedTree prepareSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
+                            const BudgetTable* datasetBudget) {
     std::shared_ptr<const GrowthMethod> method;
-    LeafOptions leaves;
-    FormOptions form;
+    auto leaves = std::make_shared<LeafOptions>();
+    auto form = std::make_shared<FormOptions>();
     BudgetTable budget;
-    GrownTree out;
+    PreparedTree p;
+    p.seed = seed;
+    GrownTree& out = p.out;
     if (species.cache) {
         std::lock_guard<std::mutex> lock(species.cache->mutex);
         auto it = species.cache->entries.find(overridesKey(overrides));
         if (it != species.cache->entries.end()) {
             method = it->second.method;
-            leaves = it->second.leaves;
-            form = it->second.form;
+            *leaves = it->second.leaves;
+            *form = it->second.form;
             budget = it->second.budget;
             ++species.cache->counts.hits;
         } else {
@@ -141,13 +143,13 @@ GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides
     if (!method) {
         DrawContext draw;
         draw.seed = hashCombine(seed, 0x9a7a);  // parameter draws: their own stream
-        method = instantiateSpecies(species, draw, overrides, &leaves, &form, &budget);
+        method = instantiateSpecies(species, draw, overrides, leaves.get(), form.get(), &budget);
         out.sampled = std::move(draw.sampled);
         // Nothing drawn: every instance of this sweep point parses to the same method.
         if (out.sampled.empty() && !draw.perInstance && species.cache) {
             std::lock_guard<std::mutex> lock(species.cache->mutex);
             species.cache->entries.emplace(overridesKey(overrides),
-                                           SpeciesCache::Entry{method, leaves, form, budget});
+                                           SpeciesCache::Entry{method, *leaves, *form, budget});
         }
     }
     out.budget = effectiveBudget(budget, datasetBudget);
@@ -155,18 +157,35 @@ GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides
     if (const SizeBound* over = method->sizes.over(out.budget, false)) {
         throw BudgetExceeded(over->keyPath + ": " + overBudgetMessage(*over, out.budget));
     }
-    const GrowthGuard guard(out.budget);
-    Rng rng(seed);
-    out.tree = method->grow(rng, threaded, out.methodStats, guard);
+    p.method = std::move(method);
+    p.leaves = std::move(leaves);
+    p.form = std::move(form);
+    return p;
+}
+
+GrownTree finishSpecies(PreparedTree& prepared, Tree tree, const GrowthGuard& guard) {
+    GrownTree out = std::move(prepared.out);
+    const uint64_t seed = prepared.seed;
+    out.tree = std::move(tree);
     guard.skeletonNodes(static_cast<int64_t>(out.tree.nodes.size()));
-    applyForm(out.tree, form, Rng(seed).derive("form"));  // before leaves: they sit on the result
+    // Before leaves: they sit on the result.
+    applyForm(out.tree, *prepared.form, Rng(seed).derive("form"));
     if (out.tree.leaves.empty()) {
         Rng leafRng = Rng(seed).derive("leaves");  // its own stream: leaves never move branches
-        placeLeaves(out.tree, leaves, leafRng, guard);
+        placeLeaves(out.tree, *prepared.leaves, leafRng, guard);
     }
     guard.leaves(static_cast<int64_t>(out.tree.leaves.size()));
     guard.time();
     return out;
+}
+
+GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
+                      bool threaded, const BudgetTable* datasetBudget) {
+    PreparedTree prepared = prepareSpecies(species, seed, overrides, datasetBudget);
+    const GrowthGuard guard(prepared.out.budget);
+    Rng rng(seed);
+    Tree tree = prepared.method->grow(rng, threaded, prepared.out.methodStats, guard);
+    return finishSpecies(prepared, std::move(tree), guard);
 }
 
 Budget validateSpecies(const SpeciesFile& species, const Overrides* overrides,

@@ -68,6 +68,21 @@ SpeciesCacheCounts speciesCacheCounts(const SpeciesFile& species);
 GrownTree growSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
                       bool threaded, const BudgetTable* datasetBudget = nullptr);
 
+// growSpecies in steps, for trees that grow among others (species/plot/plot_growth.h):
+// prepareSpecies draws the instance's method and budget exactly as growSpecies does; the
+// caller grows the tree from Rng(seed) (alone: prepared.method->grow, as growSpecies; or with
+// its neighbours); finishSpecies applies the form and the leaves to it, as growSpecies does.
+struct PreparedTree {
+    std::shared_ptr<const GrowthMethod> method;
+    std::shared_ptr<const LeafOptions> leaves;
+    std::shared_ptr<const FormOptions> form;
+    uint64_t seed = 0;
+    GrownTree out;  // budget and sampled parameters so far (methodStats: the grower's)
+};
+PreparedTree prepareSpecies(const SpeciesFile& species, uint64_t seed, const Overrides* overrides,
+                            const BudgetTable* datasetBudget = nullptr);
+GrownTree finishSpecies(PreparedTree& prepared, Tree tree, const GrowthGuard& guard);
+
 // The budgets of a species' trees: the defaults, then the species' [budget] table (as
 // instantiateSpecies returns it), then a dataset's.
 Budget effectiveBudget(const BudgetTable& species, const BudgetTable* dataset = nullptr);

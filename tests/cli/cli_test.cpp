@@ -192,26 +192,27 @@ std::map<std::string, std::string> filesUnder(const fs::path& dir) {
     return files;
 }
 
-// Files under a/trees and b/trees: the same names and byte-identical contents.
-void expectSameTrees(const fs::path& a, const fs::path& b) {
-    auto fa = filesUnder(a / "trees");
-    auto fb = filesUnder(b / "trees");
-    EXPECT_FALSE(fa.empty()) << "no files under " << a / "trees";
+// Files under a/<sub> and b/<sub> (trees/, or plots/): the same names and byte-identical
+// contents.
+void expectSameTrees(const fs::path& a, const fs::path& b, const std::string& sub = "trees") {
+    auto fa = filesUnder(a / sub);
+    auto fb = filesUnder(b / sub);
+    EXPECT_FALSE(fa.empty()) << "no files under " << a / sub;
     int reported = 0;
     for (const auto& [name, bytes] : fa) {
         auto it = fb.find(name);
         if (it == fb.end()) {
-            if (reported++ < 5) ADD_FAILURE() << "only in " << a << ": trees/" << name;
+            if (reported++ < 5) ADD_FAILURE() << "only in " << a << ": " << sub << "/" << name;
         } else if (it->second != bytes) {
-            if (reported++ < 5) ADD_FAILURE() << "trees/" << name << " differs";
+            if (reported++ < 5) ADD_FAILURE() << sub << "/" << name << " differs";
         }
     }
     for (const auto& [name, bytes] : fb) {
         if (!fa.count(name) && reported++ < 5) {
-            ADD_FAILURE() << "only in " << b << ": trees/" << name;
+            ADD_FAILURE() << "only in " << b << ": " << sub << "/" << name;
         }
     }
-    EXPECT_EQ(reported, 0) << "tree files differ between " << a << " and " << b;
+    EXPECT_EQ(reported, 0) << sub << " files differ between " << a << " and " << b;
 }
 
 // Manifests (timing stripped) equal line by line; a mismatch is reported as the JSON patch
@@ -331,6 +332,66 @@ TEST(CliBuild, ShardManifestsConcatenateToTheWhole) {
     }
     expectSameLines(cat, whole);
     expectSameTrees(t / "whole", five);
+}
+
+// --- 2b. plots: threads, shards, merge, resume ------------------------------------------------
+
+const fs::path kPlotDataset = kData / "plot" / "build_plot.toml";  // 3 trees, then 3 plots
+
+// A dataset of single trees and plots: the same bytes with 1 and 2 threads, as two shards
+// merged, and after a kill and a rerun; plots come after the trees in the manifest; stats
+// group the plots' statistics under their names.
+TEST(CliPlots, ThreadsShardsMergeAndResumeGiveTheSameBytes) {
+    TempDir t;
+    buildOk(kPlotDataset, t / "t1", t.path(), {"--threads", "1"});
+    buildOk(kPlotDataset, t / "t2", t.path(), {"--threads", "2"});
+    const auto whole = strippedManifest(t / "t1" / "manifest.jsonl");
+    ASSERT_EQ(whole.size(), 6u);
+    expectSameLines(strippedManifest(t / "t2" / "manifest.jsonl"), whole);
+    expectSameTrees(t / "t1", t / "t2");
+    expectSameTrees(t / "t1", t / "t2", "plots");
+    std::vector<std::string> ids;
+    for (const auto& line : whole) ids.push_back(nlohmann::json::parse(line)["id"]);
+    EXPECT_EQ(
+        ids, (std::vector<std::string>{"tiny-00000", "tiny-00001", "tiny-00002", "tiny-slope-00000",
+                                       "tiny-slope-00001", "tiny-round-00000"}));
+    const auto plot = nlohmann::json::parse(whole[3]);
+    EXPECT_EQ(plot["kind"], "plot");
+    EXPECT_EQ(plot["plot"], "tiny-slope");
+    EXPECT_EQ(plot["stats"]["trees"], 6);
+    for (const auto& [k, v] : plot["files"].items()) {
+        EXPECT_TRUE(fs::exists(t / "t1" / v.get<std::string>())) << k << v;
+    }
+    auto ds = nlohmann::json::parse(slurp(t / "t1" / "dataset.json"));
+    ASSERT_EQ(ds["plots"].size(), 2u);
+    EXPECT_EQ(ds["plots"][0]["name"], "tiny-slope");
+
+    // Two shards (the split falls inside the trees: 3 + 3) merged.
+    const fs::path two = t / "two";
+    for (const char* shard : {"0/2", "1/2"}) {
+        buildOk(kPlotDataset, two, t.path(), {"--shard", shard});
+    }
+    RunResult merged = run({"merge", (t / "merged").string(), two.string()}, t.path());
+    ASSERT_EQ(merged.code, 0) << describe(merged);
+    expectSameLines(strippedManifest(t / "merged" / "manifest.jsonl"), whole);
+    expectSameTrees(t / "t1", t / "merged", "plots");
+
+    // Killed after the first plot (4 records), then rerun.
+    const fs::path out = t / "resumed";
+    RunResult killed = run({"build", kPlotDataset.string(), "--out", out.string()}, t.path(),
+                           {"SYLVA_TEST_ABORT_AFTER=4"});
+    EXPECT_EQ(killed.code, 137) << describe(killed);
+    ASSERT_EQ(readLines(out / "manifest.jsonl").size(), 4u);
+    buildOk(kPlotDataset, out, t.path());
+    expectSameLines(strippedManifest(out / "manifest.jsonl"), whole);
+    expectSameTrees(t / "t1", out, "plots");
+
+    // stats: the plots' statistics under their names.
+    RunResult stats = run({"stats", (t / "t1").string()}, t.path());
+    ASSERT_EQ(stats.code, 0) << describe(stats);
+    const std::string table = slurp(t / "t1" / "stats" / "species.csv");
+    EXPECT_NE(table.find("tiny-slope,"), std::string::npos) << table.substr(0, 400);
+    EXPECT_NE(table.find("stems_per_ha"), std::string::npos) << table.substr(0, 400);
 }
 
 // --- 3. resume after a kill ------------------------------------------------------------------

@@ -570,5 +570,30 @@ TEST(LevelSet, UnionOfCylinderAndSector) {
     EXPECT_EQ(serial, parallel);
 }
 
+// Half-space clips: a unit sphere cut at x ≤ 0.5 and z ≤ 0 — signs, the planes' distances,
+// samples all inside, and the projection onto the planes.
+TEST(ClippedVolume, IntersectsTheHalfSpaces) {
+    const std::vector<HalfSpace> cut = {{{1, 0, 0}, 0.5}, {{0, 0, 1}, 0.0}};
+    const VolumePtr v = makeClipped(makeSphere(1.0), cut);
+    EXPECT_TRUE(v->inside({0, 0, -0.5}));
+    EXPECT_FALSE(v->inside({0.7, 0, -0.1}));  // in the sphere, beyond x = 0.5
+    EXPECT_FALSE(v->inside({0, 0, 0.1}));     // beyond z = 0
+    EXPECT_NEAR(v->signedDistance({0.75, 0, -0.5}), 0.25, 1e-12);
+    Rng rng(3);
+    for (int i = 0; i < 200; ++i) {
+        const auto p = v->sample(rng);
+        ASSERT_TRUE(p);
+        EXPECT_TRUE(insideAll(cut, *p));
+        EXPECT_LE(length(*p), 1.0 + 1e-12);
+    }
+    // The sphere's measure × the fraction kept: half (z ≤ 0) minus the cap beyond x = 0.5.
+    const double cap = kPi * 0.5 * 0.5 * (3 - 0.5) / 3;  // πh²(3r − h)/3, h = 0.5
+    EXPECT_NEAR(v->measure(), (4 * kPi / 3 - cap) / 2, 0.05);
+    const Vec3 q = projectInside(cut, {2, 1, 3});
+    EXPECT_EQ(q.x, 0.5);
+    EXPECT_EQ(q.z, 0.0);
+    EXPECT_EQ(makeClipped(makeSphere(1.0), {})->describe(), makeSphere(1.0)->describe());
+}
+
 }  // namespace
 }  // namespace sylva

@@ -175,5 +175,41 @@ TEST(TreeStats, DegenerateHullsAreZero) {
     EXPECT_NEAR(convexHullVolume({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}), 1.0 / 6, 1e-12);
 }
 
+// pruneTree: a node outside goes with everything above it and the leaves on it; the rest keep
+// their order, parents renumbered; endpoints recomputed.
+TEST(PruneTree, CutsSubtreesOutsideAndTheirLeaves) {
+    Tree t;
+    t.nodes.resize(5);
+    t.nodes[0].position = {0, 0, 0};
+    t.nodes[1].position = {0, 1, 0};
+    t.nodes[1].parent = 0;
+    t.nodes[2].position = {2, 1, 0};  // outside x ≤ 1: cut, with node 3 above it
+    t.nodes[2].parent = 1;
+    t.nodes[3].position = {0.5, 2, 0};
+    t.nodes[3].parent = 2;
+    t.nodes[4].position = {-1, 2, 0};
+    t.nodes[4].parent = 1;
+    t.endpoints = {3, 4};
+    Leaf onCut, onKept, outside;
+    onCut.node = 3;
+    onCut.position = {0.5, 2, 0};
+    onKept.node = 4;
+    onKept.position = {-1, 2, 0};
+    outside.position = {3, 0, 0};
+    t.leaves = {onCut, onKept, outside};
+    pruneTree(t, [](const Vec3& p) { return p.x <= 1.0; });
+    ASSERT_EQ(t.nodes.size(), 3u);
+    EXPECT_EQ(t.nodes[2].position.x, -1.0);
+    EXPECT_EQ(t.nodes[2].parent, 1);
+    ASSERT_EQ(t.leaves.size(), 1u);
+    EXPECT_EQ(t.leaves[0].node, 2);
+    EXPECT_EQ(t.endpoints, std::vector<int32_t>{2});
+    // Nothing outside: untouched, the method's own endpoints too.
+    const std::vector<int32_t> before = t.endpoints = {0, 2};
+    pruneTree(t, [](const Vec3&) { return true; });
+    EXPECT_EQ(t.nodes.size(), 3u);
+    EXPECT_EQ(t.endpoints, before);
+}
+
 }  // namespace
 }  // namespace sylva

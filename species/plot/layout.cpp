@@ -1,0 +1,83 @@
+#include "species/plot/layout.h"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "core/rng.h"
+#include "species/plot/point_process.h"
+#include "species/plot/terrain.h"
+
+namespace sylva {
+
+uint64_t plotTreeSeed(uint64_t plotSeed, int32_t id) {
+    return hashCombine(hashCombine(plotSeed, hashString("tree")), static_cast<uint64_t>(id));
+}
+
+namespace {
+
+int64_t stemCount(const PlotSpecies& s, const PlotArea& area, bool poisson, Rng rng) {
+    if (s.count >= 0) return s.count;
+    const double mean = s.density * area.area() * 1e-4;
+    return poisson ? poissonCount(mean, rng) : static_cast<int64_t>(std::llround(mean));
+}
+
+double drawHeight(const PlotSpecies& s, uint64_t seed) {
+    if (!s.hasHeight) return 0.0;
+    DrawContext draw;
+    draw.seed = seed;
+    draw.draw = true;
+    Params p(s.height, s.where.file, s.keyPath + ".height", &draw);
+    return p.number("v", Range::leftOpen(0, 200));
+}
+
+}  // namespace
+
+PlotLayout layoutPlot(const PlotSpec& spec, uint64_t plotSeed) {
+    PlotLayout layout;
+    layout.terrain = makeTerrain(spec.terrain, spec.area, spec.margin, plotSeed);
+    const Rng root(plotSeed);
+    const bool poisson = spec.process.kind == PointProcessOptions::Kind::kPoisson;
+
+    auto addStem = [&](int32_t species, const Vec2& p) {
+        PlotStem stem;
+        stem.id = static_cast<int32_t>(layout.stems.size()) + 1;
+        stem.species = species;
+        stem.base = Vec3(p.x, layout.terrain.height(p.x, p.y), p.y);
+        stem.seed = plotTreeSeed(plotSeed, stem.id);
+        stem.targetHeight = drawHeight(spec.species[size_t(species)], stem.seed);
+        layout.stems.push_back(stem);
+    };
+
+    // Canopy: one pattern for all canopy species, the species shuffled onto its points.
+    std::vector<int32_t> labels;
+    for (size_t k = 0; k < spec.species.size(); ++k) {
+        if (spec.species[k].understory) continue;
+        const int64_t n = stemCount(spec.species[k], spec.area, poisson,
+                                    root.derive("canopy/count/" + std::to_string(k)));
+        labels.insert(labels.end(), static_cast<size_t>(n), static_cast<int32_t>(k));
+    }
+    Rng pointRng = root.derive("canopy/points");
+    const std::vector<Vec2> points =
+        drawPoints(static_cast<int64_t>(labels.size()), spec.process, spec.area, pointRng);
+    Rng shuffle = root.derive("canopy/species");
+    for (size_t k = labels.size(); k > 1; --k) {
+        std::swap(labels[k - 1], labels[static_cast<size_t>(shuffle.below(k))]);
+    }
+    layout.stems.reserve(labels.size());
+    for (size_t k = 0; k < labels.size(); ++k) addStem(labels[k], points[k]);
+
+    // Understory: each species its own Poisson process.
+    for (size_t k = 0; k < spec.species.size(); ++k) {
+        if (!spec.species[k].understory) continue;
+        const std::string key = "understory/" + std::to_string(k);
+        const int64_t n = stemCount(spec.species[k], spec.area, true, root.derive(key + "/count"));
+        Rng rng = root.derive(key + "/points");
+        for (const Vec2& p : poissonPoints(n, spec.area, rng)) {
+            addStem(static_cast<int32_t>(k), p);
+        }
+    }
+    return layout;
+}
+
+}  // namespace sylva

@@ -1,0 +1,589 @@
+// Growing a plot's trees together (plot_growth.h).
+//
+// Order of work, each step a pure function of the layout and the stems' seeds:
+//  1. every stem's method and budget drawn (prepareSpecies, as growSpecies draws them);
+//  2. each tree's crown predicted at its target scale: height and radius from the bounds of
+//     its method's volumes (a method without volumes — the grammar — is grown alone first and
+//     measured); the scale s = targetHeight / predicted height;
+//  3. the trees grown: space-colonization trees together (one shared marker set, each at scale
+//     s, then brought back to the species' scale), the others each with its neighbourhood
+//     (clip planes or tropism, in its own frame);
+//  4. form and leaves (finishSpecies), then each tree placed: node 0 at the stem base, scaled
+//     about it so its highest shoot node is targetHeight above it;
+//  5. leaves scaled to the LAI targets.
+// Trees are independent in 2–4 except within the shared marker set, whose driver is itself
+// deterministic: the trees come out the same on any number of threads.
+#include "species/plot/plot_growth.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/errors.h"
+#include "species/methods/space_colonization.h"
+#include "species/model/leaf_shape.h"
+
+namespace sylva {
+
+namespace {
+
+template <class F>
+void forEach(size_t n, bool threaded, const F& f) {
+    if (threaded && n > 1) {
+        tbb::parallel_for(size_t(0), n, [&](size_t i) { f(i); });
+    } else {
+        for (size_t i = 0; i < n; ++i) f(i);
+    }
+}
+
+// The crown a tree is expected to have at the species' own scale (tree frame).
+struct Predicted {
+    double height = 0;  // metres above the root
+    double radius = 0;  // horizontal, from the stem axis
+};
+
+// The highest shoot node above node 0, and the farthest horizontal reach of shoot nodes and
+// leaves from it.
+Predicted measure(const Tree& tree) {
+    Predicted p;
+    if (tree.nodes.empty()) return p;
+    const Vec3 root = tree.nodes[0].position;
+    for (const SkeletonNode& n : tree.nodes) {
+        if (n.part != kShootPart) continue;
+        p.height = std::max(p.height, n.position.y - root.y);
+        p.radius = std::max(p.radius, std::hypot(n.position.x - root.x, n.position.z - root.z));
+    }
+    for (const Leaf& l : tree.leaves) {
+        p.radius = std::max(p.radius, std::hypot(l.position.x - root.x, l.position.z - root.z));
+    }
+    return p;
+}
+
+// From the method's crown volumes (all but the roots'), when it has any.
+bool predictFromVolumes(const GrowthMethod& method, Predicted& p) {
+    Aabb box;
+    bool any = false;
+    for (const auto& [name, volume] : method.volumes()) {
+        if (name == "roots" || !volume) continue;
+        box.extend(volume->bounds());
+        any = true;
+    }
+    if (!any || !(box.hi.y > 0)) return false;
+    p.height = box.hi.y;
+    p.radius = std::max({box.hi.x, -box.lo.x, box.hi.z, -box.lo.z, 1e-3});
+    return true;
+}
+
+SpaceColonizationOptions scaledOptions(const SpaceColonizationOptions& o, double s) {
+    SpaceColonizationOptions c = o;
+    if (s == 1.0) return c;
+    c.internode *= s;
+    c.trunkLength *= s;
+    c.tipRadius *= s;
+    if (c.crown) c.crown = makePlaced(c.crown, Placement{{0, 0, 0}, {0, 1, 0}, {s, s, s}});
+    for (GuideMarker& g : c.guides) g.position = g.position * s;
+    return c;
+}
+
+// Places a grown tree: node 0 at `base`, everything scaled by `s` about it (leaf sizes too).
+void place(Tree& tree, const Vec3& base, double s) {
+    if (tree.nodes.empty()) return;
+    const Vec3 root = tree.nodes[0].position;
+    for (SkeletonNode& n : tree.nodes) {
+        n.position = base + (n.position - root) * s;
+        n.radius *= s;
+    }
+    tree.nodes[0].position = base;
+    for (Leaf& l : tree.leaves) {
+        l.position = base + (l.position - root) * s;
+        l.size *= s;
+    }
+}
+
+// Every leaf's size times k about its attachment (the card's base edge): its area times k².
+void scaleLeaves(Tree& tree, double k) {
+    for (Leaf& l : tree.leaves) {
+        const Vec3 attach = l.position - l.tangent * (0.5 * l.size);
+        l.size *= k;
+        l.position = attach + l.tangent * (0.5 * l.size);
+    }
+}
+
+std::string fmt(double v) { return formatNumber(v, 4); }
+
+// Reaching the LAI targets (plot_growth.h).
+void reachLai(const PlotSpec& spec, GrownPlot& plot) {
+    const double area = spec.area.area();
+    const size_t nSpecies = spec.species.size();
+    std::vector<double> leafArea(nSpecies, 0.0);
+    for (const PlotTree& t : plot.trees) {
+        const auto s = static_cast<size_t>(t.stem.species);
+        if (s < nSpecies) leafArea[s] += treeLeafArea(t.grown.tree);
+    }
+    std::vector<double> factor(nSpecies, 1.0);
+    auto check = [&](double k, const SourcePos& where, const std::string& key, double target,
+                     double grown) {
+        if (!(grown > 0)) {
+            throw SpecError(where, key,
+                            "expected species with leaves to scale to it, got " + fmt(target) +
+                                " for trees without leaves");
+        }
+        if (!(k >= kMinLeafScale && k <= kMaxLeafScale)) {
+            throw SpecError(where, key,
+                            "expected a leaf area index the grown leaves reach with their sizes "
+                            "scaled " +
+                                fmt(kMinLeafScale) + "–" + fmt(kMaxLeafScale) + "× (they give " +
+                                fmt(grown / area) + ", so " + fmt(target) + " needs ×" + fmt(k) +
+                                "), got " + fmt(target));
+        }
+    };
+    double fixed = 0;  // m² of leaves of the species with their own lai
+    for (size_t s = 0; s < nSpecies; ++s) {
+        const PlotSpecies& ps = spec.species[s];
+        if (ps.lai < 0) continue;
+        const double k = std::sqrt(ps.lai * area / leafArea[s]);
+        check(k, ps.where, ps.keyPath + ".lai", ps.lai, leafArea[s]);
+        factor[s] = k;
+        fixed += ps.lai * area;
+    }
+    if (spec.lai > 0) {
+        double rest = 0;
+        for (size_t s = 0; s < nSpecies; ++s) {
+            if (spec.species[s].lai < 0) rest += leafArea[s];
+        }
+        const double want = spec.lai * area - fixed;
+        const std::string key = spec.keyPath + ".lai";
+        bool restExists = false;
+        for (const PlotSpecies& ps : spec.species) restExists |= ps.lai < 0;
+        if (!restExists) {
+            if (std::abs(fixed - spec.lai * area) > 0.05 * spec.lai * area) {
+                throw SpecError(spec.where, key,
+                                "expected the species' lai to sum to it, got " + fmt(spec.lai) +
+                                    " (the species' sum to " + fmt(fixed / area) + ")");
+            }
+        } else {
+            if (!(want > 0)) {
+                throw SpecError(spec.where, key,
+                                "expected more than the species' own lai (" + fmt(fixed / area) +
+                                    "), got " + fmt(spec.lai));
+            }
+            const double k = rest > 0 ? std::sqrt(want / rest) : 0.0;
+            check(k, spec.where, key, want / area, rest);
+            for (size_t s = 0; s < nSpecies; ++s) {
+                if (spec.species[s].lai < 0) factor[s] = k;
+            }
+        }
+    }
+    for (PlotTree& t : plot.trees) {
+        const auto s = static_cast<size_t>(t.stem.species);
+        const double k = s < nSpecies ? factor[s] : 1.0;
+        t.leafScale = k;
+        if (k != 1.0) scaleLeaves(t.grown.tree, k);
+    }
+    plot.lai = plotLai(plot);
+}
+
+double cross2(const Vec2& o, const Vec2& a, const Vec2& b) {
+    return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+}
+
+// Andrew's monotone chain: the convex hull, counter-clockwise, no collinear points.
+std::vector<Vec2> convexHull(std::vector<Vec2> p) {
+    std::sort(p.begin(), p.end(),
+              [](const Vec2& a, const Vec2& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+    p.erase(std::unique(p.begin(), p.end(),
+                        [](const Vec2& a, const Vec2& b) { return a.x == b.x && a.y == b.y; }),
+            p.end());
+    if (p.size() < 3) return p;
+    std::vector<Vec2> h(2 * p.size());
+    size_t k = 0;
+    for (size_t i = 0; i < p.size(); ++i) {
+        while (k >= 2 && cross2(h[k - 2], h[k - 1], p[i]) <= 0) --k;
+        h[k++] = p[i];
+    }
+    for (size_t i = p.size() - 1, t = k + 1; i-- > 0;) {
+        while (k >= t && cross2(h[k - 2], h[k - 1], p[i]) <= 0) --k;
+        h[k++] = p[i];
+    }
+    h.resize(k - 1);
+    return h;
+}
+
+bool inHull(const std::vector<Vec2>& h, const Vec2& q) {
+    if (h.size() < 3) return false;
+    for (size_t i = 0; i < h.size(); ++i) {
+        if (cross2(h[i], h[(i + 1) % h.size()], q) < 0) return false;
+    }
+    return true;
+}
+
+struct Box2 {
+    double x0 = std::numeric_limits<double>::infinity(), z0 = x0;
+    double x1 = -x0, z1 = -x0;
+};
+Box2 boxOf(const std::vector<Vec2>& h) {
+    Box2 b;
+    for (const Vec2& p : h) {
+        b.x0 = std::min(b.x0, p.x);
+        b.x1 = std::max(b.x1, p.x);
+        b.z0 = std::min(b.z0, p.y);
+        b.z1 = std::max(b.z1, p.y);
+    }
+    return b;
+}
+
+// Cells (centres on the global lattice of edge `cell`) of `box` that pass `in`.
+template <class F>
+int64_t countCells(const Box2& box, double cell, const F& in) {
+    int64_t n = 0;
+    const auto i0 = static_cast<int64_t>(std::floor(box.x0 / cell));
+    const auto i1 = static_cast<int64_t>(std::ceil(box.x1 / cell));
+    const auto j0 = static_cast<int64_t>(std::floor(box.z0 / cell));
+    const auto j1 = static_cast<int64_t>(std::ceil(box.z1 / cell));
+    for (int64_t i = i0; i <= i1; ++i) {
+        for (int64_t j = j0; j <= j1; ++j) {
+            if (in(Vec2{(i + 0.5) * cell, (j + 0.5) * cell})) ++n;
+        }
+    }
+    return n;
+}
+
+}  // namespace
+
+double treeLeafArea(const Tree& tree) {
+    double a = 0;
+    for (const Leaf& l : tree.leaves) a += leafArea(l);
+    return a;
+}
+
+double plotLai(const GrownPlot& plot) {
+    if (!plot.spec) return 0.0;
+    double a = 0;
+    for (const PlotTree& t : plot.trees) a += treeLeafArea(t.grown.tree);
+    const double area = plot.spec->area.area();
+    return area > 0 ? a / area : 0.0;
+}
+
+GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* datasetBudget,
+                   bool threaded) {
+    GrownPlot plot;
+    plot.spec = &spec;
+    plot.layout = std::move(layout);
+    const std::vector<PlotStem>& stems = plot.layout.stems;
+    const size_t n = stems.size();
+    for (const PlotStem& st : stems) {
+        if (st.species < 0 || static_cast<size_t>(st.species) >= spec.species.size()) {
+            throw std::invalid_argument("growPlot: stem " + std::to_string(st.id) +
+                                        " has no species " + std::to_string(st.species));
+        }
+    }
+
+    // 1. Methods and budgets.
+    std::vector<PreparedTree> prepared(n);
+    forEach(n, threaded, [&](size_t i) {
+        prepared[i] = prepareSpecies(spec.species[stems[i].species].species, stems[i].seed, nullptr,
+                                     datasetBudget);
+    });
+    std::vector<Tree> grown(n);
+    std::vector<uint8_t> done(n, 0);
+    std::vector<double> preScale(n, 1.0);  // target height / predicted height
+    // The clip planes of crown-shy trees in the plot's frame: the placed tree is cut at them
+    // (its leaves and the parts its method grew beyond its clipped volume).
+    std::vector<std::vector<HalfSpace>> plotClip(n);
+
+    if (!spec.neighbours) {
+        forEach(n, threaded, [&](size_t i) {
+            const GrowthGuard guard(prepared[i].out.budget);
+            Rng rng(prepared[i].seed);
+            grown[i] = prepared[i].method->grow(rng, threaded, prepared[i].out.methodStats, guard);
+        });
+    } else {
+        // 2. Each crown predicted at its target scale.
+        std::vector<Predicted> own(n);
+        forEach(n, threaded, [&](size_t i) {
+            if (predictFromVolumes(*prepared[i].method, own[i])) return;
+            // No volumes: grown alone and measured (kept as it is when no neighbour is close).
+            const GrowthGuard guard(prepared[i].out.budget);
+            Rng rng(prepared[i].seed);
+            grown[i] = prepared[i].method->grow(rng, threaded, prepared[i].out.methodStats, guard);
+            own[i] = measure(grown[i]);
+            done[i] = 1;
+        });
+        std::vector<double> radius(n);  // predicted crown radius in the plot, metres
+        for (size_t i = 0; i < n; ++i) {
+            const double h = std::max(own[i].height, 1e-3);
+            if (stems[i].targetHeight > 0) preScale[i] = stems[i].targetHeight / h;
+            radius[i] = std::max(own[i].radius, 1e-3) * preScale[i];
+        }
+        // Close neighbours (every pair: a plot has at most a few thousand stems).
+        std::vector<std::vector<size_t>> close(n);
+        for (size_t i = 0; i < n; ++i) {
+            for (size_t j = 0; j < n; ++j) {
+                if (j == i) continue;
+                const double d = std::hypot(stems[j].base.x - stems[i].base.x,
+                                            stems[j].base.z - stems[i].base.z);
+                if (d < kNeighbourReach * (radius[i] + radius[j])) close[i].push_back(j);
+            }
+        }
+
+        // The crown-shyness plane between tree i and its close neighbour j: normal u (unit,
+        // horizontal, toward j), offset from i's base in plot metres; false when it does not
+        // cut i's crown.
+        auto shyPlane = [&](size_t i, size_t j, Vec3& u, double& offset) {
+            u = {stems[j].base.x - stems[i].base.x, 0, stems[j].base.z - stems[i].base.z};
+            const double d = length(u);
+            if (!(d > 1e-9)) return false;
+            u = u / d;
+            const double gap = std::max(spec.species[stems[i].species].crownShyness,
+                                        spec.species[stems[j].species].crownShyness) *
+                               std::max(radius[i], radius[j]);
+            offset = d * radius[i] / (radius[i] + radius[j]) - 0.5 * gap;
+            offset = std::max(offset, 0.1 * radius[i]);  // never cut to a sliver
+            return offset < radius[i];
+        };
+
+        // 3a. Space colonization: one shared marker set per group of trees that reach each
+        // other (connected through close neighbours), every tree at its target scale; the
+        // groups are independent and grow in parallel.
+        std::vector<size_t> group(n);
+        for (size_t i = 0; i < n; ++i) group[i] = i;
+        std::function<size_t(size_t)> find = [&](size_t i) {
+            return group[i] == i ? i : group[i] = find(group[i]);
+        };
+        for (size_t i = 0; i < n; ++i) {
+            if (!prepared[i].method->spaceColonization()) continue;
+            for (size_t j : close[i]) {
+                if (!prepared[j].method->spaceColonization()) continue;
+                const size_t a = find(i), b = find(j);
+                if (a != b) group[std::max(a, b)] = std::min(a, b);
+            }
+        }
+        std::map<size_t, std::vector<size_t>> groups;  // by their first tree: a fixed order
+        for (size_t i = 0; i < n; ++i) {
+            if (prepared[i].method->spaceColonization()) groups[find(i)].push_back(i);
+        }
+        std::vector<std::vector<size_t>> members;
+        for (auto& [first, m] : groups) members.push_back(std::move(m));
+        forEach(members.size(), threaded, [&](size_t g) {
+            const std::vector<size_t>& m = members[g];
+            std::vector<ColonizingTree> together(m.size());
+            std::vector<std::unique_ptr<GrowthGuard>> guards;
+            for (size_t k = 0; k < m.size(); ++k) {
+                const size_t i = m[k];
+                ColonizingTree& c = together[k];
+                c.options = scaledOptions(*prepared[i].method->spaceColonization(), preScale[i]);
+                // Neighbours of other methods take no markers: the crown keeps clear of them
+                // as theirs keep clear of it (crown shyness; the crown is at plot scale here).
+                std::vector<HalfSpace> cut;
+                for (size_t j : close[i]) {
+                    Vec3 u;
+                    double offset = 0;
+                    if (!prepared[j].method->spaceColonization() && shyPlane(i, j, u, offset)) {
+                        cut.push_back({u, offset});
+                    }
+                }
+                if (c.options.crown && !cut.empty()) {
+                    c.options.crown = makeClipped(c.options.crown, std::move(cut));
+                }
+                c.options.threaded = threaded;
+                c.origin = stems[i].base;
+                c.rng = Rng(prepared[i].seed);
+                guards.push_back(std::make_unique<GrowthGuard>(prepared[i].out.budget));
+                c.guard = guards.back().get();
+            }
+            growSpaceColonizationTogether(together, threaded);
+            for (size_t k = 0; k < m.size(); ++k) {
+                const size_t i = m[k];
+                grown[i] = std::move(together[k].tree);
+                // Back to the species' own scale, where its form and leaves (in metres) apply
+                // as to any tree of it; step 4 scales it to its height with them.
+                if (preScale[i] != 1.0) {
+                    for (SkeletonNode& node : grown[i].nodes) {
+                        node.position = node.position / preScale[i];
+                        node.radius /= preScale[i];
+                    }
+                }
+                for (auto& [key, v] : together[k].stats) prepared[i].out.methodStats[key] = v;
+                done[i] = 1;
+            }
+        });
+
+        // 3b. The others, each with its neighbourhood in its own frame (plot metres / s).
+        forEach(n, threaded, [&](size_t i) {
+            if (done[i] && prepared[i].method->spaceColonization()) return;
+            const double s = preScale[i];
+            Neighbourhood nb;
+            Vec3 away{0, 0, 0};
+            for (size_t j : close[i]) {
+                Vec3 u;
+                double offset = 0;
+                if (shyPlane(i, j, u, offset)) {
+                    nb.clip.push_back({u, offset / s});
+                    plotClip[i].push_back({u, dot(u, stems[i].base) + offset});
+                }
+                const double d = std::hypot(stems[j].base.x - stems[i].base.x,
+                                            stems[j].base.z - stems[i].base.z);
+                if (d > 1e-9) away -= u * (radius[j] / d);
+            }
+            const double a = length(away);
+            if (a > 1e-12) nb.away = away * (kShadeTropism * std::min(1.0, a) / a);
+            if (prepared[i].method->volumes().empty()) plotClip[i].clear();  // tropism only
+            if (done[i] && nb.clip.empty() && !(length2(nb.away) > 0)) return;
+            prepared[i].out.methodStats.clear();
+            const GrowthGuard guard(prepared[i].out.budget);
+            Rng rng(prepared[i].seed);
+            grown[i] = prepared[i].method->growAmong(rng, threaded, prepared[i].out.methodStats,
+                                                     guard, nb);
+            done[i] = 1;
+        });
+    }
+
+    // 4. Form, leaves, placement.
+    plot.trees.resize(n);
+    forEach(n, threaded, [&](size_t i) {
+        const GrowthGuard guard(prepared[i].out.budget);
+        PlotTree& t = plot.trees[i];
+        t.stem = stems[i];
+        t.grown = finishSpecies(prepared[i], std::move(grown[i]), guard);
+        const double h = measure(t.grown.tree).height;
+        const double s = t.stem.targetHeight > 0 && h > 0 ? t.stem.targetHeight / h : 1.0;
+        place(t.grown.tree, t.stem.base, s);
+        if (!plotClip[i].empty()) {
+            pruneTree(t.grown.tree, [&](const Vec3& p) { return insideAll(plotClip[i], p); });
+        }
+    });
+
+    // 5. Leaf area index.
+    reachLai(spec, plot);
+    return plot;
+}
+
+CrownShape crownShape(const PlotTree& tree) {
+    CrownShape c;
+    c.base = {tree.stem.base.x, tree.stem.base.z};
+    const Tree& t = tree.grown.tree;
+    std::vector<Vec2> pts;
+    pts.reserve(t.leaves.size() + t.endpoints.size());
+    for (const Leaf& l : t.leaves) pts.push_back({l.position.x, l.position.z});
+    for (int32_t e : t.endpoints) {
+        if (e >= 0 && static_cast<size_t>(e) < t.nodes.size() && t.nodes[e].part == kShootPart) {
+            pts.push_back({t.nodes[e].position.x, t.nodes[e].position.z});
+        }
+    }
+    if (pts.empty()) {
+        for (const SkeletonNode& nd : t.nodes) {
+            if (nd.part == kShootPart) pts.push_back({nd.position.x, nd.position.z});
+        }
+    }
+    if (pts.empty()) {
+        c.centroid = c.base;
+        return c;
+    }
+    Vec2 sum{0, 0};
+    for (const Vec2& p : pts) {
+        sum.x += p.x;
+        sum.y += p.y;
+        c.radius = std::max(c.radius, std::hypot(p.x - c.base.x, p.y - c.base.y));
+    }
+    c.centroid = {sum.x / pts.size(), sum.y / pts.size()};
+    c.hull = convexHull(std::move(pts));
+    return c;
+}
+
+std::vector<CrownAsymmetry> crownAsymmetry(const GrownPlot& plot) {
+    const size_t n = plot.trees.size();
+    std::vector<CrownShape> shapes(n);
+    for (size_t i = 0; i < n; ++i) shapes[i] = crownShape(plot.trees[i]);
+    std::vector<CrownAsymmetry> out(n);
+    for (size_t i = 0; i < n; ++i) {
+        CrownAsymmetry& a = out[i];
+        a.id = plot.trees[i].stem.id;
+        a.radius = shapes[i].radius;
+        a.offset = {shapes[i].centroid.x - shapes[i].base.x,
+                    shapes[i].centroid.y - shapes[i].base.y};
+        for (size_t j = 0; j < n; ++j) {
+            if (j == i) continue;
+            const double dx = shapes[i].base.x - shapes[j].base.x;
+            const double dz = shapes[i].base.y - shapes[j].base.y;
+            const double d = std::hypot(dx, dz);
+            if (d > 1e-9 && d < 2 * shapes[i].radius) {
+                a.neighbours.x += dx / d;
+                a.neighbours.y += dz / d;
+            }
+        }
+    }
+    return out;
+}
+
+double crownNeighbourCosine(const std::vector<CrownAsymmetry>& trees) {
+    double sum = 0;
+    int count = 0;
+    for (const CrownAsymmetry& a : trees) {
+        const double lo = std::hypot(a.offset.x, a.offset.y);
+        const double ln = std::hypot(a.neighbours.x, a.neighbours.y);
+        if (lo < 1e-3 || ln < 1e-9) continue;
+        sum += (a.offset.x * a.neighbours.x + a.offset.y * a.neighbours.y) / (lo * ln);
+        ++count;
+    }
+    return count ? sum / count : 0.0;
+}
+
+std::vector<CrownOverlap> crownOverlaps(const GrownPlot& plot, double cell) {
+    const size_t n = plot.trees.size();
+    std::vector<CrownShape> shapes(n);
+    std::vector<Box2> boxes(n);
+    double smallest = std::numeric_limits<double>::infinity();
+    for (size_t i = 0; i < n; ++i) {
+        shapes[i] = crownShape(plot.trees[i]);
+        boxes[i] = boxOf(shapes[i].hull);
+        if (shapes[i].hull.size() >= 3) smallest = std::min(smallest, shapes[i].radius);
+    }
+    if (!(cell > 0)) cell = std::isfinite(smallest) ? std::max(0.02, smallest / 50) : 0.1;
+    std::vector<int64_t> cells(n, -1);  // each hull's raster area, counted when first needed
+    auto areaOf = [&](size_t i) {
+        if (cells[i] < 0) {
+            cells[i] = countCells(boxes[i], cell,
+                                  [&](const Vec2& q) { return inHull(shapes[i].hull, q); });
+        }
+        return cells[i];
+    };
+    std::vector<CrownOverlap> out;
+    for (size_t i = 0; i < n; ++i) {
+        if (shapes[i].hull.size() < 3) continue;
+        for (size_t j = i + 1; j < n; ++j) {
+            if (shapes[j].hull.size() < 3) continue;
+            Box2 b;
+            b.x0 = std::max(boxes[i].x0, boxes[j].x0);
+            b.x1 = std::min(boxes[i].x1, boxes[j].x1);
+            b.z0 = std::max(boxes[i].z0, boxes[j].z0);
+            b.z1 = std::min(boxes[i].z1, boxes[j].z1);
+            if (b.x0 > b.x1 || b.z0 > b.z1) continue;
+            const int64_t both = countCells(b, cell, [&](const Vec2& q) {
+                return inHull(shapes[i].hull, q) && inHull(shapes[j].hull, q);
+            });
+            const int64_t smaller = std::min(areaOf(i), areaOf(j));
+            CrownOverlap o;
+            o.a = std::min(plot.trees[i].stem.id, plot.trees[j].stem.id);
+            o.b = std::max(plot.trees[i].stem.id, plot.trees[j].stem.id);
+            o.fraction = smaller > 0 ? static_cast<double>(both) / static_cast<double>(smaller) : 0;
+            out.push_back(o);
+        }
+    }
+    return out;
+}
+
+double maxCrownOverlap(const std::vector<CrownOverlap>& overlaps) {
+    double m = 0;
+    for (const CrownOverlap& o : overlaps) m = std::max(m, o.fraction);
+    return m;
+}
+
+}  // namespace sylva

@@ -1,0 +1,102 @@
+// Growing a plot's trees together (issue 16, part B): every stem of a layout grown by its
+// species' method in a shared environment, placed at its base on the terrain, scaled to its
+// drawn height, its leaves scaled to the plot's leaf area index; and the statistics that show
+// the neighbours shaped the crowns. docs/plots.md, "Growing together".
+//
+// Frame: plot-local metres, +y up (plot.h).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/budget.h"
+#include "species/plot/plot.h"
+
+namespace sylva {
+
+// The bounds of the one factor that scales a species' (or the plot's) leaves to reach an LAI
+// target: a target needing leaves scaled beyond them is refused (SpecError at its `lai`).
+constexpr double kMinLeafScale = 0.25;
+constexpr double kMaxLeafScale = 4.0;
+
+// Close neighbours: trees whose bases are nearer than this many times the sum of their crown
+// radii shape each other (clip planes, tropism).
+constexpr double kNeighbourReach = 1.25;
+// The grammar method's light/shade tropism at full strength (a neighbour crown touching this
+// one): the length of the horizontal vector added to each branch's unit direction (half of it
+// to the trunk's).
+constexpr double kShadeTropism = 0.2;
+
+// Grows every stem of `layout` (PlotStem::species indexes spec.species) and places it: the
+// root node at the stem's base on the terrain, the tree vertical, scaled uniformly about its
+// base so its height (highest shoot node above the root) is targetHeight when that is > 0 —
+// node radii and leaf sizes with it. With spec.neighbours (the default) the trees know their
+// neighbours:
+//  - space colonization: the plot's space-colonization trees compete for one shared marker
+//    set per group of trees linked through close neighbours (growSpaceColonizationTogether;
+//    Palubicki et al. 2009), each grown at its target scale (internode, bole, crown), then
+//    brought back to the species' scale for its form and leaves like any tree of it;
+//    toward close neighbours of other methods its crown volume is clipped as below;
+//  - iterated graph and canopy: the crown volume is clipped by a half-space per close
+//    neighbour, its plane between the two stems split in proportion to their crown radii and
+//    moved back by half the gap, the gap being crown_shyness × the larger of the two crown
+//    radii (the larger of the two species' shyness);
+//  - grammar: a light/shade tropism away from the neighbours' crowns, the sum over close
+//    neighbours of the unit vectors from them weighted by crown radius / distance
+//    (GrammarOptions::lightTropism).
+// Without neighbours each tree grows alone, exactly as growSpecies grows it. Then the LAI
+// (spec.lai, per-species lai): every leaf of a species is scaled (size about its attachment,
+// so its area by factor²) by one factor so that the leaf area over the plot area reaches the
+// target; PlotTree::leafScale and GrownPlot::lai are set. Throws SpecError (at the `lai` key)
+// for a target that needs a factor outside [kMinLeafScale, kMaxLeafScale] or species that
+// have no leaves, BudgetExceeded from a tree's budgets. Growth runs in parallel (TBB) when
+// `threaded`; the result is identical either way.
+GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* datasetBudget,
+                   bool threaded);
+
+// One side's leaf area of a tree, m² (Σ leafArea over its leaves).
+double treeLeafArea(const Tree& tree);
+
+// The plot's leaf area index: Σ leaf area of every tree / the plot's area.
+double plotLai(const GrownPlot& plot);
+
+// --- statistics -------------------------------------------------------------------------------
+
+// A tree's crown as seen from above: its horizontal points are its leaves' centres and its
+// branch tips (skeleton endpoints of the shoot; nodes if it has no leaves).
+struct CrownShape {
+    Vec2 base;               // x, z of the stem base
+    Vec2 centroid;           // mean x, z of the crown points
+    double radius = 0;       // largest horizontal distance of a crown point from the base, metres
+    std::vector<Vec2> hull;  // convex hull of the crown points (counter-clockwise in x, z)
+};
+CrownShape crownShape(const PlotTree& tree);
+
+// Per tree: the crown-centre offset (centroid − base, x z) and the neighbour vector (Σ unit
+// vectors from each neighbour whose base lies within 2 of this tree's crown radii to this
+// tree; zero without neighbours).
+struct CrownAsymmetry {
+    int32_t id = 0;
+    Vec2 offset;
+    Vec2 neighbours;
+    double radius = 0;
+};
+std::vector<CrownAsymmetry> crownAsymmetry(const GrownPlot& plot);
+
+// The plot's correlation between crown offsets and neighbour vectors: the mean cosine of the
+// angle between them over the trees where both are non-zero (offset > 1 mm); positive when
+// crowns grow away from their close neighbours. 0 when no tree qualifies.
+double crownNeighbourCosine(const std::vector<CrownAsymmetry>& trees);
+
+// Crown overlap of a pair: the fraction of the smaller crown's projected area (its convex
+// hull, rasterised on `cell`-metre cells) that the other's covers too.
+struct CrownOverlap {
+    int32_t a = 0, b = 0;  // tree ids, a < b
+    double fraction = 0;
+};
+// Every pair whose hulls' bounding boxes meet, in id order. cell ≤ 0: 1/50 of the smallest
+// crown radius, at least 2 cm.
+std::vector<CrownOverlap> crownOverlaps(const GrownPlot& plot, double cell = 0);
+double maxCrownOverlap(const std::vector<CrownOverlap>& overlaps);
+
+}  // namespace sylva

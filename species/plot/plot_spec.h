@@ -1,0 +1,36 @@
+// Reading a dataset file's [[plot]] tables (docs/plots.md): the plot's area, terrain, stem
+// process, species mix (each species file loaded and validated like a dataset's species),
+// understory and ground cover. Every bad value is a SpecError at its key; the checks that need
+// several keys (a spacing that cannot fit the stems, rows too few for them, a DEM that does not
+// cover the plot) are made here too, so a plot that loads can be laid out.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "core/budget.h"
+#include "core/params.h"
+#include "species/plot/plot.h"
+
+namespace sylva {
+
+// Limits of one plot (a larger value is an error at its key).
+constexpr int64_t kMaxPlotCount = 1000000;  // plot instances per [[plot]]
+constexpr int64_t kMaxPlotStems = 100000;   // expected stems per plot instance, all species
+constexpr double kMaxPlotSide = 10000;      // metres: width, depth, 2 × radius
+constexpr double kMaxPlotLai = 15;          // m²/m²
+constexpr double kMaxGroundCards = 1e7;     // ground-cover cards per plot instance
+
+// One [[plot]] table, `p` (its keys are recorded under the documentation context "plot").
+// Species files are relative to the dataset file; each is loaded and validated with the
+// dataset's `budget` (`meshed`: whether the dataset meshes its instances). The bytes of every
+// file it reads (species files, the DEM) are appended to `fingerprintBytes`.
+PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed, std::string& fingerprintBytes);
+
+// The expected number of stems of one species in the plot (its count, or density × area).
+double expectedStems(const PlotSpecies& species, const PlotArea& area);
+
+// A plot instance's id: "<plot name>-<index>" (index zero-padded to 5 digits).
+std::string plotInstanceId(const std::string& plotName, int64_t index);
+
+}  // namespace sylva

@@ -1,0 +1,126 @@
+// Bad [[plot]] specs through the real binary: each fixture in tests/data/plot/bad/ (negative
+// density, density and count both or neither, a spacing or rows that cannot hold the stems, a
+// DEM missing, unreadable, not single-channel or too small, an unknown process, lai set twice,
+// …) gives exit 2, one line on stderr with its file:line:col and key, through `sylva validate`
+// and `sylva build --out X`, and writes nothing (X is not created). A fixture states what its
+// error must say in leading comments: `# expect: <substring>` and `# line: <n>`. And a valid
+// plots-only dataset validates.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "tests/test_support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using sylva::test::slurp;
+using sylva::test::TempDir;
+
+const fs::path kSource = SYLVA_SOURCE_DIR;
+const fs::path kExe = SYLVA_EXE;
+const fs::path kPlotData = kSource / "tests" / "data" / "plot";
+
+struct SylvaRun {
+    int code = -1;
+    std::string out, err;
+};
+
+std::string quoted(const std::string& s) { return "'" + s + "'"; }
+
+// Runs sylva with `args` in `dir` (paths without single quotes).
+SylvaRun sylva(const std::vector<std::string>& args, const fs::path& dir, const std::string& tag) {
+    std::string cmd = "cd " + quoted(dir.string()) + " && " + quoted(kExe.string());
+    for (const std::string& a : args) cmd += " " + quoted(a);
+    const fs::path out = dir.parent_path() / (tag + ".out"),
+                   err = dir.parent_path() / (tag + ".err");
+    cmd += " >" + quoted(out.string()) + " 2>" + quoted(err.string()) + " </dev/null";
+    const int status = std::system(cmd.c_str());
+    SylvaRun r;
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    return r;
+}
+
+std::vector<std::string> badPlotFixtures() {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(kPlotData / "bad")) {
+        if (e.path().extension() == ".toml") names.push_back(e.path().filename().string());
+    }
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+class PlotBadSpec : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(PlotBadSpec, OneLineErrorExitTwoAndNothingWritten) {
+    const fs::path spec = kPlotData / "bad" / GetParam();
+    std::vector<std::string> expect;
+    int line = 0;
+    std::ifstream in(spec);
+    for (std::string l; std::getline(in, l);) {
+        if (l.rfind("# expect: ", 0) == 0) expect.push_back(l.substr(10));
+        if (l.rfind("# line: ", 0) == 0) line = std::stoi(l.substr(8));
+    }
+    ASSERT_FALSE(expect.empty()) << spec;
+    ASSERT_GT(line, 0) << spec;
+    TempDir t;
+    const fs::path work = t / "work";
+    fs::create_directories(work);
+    const fs::path out = work / "build_out";
+    const std::vector<std::vector<std::string>> runs = {
+        {"validate", spec.string()}, {"build", spec.string(), "--out", out.string()}};
+    for (size_t k = 0; k < runs.size(); ++k) {
+        SCOPED_TRACE(runs[k][0]);
+        const SylvaRun r = sylva(runs[k], work, "run" + std::to_string(k));
+        EXPECT_EQ(r.code, 2) << r.err;
+        ASSERT_FALSE(r.err.empty());
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+        const std::string at = spec.filename().string() + ":" + std::to_string(line) + ":";
+        EXPECT_NE(r.err.find(at), std::string::npos) << "expected \"" << at << "\" in: " << r.err;
+        for (const std::string& e : expect) {
+            EXPECT_NE(r.err.find(e), std::string::npos) << "expected \"" << e << "\" in: " << r.err;
+        }
+    }
+    EXPECT_FALSE(fs::exists(out));
+    EXPECT_TRUE(fs::is_empty(work)) << "the failed runs wrote into " << work;
+}
+
+INSTANTIATE_TEST_SUITE_P(Cli, PlotBadSpec, ::testing::ValuesIn(badPlotFixtures()),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                             std::string n = fs::path(info.param).stem().string();
+                             for (char& c : n)
+                                 if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+                             return n;
+                         });
+
+// The kinds of error issue 16 lists each have a fixture.
+TEST(PlotBadSpecs, FixturesCoverTheIssuesErrors) {
+    const std::vector<std::string> names = badPlotFixtures();
+    for (const char* want :
+         {"negative_density.toml", "density_and_count.toml", "neither_density_nor_count.toml",
+          "hard_core_does_not_fit.toml", "strauss_hard_does_not_fit.toml", "rows_do_not_fit.toml",
+          "dem_missing.toml", "dem_unreadable.toml", "dem_not_single_channel.toml",
+          "dem_too_small.toml", "unknown_process.toml", "lai_plot_and_species.toml"}) {
+        EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
+    }
+}
+
+TEST(PlotValidate, PlotsOnlyDatasetIsValid) {
+    TempDir t;
+    const fs::path work = t / "work";
+    fs::create_directories(work);
+    const SylvaRun r = sylva({"validate", (kPlotData / "plots.toml").string()}, work, "v");
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("0 species, 6 instances, 5 plots (6 plot instances)"), std::string::npos)
+        << r.out;
+}
+
+}  // namespace

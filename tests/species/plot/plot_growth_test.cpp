@@ -1,0 +1,335 @@
+// growPlot: trees grown together (shared markers, crown clips, tropism), placed on the
+// terrain, scaled to their heights and to the LAI; the crown statistics.
+#include "species/plot/plot_growth.h"
+
+#include <gtest/gtest.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "core/errors.h"
+#include "species/spec/species.h"
+
+namespace sylva {
+namespace {
+
+const std::string kData = std::string(SYLVA_SOURCE_DIR) + "/tests/data/plot/";
+
+PlotSpecies plotSpecies(const std::string& file, int index) {
+    PlotSpecies s;
+    const std::string preset = std::string(SYLVA_SOURCE_DIR) + "/species/presets/" + file;
+    s.species = loadSpecies(file.rfind("small-", 0) == 0 ? kData + file : preset);
+    s.keyPath = "plot[0].species[" + std::to_string(index) + "]";
+    s.where = SourcePos{"plot.toml", 3 + index, 1};
+    return s;
+}
+
+PlotSpec makeSpec(const std::vector<std::string>& files, double width = 30, double depth = 12) {
+    PlotSpec spec;
+    spec.name = "test";
+    spec.keyPath = "plot[0]";
+    spec.where = SourcePos{"plot.toml", 1, 1};
+    spec.area.width = width;
+    spec.area.depth = depth;
+    for (size_t i = 0; i < files.size(); ++i) {
+        spec.species.push_back(plotSpecies(files[i], static_cast<int>(i)));
+    }
+    return spec;
+}
+
+// Heights y = slope·x over [−20, 20] × [−10, 10].
+Terrain makeTerrain(double slope = 0.0) {
+    const int nx = 41, nz = 21;
+    std::vector<float> h(size_t(nx) * nz);
+    for (int j = 0; j < nz; ++j) {
+        for (int i = 0; i < nx; ++i) h[size_t(j) * nx + i] = static_cast<float>(slope * (i - 20));
+    }
+    return Terrain(-20, -10, 1.0, nx, nz, std::move(h));
+}
+
+// `count` stems in a row along x, `spacing` apart, centred on x = 0, all of species `species`
+// (or alternating 0, 1 when species < 0).
+PlotLayout row(int count, double spacing, int species = 0, double slope = 0.0,
+               double targetHeight = 0.0) {
+    PlotLayout layout;
+    layout.terrain = makeTerrain(slope);
+    for (int k = 0; k < count; ++k) {
+        PlotStem s;
+        s.id = k + 1;
+        s.species = species < 0 ? k % 2 : species;
+        const double x = (k - (count - 1) / 2.0) * spacing;
+        s.base = {x, layout.terrain.height(x, 0.0), 0.0};
+        s.targetHeight = targetHeight;
+        s.seed = 1000 + 17 * k;
+        layout.stems.push_back(s);
+    }
+    return layout;
+}
+
+// `count` pairs of stems, `within` apart along x, the pairs `between` apart along z (so every
+// tree has one close neighbour).
+PlotLayout pairs(int count, double within, double between) {
+    PlotLayout layout;
+    layout.terrain = makeTerrain();
+    for (int k = 0; k < 2 * count; ++k) {
+        PlotStem s;
+        s.id = k + 1;
+        const double x = (k % 2 ? 0.5 : -0.5) * within;
+        const double z = (k / 2 - (count - 1) / 2.0) * between;
+        s.base = {x, 0.0, z};
+        s.seed = 5000 + 31 * k;
+        layout.stems.push_back(s);
+    }
+    return layout;
+}
+
+// Every byte of every tree's nodes and leaves.
+std::string serialize(const GrownPlot& plot) {
+    std::string out;
+    auto put = [&](const void* p, size_t n) { out.append(static_cast<const char*>(p), n); };
+    for (const PlotTree& t : plot.trees) {
+        for (const SkeletonNode& n : t.grown.tree.nodes) {
+            put(&n.position, sizeof n.position);
+            put(&n.radius, sizeof n.radius);
+            put(&n.parent, sizeof n.parent);
+            put(&n.order, sizeof n.order);
+        }
+        for (const Leaf& l : t.grown.tree.leaves) {
+            put(&l.position, sizeof l.position);
+            put(&l.normal, sizeof l.normal);
+            put(&l.size, sizeof l.size);
+        }
+        put(&t.leafScale, sizeof t.leafScale);
+    }
+    put(&plot.lai, sizeof plot.lai);
+    return out;
+}
+
+TEST(PlotGrowth, LoneColonizerGrowsAsGrowSpecies) {
+    const PlotSpec spec = makeSpec({"small-colonizer.toml"});
+    PlotLayout layout = row(1, 0.0);
+    const GrownPlot plot = growPlot(spec, layout, nullptr, false);
+    const GrownTree alone =
+        growSpecies(spec.species[0].species, layout.stems[0].seed, nullptr, false);
+    ASSERT_EQ(plot.trees.size(), 1u);
+    const Tree& a = plot.trees[0].grown.tree;
+    ASSERT_EQ(a.nodes.size(), alone.tree.nodes.size());
+    for (size_t i = 0; i < a.nodes.size(); ++i) {
+        EXPECT_EQ(a.nodes[i].position.x, alone.tree.nodes[i].position.x);
+        EXPECT_EQ(a.nodes[i].position.y, alone.tree.nodes[i].position.y);
+        EXPECT_EQ(a.nodes[i].position.z, alone.tree.nodes[i].position.z);
+        EXPECT_EQ(a.nodes[i].radius, alone.tree.nodes[i].radius);
+    }
+    EXPECT_EQ(a.leaves.size(), alone.tree.leaves.size());
+}
+
+TEST(PlotGrowth, ColonizersGrowAwayFromCloseNeighbours) {
+    PlotSpec spec = makeSpec({"small-colonizer.toml"}, 30, 60);
+    const PlotLayout layout = pairs(6, 2.4, 8.0);
+    const GrownPlot together = growPlot(spec, layout, nullptr, false);
+    const auto a = crownAsymmetry(together);
+    const double cosTogether = crownNeighbourCosine(a);
+    spec.neighbours = false;
+    const GrownPlot alone = growPlot(spec, layout, nullptr, false);
+    const double cosAlone = crownNeighbourCosine(crownAsymmetry(alone));
+    EXPECT_GT(cosTogether, 0.6);
+    EXPECT_LT(cosAlone, 0.3);
+    // Every tree's crown centre lies on its far side from its partner.
+    for (size_t k = 0; k < a.size(); ++k) {
+        EXPECT_GT(a[k].offset.x * (k % 2 ? 1 : -1), 0.05) << "tree " << k + 1;
+    }
+    // Shared space: less overlap than the trees grown alone.
+    EXPECT_LT(maxCrownOverlap(crownOverlaps(together)), maxCrownOverlap(crownOverlaps(alone)));
+}
+
+TEST(PlotGrowth, GrammarCrownsTurnAwayFromCloseNeighbours) {
+    PlotSpec spec = makeSpec({"lemon.toml"}, 30, 60);  // a preset: grammar trees are fast
+    const PlotLayout layout = pairs(5, 2.0, 10.0);
+    const double together =
+        crownNeighbourCosine(crownAsymmetry(growPlot(spec, layout, nullptr, false)));
+    spec.neighbours = false;
+    const double alone =
+        crownNeighbourCosine(crownAsymmetry(growPlot(spec, layout, nullptr, false)));
+    EXPECT_GT(together, 0.6);
+    EXPECT_LT(alone, together - 0.4);
+}
+
+// The gap between two neighbouring crowns along the line between their bases: the distance
+// minus each crown's reach toward the other (leaf centres and shoot nodes above 1 m).
+double gapBetween(const PlotTree& a, const PlotTree& b) {
+    const double dx = b.stem.base.x - a.stem.base.x, dz = b.stem.base.z - a.stem.base.z;
+    const double d = std::hypot(dx, dz);
+    const Vec3 u{dx / d, 0, dz / d};
+    auto reach = [&](const PlotTree& t, const Vec3& dir) {
+        double r = 0;
+        for (const Leaf& l : t.grown.tree.leaves)
+            r = std::max(r, dot(l.position - t.stem.base, dir));
+        for (const SkeletonNode& n : t.grown.tree.nodes) {
+            if (n.part == kShootPart && n.position.y > t.stem.base.y + 1.0) {
+                r = std::max(r, dot(n.position - t.stem.base, dir));
+            }
+        }
+        return r;
+    };
+    return d - reach(a, u) - reach(b, u * -1.0);
+}
+
+void expectShyness(const std::string& file, double spacing) {
+    PlotSpec spec = makeSpec({file});
+    spec.species[0].crownShyness = 0.2;
+    const PlotLayout layout = row(4, spacing);
+    const GrownPlot plot = growPlot(spec, layout, nullptr, false);
+    // The crown radius the gap is a fraction of: the crown volume's (both test species: 2 m).
+    const double radius = 2.0;
+    for (size_t k = 0; k + 1 < plot.trees.size(); ++k) {
+        EXPECT_GE(gapBetween(plot.trees[k], plot.trees[k + 1]), 0.2 * radius * 0.95)
+            << file << " trees " << k + 1 << "–" << k + 2;
+    }
+    EXPECT_LE(maxCrownOverlap(crownOverlaps(plot)), spec.species[0].maxOverlap) << file;
+    // Grown alone they overlap (the test would prove nothing otherwise).
+    spec.neighbours = false;
+    const GrownPlot alone = growPlot(spec, layout, nullptr, false);
+    EXPECT_GT(maxCrownOverlap(crownOverlaps(alone)), 0.1) << file;
+}
+
+TEST(PlotGrowth, CanopyCrownsKeepTheShynessGap) { expectShyness("small-canopy.toml", 3.0); }
+TEST(PlotGrowth, IteratedGraphCrownsKeepTheShynessGap) { expectShyness("small-graph.toml", 2.6); }
+
+// Colonizers between canopy trees: each side keeps its half of the gap (the colonizer's crown
+// is clipped toward neighbours that take no markers).
+TEST(PlotGrowth, MixedMethodsKeepTheShynessGap) {
+    PlotSpec spec = makeSpec({"small-colonizer.toml", "small-canopy.toml"});
+    const PlotLayout layout = row(4, 3.0, -1);
+    const GrownPlot plot = growPlot(spec, layout, nullptr, false);
+    for (size_t k = 0; k + 1 < plot.trees.size(); ++k) {
+        EXPECT_GE(gapBetween(plot.trees[k], plot.trees[k + 1]), 0.1 * 2.0 * 0.95)
+            << "trees " << k + 1 << "–" << k + 2;
+    }
+    EXPECT_LE(maxCrownOverlap(crownOverlaps(plot)), 0.05);
+}
+
+TEST(PlotGrowth, TreesStandVerticalOnTheTerrainAtTheirHeight) {
+    const PlotSpec spec = makeSpec({"small-colonizer.toml", "small-canopy.toml"});
+    const PlotLayout layout = row(4, 6.0, -1, 0.3, 5.0);  // a 0.3 slope (17°)
+    const GrownPlot plot = growPlot(spec, layout, nullptr, false);
+    for (const PlotTree& t : plot.trees) {
+        const Tree& tree = t.grown.tree;
+        const double ground = layout.terrain.height(t.stem.base.x, t.stem.base.z);
+        EXPECT_NEAR(tree.nodes[0].position.y, ground, 1e-9);
+        EXPECT_EQ(tree.nodes[0].position.x, t.stem.base.x);
+        EXPECT_EQ(tree.nodes[0].position.z, t.stem.base.z);
+        // The lowest shoot node is at the ground: the bole starts on it.
+        double lowest = 1e300, top = -1e300;
+        for (const SkeletonNode& n : tree.nodes) {
+            if (n.part != kShootPart) continue;
+            lowest = std::min(lowest, n.position.y);
+            top = std::max(top, n.position.y);
+        }
+        EXPECT_NEAR(lowest, ground, 1e-9);
+        EXPECT_NEAR(top - ground, 5.0, 1e-9);  // scaled to its target height
+        // Vertical: the bole's first node straight above the base.
+        const SkeletonNode& up = tree.nodes[1];
+        EXPECT_NEAR(up.position.x, t.stem.base.x, 1e-6);
+        EXPECT_NEAR(up.position.z, t.stem.base.z, 1e-6);
+        EXPECT_GT(up.position.y, ground);
+    }
+}
+
+TEST(PlotGrowth, LeafAreaIndexIsReached) {
+    PlotSpec spec = makeSpec({"small-colonizer.toml", "small-canopy.toml"}, 12, 6);
+    const PlotLayout layout = row(4, 3.0, -1);
+    spec.lai = 1.5;
+    const GrownPlot plot = growPlot(spec, layout, nullptr, false);
+    EXPECT_NEAR(plot.lai, 1.5, 0.05 * 1.5);
+    EXPECT_NEAR(plotLai(plot), plot.lai, 1e-12);
+    EXPECT_NE(plot.trees[0].leafScale, 1.0);
+    // Per species: each to its own share.
+    spec.lai = -1;
+    spec.species[0].lai = 0.5;
+    spec.species[1].lai = 1.0;
+    const GrownPlot shares = growPlot(spec, layout, nullptr, false);
+    double a0 = 0, a1 = 0;
+    for (const PlotTree& t : shares.trees) {
+        (t.stem.species == 0 ? a0 : a1) += treeLeafArea(t.grown.tree);
+    }
+    EXPECT_NEAR(a0 / spec.area.area(), 0.5, 0.025);
+    EXPECT_NEAR(a1 / spec.area.area(), 1.0, 0.05);
+    EXPECT_NEAR(shares.lai, 1.5, 0.075);
+}
+
+TEST(PlotGrowth, UnreachableLeafAreaIndexIsRefusedAtItsKey) {
+    PlotSpec spec = makeSpec({"small-colonizer.toml"}, 12, 6);
+    const PlotLayout layout = row(2, 3.0);
+    spec.lai = 60;
+    try {
+        growPlot(spec, layout, nullptr, false);
+        FAIL() << "no error";
+    } catch (const SpecError& e) {
+        const std::string m = e.what();
+        EXPECT_NE(m.find("plot.toml:1:1: plot[0].lai: expected"), std::string::npos) << m;
+        EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+    }
+    spec.lai = -1;
+    spec.species[0].lai = 0.001;
+    try {
+        growPlot(spec, layout, nullptr, false);
+        FAIL() << "no error";
+    } catch (const SpecError& e) {
+        EXPECT_NE(std::string(e.what()).find("plot[0].species[0].lai"), std::string::npos);
+    }
+}
+
+TEST(PlotGrowth, OneAndTwoThreadsGrowTheSamePlot) {
+    const PlotSpec spec = makeSpec({"small-colonizer.toml", "small-canopy.toml"});
+    // A row of both species (one shared marker set), and pairs of colonizers (three
+    // independent marker sets, grown in parallel).
+    for (const PlotLayout& layout : {row(6, 2.5, -1), pairs(3, 2.4, 8.0)}) {
+        std::string one, two;
+        tbb::task_arena(1).execute([&] { one = serialize(growPlot(spec, layout, nullptr, true)); });
+        tbb::task_arena(2).execute([&] { two = serialize(growPlot(spec, layout, nullptr, true)); });
+        const std::string serial = serialize(growPlot(spec, layout, nullptr, false));
+        EXPECT_FALSE(one.empty());
+        EXPECT_TRUE(one == two);
+        EXPECT_TRUE(one == serial);
+    }
+}
+
+TEST(PlotGrowth, CrownStatisticsHaveKnownAnswers) {
+    // Two trees made by hand: leaves on a disc of radius 1 round (0, 0) and (1, 0).
+    PlotSpec spec = makeSpec({"small-colonizer.toml"});
+    GrownPlot plot;
+    plot.spec = &spec;
+    for (int k = 0; k < 2; ++k) {
+        PlotTree t;
+        t.stem.id = k + 1;
+        t.stem.base = {double(k), 0, 0};
+        t.grown.tree.nodes.push_back(SkeletonNode{});
+        t.grown.tree.nodes[0].position = t.stem.base;
+        for (int a = 0; a < 360; a += 2) {
+            Leaf l;
+            const double th = a * kPi / 180;
+            l.position = {k + std::cos(th), 2.0, std::sin(th)};
+            t.grown.tree.leaves.push_back(l);
+        }
+        plot.trees.push_back(t);
+    }
+    const auto overlaps = crownOverlaps(plot, 0.01);
+    ASSERT_EQ(overlaps.size(), 1u);
+    // Two unit discs 1 apart share 2π/3 − √3/2 of their π.
+    EXPECT_NEAR(overlaps[0].fraction, (2 * kPi / 3 - std::sqrt(3.0) / 2) / kPi, 0.01);
+    const auto asym = crownAsymmetry(plot);
+    EXPECT_NEAR(asym[0].neighbours.x, -1.0, 1e-12);  // from tree 2 (at +x) toward tree 1
+    EXPECT_NEAR(asym[1].neighbours.x, 1.0, 1e-12);
+    EXPECT_NEAR(asym[0].offset.x, 0.0, 1e-9);
+    // Shift tree 1's leaves toward −x: offset (−0.5, 0) against neighbours (−1, 0): cosine 1;
+    // tree 2 still centred: not counted.
+    for (Leaf& l : plot.trees[0].grown.tree.leaves) l.position.x -= 0.5;
+    EXPECT_NEAR(crownNeighbourCosine(crownAsymmetry(plot)), 1.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace sylva

@@ -1,0 +1,107 @@
+// Reading [[plot]] tables (species/plot/plot_spec.h through loadDataset): every key lands in
+// PlotSpec with its unit converted, the defaults are the documented ones, and a plots-only
+// dataset is a dataset. Bad plot specs are tests/cli/plot_cli_test.cpp's.
+#include "species/plot/plot_spec.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "pipeline/build/dataset.h"
+
+namespace sylva {
+namespace {
+
+const std::string kPlotData = std::string(SYLVA_SOURCE_DIR) + "/tests/data/plot/";
+
+TEST(PlotSpec, ReadsEveryKey) {
+    const toml::table t = parseTomlFile(kPlotData + "plots.toml");
+    EXPECT_TRUE(isDatasetFile(t));  // [[plot]] without [[species]]
+    const DatasetSpec d = loadDataset(kPlotData + "plots.toml");
+    EXPECT_TRUE(d.species.empty());
+    EXPECT_EQ(DatasetInstances(d).size(), 6);  // every plot instance is an instance
+    ASSERT_EQ(d.plots.size(), 5u);
+
+    const PlotSpec& a = d.plots[0];
+    EXPECT_EQ(a.name, "mixed-slope");
+    EXPECT_EQ(a.keyPath, "plot[0]");
+    EXPECT_EQ(a.count, 2);
+    EXPECT_EQ(a.area.shape, PlotArea::Shape::kRectangle);
+    EXPECT_EQ(a.area.width, 40);
+    EXPECT_EQ(a.area.depth, 30);
+    EXPECT_EQ(a.margin, 4);
+    EXPECT_EQ(a.lai, 4.5);
+    EXPECT_TRUE(a.neighbours);
+    EXPECT_EQ(a.terrain.kind, TerrainOptions::Kind::kSlope);
+    EXPECT_NEAR(a.terrain.slopeRad, 15 * kPi / 180, 1e-12);
+    EXPECT_NEAR(a.terrain.aspectRad, kPi / 2, 1e-12);
+    EXPECT_EQ(a.terrain.cell, 0.5);
+    EXPECT_EQ(a.process.kind, PointProcessOptions::Kind::kHardCore);
+    EXPECT_EQ(a.process.minSpacing, 2.5);
+    ASSERT_EQ(a.species.size(), 3u);
+    EXPECT_EQ(a.species[0].species.name, "tiny");
+    EXPECT_EQ(a.species[0].density, 300);
+    EXPECT_EQ(a.species[0].count, -1);
+    EXPECT_TRUE(a.species[0].hasHeight);
+    EXPECT_EQ(a.species[0].crownShyness, 0.15);
+    EXPECT_EQ(a.species[0].maxOverlap, 0.1);
+    EXPECT_EQ(a.species[0].lai, -1);
+    EXPECT_EQ(a.species[1].count, 20);
+    EXPECT_FALSE(a.species[1].understory);
+    EXPECT_TRUE(a.species[2].understory);
+    EXPECT_EQ(a.species[2].keyPath, "plot[0].understory[0]");
+    EXPECT_EQ(a.groundCover.density, 10);
+    EXPECT_EQ(a.groundCover.height, 0.25);
+    EXPECT_EQ(a.groundCover.width, 0.12);
+    EXPECT_NEAR(expectedStems(a.species[0], a.area), 36, 1e-9);
+
+    const PlotSpec& b = d.plots[1];
+    EXPECT_EQ(b.area.shape, PlotArea::Shape::kCircle);
+    EXPECT_EQ(b.area.radius, 15);
+    EXPECT_EQ(b.count, 1);  // default
+    EXPECT_FALSE(b.neighbours);
+    EXPECT_EQ(b.lai, -1);
+    EXPECT_EQ(b.species[0].lai, 2);
+    EXPECT_EQ(b.terrain.kind, TerrainOptions::Kind::kNoise);
+    EXPECT_EQ(b.terrain.amplitude, 3);
+    EXPECT_EQ(b.terrain.wavelength, 25);
+    EXPECT_EQ(b.terrain.octaves, 4);
+    EXPECT_EQ(b.process.kind, PointProcessOptions::Kind::kStrauss);
+    EXPECT_EQ(b.process.interaction, 0.2);
+
+    const PlotSpec& c = d.plots[2];
+    EXPECT_EQ(c.process.kind, PointProcessOptions::Kind::kThomas);
+    EXPECT_EQ(c.process.parentDensity, 20);
+    EXPECT_EQ(c.process.clusterSigma, 4);
+    EXPECT_EQ(c.area.width, 50);  // defaults
+    EXPECT_EQ(c.area.depth, 50);
+    EXPECT_EQ(c.margin, 5);
+    EXPECT_EQ(c.terrain.kind, TerrainOptions::Kind::kFlat);
+    EXPECT_EQ(c.species[0].crownShyness, 0.1);
+    EXPECT_EQ(c.species[0].maxOverlap, 0.05);
+
+    const PlotSpec& e = d.plots[3];
+    EXPECT_EQ(e.process.kind, PointProcessOptions::Kind::kRows);
+    EXPECT_EQ(e.process.rowSpacing, 3);
+    EXPECT_EQ(e.process.stemSpacing, 2);
+    EXPECT_NEAR(e.process.rowAzimuthRad, kPi / 6, 1e-12);
+    EXPECT_EQ(e.process.jitter, 0.2);
+
+    EXPECT_EQ(plotInstanceId("stand", 7), "stand-00007");
+}
+
+// The DEM's keys; its bytes join the dataset fingerprint (a changed DEM is a changed dataset).
+TEST(PlotSpec, DemKeysAndFingerprint) {
+    const DatasetSpec d = loadDataset(kPlotData + "dem.toml");
+    const TerrainOptions& t = d.plots[0].terrain;
+    EXPECT_EQ(t.kind, TerrainOptions::Kind::kDem);
+    EXPECT_NE(t.demPath.find("dem_plane.png"), std::string::npos);
+    EXPECT_EQ(t.metresPerPixel, 0.5);
+    EXPECT_EQ(t.heightScale, 0.01);
+    EXPECT_EQ(t.heightOffset, -20);
+    EXPECT_EQ(t.cell, 1);
+    EXPECT_EQ(d.fingerprint.size(), 16u);
+}
+
+}  // namespace
+}  // namespace sylva
