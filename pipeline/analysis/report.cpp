@@ -172,7 +172,8 @@ std::vector<Record> readManifest(const fs::path& dir, size_t& skipped,
         while (std::getline(in, line)) {
             if (line.empty()) continue;
             json j = json::parse(line, nullptr, false);
-            if (j.is_discarded() || !j.is_object() || !j.contains("species")) {
+            if (j.is_discarded() || !j.is_object() ||
+                !(j.contains("species") || j.contains("plot"))) {
                 ++skipped;  // a torn last line of a killed build
                 continue;
             }
@@ -192,8 +193,9 @@ std::vector<Record> readManifest(const fs::path& dir, size_t& skipped,
     }
     for (const json& j : raw) {
         Record r;
-        r.species =
-            j["species"].is_string() ? j["species"].get<std::string>() : j["species"].dump();
+        // A plot's record is grouped under its plot's name, as sylva stats does.
+        const json& group = j.contains("species") ? j["species"] : j["plot"];
+        r.species = group.is_string() ? group.get<std::string>() : group.dump();
         r.id = j.value("id", std::string());
         if (j.contains("stats") && j["stats"].is_object()) {
             for (const auto& [k, v] : j["stats"].items()) {

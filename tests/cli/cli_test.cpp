@@ -392,6 +392,11 @@ TEST(CliPlots, ThreadsShardsMergeAndResumeGiveTheSameBytes) {
     const std::string table = slurp(t / "t1" / "stats" / "species.csv");
     EXPECT_NE(table.find("tiny-slope,"), std::string::npos) << table.substr(0, 400);
     EXPECT_NE(table.find("stems_per_ha"), std::string::npos) << table.substr(0, 400);
+    // report: the plots are groups of the report too (6 records: 3 trees, 3 plots).
+    RunResult report = run({"report", (t / "t1").string()}, t.path());
+    ASSERT_EQ(report.code, 0) << describe(report);
+    EXPECT_NE((report.out + report.err).find("6 instances, 3 species"), std::string::npos)
+        << report.out << report.err;
 }
 
 // --- 3. resume after a kill ------------------------------------------------------------------
