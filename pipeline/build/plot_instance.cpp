@@ -1,5 +1,6 @@
 #include "pipeline/build/plot_instance.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -146,7 +147,22 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     const double cosine = crownNeighbourCosine(crownAsymmetry(plot));
     // 0.1 m cells, as canopy cover's: the default (1/50 of the smallest crown radius) made the
     // hectare of PlotBuild/1ha take 49 s instead of 43.
-    const double overlap = maxCrownOverlap(crownOverlaps(plot, 0.1));
+    // Among the canopy's crowns: an understory crown under a canopy tree overlaps it wholly,
+    // as it should.
+    std::vector<CrownOverlap> pairs = crownOverlaps(plot, 0.1);
+    auto understory = [&](int32_t id) {
+        for (const PlotTree& t : plot.trees) {
+            if (t.stem.id == id) {
+                return plot.spec && plot.spec->species[size_t(t.stem.species)].understory;
+            }
+        }
+        return false;
+    };
+    pairs.erase(
+        std::remove_if(pairs.begin(), pairs.end(),
+                       [&](const CrownOverlap& o) { return understory(o.a) || understory(o.b); }),
+        pairs.end());
+    const double overlap = maxCrownOverlap(pairs);
     statsJson["crown_neighbour_cosine"] = cosine;
     statsJson["max_crown_overlap"] =
         std::isfinite(overlap) ? nlohmann::json(overlap) : nlohmann::json(nullptr);

@@ -31,6 +31,16 @@ double drawHeight(const PlotSpecies& s, uint64_t seed) {
     return p.number("v", Range::leftOpen(0, 200));
 }
 
+// The stem's slenderness (its own stream: keyed by the key path, as every draw).
+double drawSlenderness(const PlotSpecies& s, uint64_t seed) {
+    if (!s.hasSlenderness) return 0.0;
+    DrawContext draw;
+    draw.seed = seed;
+    draw.draw = true;
+    Params p(s.slenderness, s.where.file, s.keyPath + ".slenderness", &draw);
+    return p.number("v", Range::closed(10, 300));
+}
+
 }  // namespace
 
 PlotLayout layoutPlot(const PlotSpec& spec, uint64_t plotSeed) {
@@ -46,6 +56,7 @@ PlotLayout layoutPlot(const PlotSpec& spec, uint64_t plotSeed) {
         stem.base = Vec3(p.x, layout.terrain.height(p.x, p.y), p.y);
         stem.seed = plotTreeSeed(plotSeed, stem.id);
         stem.targetHeight = drawHeight(spec.species[size_t(species)], stem.seed);
+        stem.slenderness = drawSlenderness(spec.species[size_t(species)], stem.seed);
         layout.stems.push_back(stem);
     };
 

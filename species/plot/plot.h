@@ -72,6 +72,11 @@ struct PlotSpecies {
     // draw (metres); ≤ 0: the height it grew to.
     toml::table height;  // holder["v"]: a number or a distribution, drawn per stem
     bool hasHeight = false;
+    // Stand slenderness: height / DBH (m/m; number or distribution, drawn per stem). The stem's
+    // radii are scaled (every node by one factor, so the pipe model's proportions stay) to give
+    // DBH = height / slenderness; absent: the grown tree's (open-grown) proportions.
+    toml::table slenderness;
+    bool hasSlenderness = false;
     double lai = -1;            // this species' share of the plot's LAI (m²/m²); < 0: none
     double crownShyness = 0.1;  // gap between crowns, fraction of the crown radius
     double maxOverlap = 0.05;   // crown overlap threshold (fraction of crown projection area)
@@ -124,6 +129,7 @@ struct PlotStem {
     int32_t species = 0;      // index into PlotSpec::species
     Vec3 base;                // x, terrain height, z
     double targetHeight = 0;  // metres; ≤ 0: as grown
+    double slenderness = 0;   // height / DBH to give the stem; ≤ 0: as grown
     uint64_t seed = 0;        // the tree's own seed (hashed from the plot seed and id)
 };
 

@@ -30,6 +30,7 @@
 #include "core/errors.h"
 #include "species/methods/space_colonization.h"
 #include "species/model/leaf_shape.h"
+#include "species/plot/inventory.h"
 
 namespace sylva {
 
@@ -118,6 +119,17 @@ void scaleLeaves(Tree& tree, double k) {
 }
 
 std::string fmt(double v) { return formatNumber(v, 4); }
+
+// A stand-grown stem (`slenderness` = height / DBH, e.g. 60–100 for trees of a closed stand
+// against 30–50 open-grown; Wonn & O'Hara 2001): every node's radius times one factor, so the
+// DBH at 1.3 m (measureTree) is height / slenderness and the pipe model's proportions stay. A
+// tree shorter than 1.3 m has no DBH and keeps its radii.
+void standSlenderness(Tree& tree, const Vec3& base, double slenderness) {
+    const TreeRecord m = measureTree(tree, base);
+    if (!(m.dbh > 0) || !(m.height > 0)) return;
+    const double k = m.height / slenderness / m.dbh;
+    for (SkeletonNode& n : tree.nodes) n.radius *= k;
+}
 
 // Reaching the LAI targets (plot_growth.h).
 void reachLai(const PlotSpec& spec, GrownPlot& plot) {
@@ -456,6 +468,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
         const double h = measure(t.grown.tree).height;
         const double s = t.stem.targetHeight > 0 && h > 0 ? t.stem.targetHeight / h : 1.0;
         place(t.grown.tree, t.stem.base, s);
+        if (t.stem.slenderness > 0) standSlenderness(t.grown.tree, t.stem.base, t.stem.slenderness);
         if (!plotClip[i].empty()) {
             pruneTree(t.grown.tree, [&](const Vec3& p) { return insideAll(plotClip[i], p); });
         }

@@ -210,6 +210,11 @@ PlotSpecies readSpecies(Params& e, bool understory, const BudgetTable& budget, b
         ps.height = holderOf(*h);
         ps.hasHeight = true;
     }
+    if (const toml::node* h = e.raw("slenderness")) {
+        e.number("slenderness", Range::closed(10, 300));
+        ps.slenderness = holderOf(*h);
+        ps.hasSlenderness = true;
+    }
     ps.lai = e.has("lai") ? e.number("lai", Range::leftOpen(0, kMaxPlotLai)) : -1.0;
     ps.crownShyness = e.number("crown_shyness", ps.crownShyness, Range::closed(0, 1));
     ps.maxOverlap = e.number("max_overlap", ps.maxOverlap, Range::closed(0, 1));

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/errors.h"
+#include "species/plot/inventory.h"
 #include "species/spec/species.h"
 
 namespace sylva {
@@ -236,6 +237,24 @@ TEST(PlotGrowth, TreesStandVerticalOnTheTerrainAtTheirHeight) {
         EXPECT_NEAR(up.position.x, t.stem.base.x, 1e-6);
         EXPECT_NEAR(up.position.z, t.stem.base.z, 1e-6);
         EXPECT_GT(up.position.y, ground);
+    }
+}
+
+// slenderness: each stem's radii scaled so height / DBH is the drawn value, exactly (radii
+// only: the height stays); without it the trees keep their grown proportions.
+TEST(PlotGrowth, SlendernessSetsHeightOverDbh) {
+    const PlotSpec spec = makeSpec({"small-colonizer.toml"});
+    PlotLayout layout = row(3, 6.0, 0, 0.0, 6.0);
+    const GrownPlot alone = growPlot(spec, layout, nullptr, false);
+    for (size_t k = 0; k < layout.stems.size(); ++k) layout.stems[k].slenderness = 120.0 + 40 * k;
+    const GrownPlot slender = growPlot(spec, layout, nullptr, false);
+    for (size_t k = 0; k < slender.trees.size(); ++k) {
+        const TreeRecord a = measureTree(alone.trees[k].grown.tree, alone.trees[k].stem.base);
+        const TreeRecord m = measureTree(slender.trees[k].grown.tree, slender.trees[k].stem.base);
+        ASSERT_GT(m.dbh, 0.0);
+        EXPECT_NEAR(m.height / m.dbh, 120.0 + 40 * k, 1e-6 * (120.0 + 40 * k)) << k;
+        EXPECT_NEAR(m.height, a.height, 1e-9);
+        EXPECT_GT(std::abs(a.height / a.dbh - m.height / m.dbh), 1.0) << "unchanged: " << k;
     }
 }
 
