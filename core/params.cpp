@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "core/rng.h"
 
@@ -22,6 +23,13 @@ bool Range::contains(double v) const {
     if (unboundedBelow(*this) && v < -kMaxSpecMagnitude) return false;
     if (unboundedAbove(*this) && v > kMaxSpecMagnitude) return false;
     return true;
+}
+
+std::string fileBytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
 }
 
 std::string formatNumber(double v, int significantDigits) {

@@ -24,6 +24,9 @@
 
 namespace sylva {
 
+// A file's bytes ("" when it cannot be read): what a spec's fingerprint hashes.
+std::string fileBytes(const std::string& path);
+
 // A number for an error message: printf "%.*g" with `significantDigits` digits.
 std::string formatNumber(double v, int significantDigits = 12);
 

@@ -43,13 +43,6 @@ std::string valueText(const toml::node& n) {
     return "?";
 }
 
-std::string fileBytes(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 SweepAxis parseSweep(Params& p) {
     SweepAxis a;
     a.where = p.whereTable();
@@ -552,7 +545,7 @@ InstanceJob DatasetInstances::operator[](int64_t position) const {
         j.datasetBudget = &spec_->budget;
         j.index = position - start_[s];
         j.seed = plotSeed(spec_->seed, p.name, j.index);
-        j.id = instanceId(p.name, false, 0, j.index);
+        j.id = plotInstanceId(p.name, j.index);
         j.position = position;
         return j;
     }
@@ -579,7 +572,7 @@ std::optional<int64_t> DatasetInstances::find(std::string_view id) const {
         if (it->second >= spec_->species.size()) {  // a plot
             const PlotSpec& p = spec_->plots[it->second - spec_->species.size()];
             const auto index = parseDigits(id.substr(dash + 1));
-            if (!index || *index >= p.count || instanceId(p.name, false, 0, *index) != id) continue;
+            if (!index || *index >= p.count || plotInstanceId(p.name, *index) != id) continue;
             return start_[it->second] + *index;
         }
         const SpeciesEntry& e = spec_->species[it->second];

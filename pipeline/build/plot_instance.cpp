@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <set>
 
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/image_codecs.h"
@@ -150,14 +151,14 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     // Among the canopy's crowns: an understory crown under a canopy tree overlaps it wholly,
     // as it should.
     std::vector<CrownOverlap> pairs = crownOverlaps(plot, 0.1);
-    auto understory = [&](int32_t id) {
-        for (const PlotTree& t : plot.trees) {
-            if (t.stem.id == id) {
-                return plot.spec && plot.spec->species[size_t(t.stem.species)].understory;
-            }
+    std::set<int32_t> understoryIds;
+    for (const PlotTree& t : plot.trees) {
+        const auto k = static_cast<size_t>(t.stem.species);  // (hand-made plots: no spec)
+        if (plot.spec && k < plot.spec->species.size() && plot.spec->species[k].understory) {
+            understoryIds.insert(t.stem.id);
         }
-        return false;
-    };
+    }
+    auto understory = [&](int32_t id) { return understoryIds.count(id) > 0; };
     pairs.erase(
         std::remove_if(pairs.begin(), pairs.end(),
                        [&](const CrownOverlap& o) { return understory(o.a) || understory(o.b); }),

@@ -58,8 +58,9 @@ BoundingSphere treeBoundingSphere(const Tree& tree) {
     return sphere;
 }
 
-NgpPlacement ngpPlacement(const Tree& tree) {
-    const BoundingSphere sphere = treeBoundingSphere(tree);
+NgpPlacement ngpPlacement(const Tree& tree) { return ngpPlacement(treeBoundingSphere(tree)); }
+
+NgpPlacement ngpPlacement(const BoundingSphere& sphere) {
     NgpPlacement p;
     p.scale = 1.0 / (2.0 * kNgpCubeMargin * sphere.radius);
     p.offset = Vec3{0.5, 0.5, 0.5} - sphere.centre * p.scale;

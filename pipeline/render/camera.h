@@ -77,5 +77,7 @@ struct NgpPlacement {
     Vec3 offset;         // cube units, in sylva's axes (added before the axis cycle)
 };
 NgpPlacement ngpPlacement(const Tree& tree);
+// The same for any sphere (a plot's: plot_render.h).
+NgpPlacement ngpPlacement(const BoundingSphere& sphere);
 
 }  // namespace sylva

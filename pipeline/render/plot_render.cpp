@@ -150,13 +150,7 @@ std::vector<Camera> makePlotCameras(const GrownPlot& plot, const ViewOptions& op
     return cameras;
 }
 
-NgpPlacement plotNgpPlacement(const GrownPlot& plot) {
-    const BoundingSphere sphere = plotSphere(plot);
-    NgpPlacement p;
-    p.scale = 1.0 / (2.0 * kNgpCubeMargin * sphere.radius);
-    p.offset = Vec3{0.5, 0.5, 0.5} - sphere.centre * p.scale;
-    return p;
-}
+NgpPlacement plotNgpPlacement(const GrownPlot& plot) { return ngpPlacement(plotSphere(plot)); }
 
 namespace {
 

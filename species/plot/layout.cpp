@@ -22,23 +22,16 @@ int64_t stemCount(const PlotSpecies& s, const PlotArea& area, bool poisson, Rng 
     return poisson ? poissonCount(mean, rng) : static_cast<int64_t>(std::llround(mean));
 }
 
-double drawHeight(const PlotSpecies& s, uint64_t seed) {
-    if (!s.hasHeight) return 0.0;
+// A stem's draw of a species' per-stem number (`holder`["v"], the species' `key`), from the
+// stem's seed; each key its own stream (keyed by the key path, as every draw). 0 when absent.
+double drawPerStem(const PlotSpecies& s, bool present, const toml::table& holder, const char* key,
+                   const Range& range, uint64_t seed) {
+    if (!present) return 0.0;
     DrawContext draw;
     draw.seed = seed;
     draw.draw = true;
-    Params p(s.height, s.where.file, s.keyPath + ".height", &draw);
-    return p.number("v", Range::leftOpen(0, 200));
-}
-
-// The stem's slenderness (its own stream: keyed by the key path, as every draw).
-double drawSlenderness(const PlotSpecies& s, uint64_t seed) {
-    if (!s.hasSlenderness) return 0.0;
-    DrawContext draw;
-    draw.seed = seed;
-    draw.draw = true;
-    Params p(s.slenderness, s.where.file, s.keyPath + ".slenderness", &draw);
-    return p.number("v", Range::closed(10, 300));
+    Params p(holder, s.where.file, s.keyPath + "." + key, &draw);
+    return p.number("v", range);
 }
 
 }  // namespace
@@ -55,8 +48,11 @@ PlotLayout layoutPlot(const PlotSpec& spec, uint64_t plotSeed) {
         stem.species = species;
         stem.base = Vec3(p.x, layout.terrain.height(p.x, p.y), p.y);
         stem.seed = plotTreeSeed(plotSeed, stem.id);
-        stem.targetHeight = drawHeight(spec.species[size_t(species)], stem.seed);
-        stem.slenderness = drawSlenderness(spec.species[size_t(species)], stem.seed);
+        const PlotSpecies& s = spec.species[size_t(species)];
+        stem.targetHeight =
+            drawPerStem(s, s.hasHeight, s.height, "height", Range::leftOpen(0, 200), stem.seed);
+        stem.slenderness = drawPerStem(s, s.hasSlenderness, s.slenderness, "slenderness",
+                                       Range::closed(10, 300), stem.seed);
         layout.stems.push_back(stem);
     };
 

@@ -29,13 +29,6 @@ std::string plotInstanceId(const std::string& plotName, int64_t index) {
 
 namespace {
 
-std::string fileBytes(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 std::string number(double v) { return formatNumber(v, 4); }
 
 // A key that only applies to some kinds (of terrain, process or shape) is an error elsewhere:
