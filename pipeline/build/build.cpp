@@ -204,6 +204,10 @@ void writeDatasetJson(const DatasetSpec& spec, const BuildOptions& o, const fs::
         for (const PlotSpec& p : spec.plots) {
             nlohmann::json j;
             j["name"] = p.name;
+            if (!p.sweptFrom.empty()) {
+                j["swept_from"] = p.sweptFrom;
+                j["sweep"] = p.sweep;
+            }
             j["count"] = p.count;
             j["area_m2"] = p.area.area();
             nlohmann::json mix = nlohmann::json::array();

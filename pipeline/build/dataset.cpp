@@ -48,6 +48,11 @@ SweepAxis parseSweep(Params& p) {
     a.where = p.whereTable();
     a.path = p.string("path");
     a.species = p.stringArray("species");
+    a.plots = p.stringArray("plots");  // an axis over plots' own keys (docs/plots.md, "Sweeps")
+    if (p.has("species") && p.has("plots")) {
+        p.fail("plots", "expected either species or plots for one axis, not both");
+    }
+    if (p.has("plots") && a.plots.empty()) p.fail("plots", "expected at least one plot name");
     // same_seed: every point of this axis grows from the same instance seeds, so only the
     // swept parameter differs (e.g. grammar.max_depth → growth stages of one tree).
     a.sameSeed = p.boolean("same_seed", false);
@@ -297,8 +302,9 @@ void checkViewPixels(Params& v, const ViewOptions& vo, const BudgetTable& table)
 void expandSweepPoints(SpeciesEntry& entry, const std::vector<SweepAxis>& sweeps, bool meshed) {
     std::vector<const SweepAxis*> axes;
     for (const SweepAxis& a : sweeps) {
-        if (a.species.empty() ||
-            std::find(a.species.begin(), a.species.end(), entry.species.name) != a.species.end()) {
+        if (a.plots.empty() &&
+            (a.species.empty() || std::find(a.species.begin(), a.species.end(),
+                                            entry.species.name) != a.species.end())) {
             for (const SweepAxis* b : axes) {
                 if (b->path == a.path) {
                     throw SpecError(a.where, "sweep.path",
@@ -421,6 +427,93 @@ void checkPlotName(const DatasetSpec& d, const Params& p) {
     }
 }
 
+// A plot's sweep points: the cartesian product of the axes naming it, each point the plot read
+// again from the dataset with the axes' values over its keys (overrides at "plot[k].<path>"),
+// named "<plot>-p<point>". Every axis path must be a key the plot reads.
+constexpr size_t kMaxPlotSweepPoints = 10000;
+
+void expandPlotSweeps(DatasetSpec& d, std::vector<Params>& plots, DrawContext& draw, bool meshed,
+                      std::string& fingerprintBytes) {
+    std::set<std::string> named;
+    for (size_t k = 0; k < plots.size(); ++k) {
+        PlotSpec base = readPlot(plots[k], d.budget, meshed, fingerprintBytes);
+        named.insert(base.name);
+        std::vector<const SweepAxis*> axes;
+        for (const SweepAxis& a : d.sweeps) {
+            if (std::find(a.plots.begin(), a.plots.end(), base.name) == a.plots.end()) continue;
+            for (const SweepAxis* b : axes) {
+                if (b->path == a.path) {
+                    throw SpecError(a.where, "sweep.path",
+                                    "\"" + a.path + "\" is already swept (at " + b->where.str() +
+                                        ") for plot \"" + base.name + "\"");
+                }
+            }
+            axes.push_back(&a);
+        }
+        if (axes.empty()) {
+            d.plots.push_back(std::move(base));
+            checkPlotName(d, plots[k]);
+            continue;
+        }
+        size_t total = 1;
+        for (const SweepAxis* a : axes) {
+            total *= a->values.size();
+            if (total > kMaxPlotSweepPoints) {
+                throw SpecError(a->where, "sweep", "expected at most 10⁴ sweep points per plot");
+            }
+        }
+        const std::string prefix = plots[k].prefix() + ".";
+        for (size_t point = 0; point < total; ++point) {
+            Overrides ov;
+            std::map<std::string, std::string> values;
+            std::string seedKey;
+            size_t rest = point;
+            for (const SweepAxis* a : axes) {
+                const size_t v = rest % a->values.size();
+                rest /= a->values.size();
+                Override o;
+                o.holder = a->values[v];
+                o.where = a->where;
+                ov[prefix + a->path] = std::move(o);
+                values[a->path] = a->labels[v];
+                if (!a->sameSeed) {
+                    seedKey += (seedKey.empty() ? "" : ";") + a->path + "=" + a->labels[v];
+                }
+            }
+            Params again(*d.table, d.path, "", &draw, &ov);
+            again.documentAs("dataset");
+            std::vector<Params> tables = again.tableArray("plot");
+            std::string scratch;  // the species files are in the fingerprint already
+            PlotSpec s = readPlot(tables[k], d.budget, meshed, scratch);
+            for (const auto& [full, o] : ov) {
+                if (!o.used) {
+                    throw SpecError(o.where, "sweep.path",
+                                    "\"" + full.substr(prefix.size()) +
+                                        "\" is not a key of plot \"" + base.name + "\" (" +
+                                        plots[k].prefix() + ")");
+                }
+            }
+            char suffix[32];
+            std::snprintf(suffix, sizeof suffix, "-p%03zu", point);
+            s.sweptFrom = base.name;
+            s.name = base.name + suffix;
+            s.seedKey = std::move(seedKey);
+            s.sweep = std::move(values);
+            d.plots.push_back(std::move(s));
+            checkPlotName(d, plots[k]);
+        }
+    }
+    for (const SweepAxis& a : d.sweeps) {
+        for (const std::string& n : a.plots) {
+            if (named.count(n)) continue;
+            std::string hint;
+            if (auto c = closestWord(n, named)) hint = "; did you mean \"" + *c + "\"?";
+            throw SpecError(a.where, "sweep.plots",
+                            "no plot named \"" + n + "\" in this dataset" + hint);
+        }
+    }
+}
+
 }  // namespace
 
 DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
@@ -459,10 +552,7 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
         entry.budget = d.budget;
         expandSweepPoints(entry, d.sweeps, meshed);
     }
-    for (Params& plot : plots) {
-        d.plots.push_back(readPlot(plot, d.budget, meshed, fingerprintBytes));
-        checkPlotName(d, plot);
-    }
+    expandPlotSweeps(d, plots, draw, meshed, fingerprintBytes);
     checkInstanceTotal(d);
     checkIdsUnique(d);
     char fingerprint[17];
@@ -472,9 +562,11 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
     return d;
 }
 
-uint64_t plotSeed(uint64_t datasetSeed, const std::string& plot, int64_t index) {
-    // "plot:" keeps a plot's seeds apart from a species' of the same name.
-    return instanceSeed(datasetSeed, "plot:" + plot, "", index);
+uint64_t plotSeed(uint64_t datasetSeed, const PlotSpec& plot, int64_t index) {
+    // "plot:" keeps a plot's seeds apart from a species' of the same name; a sweep point's
+    // seeds hash the [[plot]] name and the point's seed key (same_seed axes left out of it).
+    const std::string& name = plot.sweptFrom.empty() ? plot.name : plot.sweptFrom;
+    return instanceSeed(datasetSeed, "plot:" + name, plot.seedKey, index);
 }
 
 std::string instanceId(const std::string& species, bool swept, int pointIndex, int64_t index) {
@@ -544,7 +636,7 @@ InstanceJob DatasetInstances::operator[](int64_t position) const {
         j.plot = &p;
         j.datasetBudget = &spec_->budget;
         j.index = position - start_[s];
-        j.seed = plotSeed(spec_->seed, p.name, j.index);
+        j.seed = plotSeed(spec_->seed, p, j.index);
         j.id = plotInstanceId(p.name, j.index);
         j.position = position;
         return j;

@@ -24,7 +24,8 @@ namespace sylva {
 
 struct SweepAxis {
     std::string path;                  // parameter path, e.g. "levels[1].endpoints"
-    std::vector<std::string> species;  // species it applies to (empty: all)
+    std::vector<std::string> species;  // species it applies to (empty: all, unless `plots`)
+    std::vector<std::string> plots;    // plots it applies to, instead of species (their keys)
     std::vector<toml::table> values;   // each value in holder["v"]
     std::vector<std::string> labels;   // value as text, for ids and the manifest
     SourcePos where;
@@ -148,8 +149,9 @@ std::string instanceId(const std::string& species, bool swept, int pointIndex, i
 uint64_t instanceSeed(uint64_t datasetSeed, const std::string& species, const std::string& pointKey,
                       int64_t index);
 
-// A plot instance's seed: a hash of (dataset seed, "plot:" + plot name, index).
-uint64_t plotSeed(uint64_t datasetSeed, const std::string& plot, int64_t index);
+// A plot instance's seed: a hash of (dataset seed, "plot:" + the [[plot]] name, the sweep
+// point's seed key ("" unswept), index).
+uint64_t plotSeed(uint64_t datasetSeed, const PlotSpec& plot, int64_t index);
 
 // Whether a TOML file is a dataset (has [[species]]) rather than a species file.
 bool isDatasetFile(const toml::table& t);

@@ -153,6 +153,7 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
         w.record["id"] = job.id;
         w.record["kind"] = "plot";
         w.record["plot"] = job.plot->name;
+        if (!job.plot->sweptFrom.empty()) w.record["sweep"] = job.plot->sweep;
         w.record["index"] = job.index;
         w.record["seed"] = hex64(job.seed);
         w.writeMs = msSince(t0);

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -101,6 +102,11 @@ struct PlotSpec {
     GroundCoverOptions groundCover;
     double lai = -1;  // the plot's leaf area index target (m² one-sided leaf / m² ground); < 0
     bool neighbours = true;  // grow in a shared environment (false: each tree alone)
+    // A sweep point of a swept plot ([[sweep]] with `plots`): `name` is "<plot>-p<point>", the
+    // [[plot]] table's name is `sweptFrom`; all three empty for a plot no axis sweeps.
+    std::string sweptFrom;
+    std::string seedKey;                       // "path=value;…" of the axes that change seeds
+    std::map<std::string, std::string> sweep;  // swept key path -> value text (the manifest's)
 };
 
 // The terrain as a heightfield (terrain.h builds it from TerrainOptions and the plot's seed).

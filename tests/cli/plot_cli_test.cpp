@@ -12,6 +12,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -121,6 +124,62 @@ TEST(PlotValidate, PlotsOnlyDatasetIsValid) {
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_NE(r.out.find("0 species, 6 instances, 5 plots (6 plot instances)"), std::string::npos)
         << r.out;
+}
+
+// The columns of a tree table that leaves do not change (id, name, species, base, DBH, crown
+// base, nearest-neighbour distance): heights, crown radii and leaf areas include the leaves,
+// which a same_seed LAI axis scales.
+std::string woodColumns(const std::string& csv) {
+    std::string out, line;
+    std::istringstream in(csv);
+    while (std::getline(in, line)) {
+        std::vector<std::string> cells;
+        std::istringstream cs(line);
+        for (std::string c; std::getline(cs, c, ',');) cells.push_back(c);
+        for (size_t k : {0, 1, 2, 3, 4, 5, 7, 8, 17})
+            out += (k < cells.size() ? cells[k] : "?") + ",";
+        out += "\n";
+    }
+    return out;
+}
+
+// A swept plot builds one plot per point: the manifest records the point's values, the LAI of
+// each point is its swept value (within 5 %), points of the same_seed axis stand the same stems
+// (the tree tables' wood columns equal), points of the other axis do not.
+TEST(PlotSweepBuild, PointsBuildWithTheirValues) {
+    TempDir t;
+    const fs::path work = t / "work";
+    fs::create_directories(work);
+    const fs::path out = t / "out";
+    const SylvaRun r = sylva(
+        {"build", (kPlotData / "sweep.toml").string(), "--out", out.string(), "--threads", "2"},
+        work, "b");
+    ASSERT_EQ(r.code, 0) << r.err;
+    std::map<std::string, nlohmann::json> records;
+    std::istringstream manifest(slurp(out / "manifest.jsonl"));
+    for (std::string line; std::getline(manifest, line);) {
+        const nlohmann::json j = nlohmann::json::parse(line);
+        records[j["id"].get<std::string>()] = j;
+    }
+    ASSERT_EQ(records.size(), 6u);
+    const double lai[] = {0.005, 0.01, 0.005, 0.01};
+    for (int k = 0; k < 4; ++k) {
+        const std::string id = "stand-p00" + std::to_string(k) + "-00000";
+        ASSERT_TRUE(records.count(id)) << id;
+        const nlohmann::json& j = records[id];
+        EXPECT_EQ(j["plot"], "stand-p00" + std::to_string(k));
+        EXPECT_EQ(j["sweep"]["species[0].density"], k < 2 ? "200" : "400");
+        EXPECT_NEAR(j["stats"]["lai"].get<double>(), lai[k], 0.05 * lai[k]) << id;
+    }
+    EXPECT_FALSE(records["other-00000"].contains("sweep"));
+    auto table = [&](int k) {
+        const std::string p = "stand-p00" + std::to_string(k);
+        return slurp(out / "plots" / p / (p + "-00000") / "trees.csv");
+    };
+    EXPECT_EQ(woodColumns(table(0)), woodColumns(table(1)));
+    EXPECT_NE(table(0), table(1));  // the leaves were scaled to another LAI
+    EXPECT_EQ(woodColumns(table(2)), woodColumns(table(3)));
+    EXPECT_NE(woodColumns(table(0)), woodColumns(table(2)));
 }
 
 }  // namespace

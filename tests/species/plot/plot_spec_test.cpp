@@ -103,5 +103,44 @@ TEST(PlotSpec, DemKeysAndFingerprint) {
     EXPECT_EQ(d.fingerprint.size(), 16u);
 }
 
+// Sweeps over a plot's own keys: one plot per point, named "<plot>-p<point>", each the plot read
+// with the point's values; same_seed axes leave the seeds alone (the same stand at another LAI),
+// the others change them; species and unswept plots are untouched.
+TEST(PlotSweep, PointsAreThePlotWithTheAxesValues) {
+    const DatasetSpec d = loadDataset(kPlotData + "sweep.toml");
+    ASSERT_EQ(d.species.size(), 1u);
+    EXPECT_EQ(d.species[0].points.size(), 1u);  // plot axes do not apply to species
+    ASSERT_EQ(d.plots.size(), 5u);
+    const double lai[] = {0.005, 0.01, 0.005, 0.01};
+    const double density[] = {200, 200, 400, 400};
+    for (int k = 0; k < 4; ++k) {
+        const PlotSpec& p = d.plots[k];
+        EXPECT_EQ(p.name, "stand-p00" + std::to_string(k));
+        EXPECT_EQ(p.sweptFrom, "stand");
+        EXPECT_EQ(p.keyPath, "plot[0]");
+        EXPECT_EQ(p.lai, lai[k]);
+        EXPECT_EQ(p.species[0].density, density[k]);
+        EXPECT_EQ(p.area.width, 20);  // the rest as written
+        EXPECT_EQ(p.sweep.at("lai"), k % 2 ? "0.01" : "0.005");
+        EXPECT_EQ(p.sweep.at("species[0].density"), k < 2 ? "200" : "400");
+        EXPECT_EQ(p.seedKey, k < 2 ? "species[0].density=200" : "species[0].density=400");
+    }
+    EXPECT_EQ(d.plots[4].name, "other");
+    EXPECT_TRUE(d.plots[4].sweptFrom.empty());
+    EXPECT_TRUE(d.plots[4].sweep.empty());
+
+    const DatasetInstances inst(d);
+    ASSERT_EQ(inst.size(), 1 + 4 + 1);
+    EXPECT_EQ(inst[1].id, "stand-p000-00000");
+    EXPECT_EQ(inst[4].id, "stand-p003-00000");
+    EXPECT_EQ(inst[5].id, "other-00000");
+    EXPECT_EQ(inst.find("stand-p002-00000"), std::optional<int64_t>(3));
+    EXPECT_EQ(inst[1].seed, inst[2].seed);  // lai is same_seed
+    EXPECT_EQ(inst[3].seed, inst[4].seed);
+    EXPECT_NE(inst[1].seed, inst[3].seed);  // density is not
+    // An unswept plot's seed is what it was before sweeps existed.
+    EXPECT_EQ(inst[5].seed, instanceSeed(d.seed, "plot:other", "", 0));
+}
+
 }  // namespace
 }  // namespace sylva
