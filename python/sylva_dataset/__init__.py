@@ -14,23 +14,27 @@ importable. Install: ``pip install -e python/`` (docs/outputs.md, "The Python pa
                                          # faces (F,3) i64, normals, uvs, order, part, colour
         inst.points()                    # positions (P,3) f32, labels i64, views i64
         inst.cameras()                   # transforms.json (dict)
+        inst.scan()                      # scan.las: positions (P,3) f64, classification,
+                                         # tree_id, semantic, … i64 (sylva_dataset.Scan)
         inst.masks(), inst.labels()      # lists of (H, W) uint8 views, in frame order
         inst.depths()                    # list of (H, W) float32 depth views (metres, 0 = none)
 
     from sylva_dataset.pytorch import TreeDataset, ViewDataset   # needs torch
 
-Low-level readers: read_ply, read_png, read_exr, read_mesh (ply / glb / obj).
+Low-level readers: read_ply, read_png, read_exr, read_mesh (ply / glb / obj), read_las.
 """
 
-from .dataset import MESH_FORMATS, Dataset, Instance, PointCloud, Skeleton
+from .dataset import MESH_FORMATS, Dataset, Instance, PointCloud, Scan, Skeleton
 from .exr import read_exr, read_exr_first_channel
+from .las import LasFile, read_las
 from .meshes import Mesh, read_glb, read_mesh, read_obj
 from .ply import read_ply
 from .png import read_png
 
 __version__ = "0.2.0"
 
-__all__ = ["Dataset", "Instance", "Skeleton", "Mesh", "PointCloud", "MESH_FORMATS", "read_ply",
+__all__ = ["Dataset", "Instance", "Skeleton", "Mesh", "PointCloud", "Scan", "MESH_FORMATS", "read_ply",
+           "read_las", "LasFile",
            "read_png", "read_exr", "read_exr_first_channel", "read_mesh", "read_glb", "read_obj",
            "torch_available"]
 

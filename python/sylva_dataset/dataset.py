@@ -9,11 +9,12 @@ from collections import namedtuple
 import numpy as np
 
 from .exr import read_exr_first_channel
+from .las import read_las
 from .meshes import read_mesh
 from .ply import read_ply
 from .png import read_png
 
-__all__ = ["Dataset", "Instance", "Skeleton", "PointCloud", "MESH_FORMATS"]
+__all__ = ["Dataset", "Instance", "Skeleton", "PointCloud", "Scan", "MESH_FORMATS"]
 
 MESH_FORMATS = ("ply", "glb", "obj")  # in the order Instance.mesh picks a default
 MESH_KINDS = ("mesh", "watertight")
@@ -43,6 +44,23 @@ class PointCloud(namedtuple("PointCloud", "positions labels views vertices")):
     labels     (P,) int64, as the label images (1 + order wood, 254 roots, 255 leaves)
     views      (P,) int64 the view each point was seen from
     vertices   the PLY vertex element as read (structured array)
+    """
+
+
+class Scan(namedtuple("Scan", "positions classification tree_id species semantic return_number "
+                               "number_of_returns intensity gps_time branch_order node_id las")):
+    """A simulated laser scan (scan.las, docs/scanning.md) as plain arrays:
+
+    positions          (P, 3) float64 metres, LAS frame (x east, y north, z up)
+    classification     (P,) int64 FOR-instance class: 0 unclassified, 1 low vegetation,
+                       2 terrain, 3 out-points, 4 stem, 5 live branches, 6 woody branches
+    tree_id            (P,) int64 treeID: the tree table's id, 0 = no tree
+    species            (P,) int64 treeSP: species index
+    semantic           (P,) int64 semantic_seg: 1 ground, 2 wood, 3 leaf
+    return_number, number_of_returns, intensity: (P,) int64; gps_time (P,) float64 seconds
+    branch_order       (P,) int64 (0 = stem)
+    node_id            (P,) int64 the skeleton node hit (−1: none)
+    las                the LasFile (header, every field, the Extra Bytes descriptors)
     """
 
 
@@ -126,6 +144,14 @@ class Instance:
         v = read_ply(self.path("points_ply"))["vertex"]
         return PointCloud(_native(np.stack([v["x"], v["y"], v["z"]], axis=1), np.float32),
                           _native(v["label"], np.int64), _native(v["view"], np.int64), v)
+
+    def scan(self):
+        """The simulated laser scan (scan.las; see Scan)."""
+        las = read_las(self.path("scan_las"))
+        f = las.fields
+        return Scan(las.positions, f["classification"], f["treeID"], f["treeSP"],
+                    f["semantic_seg"], f["return_number"], f["number_of_returns"],
+                    f["intensity"], f["gps_time"], f["branch_order"], f["node_id"], las)
 
     def cameras(self):
         """transforms.json: intrinsics and one frame (camera-to-world matrix, files) per view."""
