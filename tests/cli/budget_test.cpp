@@ -24,6 +24,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/cli/cli_support.h"
 #include "tests/test_support.h"
 
 namespace {
@@ -37,64 +38,15 @@ const fs::path kExe = SYLVA_EXE;
 const fs::path kData = kSource / "tests" / "data";
 constexpr int kHang = 60;  // seconds: a run still going then has no working budget
 
-struct RunResult {
-    int code = -1;  // exit status, 128 + signal, or -1 when killed as hung
-    bool hung = false;
-    std::string out, err;
-};
+using RunResult = sylva::test::CliResult;  // hung: killed by the watchdog (no budget stopped it)
 
-std::string describe(const RunResult& r) {
-    return (r.hung ? "killed after " + std::to_string(kHang) + " s (no budget stopped it)"
-                   : "exit " + std::to_string(r.code)) +
-           "\n--- stdout:\n" + r.out + "--- stderr:\n" + r.err;
-}
+using sylva::test::describeRun;
 
-// Runs SYLVA_EXE with `args` in `dir`, killing it (and failing) after kHang seconds.
+// Runs SYLVA_EXE with `args` in `dir`, killing it after kHang seconds (result.hung).
 RunResult run(const std::vector<std::string>& args, const fs::path& dir) {
-    static int counter = 0;
-    const fs::path outFile = dir / ("run" + std::to_string(counter) + ".stdout");
-    const fs::path errFile = dir / ("run" + std::to_string(counter++) + ".stderr");
-    std::vector<std::string> argStore = {kExe.string()};
-    argStore.insert(argStore.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& a : argStore) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    const std::string dirStr = dir.string(), outStr = outFile.string(), errStr = errFile.string();
-    const pid_t pid = ::fork();
-    if (pid == 0) {
-        int o = ::open(outStr.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int e = ::open(errStr.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int in = ::open("/dev/null", O_RDONLY);
-        if (o < 0 || e < 0 || in < 0 || ::dup2(o, 1) < 0 || ::dup2(e, 2) < 0 || ::dup2(in, 0) < 0 ||
-            ::chdir(dirStr.c_str()) != 0) {
-            ::_exit(126);
-        }
-        ::execv(argv[0], argv.data());
-        ::_exit(127);
-    }
-    RunResult r;
-    EXPECT_GT(pid, 0) << "fork failed";
-    if (pid <= 0) return r;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(kHang);
-    int status = 0;
-    for (;;) {
-        const pid_t done = ::waitpid(pid, &status, WNOHANG);
-        if (done == pid) break;
-        if (done < 0 && errno != EINTR) break;
-        if (std::chrono::steady_clock::now() > deadline) {
-            ::kill(pid, SIGKILL);
-            ::waitpid(pid, &status, 0);
-            r.hung = true;
-            break;
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    if (!r.hung) r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    r.out = slurp(outFile);
-    r.err = slurp(errFile);
-    fs::remove(outFile);
-    fs::remove(errFile);
-    return r;
+    sylva::test::CliOptions o;
+    o.watchdog = std::chrono::seconds(kHang);
+    return sylva::test::runSylva(args, dir, o);
 }
 
 void spit(const fs::path& p, const std::string& bytes) {
@@ -164,12 +116,12 @@ TEST_P(CliBudgetBomb, IsAOneLineSpecErrorBeforeAnythingGrows) {
     for (const auto& args : runs) {
         SCOPED_TRACE(args[0]);
         const RunResult r = run(args, t.path());
-        EXPECT_EQ(r.code, 2) << describe(r);
-        EXPECT_EQ(lineCount(r.err), 1u) << describe(r);
-        EXPECT_NE(r.err.find(b.want), std::string::npos) << describe(r);
+        EXPECT_EQ(r.code, 2) << describeRun(r);
+        EXPECT_EQ(lineCount(r.err), 1u) << describeRun(r);
+        EXPECT_NE(r.err.find(b.want), std::string::npos) << describeRun(r);
         EXPECT_NE(r.err.find(std::string("over the budget ") + b.budget), std::string::npos)
-            << describe(r);
-        EXPECT_NE(r.err.find("raise [budget]"), std::string::npos) << describe(r);
+            << describeRun(r);
+        EXPECT_NE(r.err.find("raise [budget]"), std::string::npos) << describeRun(r);
     }
     expectNothingWritten(t.path(), {spec, dataset});
 }
@@ -192,14 +144,14 @@ TEST(CliBudget, ASpeciesRaisesItsBudgets) {
     spit(one, bomb + "\n[budget]\nmax_skeleton_nodes = 2000000\n");
     spit(both, bomb + "\n[budget]\nmax_skeleton_nodes = 20000000\nmax_graph_nodes = 1000000000\n");
     const RunResult r1 = run({"validate", one.string()}, t.path());
-    EXPECT_EQ(r1.code, 2) << describe(r1);
+    EXPECT_EQ(r1.code, 2) << describeRun(r1);
     EXPECT_NE(r1.err.find("one.toml:28:9: levels[1].nodes: the levels up to this one make at "
                           "least ≈ 4.4e7 graph nodes and endpoints (1.0e6 graphs at this level"),
               std::string::npos)
-        << describe(r1);
+        << describeRun(r1);
     EXPECT_NE(r1.err.find("over the budget max_graph_nodes = 4000000"), std::string::npos);
     const RunResult r2 = run({"validate", both.string()}, t.path());
-    EXPECT_EQ(r2.code, 0) << describe(r2);
+    EXPECT_EQ(r2.code, 0) << describeRun(r2);
 }
 
 // tiny.toml whose [budget] lets it pass the estimate (61 endpoints at least) but not grow
@@ -230,17 +182,17 @@ TEST(CliBudget, ATreeOverItsBudgetFailsAloneAndIsLeftOutOfTheManifest) {
              (kData / "tiny.toml").string() + "'\ncount = 2\n");
     const fs::path out = t / "out";
     const RunResult r = run({"build", spec.string(), "--out", out.string()}, t.path());
-    EXPECT_EQ(r.code, 1) << describe(r);
+    EXPECT_EQ(r.code, 1) << describeRun(r);
     for (const char* id : {"limited-00000", "limited-00001"}) {
         EXPECT_NE(r.err.find(std::string("sylva: ") + id +
                              ": budget max_skeleton_nodes = 100 exceeded: "),
                   std::string::npos)
-            << describe(r);
+            << describeRun(r);
     }
     EXPECT_NE(r.err.find("sylva: mixed: failed: limited-00000, limited-00001\n"), std::string::npos)
-        << describe(r);
+        << describeRun(r);
     EXPECT_NE(r.err.find("2 built, 0 already there, 2 failed of 4"), std::string::npos)
-        << describe(r);
+        << describeRun(r);
     EXPECT_EQ(manifestIds(out / "manifest.jsonl"),
               (std::vector<std::string>{"tiny-00000", "tiny-00001"}));
     EXPECT_FALSE(fs::exists(out / "trees" / "limited"));
@@ -252,7 +204,7 @@ TEST(CliBudget, ATreeOverItsBudgetFailsAloneAndIsLeftOutOfTheManifest) {
     const fs::path raised = t / "raised.toml";
     spit(raised, slurp(spec) + "[budget]\nmax_skeleton_nodes = 1000000\n");
     const RunResult ok = run({"build", raised.string(), "--out", (t / "out2").string()}, t.path());
-    EXPECT_EQ(ok.code, 0) << describe(ok);
+    EXPECT_EQ(ok.code, 0) << describeRun(ok);
     EXPECT_EQ(manifestIds(t / "out2" / "manifest.jsonl").size(), 4u);
 }
 
@@ -262,14 +214,14 @@ TEST(CliBudget, GrowOverItsTimeBudgetExitsOneAndWritesNothing) {
     spit(spec, tinyWithBudget("slow", "max_growth_seconds = 1e-9"));
     const fs::path out = t / "grown";
     const RunResult r = run({"grow", spec.string(), "--out", out.string()}, t.path());
-    EXPECT_EQ(r.code, 1) << describe(r);
-    EXPECT_EQ(lineCount(r.err), 1u) << describe(r);
+    EXPECT_EQ(r.code, 1) << describeRun(r);
+    EXPECT_EQ(lineCount(r.err), 1u) << describeRun(r);
     EXPECT_NE(
         r.err.find(
             "sylva: grow: slow seed 1: budget max_growth_seconds = 1e-09 exceeded: still growing"),
         std::string::npos)
-        << describe(r);
-    EXPECT_TRUE(r.out.empty()) << describe(r);
+        << describeRun(r);
+    EXPECT_TRUE(r.out.empty()) << describeRun(r);
     EXPECT_FALSE(fs::exists(out));
 }
 

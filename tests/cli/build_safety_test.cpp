@@ -26,6 +26,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/cli/cli_support.h"
 #include "tests/test_support.h"
 
 namespace {
@@ -70,15 +71,8 @@ fs::path writeSpec(const fs::path& dir, int count, const std::string& extraOutpu
 
 // --- running the CLI -------------------------------------------------------------------------
 
-struct RunResult {
-    int code = -1;  // exit status, or 128 + signal number
-    std::string out, err;
-};
-
-struct Child {
-    pid_t pid = -1;
-    fs::path outFile, errFile;
-};
+using RunResult = sylva::test::CliResult;
+using Child = sylva::test::CliChild;
 
 // Starts `sylva args…` in `dir`; fileSizeLimit > 0 sets RLIMIT_FSIZE (bytes) in the child
 // first, as `ulimit -f` would (SIGXFSZ keeps its default action: sylva must handle it). With a
@@ -86,69 +80,19 @@ struct Child {
 // children start at the same moment.
 Child spawn(const std::vector<std::string>& args, const fs::path& dir, rlim_t fileSizeLimit = 0,
             const int* gate = nullptr) {
-    static std::atomic<int> counter{0};
-    Child c;
-    const int n = counter++;
-    c.outFile = dir / ("run" + std::to_string(n) + ".stdout");
-    c.errFile = dir / ("run" + std::to_string(n) + ".stderr");
-    std::vector<std::string> argStore = {kExe.string()};
-    argStore.insert(argStore.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& a : argStore) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    const std::string dirStr = dir.string(), outStr = c.outFile.string(),
-                      errStr = c.errFile.string();
-    c.pid = ::fork();
-    if (c.pid == 0) {
-        int o = ::open(outStr.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int e = ::open(errStr.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int in = ::open("/dev/null", O_RDONLY);
-        if (o < 0 || e < 0 || in < 0 || ::dup2(o, 1) < 0 || ::dup2(e, 2) < 0 || ::dup2(in, 0) < 0 ||
-            ::chdir(dirStr.c_str()) != 0) {
-            ::_exit(126);
-        }
-        if (gate) {
-            ::close(gate[1]);  // (the parent's copy is the one that counts)
-            char c;
-            while (::read(gate[0], &c, 1) < 0 && errno == EINTR) {
-            }
-            ::close(gate[0]);
-        }
-        ::signal(SIGXFSZ, SIG_DFL);
-        if (fileSizeLimit > 0) {
-            struct rlimit rl = {fileSizeLimit, fileSizeLimit};
-            if (::setrlimit(RLIMIT_FSIZE, &rl) != 0) ::_exit(125);
-        }
-        ::execv(argv[0], argv.data());
-        ::_exit(127);
-    }
-    return c;
+    sylva::test::CliOptions o;
+    o.fileSizeLimit = fileSizeLimit;
+    o.gate = gate;
+    return sylva::test::spawnSylva(args, dir, o);
 }
 
-RunResult finish(const Child& c) {
-    RunResult r;
-    int status = 0;
-    while (::waitpid(c.pid, &status, 0) < 0 && errno == EINTR) {
-    }
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status)
-                               : (WIFSIGNALED(status) ? 128 + WTERMSIG(status) : -1);
-    r.out = slurp(c.outFile);
-    r.err = slurp(c.errFile);
-    std::error_code ec;
-    fs::remove(c.outFile, ec);
-    fs::remove(c.errFile, ec);
-    return r;
-}
+RunResult finish(const Child& c) { return sylva::test::finishSylva(c); }
 
 RunResult run(const std::vector<std::string>& args, const fs::path& dir, rlim_t fileSizeLimit = 0) {
-    Child c = spawn(args, dir, fileSizeLimit);
-    EXPECT_GT(c.pid, 0) << "fork failed";
-    return c.pid > 0 ? finish(c) : RunResult{};
+    return finish(spawn(args, dir, fileSizeLimit));
 }
 
-std::string describe(const RunResult& r) {
-    return "exit " + std::to_string(r.code) + "\n--- stdout:\n" + r.out + "--- stderr:\n" + r.err;
-}
+using sylva::test::describeRun;
 
 RunResult build(const fs::path& spec, const fs::path& out, const fs::path& cwd,
                 const std::vector<std::string>& extra = {}) {
@@ -158,8 +102,8 @@ RunResult build(const fs::path& spec, const fs::path& out, const fs::path& cwd,
 }
 
 void expectOneLine(const RunResult& r, int code) {
-    EXPECT_EQ(r.code, code) << describe(r);
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << describe(r);
+    EXPECT_EQ(r.code, code) << describeRun(r);
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << describeRun(r);
 }
 
 // --- comparing datasets ----------------------------------------------------------------------
@@ -251,7 +195,7 @@ TEST(CliLock, TwoBuildsAtOnceOneWinsAndTheDatasetIsASingleBuilds) {
     RunResult ra = finish(a), rb = finish(b);
     const RunResult& loser = ra.code == 2 ? ra : rb;
     const RunResult& winner = ra.code == 2 ? rb : ra;
-    ASSERT_EQ(winner.code, 0) << describe(winner);
+    ASSERT_EQ(winner.code, 0) << describeRun(winner);
     expectOneLine(loser, 2);
     EXPECT_EQ(
         loser.err.rfind("sylva: build: " + out.string() + " is in use by sylva build (pid ", 0), 0u)
@@ -296,10 +240,10 @@ TEST(CliLock, ASecondBuildWhileTheFirstRunsWritesNothing) {
     EXPECT_NE(second.err.find("(pid " + std::to_string(first.pid) + " on host "), std::string::npos)
         << second.err;
     RunResult ra = finish(first);
-    ASSERT_EQ(ra.code, 0) << describe(ra);
+    ASSERT_EQ(ra.code, 0) << describeRun(ra);
     expectSameDataset(out, t / "ref");
     RunResult third = build(spec, out, t.path());
-    ASSERT_EQ(third.code, 0) << describe(third);
+    ASSERT_EQ(third.code, 0) << describeRun(third);
     EXPECT_NE(third.err.find("0 built, 160 already there"), std::string::npos) << third.err;
     expectSameDataset(out, t / "ref");
 }
@@ -339,7 +283,7 @@ TEST(CliLock, ShardsShareADirectoryButNotWithOtherCounts) {
     ASSERT_EQ(::flock(fd, LOCK_EX), 0);
 
     RunResult other = build(spec, out, t.path(), {"--shard", "1/2"});
-    EXPECT_EQ(other.code, 0) << describe(other);  // the other shard of the same count
+    EXPECT_EQ(other.code, 0) << describeRun(other);  // the other shard of the same count
     for (const std::vector<std::string>& extra :
          {std::vector<std::string>{}, {"--shard", "0/2"}, {"--shard", "1/3"}}) {
         RunResult r = build(spec, out, t.path(), extra);
@@ -383,7 +327,7 @@ TEST(CliLock, StaleLockIsTakenOverForeignOneIsNot) {
                              {"command", "sylva build"}};
     spit(out / ".sylva.lock", holder.dump());
     RunResult r = build(spec, out, t.path());
-    ASSERT_EQ(r.code, 0) << describe(r);
+    ASSERT_EQ(r.code, 0) << describeRun(r);
     EXPECT_EQ(countLines(out / "manifest.jsonl"), 4u);
     EXPECT_FALSE(fs::exists(out / ".sylva.lock"));
 
@@ -429,7 +373,7 @@ TEST(CliResume, DamagedManifestIsRepairedOnTheNextRun) {
     spit(out / "manifest.jsonl", damaged);
 
     RunResult r = build(spec, out, t.path());
-    ASSERT_EQ(r.code, 0) << describe(r);
+    ASSERT_EQ(r.code, 0) << describeRun(r);
     EXPECT_NE(r.err.find("3 built, 17 already there"), std::string::npos) << r.err;
     const std::vector<std::string> repaired = readLines(out / "manifest.jsonl");
     ASSERT_EQ(repaired.size(), 20u);
@@ -482,7 +426,7 @@ TEST(CliDiskFull, StopsWithOneLineAndAResumeCompletes) {
     EXPECT_EQ(runs[0]["built"], got.size());
 
     RunResult rerun = build(spec, out, t.path());
-    ASSERT_EQ(rerun.code, 0) << describe(rerun);
+    ASSERT_EQ(rerun.code, 0) << describeRun(rerun);
     expectSameDataset(out, t / "ref");
 
     // The limit below a skeleton file: the first instance cannot be written.
@@ -506,7 +450,7 @@ TEST(CliRunLog, KilledAndResumedBuildHasTheDatasetJsonOfAnUninterruptedOne) {
     TempDir t;
     const fs::path spec = writeSpec(t.path(), 40);  // 160 trees
     RunResult ref = build(spec, t / "ref", t.path(), {"--threads", "2"});
-    ASSERT_EQ(ref.code, 0) << describe(ref);
+    ASSERT_EQ(ref.code, 0) << describeRun(ref);
     const auto refRuns = runsOf(t / "ref");
     ASSERT_EQ(refRuns.size(), 1u);
     EXPECT_EQ(refRuns[0]["status"], "complete");
@@ -529,7 +473,7 @@ TEST(CliRunLog, KilledAndResumedBuildHasTheDatasetJsonOfAnUninterruptedOne) {
     EXPECT_TRUE(fs::exists(out / ".sylva.lock")) << "kill -9 leaves the lock";
 
     RunResult rerun = build(spec, out, t.path(), {"--threads", "2"});
-    ASSERT_EQ(rerun.code, 0) << describe(rerun);
+    ASSERT_EQ(rerun.code, 0) << describeRun(rerun);
     EXPECT_EQ(slurp(out / "dataset.json"), slurp(t / "ref" / "dataset.json"));
     expectSameDataset(out, t / "ref");
     const auto runs = runsOf(out);

@@ -24,6 +24,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/cli/cli_support.h"
 #include "tests/test_support.h"
 
 namespace {
@@ -55,102 +56,28 @@ using sylva::test::TempDir;
 
 // --- running the CLI -------------------------------------------------------------------------
 
-struct RunResult {
-    int code = -1;  // exit status, or 128 + signal number
-    std::string out, err;
-};
+using RunResult = sylva::test::CliResult;
+using Child = sylva::test::CliChild;
+using sylva::test::describeRun;
 
-int decodeStatus(int status) {
-    if (WIFEXITED(status)) return WEXITSTATUS(status);
-    if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
-    return -1;
-}
-
-// A started `sylva` process, its stdout/stderr going to files in `dir`.
-struct Child {
-    pid_t pid = -1;
-    fs::path outFile, errFile;
-};
-
-// Starts SYLVA_EXE with `args` in working directory `dir`. The environment is the test's,
-// without SYLVA_TEST_ABORT_AFTER, plus `env` ("NAME=value" entries).
+// Starts `sylva args…` in `dir` with `env` ("NAME=value") added (tests/cli/cli_support.h).
 Child spawn(const std::vector<std::string>& args, const fs::path& dir,
             const std::vector<std::string>& env = {}) {
-    static std::atomic<int> counter{0};
-    Child c;
-    const int n = counter++;
-    c.outFile = dir / ("run" + std::to_string(n) + ".stdout");
-    c.errFile = dir / ("run" + std::to_string(n) + ".stderr");
-
-    // Everything the child needs is prepared before fork (only async-signal-safe calls after).
-    std::vector<std::string> argStore = {kExe.string()};
-    argStore.insert(argStore.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& a : argStore) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    std::vector<std::string> envStore;
-    for (char** e = environ; *e; ++e) {
-        if (std::strncmp(*e, "SYLVA_TEST_ABORT_AFTER=", 23) != 0) envStore.emplace_back(*e);
-    }
-    envStore.insert(envStore.end(), env.begin(), env.end());
-    std::vector<char*> envp;
-    for (auto& e : envStore) envp.push_back(e.data());
-    envp.push_back(nullptr);
-    const std::string dirStr = dir.string(), outStr = c.outFile.string(),
-                      errStr = c.errFile.string();
-
-    c.pid = ::fork();
-    if (c.pid == 0) {
-        int o = ::open(outStr.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int e = ::open(errStr.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int in = ::open("/dev/null", O_RDONLY);
-        if (o < 0 || e < 0 || in < 0 || ::dup2(o, 1) < 0 || ::dup2(e, 2) < 0 || ::dup2(in, 0) < 0 ||
-            ::chdir(dirStr.c_str()) != 0) {
-            ::_exit(126);
-        }
-        ::execve(argv[0], argv.data(), envp.data());
-        ::_exit(127);
-    }
-    return c;
+    sylva::test::CliOptions o;
+    o.env = env;
+    return sylva::test::spawnSylva(args, dir, o);
 }
 
-RunResult finish(const Child& c) {
-    RunResult r;
-    int status = 0;
-    while (::waitpid(c.pid, &status, 0) < 0 && errno == EINTR) {
-    }
-    r.code = decodeStatus(status);
-    r.out = slurp(c.outFile);
-    r.err = slurp(c.errFile);
-    std::error_code ec;
-    fs::remove(c.outFile, ec);
-    fs::remove(c.errFile, ec);
-    return r;
-}
+RunResult finish(const Child& c) { return sylva::test::finishSylva(c); }
 
 RunResult run(const std::vector<std::string>& args, const fs::path& dir,
               const std::vector<std::string>& env = {}) {
-    Child c = spawn(args, dir, env);
-    EXPECT_GT(c.pid, 0) << "fork failed";
-    if (c.pid <= 0) return {};
-    return finish(c);
+    return finish(spawn(args, dir, env));
 }
 
-// Independent runs at the same time (process start-up dominates these tests' time).
 std::vector<RunResult> runAll(const std::vector<std::vector<std::string>>& runs,
                               const fs::path& dir) {
-    std::vector<Child> children;
-    for (const auto& args : runs) children.push_back(spawn(args, dir));
-    std::vector<RunResult> results;
-    for (const Child& c : children) {
-        EXPECT_GT(c.pid, 0) << "fork failed";
-        results.push_back(c.pid > 0 ? finish(c) : RunResult{});
-    }
-    return results;
-}
-
-std::string describe(const RunResult& r) {
-    return "exit " + std::to_string(r.code) + "\n--- stdout:\n" + r.out + "--- stderr:\n" + r.err;
+    return sylva::test::runAllSylva(runs, dir);
 }
 
 // `sylva build SPEC --out DIR extra…`, expected to succeed.
@@ -159,7 +86,7 @@ void buildOk(const fs::path& spec, const fs::path& out, const fs::path& cwd,
     std::vector<std::string> args = {"build", spec.string(), "--out", out.string()};
     args.insert(args.end(), extra.begin(), extra.end());
     RunResult r = run(args, cwd);
-    ASSERT_EQ(r.code, 0) << describe(r);
+    ASSERT_EQ(r.code, 0) << describeRun(r);
 }
 
 // --- comparing outputs -----------------------------------------------------------------------
@@ -305,8 +232,8 @@ TEST(CliBuild, ShardManifestsConcatenateToTheWhole) {
     Child b =
         spawn({"build", kDataset.string(), "--out", two.string(), "--shard", "1/2"}, t.path());
     RunResult ra = finish(a), rb = finish(b);
-    ASSERT_EQ(ra.code, 0) << describe(ra);
-    ASSERT_EQ(rb.code, 0) << describe(rb);
+    ASSERT_EQ(ra.code, 0) << describeRun(ra);
+    ASSERT_EQ(rb.code, 0) << describeRun(rb);
     EXPECT_FALSE(fs::exists(two / "manifest.jsonl"));
     auto s0 = strippedManifest(two / "manifest.shard-0-of-2.jsonl");
     auto s1 = strippedManifest(two / "manifest.shard-1-of-2.jsonl");
@@ -323,7 +250,7 @@ TEST(CliBuild, ShardManifestsConcatenateToTheWhole) {
         runs.push_back({"build", kDataset.string(), "--out", five.string(), "--shard",
                         std::to_string(i) + "/5"});
     }
-    for (const RunResult& r : runAll(runs, t.path())) ASSERT_EQ(r.code, 0) << describe(r);
+    for (const RunResult& r : runAll(runs, t.path())) ASSERT_EQ(r.code, 0) << describeRun(r);
     cat.clear();
     for (int i = 0; i < 5; ++i) {
         auto s = strippedManifest(five / ("manifest.shard-" + std::to_string(i) + "-of-5.jsonl"));
@@ -372,7 +299,7 @@ TEST(CliPlots, ThreadsShardsMergeAndResumeGiveTheSameBytes) {
         buildOk(kPlotDataset, two, t.path(), {"--shard", shard});
     }
     RunResult merged = run({"merge", (t / "merged").string(), two.string()}, t.path());
-    ASSERT_EQ(merged.code, 0) << describe(merged);
+    ASSERT_EQ(merged.code, 0) << describeRun(merged);
     expectSameLines(strippedManifest(t / "merged" / "manifest.jsonl"), whole);
     expectSameTrees(t / "t1", t / "merged", "plots");
 
@@ -380,7 +307,7 @@ TEST(CliPlots, ThreadsShardsMergeAndResumeGiveTheSameBytes) {
     const fs::path out = t / "resumed";
     RunResult killed = run({"build", kPlotDataset.string(), "--out", out.string()}, t.path(),
                            {"SYLVA_TEST_ABORT_AFTER=4"});
-    EXPECT_EQ(killed.code, 137) << describe(killed);
+    EXPECT_EQ(killed.code, 137) << describeRun(killed);
     ASSERT_EQ(readLines(out / "manifest.jsonl").size(), 4u);
     buildOk(kPlotDataset, out, t.path());
     expectSameLines(strippedManifest(out / "manifest.jsonl"), whole);
@@ -388,13 +315,13 @@ TEST(CliPlots, ThreadsShardsMergeAndResumeGiveTheSameBytes) {
 
     // stats: the plots' statistics under their names.
     RunResult stats = run({"stats", (t / "t1").string()}, t.path());
-    ASSERT_EQ(stats.code, 0) << describe(stats);
+    ASSERT_EQ(stats.code, 0) << describeRun(stats);
     const std::string table = slurp(t / "t1" / "stats" / "species.csv");
     EXPECT_NE(table.find("tiny-slope,"), std::string::npos) << table.substr(0, 400);
     EXPECT_NE(table.find("stems_per_ha"), std::string::npos) << table.substr(0, 400);
     // report: the plots are groups of the report too (6 records: 3 trees, 3 plots).
     RunResult report = run({"report", (t / "t1").string()}, t.path());
-    ASSERT_EQ(report.code, 0) << describe(report);
+    ASSERT_EQ(report.code, 0) << describeRun(report);
     EXPECT_NE((report.out + report.err).find("6 instances, 3 species"), std::string::npos)
         << report.out << report.err;
 }
@@ -407,12 +334,12 @@ TEST(CliResume, SimulatedKillThenRerunEqualsUninterrupted) {
     const fs::path out = t / "out";
     RunResult killed = run({"build", kDataset.string(), "--out", out.string()}, t.path(),
                            {"SYLVA_TEST_ABORT_AFTER=5"});
-    EXPECT_NE(killed.code, 0) << describe(killed);
-    EXPECT_EQ(killed.code, 137) << describe(killed);
+    EXPECT_NE(killed.code, 0) << describeRun(killed);
+    EXPECT_EQ(killed.code, 137) << describeRun(killed);
     ASSERT_EQ(readLines(out / "manifest.jsonl").size(), 5u);
 
     RunResult rerun = run({"build", kDataset.string(), "--out", out.string()}, t.path());
-    ASSERT_EQ(rerun.code, 0) << describe(rerun);
+    ASSERT_EQ(rerun.code, 0) << describeRun(rerun);
     EXPECT_NE(rerun.err.find("5 already there"), std::string::npos) << rerun.err;
     expectSameLines(strippedManifest(out / "manifest.jsonl"),
                     strippedManifest(t / "ref" / "manifest.jsonl"));
@@ -422,7 +349,7 @@ TEST(CliResume, SimulatedKillThenRerunEqualsUninterrupted) {
     // A third run finds everything done and changes nothing.
     const std::string before = slurp(out / "manifest.jsonl");
     RunResult again = run({"build", kDataset.string(), "--out", out.string()}, t.path());
-    ASSERT_EQ(again.code, 0) << describe(again);
+    ASSERT_EQ(again.code, 0) << describeRun(again);
     EXPECT_NE(again.err.find("0 built, 24 already there"), std::string::npos) << again.err;
     EXPECT_EQ(slurp(out / "manifest.jsonl"), before);
 }
@@ -435,7 +362,7 @@ TEST(CliResume, RerunRemovesTempFilesLeftByAKill) {
     const fs::path out = t / "out";
     RunResult killed = run({"build", kDataset.string(), "--out", out.string()}, t.path(),
                            {"SYLVA_TEST_ABORT_AFTER=5"});
-    ASSERT_EQ(killed.code, 137) << describe(killed);
+    ASSERT_EQ(killed.code, 137) << describeRun(killed);
     // The last instance of the dataset: not built yet, it was "being written" by the dead process.
     const fs::path dir = out / "trees" / "tiny-var" / "tiny-var-p001-00005";
     fs::create_directories(dir);
@@ -445,7 +372,7 @@ TEST(CliResume, RerunRemovesTempFilesLeftByAKill) {
     spit(dir / "views" / "002.png.tmp.4194303.123.8.png", "\x89PNG");
 
     RunResult rerun = run({"build", kDataset.string(), "--out", out.string()}, t.path());
-    ASSERT_EQ(rerun.code, 0) << describe(rerun);
+    ASSERT_EQ(rerun.code, 0) << describeRun(rerun);
     EXPECT_EQ(countLines(out / "manifest.jsonl"), static_cast<size_t>(kDatasetInstances));
     for (const fs::path& p : tempFilesUnder(out)) ADD_FAILURE() << "left over: " << p;
 }
@@ -497,7 +424,7 @@ TEST(CliResume, RealKillAndTornLineThenRerunEqualsUninterrupted) {
         app << "{\"id\":\"trunc";
     }
     RunResult rerun = run({"build", spec.string(), "--out", out.string()}, t.path());
-    ASSERT_EQ(rerun.code, 0) << describe(rerun);
+    ASSERT_EQ(rerun.code, 0) << describeRun(rerun);
     EXPECT_EQ(slurp(manifest).find("trunc"), std::string::npos);
     expectSameLines(strippedManifest(manifest), strippedManifest(t / "ref" / "manifest.jsonl"));
     expectSameTrees(t / "ref", out);
@@ -539,10 +466,10 @@ std::vector<std::string> badFixtureNames() {
 
 // Exit 2 and exactly one line on stderr.
 void expectOneLineError(const RunResult& r) {
-    EXPECT_EQ(r.code, 2) << describe(r);
-    ASSERT_FALSE(r.err.empty()) << describe(r);
-    EXPECT_EQ(r.err.back(), '\n') << describe(r);
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << describe(r);
+    EXPECT_EQ(r.code, 2) << describeRun(r);
+    ASSERT_FALSE(r.err.empty()) << describeRun(r);
+    EXPECT_EQ(r.err.back(), '\n') << describeRun(r);
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << describeRun(r);
 }
 
 void expectFixtureError(const RunResult& r, const BadFixture& f) {
@@ -637,7 +564,7 @@ TEST(CliArgs, HelpForEverySubcommand) {
     const std::vector<RunResult> r = runAll(runs, t.path());
     for (size_t i = 0; i < r.size(); ++i) {
         SCOPED_TRACE("sylva " + runs[i][0] + (runs[i].size() > 1 ? " --help" : ""));
-        EXPECT_EQ(r[i].code, 0) << describe(r[i]);
+        EXPECT_EQ(r[i].code, 0) << describeRun(r[i]);
         for (const auto& w : cases[i].second) {
             EXPECT_NE(r[i].out.find(w), std::string::npos) << "no \"" << w << "\" in " << r[i].out;
         }
@@ -661,7 +588,7 @@ TEST(CliArgs, BadArgumentsExitTwoAndWriteNothing) {
         std::string cmd = "sylva";
         for (const auto& a : runs[i]) cmd += " " + a;
         SCOPED_TRACE(cmd);
-        EXPECT_EQ(r[i].code, 2) << describe(r[i]);
+        EXPECT_EQ(r[i].code, 2) << describeRun(r[i]);
         EXPECT_FALSE(r[i].err.empty());
     }
     EXPECT_FALSE(fs::exists(out));
@@ -676,7 +603,7 @@ TEST(CliGrow, WritesFilesAndIsDeterministicPerSeed) {
                                       {"grow", spec, "--seed", "5", "--out", (t / "b").string()},
                                       {"grow", spec, "--seed", "6", "--out", (t / "c").string()}},
                                      t.path())) {
-        EXPECT_EQ(r.code, 0) << describe(r);
+        EXPECT_EQ(r.code, 0) << describeRun(r);
     }
     for (const char* f :
          {"skeleton.ply", "skeleton.swc", "preview.png", "preview_wood.png", "stats.json"}) {
@@ -701,7 +628,7 @@ TEST(CliGates, PrintsOneRowPerSpeciesAndRejectsADirectoryWithoutManifest) {
     TempDir t;
     buildOk(kDataset, t / "d", t.path());
     const RunResult ok = run({"gates", (t / "d").string()}, t.path());
-    EXPECT_EQ(ok.code, 0) << describe(ok);
+    EXPECT_EQ(ok.code, 0) << describeRun(ok);
     EXPECT_EQ(ok.out.rfind("| species | habit | n | ground |", 0), 0u) << ok.out;
     EXPECT_NE(ok.out.find("| `tiny` | tree | "), std::string::npos) << ok.out;
     const RunResult bad = run({"gates", (t / "nothing").string()}, t.path());
@@ -728,8 +655,8 @@ TEST(CliValidate, EveryShippedSpecIsValid) {
     const std::vector<RunResult> r = runAll(runs, t.path());
     for (size_t i = 0; i < r.size(); ++i) {
         SCOPED_TRACE(runs[i][1]);
-        EXPECT_EQ(r[i].code, 0) << describe(r[i]);
-        EXPECT_NE(r[i].out.find(": ok"), std::string::npos) << describe(r[i]);
+        EXPECT_EQ(r[i].code, 0) << describeRun(r[i]);
+        EXPECT_NE(r[i].out.find(": ok"), std::string::npos) << describeRun(r[i]);
         if (fs::path(runs[i][1]) == kDataset) {
             EXPECT_NE(r[i].out.find(std::to_string(kDatasetInstances) + " instances"),
                       std::string::npos)
@@ -745,9 +672,9 @@ TEST(CliStatsReport, BadDirectoriesExitTwoWithOneLine) {
     TempDir t;
     auto expectBadInput = [&](const std::vector<std::string>& args, const std::string& message) {
         const RunResult r = run(args, t.path());
-        EXPECT_EQ(r.code, 2) << describe(r);
-        EXPECT_NE(r.err.find(message), std::string::npos) << describe(r);
-        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << describe(r);
+        EXPECT_EQ(r.code, 2) << describeRun(r);
+        EXPECT_NE(r.err.find(message), std::string::npos) << describeRun(r);
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << describeRun(r);
     };
     expectBadInput({"stats", (t / "nope").string()}, "sylva: stats: ");
     expectBadInput({"stats", (t / "nope").string()}, "not a directory");
@@ -757,7 +684,7 @@ TEST(CliStatsReport, BadDirectoriesExitTwoWithOneLine) {
 
     buildOk(kDataset, t / "ds", t.path());
     RunResult ok = run({"report", (t / "ds").string()}, t.path());
-    EXPECT_EQ(ok.code, 0) << describe(ok);
+    EXPECT_EQ(ok.code, 0) << describeRun(ok);
     EXPECT_TRUE(fs::is_regular_file(t / "ds" / "report" / "index.html"));
     spit(t / "ds" / "manifest.jsonl", "");
     fs::remove_all(t / "ds" / "report");
@@ -773,7 +700,7 @@ TEST(CliStatsReference, TinyDatasetAgainstTheShippedReference) {
     buildOk(kDataset, t / "ds", t.path());
     const std::string ref = (kSource / "species" / "reference" / "treeqsm-broadleaf.json").string();
     RunResult r = run({"stats", (t / "ds").string(), "--no-timing", "--reference", ref}, t.path());
-    ASSERT_EQ(r.code, 0) << describe(r);
+    ASSERT_EQ(r.code, 0) << describeRun(r);
     EXPECT_NE(r.out.find("reference treeqsm-broadleaf: "), std::string::npos) << r.out;
     const std::vector<std::string> lines = readLines(t / "ds" / "stats" / "reference.csv");
     ASSERT_EQ(lines.size(), 1u + 2 * 7) << slurp(t / "ds" / "stats" / "reference.csv");
@@ -802,10 +729,10 @@ TEST(CliStatsReference, TinyDatasetAgainstTheShippedReference) {
              {(t / "bad.json").string(),
               "bad.json: distributions.radius_ratio.q: expected non-decreasing quantiles"}}) {
         RunResult bad = run({"stats", (t / "ds").string(), "--reference", file}, t.path());
-        EXPECT_EQ(bad.code, 2) << describe(bad);
-        EXPECT_EQ(bad.err.rfind("sylva: stats: ", 0), 0u) << describe(bad);
-        EXPECT_NE(bad.err.find(message), std::string::npos) << describe(bad);
-        EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << describe(bad);
+        EXPECT_EQ(bad.code, 2) << describeRun(bad);
+        EXPECT_EQ(bad.err.rfind("sylva: stats: ", 0), 0u) << describeRun(bad);
+        EXPECT_NE(bad.err.find(message), std::string::npos) << describeRun(bad);
+        EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << describeRun(bad);
         EXPECT_FALSE(fs::exists(t / "ds" / "stats"));
     }
 }

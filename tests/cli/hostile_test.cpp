@@ -32,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/cli/cli_support.h"
 #include "tests/test_support.h"
 
 namespace {
@@ -46,73 +47,14 @@ const fs::path kHostile = kData / "hostile";
 constexpr double kMaxCpuSeconds = 2.0;    // per run of the binary
 constexpr double kMaxWallSeconds = 30.0;  // against a run that waits without working
 
-struct RunResult {
-    int code = -1;  // exit status, or 128 + signal number
-    std::string err;
-    double seconds = 0;     // wall time
-    double cpuSeconds = 0;  // user + system time of the process
-};
+using RunResult = sylva::test::CliResult;  // code, err, seconds, cpuSeconds used here
 
-struct Child {
-    pid_t pid = -1;
-    fs::path errFile;
-    std::chrono::steady_clock::time_point start;
-};
-
-// Starts `sylva args…` in `dir`, stdout discarded, stderr to a file in `dir`.
-Child spawn(const std::vector<std::string>& args, const fs::path& dir) {
-    static std::atomic<int> counter{0};
-    Child c;
-    c.errFile = dir / (".stderr" + std::to_string(counter++));
-    std::vector<std::string> store = {kExe.string()};
-    store.insert(store.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& a : store) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    const std::string dirStr = dir.string(), errStr = c.errFile.string();
-    c.start = std::chrono::steady_clock::now();
-    c.pid = ::fork();
-    if (c.pid == 0) {
-        const int out = ::open("/dev/null", O_WRONLY);
-        const int err = ::open(errStr.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        const int in = ::open("/dev/null", O_RDONLY);
-        if (out < 0 || err < 0 || in < 0 || ::dup2(out, 1) < 0 || ::dup2(err, 2) < 0 ||
-            ::dup2(in, 0) < 0 || ::chdir(dirStr.c_str()) != 0) {
-            ::_exit(126);
-        }
-        ::execv(argv[0], argv.data());
-        ::_exit(127);
-    }
-    return c;
-}
-
-RunResult finish(const Child& c) {
-    RunResult r;
-    int status = 0;
-    struct rusage usage {};
-    while (::wait4(c.pid, &status, 0, &usage) < 0 && errno == EINTR) {
-    }
-    r.cpuSeconds = usage.ru_utime.tv_sec + usage.ru_stime.tv_sec +
-                   1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - c.start).count();
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    r.err = slurp(c.errFile);
-    std::error_code ec;
-    fs::remove(c.errFile, ec);
-    return r;
-}
-
-// Independent runs at the same time (process start-up dominates).
+// Independent runs at the same time (process start-up dominates), stdout discarded.
 std::vector<RunResult> runAll(const std::vector<std::vector<std::string>>& runs,
                               const fs::path& dir) {
-    std::vector<Child> children;
-    for (const auto& args : runs) children.push_back(spawn(args, dir));
-    std::vector<RunResult> results;
-    for (const Child& c : children) {
-        EXPECT_GT(c.pid, 0) << "fork failed";
-        results.push_back(c.pid > 0 ? finish(c) : RunResult{});
-    }
-    return results;
+    sylva::test::CliOptions o;
+    o.keepStdout = false;
+    return sylva::test::runAllSylva(runs, dir, o);
 }
 
 std::string describe(const std::vector<std::string>& args, const RunResult& r) {

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "pipeline/build/dataset.h"
+#include "tests/cli/cli_support.h"
 #include "tests/test_support.h"
 
 namespace {
@@ -41,11 +42,7 @@ constexpr long kMaxRssOverStartKiB = 64 * 1024;
 constexpr rlim_t kAddressSpace = rlim_t{4} << 30;
 constexpr auto kWatchdog = std::chrono::seconds(60);
 
-struct RunResult {
-    int code = -1;  // exit status, or 128 + signal
-    std::string out, err;
-    long maxRssKiB = 0;
-};
+using RunResult = sylva::test::CliResult;  // maxRssKiB: the run's peak resident size
 
 struct Command {
     Command(std::vector<std::string> a, std::vector<std::string> e = {})
@@ -57,68 +54,18 @@ struct Command {
 // Runs the commands at the same time (start-up dominates these runs) in `dir`, each under the
 // address-space limit, and waits for all (killing what outlives the watchdog).
 std::vector<RunResult> runAll(const std::vector<Command>& commands, const fs::path& dir) {
-    static int counter = 0;
-    struct Child {
-        pid_t pid = -1;
-        std::string outFile, errFile;
-    };
-    std::vector<Child> children;
+    std::vector<sylva::test::CliChild> children;
     for (const Command& c : commands) {
-        std::vector<std::string> argStore = {kExe.string()};
-        argStore.insert(argStore.end(), c.args.begin(), c.args.end());
-        std::vector<char*> argv;
-        for (auto& a : argStore) argv.push_back(a.data());
-        argv.push_back(nullptr);
-        std::vector<std::string> envStore;
-        for (char** e = environ; *e; ++e) {
-            if (std::strncmp(*e, "SYLVA_TEST_ABORT_AFTER=", 23) != 0) envStore.emplace_back(*e);
-        }
-        envStore.insert(envStore.end(), c.env.begin(), c.env.end());
-        std::vector<char*> envp;
-        for (auto& e : envStore) envp.push_back(e.data());
-        envp.push_back(nullptr);
-        Child child;
-        const std::string n = std::to_string(counter++);
-        child.outFile = (dir / ("run" + n + ".stdout")).string();
-        child.errFile = (dir / ("run" + n + ".stderr")).string();
-        const std::string cwd = dir.string();
-        child.pid = ::fork();
-        if (child.pid == 0) {  // only async-signal-safe calls from here
-            const rlimit as{kAddressSpace, kAddressSpace};
-            const int o = ::open(child.outFile.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-            const int e = ::open(child.errFile.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-            if (o < 0 || e < 0 || ::dup2(o, 1) < 0 || ::dup2(e, 2) < 0 ||
-                ::chdir(cwd.c_str()) != 0 || ::setrlimit(RLIMIT_AS, &as) != 0) {
-                ::_exit(126);
-            }
-            ::execve(argv[0], argv.data(), envp.data());
-            ::_exit(127);
-        }
-        EXPECT_GT(child.pid, 0) << "fork failed";
-        children.push_back(child);
+        sylva::test::CliOptions o;
+        o.env = c.env;
+        o.addressSpace = kAddressSpace;
+        o.watchdog = kWatchdog;
+        children.push_back(sylva::test::spawnSylva(c.args, dir, o));
     }
-    const auto deadline = std::chrono::steady_clock::now() + kWatchdog;
     std::vector<RunResult> results;
-    for (const Child& c : children) {
-        RunResult r;
-        if (c.pid > 0) {
-            int status = 0;
-            rusage usage{};
-            while (::wait4(c.pid, &status, WNOHANG, &usage) == 0) {
-                if (std::chrono::steady_clock::now() > deadline) {
-                    ::kill(c.pid, SIGKILL);
-                    ::wait4(c.pid, &status, 0, &usage);
-                    ADD_FAILURE() << "killed after " << kWatchdog.count() << " s";
-                    break;
-                }
-                std::this_thread::sleep_for(std::chrono::milliseconds(5));
-            }
-            r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-            r.maxRssKiB = usage.ru_maxrss;
-            r.out = slurp(c.outFile);
-            r.err = slurp(c.errFile);
-        }
-        results.push_back(std::move(r));
+    for (const auto& c : children) {
+        results.push_back(sylva::test::finishSylva(c));
+        if (results.back().hung) ADD_FAILURE() << "killed after " << kWatchdog.count() << " s";
     }
     return results;
 }

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/cli/cli_support.h"
 #include "tests/test_support.h"
 
 namespace {
@@ -27,25 +28,11 @@ using sylva::test::TempDir;
 const fs::path kExe = SYLVA_EXE;
 const fs::path kDataset = fs::path(SYLVA_SOURCE_DIR) / "tests" / "data" / "merge_dataset.toml";
 
-struct CliRun {
-    int code = -1;
-    std::string err;
-};
+using CliRun = sylva::test::CliResult;
 
-std::string quote(const std::string& s) { return "'" + s + "'"; }
-
-// Runs `sylva args…` with stderr captured (stdout discarded).
+// Runs `sylva args…` in `scratch` (paths are absolute), its output files there meanwhile.
 CliRun sylva(const std::vector<std::string>& args, const fs::path& scratch) {
-    std::string cmd = quote(kExe.string());
-    for (const std::string& a : args) cmd += " " + quote(a);
-    const fs::path err = scratch / "stderr.txt";
-    cmd += " >/dev/null 2>" + quote(err.string());
-    int status = std::system(cmd.c_str());
-    CliRun r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.err = slurp(err);
-    fs::remove(err);
-    return r;
+    return sylva::test::runSylva(args, scratch);
 }
 
 // Every regular file under `dir`, by relative path.

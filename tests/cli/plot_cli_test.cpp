@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/cli/cli_support.h"
 #include "tests/test_support.h"
 
 namespace {
@@ -30,26 +31,14 @@ const fs::path kSource = SYLVA_SOURCE_DIR;
 const fs::path kExe = SYLVA_EXE;
 const fs::path kPlotData = kSource / "tests" / "data" / "plot";
 
-struct SylvaRun {
-    int code = -1;
-    std::string out, err;
-};
+using SylvaRun = sylva::test::CliResult;
 
-std::string quoted(const std::string& s) { return "'" + s + "'"; }
-
-// Runs sylva with `args` in `dir` (paths without single quotes).
-SylvaRun sylva(const std::vector<std::string>& args, const fs::path& dir, const std::string& tag) {
-    std::string cmd = "cd " + quoted(dir.string()) + " && " + quoted(kExe.string());
-    for (const std::string& a : args) cmd += " " + quoted(a);
-    const fs::path out = dir.parent_path() / (tag + ".out"),
-                   err = dir.parent_path() / (tag + ".err");
-    cmd += " >" + quoted(out.string()) + " 2>" + quoted(err.string()) + " </dev/null";
-    const int status = std::system(cmd.c_str());
-    SylvaRun r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
+// Runs sylva with `args` in `dir`, its output kept beside `dir` (the tests check that the
+// failed runs write nothing into it).
+SylvaRun sylva(const std::vector<std::string>& args, const fs::path& dir) {
+    sylva::test::CliOptions o;
+    o.logDir = dir.parent_path();
+    return sylva::test::runSylva(args, dir, o);
 }
 
 std::vector<std::string> badPlotFixtures() {
@@ -82,7 +71,7 @@ TEST_P(PlotBadSpec, OneLineErrorExitTwoAndNothingWritten) {
         {"validate", spec.string()}, {"build", spec.string(), "--out", out.string()}};
     for (size_t k = 0; k < runs.size(); ++k) {
         SCOPED_TRACE(runs[k][0]);
-        const SylvaRun r = sylva(runs[k], work, "run" + std::to_string(k));
+        const SylvaRun r = sylva(runs[k], work);
         EXPECT_EQ(r.code, 2) << r.err;
         ASSERT_FALSE(r.err.empty());
         EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
@@ -120,7 +109,7 @@ TEST(PlotValidate, PlotsOnlyDatasetIsValid) {
     TempDir t;
     const fs::path work = t / "work";
     fs::create_directories(work);
-    const SylvaRun r = sylva({"validate", (kPlotData / "plots.toml").string()}, work, "v");
+    const SylvaRun r = sylva({"validate", (kPlotData / "plots.toml").string()}, work);
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_NE(r.out.find("0 species, 6 instances, 5 plots (6 plot instances)"), std::string::npos)
         << r.out;
@@ -153,7 +142,7 @@ TEST(PlotSweepBuild, PointsBuildWithTheirValues) {
     const fs::path out = t / "out";
     const SylvaRun r = sylva(
         {"build", (kPlotData / "sweep.toml").string(), "--out", out.string(), "--threads", "2"},
-        work, "b");
+        work);
     ASSERT_EQ(r.code, 0) << r.err;
     std::map<std::string, nlohmann::json> records;
     std::istringstream manifest(slurp(out / "manifest.jsonl"));

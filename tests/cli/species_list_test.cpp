@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/cli/cli_support.h"
 #include "tests/test_support.h"
 
 namespace {
@@ -58,15 +59,16 @@ class SpeciesListTest : public ::testing::Test {
     };
     // `sylva species list [args]` in working directory `cwd`.
     Result list(const std::string& args, const fs::path& cwd) {
-        const fs::path out = dir_ / "stdout", err = dir_ / "stderr";
-        std::string cmd = "cd '" + cwd.string() + "' && '" + kExe.string() + "' species list " +
-                          args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-        int status = std::system(cmd.c_str());
+        std::vector<std::string> argv = {"species", "list"};
+        if (!args.empty()) argv.push_back(args);
+        sylva::test::CliOptions o;
+        o.logDir = dir_;
+        const sylva::test::CliResult run = sylva::test::runSylva(argv, cwd, o);
         Result r;
-        r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-        std::istringstream in(slurp(out));
+        r.code = run.code;
+        std::istringstream in(run.out);
         for (std::string line; std::getline(in, line);) r.lines.push_back(line);
-        r.err = slurp(err);
+        r.err = run.err;
         return r;
     }
     fs::path dir_;
@@ -133,7 +135,8 @@ TEST_F(SpeciesListTest, DefaultIsTheRepositorySpeciesDirectory) {
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_EQ(r.lines.size(), files);
     bool sawXmA = false;
-    const std::string xmA = (fs::weakly_canonical(kSource) / "species/papers/xu-mould-2012/xm-a.toml").string();
+    const std::string xmA =
+        (fs::weakly_canonical(kSource) / "species/papers/xu-mould-2012/xm-a.toml").string();
     for (const std::string& line : r.lines) {
         if (line.rfind("xm-a ", 0) == 0) {
             sawXmA = true;

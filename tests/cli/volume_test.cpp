@@ -14,12 +14,14 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "pipeline/analysis/volume_output.h"
 #include "species/spec/species.h"
+#include "tests/cli/cli_support.h"
 #include "tests/test_support.h"
 #include "volumes/level_set_grid.h"
 
@@ -63,25 +65,15 @@ std::string species(const std::string& name, const std::string& crown,
            extra + "\n[[levels]]\nnodes = 50\nendpoints = 3\n";
 }
 
-struct CliRun {
-    int code = -1;
-    std::string out, err;
-};
+using CliRun = sylva::test::CliResult;
 
-// Runs the CLI with `args` (no shell quoting needed: test paths are plain).
+// Runs the CLI with `args` split at spaces (test paths are plain), in the directory that holds
+// `scratch`.
 CliRun sylvaCli(const std::string& args, const fs::path& scratch) {
-    const fs::path out = scratch.parent_path() / (scratch.filename().string() + ".stdout");
-    const fs::path err = scratch.parent_path() / (scratch.filename().string() + ".stderr");
-    const std::string cmd =
-        kExe.string() + " " + args + " >" + out.string() + " 2>" + err.string() + " </dev/null";
-    const int status = std::system(cmd.c_str());
-    CliRun r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    fs::remove(out);
-    fs::remove(err);
-    return r;
+    std::vector<std::string> argv;
+    std::istringstream in(args);
+    for (std::string a; in >> a;) argv.push_back(a);
+    return sylva::test::runSylva(argv, scratch.parent_path());
 }
 
 struct PlyMesh {
