@@ -1,0 +1,78 @@
+// The scan-statistics block: counts, class shares, multiple returns, density and the wood
+// surface hit per tree, on hand-made points with known answers.
+#include "pipeline/scan/scan_stats.h"
+
+#include <gtest/gtest.h>
+
+#include "tests/test_support.h"
+
+namespace sylva {
+namespace {
+
+using test::addNode;
+
+ScanPoint point(uint64_t pulse, uint8_t ret, uint8_t of, uint8_t cls, int32_t tree = 0,
+                int32_t node = -1, uint8_t channel = 0) {
+    ScanPoint p;
+    p.pulse = pulse;
+    p.returnNumber = ret;
+    p.numberOfReturns = of;
+    p.classification = cls;
+    p.channel = channel;
+    p.label.treeId = tree;
+    p.label.nodeId = node;
+    return p;
+}
+
+// A trunk of two segments (1 m at r 0.1, 1 m at r 0.1 → 0.05) and a root below: the first
+// segment's area is 2π·0.1·1, the second's 2π·0.075·1; roots do not count.
+Tree twoSegments() {
+    Tree t;
+    const int32_t r = addNode(t, -1, {0, 0, 0}, 0.1);
+    const int32_t a = addNode(t, r, {0, 1, 0}, 0.1);
+    addNode(t, a, {0, 2, 0}, 0.05);
+    addNode(t, r, {0, -1, 0}, 0.05, 0, kRootPart);
+    return t;
+}
+
+TEST(ScanStats, CountsSharesAndOcclusionHaveKnownAnswers) {
+    ScanStats s(0, 50.0, 4);
+    s.addTree(7, twoSegments());
+    // Pulse 0: two returns (stem node 1, then terrain); pulse 1: one (stem node 1 again);
+    // pulse 2: one leaf return; a point of an unknown tree is ignored for occlusion.
+    s.addPoints({point(0, 1, 2, kForStem, 7, 1), point(0, 2, 2, kForTerrain)});
+    s.addPoints({point(1, 1, 1, kForStem, 7, 1), point(2, 1, 1, kForLiveBranches, 9, 4)});
+    const nlohmann::json j = s.json(10);
+    EXPECT_EQ(j["pulses"], 10);
+    EXPECT_EQ(j["points"], 4);
+    EXPECT_EQ(j["pulses_with_returns"], 3);
+    EXPECT_NEAR(j["multiple_return_share"].get<double>(), 1.0 / 3, 1e-12);
+    EXPECT_NEAR(j["points_per_m2"].get<double>(), 4 / 50.0, 1e-12);
+    EXPECT_FALSE(j.contains("points_per_station"));
+    EXPECT_NEAR(j["class_fraction"]["stem"].get<double>(), 0.5, 1e-12);
+    EXPECT_NEAR(j["class_fraction"]["terrain"].get<double>(), 0.25, 1e-12);
+    EXPECT_NEAR(j["class_fraction"]["live_branches"].get<double>(), 0.25, 1e-12);
+    EXPECT_EQ(j["class_fraction"]["woody_branches"].get<double>(), 0.0);
+    const double first = 2 * kPi * 0.1, second = 2 * kPi * 0.075;
+    EXPECT_NEAR(s.woodSurfaceHit(7), first / (first + second), 1e-12);
+    EXPECT_EQ(s.woodSurfaceHit(9), 0.0);  // not a tree of the scene
+    ASSERT_EQ(j["trees"].size(), 1u);
+    EXPECT_EQ(j["trees"][0]["tree"], 7);
+    EXPECT_NEAR(j["wood_surface_hit_mean"].get<double>(), first / (first + second), 1e-12);
+
+    s.addPoints({point(3, 1, 1, kForStem, 7, 2)});  // the second segment: all wood hit
+    EXPECT_NEAR(s.woodSurfaceHit(7), 1.0, 1e-12);
+}
+
+TEST(ScanStats, TlsCountsPointsPerStation) {
+    ScanStats s(2, 0.0, 1);
+    s.addPoints({point(0, 1, 1, kForTerrain, 0, -1, 0), point(1, 1, 1, kForTerrain, 0, -1, 1),
+                 point(2, 1, 1, kForTerrain, 0, -1, 1)});
+    const nlohmann::json j = s.json(3);
+    EXPECT_EQ(j["points_per_station"], nlohmann::json({1, 2}));
+    EXPECT_FALSE(j.contains("points_per_m2"));
+    EXPECT_EQ(j["multiple_return_share"].get<double>(), 0.0);
+}
+
+}  // namespace
+}  // namespace sylva
