@@ -17,9 +17,9 @@ namespace fs = std::filesystem;
 
 const char* const kLasWkt =
     "LOCAL_CS[\"sylva scene (metres; x east, y north, z up)\","
-    "LOCAL_DATUM[\"sylva scene origin\",10000],"
+    "LOCAL_DATUM[\"sylva scene origin\",32767],"
     "UNIT[\"metre\",1,AUTHORITY[\"EPSG\",\"9001\"]],"
-    "AXIS[\"X\",EAST],AXIS[\"Y\",NORTH],AXIS[\"Z\",UP]]";
+    "AXIS[\"X\",EAST],AXIS[\"Y\",NORTH]]";
 
 namespace {
 

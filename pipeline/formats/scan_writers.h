@@ -63,9 +63,12 @@ inline constexpr std::array<LasExtraByte, 6> kLasExtraBytes{{
 }};
 constexpr int kLasExtraBytesSize = 16;  // sum of the sizes above
 
-// OGC WKT (CT 1.0, section 7) of the scene's local engineering CRS: metres, x east, y north,
-// z up, origin at the scene origin (a tree's base, or the plot centre at x = z = 0 and height
-// 0). It has no geodetic datum: sylva's scenes are not georeferenced.
+// OGC WKT (CT 1.0, section 7) of the scene's local engineering CRS: metres, x east, y north, its
+// origin the scene origin (a tree's base, or the plot centre at x = z = 0, height 0); z is up in
+// the same metres. It has no geodetic datum: sylva's scenes are not georeferenced. Two axes,
+// local datum type 32767, as GDAL writes a local CS: PROJ 9.1 (Debian 12, what GDAL and PDAL
+// read LAS CRSs with) refuses a LOCAL_CS with a third axis ("unexpected AXIS count") and warns
+// on a COMPD_CS of LOCAL_CS and VERT_CS; this one it parses without a word (`projinfo`).
 extern const char* const kLasWkt;
 
 // How format-7 points are coloured (16 bits a channel, an 8-bit colour × 257).

@@ -74,7 +74,7 @@ const extraBytes = [  // name, copc type, size, min, max over the formula
     ['treeID', 'signed', 4, 0, 5],
     ['treeSP', 'unsigned', 2, 0, 999],
     ['semantic_seg', 'unsigned', 1, 0, 3],
-    ['hitObjectId', 'signed', 4, 0, 999],
+    ['hitObjectId', 'signed', 4, 0, 990],
     ['branch_order', 'unsigned', 1, 0, 3],
     ['node_id', 'signed', 4, -1, 7],
 ];
