@@ -15,6 +15,7 @@
 #include <stdexcept>
 
 #include "pipeline/formats/qsm_writer.h"
+#include "species/spec/species.h"
 #include "tests/test_support.h"
 
 namespace sylva {
@@ -408,6 +409,12 @@ TEST(ScanOutputs, WritesFilesForReaders) {
     test::addNode(t, 5, {1, 1.5, -1}, 0.02, 2);
     test::addNode(t, 0, {0, -0.5, 0}, 0.1, 0, kRootPart);
     writeQsmCylinders(out / "qsm.csv", t, out / "qsm.txt");
+    // For looking at (docs/scanning.md): $SYLVA_QSM_SPECIES, a species file, grown with seed 1,
+    // its cylinders in species_qsm.csv.
+    if (const char* species = std::getenv("SYLVA_QSM_SPECIES")) {
+        writeQsmCylinders(out / "species_qsm.csv",
+                          growSpecies(loadSpecies(species), 1, nullptr, true).tree);
+    }
     for (const char* f : {"formula.las", "formula_rgb.las", "formula.ply", "formula.npy",
                           "trajectory.csv", "stations.json", "qsm.csv", "qsm.txt"}) {
         EXPECT_TRUE(fs::is_regular_file(out / f)) << f;
