@@ -6,6 +6,7 @@
 #include <cstring>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string_view>
 
@@ -316,11 +317,17 @@ std::string toBytes(const std::function<void(const Sink&)>& encode) {
     return out;
 }
 
-// Encodes first into memory only up to a block at a time, straight into the atomic file.
+// Straight into the atomic file, a block at a time. The file is created at the first bytes, so
+// an encoder that throws while checking its points (before any output) leaves nothing behind,
+// not even a directory.
 void toFile(const fs::path& path, const std::function<void(const Sink&)>& encode) {
-    AtomicFileWriter file(path);
-    encode([&](std::string_view b) { file.append(b); });
-    file.commit();
+    std::optional<AtomicFileWriter> file;
+    encode([&](std::string_view b) {
+        if (!file) file.emplace(path);
+        file->append(b);
+    });
+    if (!file) file.emplace(path);
+    file->commit();
 }
 
 void checkAll(const ScanResult& scan) {
@@ -444,7 +451,6 @@ std::array<uint8_t, 3> lasTreeColour(int32_t treeId) {
 }
 
 void writeLas(const fs::path& path, const ScanResult& scan, const LasOptions& options) {
-    summarize(scan, options);  // checks before the file is created
     toFile(path, [&](const Sink& sink) { encodeLas(scan, options, sink); });
 }
 
@@ -453,7 +459,6 @@ std::string lasBytes(const ScanResult& scan, const LasOptions& options) {
 }
 
 void writeForestFormerPly(const fs::path& path, const ScanResult& scan) {
-    checkAll(scan);
     toFile(path, [&](const Sink& sink) { encodePly(scan, sink); });
 }
 
@@ -472,7 +477,6 @@ int32_t treeLearnLabel(const ScanPoint& point) {
 }
 
 void writeTreeLearnNpy(const fs::path& path, const ScanResult& scan) {
-    checkAll(scan);
     toFile(path, [&](const Sink& sink) { encodeNpy(scan, sink); });
 }
 

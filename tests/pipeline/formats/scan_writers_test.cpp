@@ -262,13 +262,15 @@ TEST(LasWriter, CreationDateIsTheSurveyStartsDate) {
 
 TEST(LasWriter, BadPointsThrowAndWriteNothing) {
     test::TempDir dir;
-    const fs::path path = dir.path() / "scan.las";
+    const fs::path path = dir.path() / "out" / "scan.las";  // not even "out" may appear
     auto bad = [&](auto change) {
         ScanResult scan = formulaScan(10);
         change(scan.points[7]);
         EXPECT_THROW(writeLas(path, scan), std::invalid_argument);
-        EXPECT_THROW(writeForestFormerPly(dir.path() / "scan.ply", scan), std::invalid_argument);
-        EXPECT_THROW(writeTreeLearnNpy(dir.path() / "scan.npy", scan), std::invalid_argument);
+        EXPECT_THROW(writeForestFormerPly(dir.path() / "out" / "scan.ply", scan),
+                     std::invalid_argument);
+        EXPECT_THROW(writeTreeLearnNpy(dir.path() / "out" / "scan.npy", scan),
+                     std::invalid_argument);
         EXPECT_TRUE(fs::is_empty(dir.path()));
     };
     bad([](ScanPoint& p) { p.returnNumber = 0; });
