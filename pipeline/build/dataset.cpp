@@ -170,6 +170,29 @@ void checkSweptSpecies(const DatasetSpec& d) {
     }
 }
 
+// [scan]: what the scan writes (read here), then the scanner's own keys (readScanOptions).
+void readScan(Params& t, ScanOutputs& scan) {
+    scan.enabled = true;
+    if (t.has("formats")) {
+        scan.las = scan.forestFormer = scan.treeLearn = false;
+        const std::vector<std::string> formats = t.stringArray("formats");
+        if (formats.empty()) t.fail("formats", "expected at least one of \"las\", \"forestformer\", \"treelearn\"");
+        for (const std::string& f : formats) {
+            if (f == "las")
+                scan.las = true;
+            else if (f == "forestformer")
+                scan.forestFormer = true;
+            else if (f == "treelearn")
+                scan.treeLearn = true;
+            else
+                t.fail("formats", "expected \"las\", \"forestformer\" or \"treelearn\", got \"" + f + "\"");
+        }
+    }
+    scan.colour = t.choice("las_colour", scan.colour,
+                           {{"none", LasColour::kNone}, {"class", LasColour::kClass}, {"tree", LasColour::kTree}});
+    scan.options = readScanOptions(t);
+}
+
 // [outputs] (without the [views] table); defaults come from OutputOptions.
 void readOutputs(Params& o, OutputOptions& out) {
     std::vector<std::string> sk = o.stringArray("skeleton");
@@ -187,6 +210,7 @@ void readOutputs(Params& o, OutputOptions& out) {
     }
     out.preview = o.boolean("preview", out.preview);
     out.leafOutlines = o.boolean("leaf_outlines", out.leafOutlines);
+    out.qsm = o.boolean("qsm", out.qsm);  // the default is set from [scan] before
     out.previewSize =
         static_cast<int>(o.integer("preview_size", out.previewSize, Range::closed(16, 8192)));
     for (const auto& f : o.stringArray("mesh")) {
@@ -540,6 +564,8 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
     readSpeciesEntries(p, d, fingerprintBytes);
     checkSweptSpecies(d);
     if (auto b = p.optionalTable("budget")) d.budget = readBudget(*b, true);
+    if (auto s = p.optionalTable("scan")) readScan(*s, d.outputs.scan);
+    d.outputs.qsm = d.outputs.scan.enabled;  // [outputs] qsm overrides it
     if (auto o = p.optionalTable("outputs")) readOutputs(*o, d.outputs);
     if (auto v = p.optionalTable("views")) {
         readViews(*v, d.outputs.views, d.outputs.render);
@@ -547,7 +573,8 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
     }
     std::vector<Params> plots = p.tableArray("plot");  // [[plot]]: species/plot/plot_spec.h
     p.finish();
-    const bool meshed = !d.outputs.meshFormats.empty() || d.outputs.views.count > 0;
+    const bool meshed =
+        !d.outputs.meshFormats.empty() || d.outputs.views.count > 0 || d.outputs.scan.enabled;
     for (SpeciesEntry& entry : d.species) {
         entry.budget = d.budget;
         expandSweepPoints(entry, d.sweeps, meshed);

@@ -17,6 +17,8 @@
 #include "pipeline/render/render.h"
 #include "species/geometry/tube_mesh.h"
 #include "species/geometry/watertight.h"
+#include "pipeline/formats/scan_writers.h"
+#include "pipeline/scan/scan_options.h"
 #include "species/plot/plot.h"
 #include "species/spec/species.h"
 
@@ -56,6 +58,16 @@ struct SpeciesEntry {
 // `index`) see it exactly; ids print the index in decimal, so they stay unique and stable.
 constexpr int64_t kMaxInstances = 9'000'000'000'000'000;
 
+// [scan]: a simulated laser scan of every instance, tree or plot (docs/scanning.md).
+struct ScanOutputs {
+    bool enabled = false;  // the dataset has a [scan] table
+    ScanOptions options;
+    bool las = true;           // scan.las (LAS 1.4)
+    bool forestFormer = false;  // scan_forestformer.ply (ForestFormer3D / ForAINetV2)
+    bool treeLearn = false;     // scan_treelearn.npy (TreeLearn)
+    LasColour colour = LasColour::kNone;  // LAS point format 6, or 7 coloured by class / tree
+};
+
 struct OutputOptions {
     bool ply = true;       // skeleton.ply
     bool swc = false;      // skeleton.swc
@@ -72,6 +84,8 @@ struct OutputOptions {
     ViewOptions views;      // [views]
     RenderOptions render;   // [views] min_width_px
     int speciesSheet = 16;  // first K instances per species in a sheet
+    ScanOutputs scan;       // [scan]
+    bool qsm = false;       // qsm.csv + qsm_treeqsm.txt per tree (default: with [scan])
 };
 
 struct DatasetSpec {

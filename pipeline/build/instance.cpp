@@ -104,7 +104,7 @@ void meshStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     if (w.job.plot) return;  // writePlot meshes a plot as it writes it
     auto t0 = Clock::now();
     if (!o.leafOutlines) leavesAsCards(w.grown.tree);
-    if (!o.meshFormats.empty()) {
+    if (!o.meshFormats.empty() || o.scan.enabled) {  // the scan sees the mesh
         checkMeshTriangles(w.grown, o.tubes);
         w.mesh.wood = tubeMesh(w.grown.tree, o.tubes, &w.woodNodes);
         w.mesh.leaves = leafMesh(w.grown.tree);
@@ -143,6 +143,15 @@ void renderStage(InstanceWork& w, const OutputOptions& o) {
                                      o.views.labels || o.views.pointCloud, o.render));
     }
     w.renderMs = msSince(t0);
+}
+
+void scanStage(InstanceWork& w, const OutputOptions& o) {
+    if (!o.scan.enabled || w.job.plot) return;
+    auto t0 = Clock::now();
+    w.scan = std::make_shared<InstanceScan>(scanTree(w.grown.tree, w.mesh, w.woodNodes, o.scan,
+                                                     o.leafOutlines,
+                                                     Rng(w.job.seed).derive("scan").seed()));
+    w.scanMs = msSince(t0);
 }
 
 void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
@@ -197,6 +206,8 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
         for (const std::string& f : o.meshFormats) putMesh("watertight", wt, f);
         if (o.vdb) noteFile("watertight_vdb", rel / "watertight.vdb");
     }
+    if (w.scan) writeScanFiles(*w.scan, o.scan, out, rel, files, bytes);
+    if (o.qsm) writeQsmFiles(w.grown.tree, out, rel, "", files, bytes);
     if (o.preview) {
         writePreviewPng(w.grown.tree, out / rel / "preview.png", o.previewSize);
         noteFile("preview_png", rel / "preview.png");
@@ -277,13 +288,23 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     rec["params"] = w.grown.sampled;
     rec["files"] = files;
     rec["bytes_written"] = bytes;
+    if (w.scan) {
+        st["scan_points"] = w.scan->stats["points"];
+        st["scan_wood_surface_hit"] = w.scan->stats["wood_surface_hit_mean"];
+        st["scan_multiple_return_share"] = w.scan->stats["multiple_return_share"];
+        if (w.scan->stats.contains("points_per_m2")) {
+            st["scan_points_per_m2"] = w.scan->stats["points_per_m2"];
+        }
+    }
     rec["stats"] = st;
+    if (w.scan) rec["scan"] = w.scan->stats;
     w.writeMs = msSince(t0);
     // The only fields that differ between identical builds.
     rec["timing"] = {{"grow_ms", w.growMs},
                      {"mesh_ms", w.meshMs},
                      {"render_ms", w.renderMs},
                      {"write_ms", w.writeMs}};
+    if (w.scan) rec["timing"]["scan_ms"] = w.scanMs;
 }
 
 }  // namespace sylva

@@ -1,4 +1,4 @@
-// One instance through the stages of the flow graph: grow → mesh → render → write.
+// One instance through the stages of the flow graph: grow → mesh → render (+ scan) → write.
 // Each stage is a function of the work item; only write() touches the disk (besides the
 // optional watertight .vdb, which the mesh stage writes atomically as it is made).
 #pragma once
@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "pipeline/build/dataset.h"
+#include "pipeline/build/scan_instance.h"
 #include "pipeline/render/render.h"
 #include "species/geometry/mesh.h"
 #include "species/spec/species.h"
@@ -26,6 +27,8 @@ struct InstanceWork {
     std::vector<ViewImage> views;
     double growMs = 0, meshMs = 0, renderMs = 0, writeMs = 0;
     std::shared_ptr<GrownPlot> plot;  // a plot instance's trees (job.plot), instead of grown
+    std::shared_ptr<InstanceScan> scan;  // [scan]: the scan of a tree (a plot's: writePlot)
+    double scanMs = 0;
     nlohmann::json record;            // the manifest line, made by write()
     std::string error;                // set by the first stage that fails; later stages skip
 };
@@ -33,6 +36,8 @@ struct InstanceWork {
 void growStage(InstanceWork& w);
 void meshStage(InstanceWork& w, const OutputOptions& outputs, const std::filesystem::path& out);
 void renderStage(InstanceWork& w, const OutputOptions& outputs);
+// [scan]: scans a tree (after its mesh); a plot is scanned by writePlot.
+void scanStage(InstanceWork& w, const OutputOptions& outputs);
 void writeStage(InstanceWork& w, const OutputOptions& outputs, const std::filesystem::path& out);
 
 // Relative directory of an instance's files: trees/<species>/<id>, or plots/<plot>/<id>.

@@ -1,0 +1,133 @@
+#include "pipeline/build/scan_instance.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/rng.h"
+#include "pipeline/formats/qsm_writer.h"
+#include "pipeline/formats/scan_writers.h"
+#include "pipeline/render/plot_render.h"
+#include "pipeline/scan/scan_scene.h"
+#include "pipeline/scan/scan_stats.h"
+#include "pipeline/scan/scanner.h"
+
+namespace fs = std::filesystem;
+
+namespace sylva {
+
+namespace {
+
+int tlsStations(const ScanOptions& o) {
+    return o.platform == ScanPlatform::kTls ? static_cast<int>(o.stations.size()) : 0;
+}
+
+const char* systemIdentifier(ScanPlatform p) {
+    switch (p) {
+        case ScanPlatform::kTls: return "sylva TLS simulation";
+        case ScanPlatform::kAls: return "sylva ALS simulation";
+        case ScanPlatform::kUls: return "sylva ULS simulation";
+    }
+    return "sylva simulation";
+}
+
+uint64_t fileSize(const fs::path& p) {
+    std::error_code ec;
+    const auto size = fs::file_size(p, ec);
+    return ec ? 0 : static_cast<uint64_t>(size);
+}
+
+}  // namespace
+
+double treeGroundHalfSize(const Tree& tree, const ScanOptions& options) {
+    double reach = 0;
+    for (const SkeletonNode& n : tree.nodes) {
+        reach = std::max({reach, std::abs(n.position.x), std::abs(n.position.z)});
+    }
+    for (const Leaf& l : tree.leaves) {
+        reach = std::max({reach, std::abs(l.position.x), std::abs(l.position.z)});
+    }
+    if (options.platform == ScanPlatform::kTls) {
+        for (const TlsStation& s : options.stations) {
+            reach = std::max({reach, std::abs(s.x), std::abs(s.z)});
+        }
+    }
+    return reach + 2.0;
+}
+
+InstanceScan scanTree(const Tree& tree, const TreeMesh& mesh, const std::vector<int32_t>& woodNodes,
+                      const ScanOutputs& scan, bool leafOutlines, uint64_t seed) {
+    const double half = treeGroundHalfSize(tree, scan.options);
+    const ScanScene scene = makeScanScene(tree, mesh, woodNodes, half, leafOutlines);
+    InstanceScan s;
+    s.result = sylva::scan(scene, scan.options, seed);
+    ScanStats stats(tlsStations(scan.options), 4 * half * half, scan.options.maxReturns);
+    stats.addTree(1, tree);
+    stats.addPoints(s.result.points);
+    s.stats = stats.json(s.result.pulses);
+    s.stats["platform"] = scan.options.platform == ScanPlatform::kTls   ? "tls"
+                          : scan.options.platform == ScanPlatform::kAls ? "als"
+                                                                        : "uls";
+    s.stats["ground_m2"] = 4 * half * half;
+    return s;
+}
+
+InstanceScan scanPlot(const GrownPlot& plot, const PlotScene& scene, const ScanOutputs& scan,
+                      uint64_t seed) {
+    const ScanScene s3 = makeScanScene(plot, scene);
+    InstanceScan s;
+    s.result = sylva::scan(s3, scan.options, seed);
+    const double area = plot.spec->area.area();
+    ScanStats stats(tlsStations(scan.options), area, scan.options.maxReturns);
+    for (const PlotTree& t : plot.trees) stats.addTree(t.stem.id, t.grown.tree);
+    stats.addPoints(s.result.points);
+    s.stats = stats.json(s.result.pulses);
+    s.stats["platform"] = scan.options.platform == ScanPlatform::kTls   ? "tls"
+                          : scan.options.platform == ScanPlatform::kAls ? "als"
+                                                                        : "uls";
+    s.stats["ground_m2"] = area;
+    return s;
+}
+
+void writeScanFiles(const InstanceScan& scan, const ScanOutputs& options, const fs::path& out,
+                    const fs::path& rel, nlohmann::json& files, uint64_t& bytes) {
+    auto note = [&](const std::string& key, const std::string& name) {
+        files[key] = (rel / name).generic_string();
+        bytes += fileSize(out / rel / name);
+    };
+    fs::create_directories(out / rel);
+    if (options.las) {
+        LasOptions lo;
+        lo.colour = options.colour;
+        lo.systemIdentifier = systemIdentifier(options.options.platform);
+        writeLas(out / rel / "scan.las", scan.result, lo);
+        note("scan_las", "scan.las");
+    }
+    if (options.forestFormer) {
+        writeForestFormerPly(out / rel / "scan_forestformer.ply", scan.result);
+        note("scan_forestformer_ply", "scan_forestformer.ply");
+    }
+    if (options.treeLearn) {
+        writeTreeLearnNpy(out / rel / "scan_treelearn.npy", scan.result);
+        note("scan_treelearn_npy", "scan_treelearn.npy");
+    }
+    writeTrajectory(out / rel / "scan_trajectory.csv", scan.result);
+    note("scan_trajectory", "scan_trajectory.csv");
+    if (options.options.platform == ScanPlatform::kTls) {
+        writeStations(out / rel / "scan_stations.json", scan.result);
+        note("scan_stations", "scan_stations.json");
+    }
+}
+
+void writeQsmFiles(const Tree& tree, const fs::path& out, const fs::path& rel,
+                   const std::string& prefix, nlohmann::json& files, uint64_t& bytes) {
+    const std::string csv = prefix + "qsm.csv", txt = prefix + "qsm_treeqsm.txt";
+    fs::create_directories((out / rel / csv).parent_path());
+    writeQsmCylinders(out / rel / csv, tree, out / rel / txt);
+    if (prefix.empty()) {
+        files["qsm_csv"] = (rel / csv).generic_string();
+        files["qsm_txt"] = (rel / txt).generic_string();
+    }
+    bytes += fileSize(out / rel / csv) + fileSize(out / rel / txt);
+}
+
+}  // namespace sylva

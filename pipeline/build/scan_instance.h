@@ -1,0 +1,52 @@
+// The scan stage of an instance (docs/scanning.md): a simulated laser scan of a tree (on a ground
+// square) or of a plot (its terrain, trees and ground cover) with the dataset's [scan] options,
+// its files, its statistics block, and the trees' QSM cylinder tables.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "pipeline/build/dataset.h"
+#include "pipeline/scan/scan_point.h"
+#include "species/geometry/mesh.h"
+#include "species/model/tree.h"
+
+namespace sylva {
+
+struct PlotScene;
+
+// A scan's points and its statistics block (ScanStats::json).
+struct InstanceScan {
+    ScanResult result;
+    nlohmann::json stats;
+};
+
+// The ground square under a single tree: half its side in metres — the tree's horizontal reach
+// (nodes and leaves) or the farthest TLS station, whichever is more, plus 2 m.
+double treeGroundHalfSize(const Tree& tree, const ScanOptions& options);
+
+// A single tree (its mesh as meshStage made it) on its ground square; the scanner's random
+// streams are keyed by `seed` (the instance seed's "scan" stream).
+InstanceScan scanTree(const Tree& tree, const TreeMesh& mesh, const std::vector<int32_t>& woodNodes,
+                      const ScanOutputs& scan, bool leafOutlines, uint64_t seed);
+// A plot: its scene (makePlotScene, with leaf meshes) on the plot's terrain.
+InstanceScan scanPlot(const GrownPlot& plot, const PlotScene& scene, const ScanOutputs& scan,
+                      uint64_t seed);
+
+// Writes the scan's files into out/rel — scan.las, scan_forestformer.ply, scan_treelearn.npy
+// (as [scan] formats asks), scan_trajectory.csv and, for TLS, scan_stations.json — adding each
+// to `files` (manifest key → relative path) and its size to `bytes`.
+void writeScanFiles(const InstanceScan& scan, const ScanOutputs& options,
+                    const std::filesystem::path& out, const std::filesystem::path& rel,
+                    nlohmann::json& files, uint64_t& bytes);
+
+// qsm.csv and qsm_treeqsm.txt of a tree in out/rel, with `prefix` before both names
+// ("" for a single tree, "trees/tree-0007_" in a plot).
+void writeQsmFiles(const Tree& tree, const std::filesystem::path& out,
+                   const std::filesystem::path& rel, const std::string& prefix,
+                   nlohmann::json& files, uint64_t& bytes);
+
+}  // namespace sylva
