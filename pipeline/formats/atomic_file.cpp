@@ -91,6 +91,37 @@ void writeFileAtomic(const fs::path& path, std::string_view bytes, bool fsyncDat
     commitTempFile(tmp, path);
 }
 
+AtomicFileWriter::AtomicFileWriter(const fs::path& path) : path_(path) {
+    createParentDirs(path_);
+    tmp_ = uniqueTempPath(path_);
+    fd_ = ::open(tmp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd_ < 0) throwErrno("cannot create temp file for", path_, errno);
+}
+
+AtomicFileWriter::~AtomicFileWriter() {
+    if (fd_ >= 0) {
+        ::close(fd_);
+        ::unlink(tmp_.c_str());
+    }
+}
+
+void AtomicFileWriter::append(std::string_view bytes) {
+    if (fd_ < 0) throw std::logic_error("AtomicFileWriter::append after commit");
+    if (int err = writeAll(fd_, bytes); err != 0) throwErrno("cannot write", path_, err);
+}
+
+void AtomicFileWriter::commit() {
+    if (fd_ < 0) throw std::logic_error("AtomicFileWriter::commit twice");
+    const int fd = fd_;
+    fd_ = -1;
+    if (::close(fd) != 0) {
+        const int err = errno;
+        ::unlink(tmp_.c_str());
+        throwErrno("cannot write", path_, err);
+    }
+    commitTempFile(tmp_, path_);
+}
+
 AppendLog::AppendLog(const fs::path& path) : path_(path) {
     createParentDirs(path_);
     fd_ = ::open(path_.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);

@@ -25,6 +25,26 @@ std::filesystem::path uniqueTempPath(const std::filesystem::path& target,
 void writeFileAtomic(const std::filesystem::path& path, std::string_view bytes,
                      bool fsyncData = false);
 
+// A file written piece by piece and made visible whole: append() writes to a unique temp
+// sibling, commit() renames it over the target; destroyed without commit() (an exception on
+// the way), the temp file is removed and the target left as it was. For outputs too large to
+// hold twice in memory (a scan's LAS). Errors as writeFileAtomic (ResourceError when the disk,
+// quota or file size limit ran out).
+class AtomicFileWriter {
+  public:
+    explicit AtomicFileWriter(const std::filesystem::path& path);
+    ~AtomicFileWriter();
+    AtomicFileWriter(const AtomicFileWriter&) = delete;
+    AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
+
+    void append(std::string_view bytes);
+    void commit();
+
+  private:
+    std::filesystem::path path_, tmp_;
+    int fd_ = -1;
+};
+
 // Renames `from` over `to`, throwing std::runtime_error (and removing `from`) on failure.
 void commitTempFile(const std::filesystem::path& from, const std::filesystem::path& to);
 
