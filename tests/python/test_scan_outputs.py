@@ -174,6 +174,24 @@ def main():
             assert np.array_equal(p[field], f[key]), field
         assert np.array_equal(treelearn_label(p["treeID"], p["classification"]), npy[:, 3])
 
+    # The Python package's reader (sylva_dataset.read_las, Instance.scan) on the same files.
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
+    from sylva_dataset import read_las as package_read_las
+    for name, fmt in (("formula.las", 6), ("formula_rgb.las", 7)):
+        las = package_read_las(out / name)
+        assert las.header["point_format"] == fmt and las.header["point_count"] == N
+        assert np.abs(las.positions - xyz).max() <= SCALE / 2 + 1e-9
+        assert [d["name"] for d in las.extra] == ["treeID", "treeSP", "semantic_seg",
+                                                  "hitObjectId", "branch_order", "node_id"]
+        for field, key in (("treeID", "tree"), ("treeSP", "species"), ("semantic_seg", "sem"),
+                           ("hitObjectId", "object"), ("branch_order", "order"),
+                           ("node_id", "node"), ("classification", "cls"),
+                           ("return_number", "rn"), ("number_of_returns", "nr"),
+                           ("scanner_channel", "channel"), ("intensity", "intensity")):
+            assert np.array_equal(las[field], f[key]), field
+        assert np.allclose(las["gps_time"], GPS_START + f["gps"], rtol=0, atol=1e-9)
+        assert ("red" in las.fields) == (fmt == 7)
+
     # Trajectory and stations (3 poses: scene (1.5k, 60 + k, −20 + 2.25k), heading 90).
     traj = np.genfromtxt(out / "trajectory.csv", delimiter=",", names=True)
     assert traj.dtype.names == ("gps_time", "x", "y", "z", "heading_deg", "channel")
