@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstring>
@@ -89,6 +90,66 @@ void writeFileAtomic(const fs::path& path, std::string_view bytes, bool fsyncDat
         throwErrno("cannot write", path, err);
     }
     commitTempFile(tmp, path);
+}
+
+AtomicFileWriter::AtomicFileWriter(fs::path path, size_t bufferBytes)
+    : path_(std::move(path)), capacity_(std::max<size_t>(bufferBytes, 4096)) {
+    createParentDirs(path_);
+    tmp_ = uniqueTempPath(path_);
+    fd_ = ::open(tmp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd_ < 0) throwErrno("cannot create temp file for", path_, errno);
+    buffer_.reserve(capacity_);
+}
+
+AtomicFileWriter::~AtomicFileWriter() {
+    if (fd_ >= 0) {
+        ::close(fd_);
+        ::unlink(tmp_.c_str());
+    }
+}
+
+void AtomicFileWriter::flush() {
+    if (fd_ < 0) throw std::logic_error("AtomicFileWriter: write after commit");
+    const int err = writeAll(fd_, buffer_);
+    if (err != 0) throwErrno("cannot write", path_, err);  // (the destructor removes the temp)
+    written_ += buffer_.size();
+    buffer_.clear();
+}
+
+void AtomicFileWriter::write(std::string_view bytes) {
+    if (buffer_.size() + bytes.size() > capacity_) {
+        flush();
+        if (bytes.size() >= capacity_) {  // large pieces go straight to the file
+            const int err = writeAll(fd_, bytes);
+            if (err != 0) throwErrno("cannot write", path_, err);
+            written_ += bytes.size();
+            return;
+        }
+    }
+    buffer_.append(bytes);
+}
+
+char* AtomicFileWriter::reserve(size_t n) {
+    if (buffer_.size() + n > capacity_) flush();
+    if (n > capacity_) {
+        capacity_ = n;
+        buffer_.reserve(capacity_);
+    }
+    const size_t at = buffer_.size();
+    buffer_.resize(at + n);
+    return buffer_.data() + at;
+}
+
+void AtomicFileWriter::commit() {
+    flush();
+    const int fd = fd_;
+    fd_ = -1;
+    if (::close(fd) != 0) {
+        const int err = errno;
+        ::unlink(tmp_.c_str());
+        throwErrno("cannot write", path_, err);
+    }
+    commitTempFile(tmp_, path_);
 }
 
 AppendLog::AppendLog(const fs::path& path) : path_(path) {
