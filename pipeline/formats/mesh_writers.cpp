@@ -367,6 +367,27 @@ std::string scenePlyHeader(size_t nv, size_t nf) {
     return out;
 }
 
+// Vertices [i0, i1) and faces [f0, f1) of a piece in the scene PLY's layout (faces' indices
+// offset by the vertices of the pieces before it); return the end of what they stored.
+char* storeSceneVertices(char* p, const PlyPiece& piece, size_t i0, size_t i1) {
+    const Mesh& m = *piece.mesh;
+    for (size_t i = i0; i < i1; ++i) {
+        for (int c = 0; c < 3; ++c) p = storeFloat(p, m.positions[3 * i + c]);
+        for (int c = 0; c < 3; ++c) p = storeFloat(p, attr(m.normals, i, 3, c));
+        p = storeU32(p, static_cast<uint32_t>(piece.treeId));
+        *p++ = static_cast<char>(piece.parts ? (*piece.parts)[i] : piece.part);
+    }
+    return p;
+}
+char* storeSceneFaces(char* p, const Mesh& m, size_t f0, size_t f1, uint32_t offset) {
+    for (size_t f = f0; f < f1; ++f) {
+        *p++ = 3;
+        for (int c = 0; c < 3; ++c) p = storeU32(p, m.indices[3 * f + c] + offset);
+    }
+    return p;
+}
+
+constexpr size_t kSceneVertexBytes = 6 * 4 + 4 + 1, kSceneFaceBytes = 1 + 3 * 4;
 constexpr size_t kStreamBlock = 4096;  // vertices, faces or values per buffer reservation
 
 }  // namespace
@@ -379,27 +400,15 @@ std::string scenePly(const PlotScene& scene) {
         nf += p.mesh->triangleCount();
     }
     std::string out = scenePlyHeader(nv, nf);
-    constexpr size_t kVertexBytes = 6 * 4 + 4 + 1, kFaceBytes = 1 + 3 * 4;
     const size_t headerBytes = out.size();
-    out.resize(headerBytes + nv * kVertexBytes + nf * kFaceBytes);
+    out.resize(headerBytes + nv * kSceneVertexBytes + nf * kSceneFaceBytes);
     char* p = out.data() + headerBytes;
-    for (const PlyPiece& piece : pieces) {
-        const Mesh& m = *piece.mesh;
-        for (size_t i = 0; i < m.vertexCount(); ++i) {
-            for (int c = 0; c < 3; ++c) p = storeFloat(p, m.positions[3 * i + c]);
-            for (int c = 0; c < 3; ++c) p = storeFloat(p, attr(m.normals, i, 3, c));
-            p = storeU32(p, static_cast<uint32_t>(piece.treeId));
-            *p++ = static_cast<char>(piece.parts ? (*piece.parts)[i] : piece.part);
-        }
-    }
+    for (const PlyPiece& piece : pieces)
+        p = storeSceneVertices(p, piece, 0, piece.mesh->vertexCount());
     uint32_t offset = 0;
     for (const PlyPiece& piece : pieces) {
-        const Mesh& m = *piece.mesh;
-        for (size_t f = 0; f < m.triangleCount(); ++f) {
-            *p++ = 3;
-            for (int c = 0; c < 3; ++c) p = storeU32(p, m.indices[3 * f + c] + offset);
-        }
-        offset += static_cast<uint32_t>(m.vertexCount());
+        p = storeSceneFaces(p, *piece.mesh, 0, piece.mesh->triangleCount(), offset);
+        offset += static_cast<uint32_t>(piece.mesh->vertexCount());
     }
     return out;
 }
@@ -469,34 +478,21 @@ uint64_t writeScenePly(const PlotScene& scene, const std::filesystem::path& path
     }
     AtomicFileWriter file(path);
     file.write(scenePlyHeader(nv, nf));
-    constexpr size_t kVertexBytes = 6 * 4 + 4 + 1, kFaceBytes = 1 + 3 * 4;
     for (const PlyPiece& piece : pieces) {
-        const Mesh& m = *piece.mesh;
-        const size_t n = m.vertexCount();
+        const size_t n = piece.mesh->vertexCount();
         for (size_t i0 = 0; i0 < n; i0 += kStreamBlock) {
             const size_t i1 = std::min(n, i0 + kStreamBlock);
-            char* p = file.reserve((i1 - i0) * kVertexBytes);
-            for (size_t i = i0; i < i1; ++i) {
-                for (int c = 0; c < 3; ++c) p = storeFloat(p, m.positions[3 * i + c]);
-                for (int c = 0; c < 3; ++c) p = storeFloat(p, attr(m.normals, i, 3, c));
-                p = storeU32(p, static_cast<uint32_t>(piece.treeId));
-                *p++ = static_cast<char>(piece.parts ? (*piece.parts)[i] : piece.part);
-            }
+            storeSceneVertices(file.reserve((i1 - i0) * kSceneVertexBytes), piece, i0, i1);
         }
     }
     uint32_t offset = 0;
     for (const PlyPiece& piece : pieces) {
-        const Mesh& m = *piece.mesh;
-        const size_t n = m.triangleCount();
+        const size_t n = piece.mesh->triangleCount();
         for (size_t f0 = 0; f0 < n; f0 += kStreamBlock) {
             const size_t f1 = std::min(n, f0 + kStreamBlock);
-            char* p = file.reserve((f1 - f0) * kFaceBytes);
-            for (size_t f = f0; f < f1; ++f) {
-                *p++ = 3;
-                for (int c = 0; c < 3; ++c) p = storeU32(p, m.indices[3 * f + c] + offset);
-            }
+            storeSceneFaces(file.reserve((f1 - f0) * kSceneFaceBytes), *piece.mesh, f0, f1, offset);
         }
-        offset += static_cast<uint32_t>(m.vertexCount());
+        offset += static_cast<uint32_t>(piece.mesh->vertexCount());
     }
     const uint64_t bytes = file.bytesWritten();
     file.commit();
@@ -623,8 +619,7 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
     const uint64_t total = 12 + 8 + content.size() + (binBytes > 0 ? 8 + binBytes : 0);
     if (total > std::numeric_limits<uint32_t>::max()) {
         throw std::runtime_error("cannot write '" + path.string() + "': the scene's " +
-                                 std::to_string(total) +
-                                 " bytes exceed GLB's 4 GiB limit");
+                                 std::to_string(total) + " bytes exceed GLB's 4 GiB limit");
     }
 
     AtomicFileWriter file(path);
