@@ -322,8 +322,9 @@ BENCHMARK_CAPTURE(DatasetBuild, plot_singles, "bench/plot-singles.toml")
     ->UseRealTime();
 
 // One forest plot built and written (bench/plot-<size>ha.toml: five species, one per growth
-// method and a second conifer, 400 stems/ha, grown together, meshed, three views with depth,
-// labels and instance ids) on all cores: seconds per plot, per tree, and the process's peak
+// method and a second conifer, 400 stems/ha, grown together, three views with depth, labels
+// and instance ids drawn tree by tree; the 1 ha plot also meshed, its scene files streamed) on
+// all cores: seconds per plot, per tree, and the process's peak
 // RSS — run each size in its own process (--benchmark_filter=PlotBuild/1ha), since peak RSS
 // is the process's.
 static void PlotBuild(benchmark::State& state, const char* specPath) {

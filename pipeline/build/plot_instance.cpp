@@ -57,12 +57,17 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
 
     const bool meshes = !o.meshFormats.empty();
     const bool views = o.views.count > 0;
+    // The scene (every tree's tubes and leaves) only for meshes; its files are streamed from
+    // it, and the views draw from the trees one by one (with the scene's tubes, or making each
+    // tree's tubes in turn): no other copy of the plot's geometry is held.
     PlotScene scene;
-    if (meshes || views)
-        scene = makePlotScene(plot, o.tubes, /*leafMeshes=*/meshes, o.leafOutlines);
     if (meshes) {
-        put("scene_glb", "scene.glb", sceneGlb(scene));
-        put("scene_ply", "scene.ply", scenePly(scene));
+        scene = makePlotScene(plot, o.tubes, /*leafMeshes=*/true, o.leafOutlines);
+        const fs::path glb = rel / "scene.glb", ply = rel / "scene.ply";
+        bytes += writeSceneGlb(scene, out / glb);
+        files["scene_glb"] = glb.generic_string();
+        bytes += writeScenePly(scene, out / ply);
+        files["scene_ply"] = ply.generic_string();
     }
 
     // Per tree: what a single instance writes, in plot-local metres.
@@ -98,13 +103,10 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
 
     if (views) {
         const std::vector<Camera> cameras = makePlotCameras(plot, o.views);
-        const PlotRenderScene rs = makePlotRenderScene(plot, std::move(scene));  // (last use)
-        std::vector<ViewImage> images;
-        images.reserve(cameras.size());
-        for (const Camera& c : cameras) {
-            images.push_back(
-                renderPlotView(rs, c, o.views.depth || o.views.depthPng, o.views.labels, o.render));
-        }
+        const std::vector<ViewImage> images =
+            renderPlotViews(plot, meshes ? &scene : nullptr, o.tubes, o.leafOutlines, cameras,
+                            o.views.depth || o.views.depthPng, o.views.labels, o.render);
+        scene = PlotScene{};  // (last use)
         ViewFiles vf;
         if (o.views.depthPng) vf.integerDepthScale = integerDepthScale(images);
         for (size_t k = 0; k < images.size(); ++k) {

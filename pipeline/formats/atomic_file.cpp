@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstring>
@@ -91,11 +92,13 @@ void writeFileAtomic(const fs::path& path, std::string_view bytes, bool fsyncDat
     commitTempFile(tmp, path);
 }
 
-AtomicFileWriter::AtomicFileWriter(const fs::path& path) : path_(path) {
+AtomicFileWriter::AtomicFileWriter(fs::path path, size_t bufferBytes)
+    : path_(std::move(path)), capacity_(std::max<size_t>(bufferBytes, 4096)) {
     createParentDirs(path_);
     tmp_ = uniqueTempPath(path_);
     fd_ = ::open(tmp_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
     if (fd_ < 0) throwErrno("cannot create temp file for", path_, errno);
+    buffer_.reserve(capacity_);
 }
 
 AtomicFileWriter::~AtomicFileWriter() {
@@ -105,13 +108,40 @@ AtomicFileWriter::~AtomicFileWriter() {
     }
 }
 
-void AtomicFileWriter::append(std::string_view bytes) {
-    if (fd_ < 0) throw std::logic_error("AtomicFileWriter::append after commit");
-    if (int err = writeAll(fd_, bytes); err != 0) throwErrno("cannot write", path_, err);
+void AtomicFileWriter::flush() {
+    if (fd_ < 0) throw std::logic_error("AtomicFileWriter: write after commit");
+    const int err = writeAll(fd_, buffer_);
+    if (err != 0) throwErrno("cannot write", path_, err);  // (the destructor removes the temp)
+    written_ += buffer_.size();
+    buffer_.clear();
+}
+
+void AtomicFileWriter::write(std::string_view bytes) {
+    if (buffer_.size() + bytes.size() > capacity_) {
+        flush();
+        if (bytes.size() >= capacity_) {  // large pieces go straight to the file
+            const int err = writeAll(fd_, bytes);
+            if (err != 0) throwErrno("cannot write", path_, err);
+            written_ += bytes.size();
+            return;
+        }
+    }
+    buffer_.append(bytes);
+}
+
+char* AtomicFileWriter::reserve(size_t n) {
+    if (buffer_.size() + n > capacity_) flush();
+    if (n > capacity_) {
+        capacity_ = n;
+        buffer_.reserve(capacity_);
+    }
+    const size_t at = buffer_.size();
+    buffer_.resize(at + n);
+    return buffer_.data() + at;
 }
 
 void AtomicFileWriter::commit() {
-    if (fd_ < 0) throw std::logic_error("AtomicFileWriter::commit twice");
+    flush();
     const int fd = fd_;
     fd_ = -1;
     if (::close(fd) != 0) {

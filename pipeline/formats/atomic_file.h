@@ -25,24 +25,34 @@ std::filesystem::path uniqueTempPath(const std::filesystem::path& target,
 void writeFileAtomic(const std::filesystem::path& path, std::string_view bytes,
                      bool fsyncData = false);
 
-// A file written piece by piece and made visible whole: append() writes to a unique temp
-// sibling, commit() renames it over the target; destroyed without commit() (an exception on
-// the way), the temp file is removed and the target left as it was. For outputs too large to
-// hold twice in memory (a scan's LAS). Errors as writeFileAtomic (ResourceError when the disk,
-// quota or file size limit ran out).
+// A file written piece by piece (files too large to hold in memory whole, such as a plot's
+// scene meshes) and then committed as writeFileAtomic commits: parent directories created, a
+// unique temp sibling written through a buffer of `bufferBytes`, every write() checked (a
+// ResourceError on a full disk, quota, file size limit, else std::runtime_error naming the
+// path), then commit() closes and renames it over the target. Destroyed without commit() (an
+// exception on the way), the temp file is removed and the target left as it was.
 class AtomicFileWriter {
   public:
-    explicit AtomicFileWriter(const std::filesystem::path& path);
+    explicit AtomicFileWriter(std::filesystem::path path, size_t bufferBytes = size_t(1) << 20);
     ~AtomicFileWriter();
     AtomicFileWriter(const AtomicFileWriter&) = delete;
     AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
 
-    void append(std::string_view bytes);
+    void write(std::string_view bytes);
+    // Room for n bytes at the end of the buffer (flushed first when needed), to be filled by
+    // the caller: writers that store numbers in place (little_endian.h) use it.
+    char* reserve(size_t n);
+    uint64_t bytesWritten() const { return written_ + buffer_.size(); }
+    // Flushes, closes and renames the temp file over the target. Throws as write() does.
     void commit();
 
   private:
+    void flush();
     std::filesystem::path path_, tmp_;
     int fd_ = -1;
+    std::string buffer_;
+    size_t capacity_;
+    uint64_t written_ = 0;
 };
 
 // Renames `from` over `to`, throwing std::runtime_error (and removing `from`) on failure.

@@ -5,6 +5,8 @@
 //   "leaf" (leaves): base colour (0.18, 0.42, 0.10), roughness 0.6, double-sided
 #pragma once
 
+#include <cstdint>
+#include <filesystem>
 #include <string>
 
 #include "pipeline/render/plot_render.h"
@@ -53,6 +55,18 @@ std::string scenePly(const PlotScene& scene);
 // whose mesh of the same name has a wood primitive ("bark") and a leaf primitive ("leaf"),
 // attributes as meshGlb's. Every node's extras hold {"tree_id": id} (0: terrain, ground cover).
 // Empty parts and nodes are left out; materials only when used.
+// Both build the whole file in memory (sceneGlb through tinygltf, which copies the scene into
+// its model, then into a stream): for small scenes and as the reference of the streamed
+// writers below, which the build uses.
 std::string sceneGlb(const PlotScene& scene);
+
+// scenePly and sceneGlb streamed into `path` (temp + rename, pipeline/formats/atomic_file.h
+// AtomicFileWriter): the same bytes, written piece by piece from the scene — counts, offsets and
+// bounds first, then each tree's vertices, faces or buffer views in file order — so no copy of
+// the scene (a hectare's is gigabytes) is ever held in memory. Return the bytes written. A GLB
+// larger than its format's 4 GiB limit (a 32-bit length) throws std::runtime_error naming the
+// path before anything is written.
+uint64_t writeScenePly(const PlotScene& scene, const std::filesystem::path& path);
+uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path);
 
 }  // namespace sylva

@@ -354,7 +354,7 @@ void toFile(const fs::path& path, const std::function<void(const Sink&)>& encode
     std::optional<AtomicFileWriter> file;
     encode([&](std::string_view b) {
         if (!file) file.emplace(path);
-        file->append(b);
+        file->write(b);
     });
     if (!file) file.emplace(path);
     file->commit();

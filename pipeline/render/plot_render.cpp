@@ -154,18 +154,64 @@ NgpPlacement plotNgpPlacement(const GrownPlot& plot) { return ngpPlacement(plotS
 
 namespace {
 
-// The merge; with `freeFrom` (the scene itself), each tree's meshes are freed once merged.
-PlotRenderScene mergeScene(const GrownPlot& plot, const PlotScene& scene, PlotScene* freeFrom,
-                           bool withTerrain, bool withGroundCover) {
-    if (scene.trees.size() != plot.trees.size()) {
-        throw std::invalid_argument("makePlotRenderScene: the scene is not the plot's");
-    }
+void checkIds(const GrownPlot& plot) {
     for (const PlotTree& t : plot.trees) {
         if (t.stem.id < 1 || t.stem.id > 65535) {
             throw std::invalid_argument("plot views: tree id " + std::to_string(t.stem.id) +
                                         " does not fit a 16-bit id image (1 … 65535)");
         }
     }
+}
+
+// A tree's labels for renderScene: PlotPart + 1 per node and leaf, its id on every one.
+SceneLabels treeLabels(const Tree& t, uint16_t id) {
+    SceneLabels L;
+    L.nodeLabels.reserve(t.nodes.size());
+    for (const SkeletonNode& n : t.nodes) L.nodeLabels.push_back(woodPart(n) + 1);
+    L.nodeIds.assign(t.nodes.size(), id);
+    L.leafLabels.assign(t.leaves.size(), kPartLeaf + 1);
+    L.leafIds.assign(t.leaves.size(), id);
+    return L;
+}
+
+// The terrain as a tree of one node whose wood it is.
+SceneLabels terrainLabels(Tree& node, std::vector<int32_t>& woodNodes, const Mesh& terrain) {
+    node.nodes.assign(1, SkeletonNode{});
+    node.nodes[0].parent = -1;
+    woodNodes.assign(terrain.triangleCount(), 0);
+    SceneLabels L;
+    L.nodeLabels = {kPartTerrain + 1};
+    L.nodeIds = {0};
+    return L;
+}
+
+// The ground cover as the leaves of a tree without nodes.
+SceneLabels groundCoverLabels(Tree& cover, const GrownPlot& plot) {
+    cover.leaves = plot.groundCover;
+    for (Leaf& l : cover.leaves) l.node = -1;
+    SceneLabels L;
+    L.leafLabels.assign(cover.leaves.size(), kPartLowVegetation + 1);
+    L.leafIds.assign(cover.leaves.size(), 0);
+    return L;
+}
+
+// renderScene's image as a plot view: silhouette from the ids, labels back to PlotPart.
+ViewImage plotImage(ViewImage v, bool wantLabels) {
+    const size_t n = v.ids.size();
+    for (size_t k = 0; k < n; ++k) {
+        v.silhouette[k] = v.ids[k] != 0 ? 255 : 0;
+        v.labels[k] = v.labels[k] == 0 ? kPartBackground : static_cast<uint8_t>(v.labels[k] - 1);
+    }
+    if (!wantLabels) v.labels.clear();
+    return v;
+}
+
+PlotRenderScene mergeScene(const GrownPlot& plot, const PlotScene& scene, bool withTerrain,
+                           bool withGroundCover) {
+    if (scene.trees.size() != plot.trees.size()) {
+        throw std::invalid_argument("makePlotRenderScene: the scene is not the plot's");
+    }
+    checkIds(plot);
     PlotRenderScene r;
     size_t nodes = 1, leaves = 0, vertices = scene.terrain.vertexCount(),
            indices = scene.terrain.indices.size();
@@ -211,7 +257,6 @@ PlotRenderScene mergeScene(const GrownPlot& plot, const PlotScene& scene, PlotSc
             L.leafIds.push_back(id);
         }
         addWood(scene.trees[k].mesh.wood, &scene.trees[k].woodNodes, nodeBase, 0);
-        if (freeFrom) freeFrom->trees[k] = PlotSceneTree{};
     }
     if (withTerrain) {
         SkeletonNode ground;
@@ -237,25 +282,64 @@ PlotRenderScene mergeScene(const GrownPlot& plot, const PlotScene& scene, PlotSc
 
 PlotRenderScene makePlotRenderScene(const GrownPlot& plot, const PlotScene& scene, bool withTerrain,
                                     bool withGroundCover) {
-    return mergeScene(plot, scene, nullptr, withTerrain, withGroundCover);
-}
-
-PlotRenderScene makePlotRenderScene(const GrownPlot& plot, PlotScene&& scene, bool withTerrain,
-                                    bool withGroundCover) {
-    return mergeScene(plot, scene, &scene, withTerrain, withGroundCover);
+    return mergeScene(plot, scene, withTerrain, withGroundCover);
 }
 
 ViewImage renderPlotView(const PlotRenderScene& scene, const Camera& camera, bool wantDepth,
                          bool wantLabels, const RenderOptions& options) {
-    ViewImage v = renderScene(scene.tree, scene.wood, scene.woodNodes, scene.labels, camera,
-                              wantDepth, true, true, options);
-    const size_t n = v.ids.size();
-    for (size_t k = 0; k < n; ++k) {
-        v.silhouette[k] = v.ids[k] != 0 ? 255 : 0;
-        v.labels[k] = v.labels[k] == 0 ? kPartBackground : static_cast<uint8_t>(v.labels[k] - 1);
+    return plotImage(renderScene(scene.tree, scene.wood, scene.woodNodes, scene.labels, camera,
+                                 wantDepth, true, true, options),
+                     wantLabels);
+}
+
+std::vector<ViewImage> renderPlotViews(const GrownPlot& plot, const PlotScene* scene,
+                                       const TubeOptions& tubes, bool leafOutlines,
+                                       const std::vector<Camera>& cameras, bool wantDepth,
+                                       bool wantLabels, const RenderOptions& options) {
+    if (scene && scene->trees.size() != plot.trees.size()) {
+        throw std::invalid_argument("renderPlotViews: the scene is not the plot's");
     }
-    if (!wantLabels) v.labels.clear();
-    return v;
+    checkIds(plot);
+    if (scene) leafOutlines = scene->leafOutlines;
+    std::vector<SceneCanvas> canvases;
+    canvases.reserve(cameras.size());
+    for (const Camera& c : cameras) canvases.emplace_back(c, options);
+    for (size_t k = 0; k < plot.trees.size(); ++k) {
+        const Tree& grown = plot.trees[k].grown.tree;
+        Tree cards;  // the tree with its leaves as cards, when the plot draws them so
+        if (!leafOutlines) {
+            cards.nodes = grown.nodes;
+            cards.leaves = grown.leaves;
+            for (Leaf& l : cards.leaves) l.shape = LeafShape::kCard;
+        }
+        const Tree& t = leafOutlines ? grown : cards;
+        Mesh madeWood;
+        std::vector<int32_t> madeNodes;
+        if (!scene) madeWood = tubeMesh(grown, tubes, &madeNodes);
+        const Mesh& wood = scene ? scene->trees[k].mesh.wood : madeWood;
+        const std::vector<int32_t>& woodNodes = scene ? scene->trees[k].woodNodes : madeNodes;
+        const SceneLabels labels = treeLabels(t, static_cast<uint16_t>(plot.trees[k].stem.id));
+        for (SceneCanvas& canvas : canvases) canvas.draw(t, wood, woodNodes, labels);
+    }
+    {
+        const Mesh made = scene ? Mesh{} : terrainMesh(plot.layout.terrain);
+        const Mesh& terrain = scene ? scene->terrain : made;
+        Tree node;
+        std::vector<int32_t> woodNodes;
+        const SceneLabels labels = terrainLabels(node, woodNodes, terrain);
+        for (SceneCanvas& canvas : canvases) canvas.draw(node, terrain, woodNodes, labels);
+    }
+    {
+        Tree cover;
+        const SceneLabels labels = groundCoverLabels(cover, plot);
+        for (SceneCanvas& canvas : canvases) canvas.draw(cover, Mesh{}, {}, labels);
+    }
+    std::vector<ViewImage> images;
+    images.reserve(cameras.size());
+    for (SceneCanvas& canvas : canvases) {
+        images.push_back(plotImage(canvas.finish(wantDepth, true, true), wantLabels));
+    }
+    return images;
 }
 
 std::vector<uint8_t> colourParts(const std::vector<uint8_t>& parts) {

@@ -1,8 +1,9 @@
 // A grown plot as meshes and views: every tree's tubes and leaf cards in plot-local metres, the
 // terrain and the ground cover (PlotScene, which the scene GLB / PLY writers and the views
 // share), the plot's three cameras (overview, oblique, top-down orthophoto) and its views —
-// silhouette, depth, part labels and instance ids from one z-buffer pass (render.h
-// renderScene). Codes: docs/plots.md, "Outputs".
+// silhouette, depth, part labels and instance ids from one z-buffer per view that the trees,
+// the terrain and the ground cover are drawn into one after another (render.h SceneCanvas). Codes:
+// docs/plots.md, "Outputs".
 #pragma once
 
 #include <array>
@@ -72,8 +73,28 @@ std::vector<Camera> makePlotCameras(const GrownPlot& plot, const ViewOptions& op
 // Where instant-ngp's loader puts the plot (camera.h ngpPlacement, for the same box's sphere).
 NgpPlacement plotNgpPlacement(const GrownPlot& plot);
 
-// The plot merged for renderScene: every tree's nodes, leaves and tubes, the terrain as wood of
-// one extra node, the ground cover as leaves; internal labels are PlotPart + 1.
+// The plot's views, one image per camera, drawn tree by tree into one z-buffer per camera
+// (render.h SceneCanvas): each tree's nodes and leaves (as cards when the scene has no leaf
+// outlines) with their tubes, then the terrain and the ground cover — no merged copy of the
+// plot. With `scene`, its tubes and terrain; without (views and no meshes), each tree's tubes
+// are made here with `tubes` once for all cameras and freed before the next tree's. Images as
+// renderPlotView's below, byte for byte the same as those of the merged scene.
+//   silhouette 255 where a tree (id ≥ 1) is the nearest surface, else 0; depth (metres along
+//   the view axis, terrain and ground cover included, 0 = sky); labels the PlotPart of the
+//   nearest surface, kPartBackground where nothing is drawn (empty without wantLabels); ids the
+//   tree id of the nearest surface, 0 for terrain, ground cover and sky.
+// Throws std::invalid_argument for a tree id outside 1 … 65535 (16-bit id images) or a scene
+// that is not the plot's.
+std::vector<ViewImage> renderPlotViews(const GrownPlot& plot, const PlotScene* scene,
+                                       const TubeOptions& tubes, bool leafOutlines,
+                                       const std::vector<Camera>& cameras, bool wantDepth,
+                                       bool wantLabels, const RenderOptions& options = {});
+
+// The plot merged into one object for renderScene: every tree's nodes, leaves and tubes, the
+// terrain as wood of one extra node, the ground cover as leaves; internal labels are
+// PlotPart + 1. It copies the whole plot (≈ 96 B per leaf, a hectare's tubes): the build draws
+// with renderPlotViews; this is the reference its tests compare with, and serves small scenes
+// (a tree alone, the ground alone).
 struct PlotRenderScene {
     Tree tree;
     Mesh wood;
@@ -82,15 +103,8 @@ struct PlotRenderScene {
 };
 PlotRenderScene makePlotRenderScene(const GrownPlot& plot, const PlotScene& scene,
                                     bool withTerrain = true, bool withGroundCover = true);
-// The same, freeing each tree's meshes in `scene` as they are merged: the peak memory of a
-// plot's views is then about one copy of its tubes, not two (a hectare's tubes are gigabytes).
-PlotRenderScene makePlotRenderScene(const GrownPlot& plot, PlotScene&& scene,
-                                    bool withTerrain = true, bool withGroundCover = true);
 
-// One view of the plot: silhouette 255 where a tree (id ≥ 1) is the nearest surface, else 0;
-// depth (metres along the view axis, terrain and ground cover included, 0 = sky); labels the
-// PlotPart of the nearest surface, kPartBackground where nothing is drawn; ids the tree id of
-// the nearest surface, 0 for terrain, ground cover and sky.
+// One view of a merged plot, images as renderPlotViews'.
 ViewImage renderPlotView(const PlotRenderScene& scene, const Camera& camera, bool wantDepth,
                          bool wantLabels, const RenderOptions& options = {});
 

@@ -648,15 +648,19 @@ void drawTriangle(const Triangle& t, bool ortho, int w, int row0, int row1, floa
     }
 }
 
-ViewImage renderImpl(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
-                     const SceneLabels* labels, const Camera& camera, bool wantDepth,
-                     bool wantLabels, bool wantIds, const RenderOptions& options) {
+void checkImageSize(const Camera& camera) {
     if (camera.width <= 0 || camera.height <= 0) {
         throw std::invalid_argument("renderView: image size must be positive");
     }
     if (static_cast<double>(camera.width) * camera.height > 4.0e9) {
         throw std::invalid_argument("renderView: image too large");
     }
+}
+
+// One object's pass into the z-buffer (ids: the id buffer, or null for a tree's own views).
+void drawInto(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+              const SceneLabels* labels, const View& view, const RenderOptions& options,
+              float* zbuf, uint8_t* lbuf, uint16_t* ids) {
     if (woodNodes.size() != wood.triangleCount()) {
         throw std::invalid_argument("renderView: woodNodes needs one node per wood triangle");
     }
@@ -671,54 +675,50 @@ ViewImage renderImpl(const Tree& tree, const Mesh& wood, const std::vector<int32
                    labels->leafIds.size() != tree.leaves.size())) {
         throw std::invalid_argument("renderScene: one label and id per node and per leaf");
     }
-    const View view(camera);
-    const int w = camera.width, h = camera.height;
-    const size_t n = static_cast<size_t>(w) * h;
-    std::vector<float> zbuf(n, std::numeric_limits<float>::infinity());
-    std::vector<uint8_t> lbuf(n, kLabelBackground);
-    std::vector<uint16_t> ibuf(labels ? n : 0, 0);
-    uint16_t* ids = labels ? ibuf.data() : nullptr;
-
-    if (view.f > 0 && std::isfinite(view.f)) {
-        const Scene scene = buildScene(tree, wood, woodNodes, labels, view, options);
-        const size_t firstClipped = scene.indexedTriangles;
-        const size_t firstLine = firstClipped + scene.clipped.size();
-        const int bands = static_cast<int>(scene.bins.size());
-        tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& r) {
-            float* z = zbuf.data();
-            uint8_t* l = lbuf.data();
-            for (int band = r.begin(); band != r.end(); ++band) {
-                const int row0 = band * kBandRows, row1 = std::min(h, row0 + kBandRows);
-                for (const Scene::Chunk& chunk : scene.chunks) {
-                    for (uint32_t i = chunk.bandStart[band]; i < chunk.bandStart[band + 1]; ++i) {
-                        const Fragment& f = chunk.fragments[i];
-                        plot(z, l, ids, f.pixel, view.ortho ? f.zi : 1.0 / f.zi, f.label, f.id);
-                    }
-                }
-                for (uint32_t id : scene.bins[band]) {
-                    if (id < firstClipped) {
-                        uint32_t v[3];
-                        cornersOf(scene, id, v);
-                        Triangle t;
-                        setupTriangle(scene.corners[v[0]], scene.corners[v[1]], scene.corners[v[2]],
-                                      labelOf(scene, tree, id), w, h, false, t);
-                        t.id = idOf(scene, id);
-                        drawTriangle(t, view.ortho, w, row0, row1, z, l, ids);
-                    } else if (id < firstLine) {
-                        drawTriangle(scene.clipped[id - firstClipped], view.ortho, w, row0, row1, z,
-                                     l, ids);
-                    } else {
-                        drawLine(scene.lines[id - firstLine], w, row0, row1, z, l, ids);
-                    }
+    if (!(view.f > 0 && std::isfinite(view.f))) return;
+    const int w = view.width, h = view.height;
+    const Scene scene = buildScene(tree, wood, woodNodes, labels, view, options);
+    const size_t firstClipped = scene.indexedTriangles;
+    const size_t firstLine = firstClipped + scene.clipped.size();
+    const int bands = static_cast<int>(scene.bins.size());
+    tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& r) {
+        float* z = zbuf;
+        uint8_t* l = lbuf;
+        for (int band = r.begin(); band != r.end(); ++band) {
+            const int row0 = band * kBandRows, row1 = std::min(h, row0 + kBandRows);
+            for (const Scene::Chunk& chunk : scene.chunks) {
+                for (uint32_t i = chunk.bandStart[band]; i < chunk.bandStart[band + 1]; ++i) {
+                    const Fragment& f = chunk.fragments[i];
+                    plot(z, l, ids, f.pixel, view.ortho ? f.zi : 1.0 / f.zi, f.label, f.id);
                 }
             }
-        });
-    }
+            for (uint32_t id : scene.bins[band]) {
+                if (id < firstClipped) {
+                    uint32_t v[3];
+                    cornersOf(scene, id, v);
+                    Triangle t;
+                    setupTriangle(scene.corners[v[0]], scene.corners[v[1]], scene.corners[v[2]],
+                                  labelOf(scene, tree, id), w, h, false, t);
+                    t.id = idOf(scene, id);
+                    drawTriangle(t, view.ortho, w, row0, row1, z, l, ids);
+                } else if (id < firstLine) {
+                    drawTriangle(scene.clipped[id - firstClipped], view.ortho, w, row0, row1, z, l,
+                                 ids);
+                } else {
+                    drawLine(scene.lines[id - firstLine], w, row0, row1, z, l, ids);
+                }
+            }
+        }
+    });
+}
 
+// The image of a filled z-buffer: the silhouette from the drawn pixels, background depth ∞ → 0.
+ViewImage finishImage(int w, int h, std::vector<float>& zbuf, std::vector<uint8_t>& lbuf,
+                      std::vector<uint16_t>& ibuf, bool wantDepth, bool wantLabels, bool wantIds) {
+    const size_t n = static_cast<size_t>(w) * h;
     ViewImage out;
     out.width = w;
     out.height = h;
-    // One pass: the silhouette from the drawn pixels, background depth ∞ → 0.
     out.silhouette.resize(n);
     constexpr float kInf = std::numeric_limits<float>::infinity();
     uint8_t* sil = out.silhouette.data();  // plain pointers: the loop vectorises
@@ -734,7 +734,47 @@ ViewImage renderImpl(const Tree& tree, const Mesh& wood, const std::vector<int32
     return out;
 }
 
+ViewImage renderImpl(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+                     const SceneLabels* labels, const Camera& camera, bool wantDepth,
+                     bool wantLabels, bool wantIds, const RenderOptions& options) {
+    checkImageSize(camera);
+    const View view(camera);
+    const size_t n = static_cast<size_t>(camera.width) * camera.height;
+    std::vector<float> zbuf(n, std::numeric_limits<float>::infinity());
+    std::vector<uint8_t> lbuf(n, kLabelBackground);
+    std::vector<uint16_t> ibuf(labels ? n : 0, 0);
+    drawInto(tree, wood, woodNodes, labels, view, options, zbuf.data(), lbuf.data(),
+             labels ? ibuf.data() : nullptr);
+    return finishImage(camera.width, camera.height, zbuf, lbuf, ibuf, wantDepth, wantLabels,
+                       wantIds);
+}
+
 }  // namespace
+
+SceneCanvas::SceneCanvas(const Camera& camera, const RenderOptions& options)
+    : camera_(camera), options_(options) {
+    checkImageSize(camera);
+    const size_t n = static_cast<size_t>(camera.width) * camera.height;
+    zbuf_.assign(n, std::numeric_limits<float>::infinity());
+    lbuf_.assign(n, kLabelBackground);
+    ibuf_.assign(n, 0);
+}
+
+void SceneCanvas::draw(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+                       const SceneLabels& labels) {
+    if (zbuf_.empty()) throw std::logic_error("SceneCanvas: draw after finish");
+    drawInto(tree, wood, woodNodes, &labels, View(camera_), options_, zbuf_.data(), lbuf_.data(),
+             ibuf_.data());
+}
+
+ViewImage SceneCanvas::finish(bool wantDepth, bool wantLabels, bool wantIds) {
+    ViewImage v = finishImage(camera_.width, camera_.height, zbuf_, lbuf_, ibuf_, wantDepth,
+                              wantLabels, wantIds);
+    zbuf_ = {};
+    lbuf_ = {};
+    ibuf_ = {};
+    return v;
+}
 
 ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
                      const Camera& camera, bool wantDepth, bool wantLabels,

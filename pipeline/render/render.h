@@ -81,6 +81,28 @@ ViewImage renderScene(const Tree& tree, const Mesh& wood, const std::vector<int3
                       const SceneLabels& labels, const Camera& camera, bool wantDepth,
                       bool wantLabels, bool wantIds, const RenderOptions& options = {});
 
+// renderScene over objects drawn one after another into one z-buffer (a plot's trees, terrain
+// and ground cover, each a tree of its own with its tubes and labels), so no merged copy of them
+// is made: each draw() is renderScene's pass over one object. A pixel keeps the nearest surface,
+// equal depths going to the lower label, then to the lower id — a total order — so the image
+// does not depend on the order of the draws and is byte for byte renderScene's of the objects
+// merged into one (PlotViews.TreeByTreeEqualsTheMergedScene).
+class SceneCanvas {
+  public:
+    explicit SceneCanvas(const Camera& camera, const RenderOptions& options = {});
+    void draw(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+              const SceneLabels& labels);
+    // The image (as renderScene returns it); the canvas is spent.
+    ViewImage finish(bool wantDepth, bool wantLabels, bool wantIds);
+
+  private:
+    Camera camera_;
+    RenderOptions options_;
+    std::vector<float> zbuf_;
+    std::vector<uint8_t> lbuf_;
+    std::vector<uint16_t> ibuf_;
+};
+
 // The same, making the tubes first (tubeMesh(tree, tubes)): for one-off views.
 ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, bool wantLabels,
                      const TubeOptions& tubes = {}, const RenderOptions& options = {});

@@ -13,6 +13,7 @@
 
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
+#include "tests/plot_fixture.h"
 #include "tests/test_support.h"
 
 namespace sylva {
@@ -350,6 +351,40 @@ TEST(MeshWriters, ByteIdenticalForTheSameMesh) {
     EXPECT_EQ(meshObj(a), meshObj(b));
     EXPECT_EQ(meshMtl(a), meshMtl(b));
     EXPECT_EQ(meshGlb(a), meshGlb(b));
+}
+
+// The plot scene files streamed into their files (the build's writers) are byte for byte the
+// in-memory ones, the GLB's being tinygltf's serialisation: a scene large enough to pass the
+// stream's buffer (1 MiB) and block (4096 vertices) sizes, with a tree without leaves (a node
+// of one primitive), and an empty scene (no buffer, no nodes).
+TEST(MeshWriters, StreamedSceneFilesEqualInMemoryOnes) {
+    test::TempDir tmp;
+    PlotSpec spec;
+    const GrownPlot plot =
+        test::handPlot(spec, {{-30, -20}, {0, 0}, {25, 10}, {-10, 40}}, 130.0, 130.0);
+    PlotScene scene = makePlotScene(plot, {});
+    scene.trees[2].mesh.leaves = Mesh{};
+    ASSERT_GT(scene.terrain.vertexCount(), 4096u);
+    const std::string ply = scenePly(scene), glb = sceneGlb(scene);
+    ASSERT_GT(ply.size(), size_t(1) << 20);
+    ASSERT_GT(glb.size(), size_t(1) << 20);
+    EXPECT_EQ(writeScenePly(scene, tmp / "scene.ply"), ply.size());
+    EXPECT_EQ(writeSceneGlb(scene, tmp / "scene.glb"), glb.size());
+    EXPECT_TRUE(test::slurp(tmp / "scene.ply") == ply);  // (no dump of a megabyte on failure)
+    EXPECT_TRUE(test::slurp(tmp / "scene.glb") == glb);
+    // The JSON chunks, readable on failure.
+    auto json = [](const std::string& g) {
+        size_t pos = 12;
+        const uint32_t n = readU32(g, pos);
+        return g.substr(20, n);
+    };
+    EXPECT_EQ(json(test::slurp(tmp / "scene.glb")), json(glb));
+
+    const PlotScene empty;
+    EXPECT_EQ(writeScenePly(empty, tmp / "empty.ply"), scenePly(empty).size());
+    EXPECT_EQ(test::slurp(tmp / "empty.ply"), scenePly(empty));
+    EXPECT_EQ(writeSceneGlb(empty, tmp / "empty.glb"), sceneGlb(empty).size());
+    EXPECT_EQ(test::slurp(tmp / "empty.glb"), sceneGlb(empty));
 }
 
 }  // namespace

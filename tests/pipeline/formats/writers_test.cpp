@@ -188,6 +188,60 @@ TEST(AtomicFile, FailureThrowsWithPathAndCleansUp) {
     EXPECT_THROW(writeFileAtomic(tmp.path() / "plain" / "child.txt", "x"), std::runtime_error);
 }
 
+// A file streamed piece by piece through a small buffer (pieces smaller and larger than it,
+// reserved slots) reads back as the pieces in order; without commit() nothing is left; past the
+// file size limit (a child process, as below) write() throws a ResourceError and the temp file
+// is removed.
+TEST(AtomicFileWriter, StreamsPiecesThenCommitsOrLeavesNothing) {
+    TempDir tmp;
+    const fs::path file = tmp.path() / "d" / "streamed.bin";
+    std::string expected;
+    {
+        AtomicFileWriter w(file, 4096);
+        for (int k = 0; k < 40; ++k) {
+            const std::string piece(static_cast<size_t>(k * 397 % 9000), char('a' + k % 26));
+            w.write(piece);
+            expected += piece;
+            char* p = w.reserve(3 + k);
+            for (int i = 0; i < 3 + k; ++i) p[i] = static_cast<char>(k + i);
+            for (int i = 0; i < 3 + k; ++i) expected += static_cast<char>(k + i);
+        }
+        EXPECT_EQ(w.bytesWritten(), expected.size());
+        EXPECT_FALSE(fs::exists(file));  // not before commit()
+        w.commit();
+    }
+    EXPECT_EQ(slurp(file), expected);
+    EXPECT_EQ(listDir(file.parent_path()), std::vector<std::string>{"streamed.bin"});
+    {
+        AtomicFileWriter w(file, 4096);
+        w.write(std::string(10000, 'z'));  // dropped: no commit
+    }
+    EXPECT_EQ(slurp(file), expected);
+    EXPECT_EQ(listDir(file.parent_path()), std::vector<std::string>{"streamed.bin"});
+
+    const fs::path big = tmp.path() / "big.bin";
+    const pid_t child = ::fork();
+    if (child == 0) {
+        ::signal(SIGXFSZ, SIG_IGN);
+        struct rlimit rl = {4096, 4096};
+        if (::setrlimit(RLIMIT_FSIZE, &rl) != 0) ::_exit(10);
+        try {
+            AtomicFileWriter w(big, 4096);
+            for (int i = 0; i < 10; ++i) w.write(std::string(1000, 'x'));
+            w.commit();
+            ::_exit(11);
+        } catch (const ResourceError& e) {
+            ::_exit(e.error() == EFBIG && e.path() == big.string() ? 0 : 12);
+        }
+    }
+    ASSERT_GT(child, 0);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status)) << status;
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+    EXPECT_EQ(listDir(tmp.path()), std::vector<std::string>{"d"});  // no big.bin, no temp
+}
+
 TEST(AppendLog, AppendsAndDropsTornLastLine) {
     TempDir tmp;
     fs::path log = tmp.path() / "m" / "manifest.jsonl";

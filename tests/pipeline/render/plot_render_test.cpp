@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <set>
 
 #include "tests/plot_fixture.h"
@@ -147,6 +148,53 @@ TEST(PlotRender, SameImagesWhateverTheThreadCount) {
         EXPECT_EQ(many.labels, one.labels);
         EXPECT_EQ(many.depth, one.depth);
     }
+}
+
+// The views drawn tree by tree into one z-buffer per camera (renderPlotViews, the build's way)
+// are byte for byte those of the whole plot merged into one object (makePlotRenderScene, the
+// way before): with the scene's tubes or tubes made per tree, leaf outlines or cards, with and
+// without minimum-width skeleton lines.
+TEST(PlotRender, TreeByTreeEqualsTheMergedScene) {
+    PlotSpec spec;
+    const GrownPlot plot = fourTrees(spec);
+    const std::vector<Camera> cameras = makePlotCameras(plot, smallViews());
+    for (const bool outlines : {true, false}) {
+        for (const double minWidth : {0.0, 1.415}) {
+            RenderOptions options;
+            options.minWidthPx = minWidth;
+            const PlotScene scene = makePlotScene(plot, {}, /*leafMeshes=*/false, outlines);
+            const PlotRenderScene merged = makePlotRenderScene(plot, scene);
+            const std::vector<ViewImage> withScene =
+                renderPlotViews(plot, &scene, {}, outlines, cameras, true, true, options);
+            const std::vector<ViewImage> madeHere =
+                renderPlotViews(plot, nullptr, {}, outlines, cameras, true, true, options);
+            ASSERT_EQ(withScene.size(), cameras.size());
+            ASSERT_EQ(madeHere.size(), cameras.size());
+            for (size_t k = 0; k < cameras.size(); ++k) {
+                SCOPED_TRACE(testing::Message() << "outlines " << outlines << ", min width "
+                                                << minWidth << ", camera " << k);
+                const ViewImage m = renderPlotView(merged, cameras[k], true, true, options);
+                for (const ViewImage* v : {&withScene[k], &madeHere[k]}) {
+                    EXPECT_EQ(v->silhouette, m.silhouette);
+                    EXPECT_EQ(v->depth, m.depth);
+                    EXPECT_EQ(v->labels, m.labels);
+                    EXPECT_EQ(v->ids, m.ids);
+                }
+                // Trees, terrain and sky all in the picture.
+                std::set<int> ids(m.ids.begin(), m.ids.end());
+                EXPECT_GE(ids.size(), 4u);
+                EXPECT_NE(std::count(m.labels.begin(), m.labels.end(), kPartTerrain), 0);
+            }
+        }
+    }
+    // Without labels: none returned, the rest the same.
+    const PlotScene scene = makePlotScene(plot, {}, false);
+    const std::vector<ViewImage> noLabels =
+        renderPlotViews(plot, &scene, {}, true, cameras, false, false);
+    EXPECT_TRUE(noLabels[0].labels.empty());
+    EXPECT_TRUE(noLabels[0].depth.empty());
+    EXPECT_EQ(noLabels[0].ids,
+              renderPlotView(makePlotRenderScene(plot, scene), cameras[0], true, true).ids);
 }
 
 // The scene's wood vertices carry the part of their skeleton node: the trunk's are stems, the
