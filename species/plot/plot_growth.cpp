@@ -476,17 +476,13 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
                 c.options = scaledOptions(*prepared[i].method->spaceColonization(), preScale[i]);
                 // Neighbours of other methods take no markers: the crown keeps clear of them
                 // as theirs keep clear of it (crown shyness; the crown is at plot scale here).
-                // Toward every close neighbour the placed tree is cut at the same plane (step
-                // 4): the shared markers divide the space between colonizers but let their
-                // branches cross into each other's crowns; the cut keeps the gap (crown
-                // shyness), as abrasion against neighbours prunes shoots in a stand.
                 std::vector<HalfSpace> cut;
                 for (size_t j : close[i]) {
                     Vec3 u;
                     double offset = 0;
-                    if (!shyPlane(i, j, u, offset)) continue;
-                    plotClip[i].push_back({u, dot(u, stems[i].base) + offset});
-                    if (!prepared[j].method->spaceColonization()) cut.push_back({u, offset});
+                    if (!prepared[j].method->spaceColonization() && shyPlane(i, j, u, offset)) {
+                        cut.push_back({u, offset});
+                    }
                 }
                 if (c.options.crown && !cut.empty()) {
                     c.options.crown = makeClipped(c.options.crown, std::move(cut));

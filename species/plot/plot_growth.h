@@ -46,11 +46,7 @@ constexpr double kShadeTropism = 0.2;
 //    radii (the larger of the two species' shyness);
 //  - grammar: a light/shade tropism away from the neighbours' crowns, the sum over close
 //    neighbours of the unit vectors from them weighted by crown radius / distance
-//    (GrammarOptions::lightTropism);
-//  - every method: once placed, the tree is cut (pruneTree) at those planes toward all its
-//    close neighbours — the shoots and leaves reaching past the gap removed, as abrasion
-//    prunes them in a stand — so the shared markers (which let colonizers' branches cross)
-//    and the tropism (which only leans grammar crowns) keep the gap too.
+//    (GrammarOptions::lightTropism).
 // Without neighbours each tree grows alone, exactly as growSpecies grows it. Then the LAI
 // (spec.lai, per-species lai), per species: a target below the grown leaf area thins the
 // leaves — each kept or dropped by a draw keyed by the tree's seed and the leaf's index, the

@@ -233,21 +233,6 @@ TEST(PlotGrowth, GrammarCrownsKeepUnderTheirOverlapThreshold) {
     EXPECT_GT(maxCrownOverlap(crownOverlaps(growPlot(spec, layout, nullptr, false))), 0.1);
 }
 
-// Space-colonization crowns competing for one marker set in a row 2.4 m apart (crown radius
-// 2 m): they share a layer, and the shared markers alone let their branches interpenetrate;
-// the crown-shyness cut at the planes between them keeps them under max_overlap.
-TEST(PlotGrowth, ColonizerCrownsKeepUnderTheirOverlapThreshold) {
-    PlotSpec spec = makeSpec({"small-colonizer.toml"});
-    const PlotLayout layout = row(5, 2.4);
-    const GrownPlot plot = growPlot(spec, layout, nullptr, false);
-    const auto overlaps = crownOverlaps(plot);
-    EXPECT_LE(maxCrownOverlap(overlaps), spec.species[0].maxOverlap);
-    for (size_t k = 0; k + 1 < plot.trees.size(); ++k) {
-        EXPECT_GE(gapBetween(plot.trees[k], plot.trees[k + 1]), 0.1 * 2.0 * 0.95)
-            << "trees " << k + 1 << "–" << k + 2;
-    }
-}
-
 TEST(PlotGrowth, TreesStandVerticalOnTheTerrainAtTheirHeight) {
     const PlotSpec spec = makeSpec({"small-colonizer.toml", "small-canopy.toml"});
     const PlotLayout layout = row(4, 6.0, -1, 0.3, 5.0);  // a 0.3 slope (17°)
