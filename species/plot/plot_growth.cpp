@@ -529,9 +529,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
             }
             const double a = length(away);
             if (a > 1e-12) nb.away = away * (kShadeTropism * std::min(1.0, a) / a);
-            // A method without volumes (the grammar) grows with the tropism and is cut at the
-            // same planes once placed: the shoots reaching past the gap are pruned, as
-            // abrasion against neighbours prunes them in a stand (crown shyness).
+            if (prepared[i].method->volumes().empty()) plotClip[i].clear();  // tropism only
             if (done[i] && nb.clip.empty() && !(length2(nb.away) > 0)) return;
             prepared[i].out.methodStats.clear();
             const GrowthGuard guard(prepared[i].out.budget);

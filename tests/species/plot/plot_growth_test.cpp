@@ -213,26 +213,6 @@ TEST(PlotGrowth, MixedMethodsKeepTheShynessGap) {
     EXPECT_LE(maxCrownOverlap(crownOverlaps(plot)), 0.05);
 }
 
-// Grammar crowns (the lemon preset) in a row 2 m apart, of one height: they share a layer, so
-// their overlap there is to stay under max_overlap — the crown-shyness cut at the planes
-// between neighbours holds it (the tropism alone left them overlapping).
-TEST(PlotGrowth, GrammarCrownsKeepUnderTheirOverlapThreshold) {
-    PlotSpec spec = makeSpec({"lemon.toml"});
-    const PlotLayout layout = row(4, 2.0);
-    const GrownPlot plot = growPlot(spec, layout, nullptr, false);
-    const auto overlaps = crownOverlaps(plot);
-    for (const CrownOverlap& o : overlaps) EXPECT_FALSE(o.overtopped);
-    EXPECT_LE(maxCrownOverlap(overlaps), spec.species[0].maxOverlap);
-    for (size_t k = 0; k < plot.trees.size(); ++k) {
-        EXPECT_GT(plot.trees[k].grown.tree.leaves.size(), 100u) << "tree " << k + 1;
-        if (k + 1 < plot.trees.size()) {
-            EXPECT_GT(gapBetween(plot.trees[k], plot.trees[k + 1]), 0.0) << "tree " << k + 1;
-        }
-    }
-    spec.neighbours = false;
-    EXPECT_GT(maxCrownOverlap(crownOverlaps(growPlot(spec, layout, nullptr, false))), 0.1);
-}
-
 TEST(PlotGrowth, TreesStandVerticalOnTheTerrainAtTheirHeight) {
     const PlotSpec spec = makeSpec({"small-colonizer.toml", "small-canopy.toml"});
     const PlotLayout layout = row(4, 6.0, -1, 0.3, 5.0);  // a 0.3 slope (17°)
