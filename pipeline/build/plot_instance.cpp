@@ -88,6 +88,7 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
         nlohmann::json st = toJson(computeStats(atOrigin(t.grown.tree, t.stem.base)));
         for (const auto& [key, v] : t.grown.methodStats) st[key] = v;
         st["leaves"] = t.grown.tree.leaves.size();
+        st["leaves_grown"] = t.leavesGrown;  // before the LAI thinning
         st["tree_id"] = t.stem.id;
         st["species"] = plotSpeciesName(plot, t.stem.species);
         st["base"] = {t.stem.base.x, t.stem.base.y, t.stem.base.z};
@@ -166,9 +167,17 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
                        [&](const CrownOverlap& o) { return understory(o.a) || understory(o.b); }),
         pairs.end());
     const double overlap = maxCrownOverlap(pairs);
+    double projected = 0;  // heights ignored: a tree under another crown counts as overlapped
+    int64_t overtopped = 0;
+    for (const CrownOverlap& o : pairs) {
+        projected = std::max(projected, o.projected);
+        overtopped += o.overtopped ? 1 : 0;
+    }
     statsJson["crown_neighbour_cosine"] = cosine;
     statsJson["max_crown_overlap"] =
         std::isfinite(overlap) ? nlohmann::json(overlap) : nlohmann::json(nullptr);
+    statsJson["max_projected_crown_overlap"] = projected;
+    statsJson["overtopped_crown_pairs"] = overtopped;
     put("plot_json", "plot.json", statsJson.dump(2) + "\n");
 
     nlohmann::json rec;

@@ -148,8 +148,9 @@ struct PlotLayout {
 // its base), and what was drawn for it.
 struct PlotTree {
     PlotStem stem;
-    GrownTree grown;         // grown.tree is in plot-local metres
-    double leafScale = 1.0;  // factor applied to leaf areas to reach the LAI target
+    GrownTree grown;          // grown.tree is in plot-local metres
+    double leafScale = 1.0;   // factor applied to leaf sizes (areas: its square) for the LAI
+    int64_t leavesGrown = 0;  // leaves before the LAI thinning (grown.tree.leaves: those kept)
 };
 
 struct GrownPlot {

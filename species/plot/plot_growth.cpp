@@ -10,7 +10,7 @@
 //     (clip planes or tropism, in its own frame);
 //  4. form and leaves (finishSpecies), then each tree placed: node 0 at the stem base, scaled
 //     about it so its highest shoot node is targetHeight above it;
-//  5. leaves scaled to the LAI targets.
+//  5. leaves thinned (keyed draws) and scaled to the LAI targets.
 // Trees are independent in 2–4 except within the shared marker set, whose driver is itself
 // deterministic: the trees come out the same on any number of threads.
 #include "species/plot/plot_growth.h"
@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "core/errors.h"
+#include "core/rng.h"
 #include "species/methods/space_colonization.h"
 #include "species/model/leaf_shape.h"
 #include "species/plot/inventory.h"
@@ -131,39 +132,100 @@ void standSlenderness(Tree& tree, const Vec3& base, double slenderness) {
     for (SkeletonNode& n : tree.nodes) n.radius *= k;
 }
 
+// Thinning a species' leaves to `ratio` (< 1) of their area (plot_growth.h, reachLai): leaf i
+// of a tree is kept when its draw u_i (a stream keyed by the tree's seed — itself hashed from
+// the plot seed and the tree id — and i) is below p_i = min(1, c·w_i), its weight
+// w_i = kThinFloor + t_i³ growing with its height t_i in the tree's own leaf layer (0 at the
+// lowest leaf, 1 at the highest): the shaded lower leaves go first, as a closed stand's crowns
+// recede from below (the top leaf is 21× as likely kept as the lowest, 6× as one halfway up).
+// c is solved (bisection) so the expected kept area Σ a_i·p_i is ratio × the grown area.
+// Returns the kept area.
+constexpr double kThinFloor = 0.05;
+
+double thinLeaves(std::vector<PlotTree*>& trees, double ratio) {
+    struct Weighted {
+        double area, weight;
+    };
+    std::vector<std::vector<Weighted>> w(trees.size());
+    double total = 0;
+    for (size_t k = 0; k < trees.size(); ++k) {
+        const std::vector<Leaf>& leaves = trees[k]->grown.tree.leaves;
+        double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+        for (const Leaf& l : leaves) {
+            lo = std::min(lo, l.position.y);
+            hi = std::max(hi, l.position.y);
+        }
+        w[k].reserve(leaves.size());
+        for (const Leaf& l : leaves) {
+            const double t = hi > lo ? (l.position.y - lo) / (hi - lo) : 1.0;
+            w[k].push_back({leafArea(l), kThinFloor + t * t * t});
+            total += w[k].back().area;
+        }
+    }
+    auto expected = [&](double c) {
+        double a = 0;
+        for (const auto& tree : w) {
+            for (const Weighted& x : tree) a += x.area * std::min(1.0, c * x.weight);
+        }
+        return a;
+    };
+    double lo = 0, hi = 1.0 / kThinFloor;  // every p_i = 1 at c = hi
+    for (int it = 0; it < 60; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (expected(mid) < ratio * total ? lo : hi) = mid;
+    }
+    const double c = 0.5 * (lo + hi);
+    double kept = 0;
+    for (size_t k = 0; k < trees.size(); ++k) {
+        std::vector<Leaf>& leaves = trees[k]->grown.tree.leaves;
+        const Rng stream = Rng(trees[k]->stem.seed).derive("lai thinning");
+        size_t out = 0;
+        for (size_t i = 0; i < leaves.size(); ++i) {
+            if (stream.derive(static_cast<uint64_t>(i)).uniform() >= c * w[k][i].weight) continue;
+            kept += w[k][i].area;
+            leaves[out++] = leaves[i];
+        }
+        leaves.resize(out);
+    }
+    return kept;
+}
+
 // Reaching the LAI targets (plot_growth.h).
 void reachLai(const PlotSpec& spec, GrownPlot& plot) {
     const double area = spec.area.area();
     const size_t nSpecies = spec.species.size();
     std::vector<double> leafArea(nSpecies, 0.0);
-    for (const PlotTree& t : plot.trees) {
+    for (PlotTree& t : plot.trees) {
+        t.leavesGrown = static_cast<int64_t>(t.grown.tree.leaves.size());
         const auto s = static_cast<size_t>(t.stem.species);
         if (s < nSpecies) leafArea[s] += treeLeafArea(t.grown.tree);
     }
-    std::vector<double> factor(nSpecies, 1.0);
-    auto check = [&](double k, const SourcePos& where, const std::string& key, double target,
+    // Per species, the grown leaf area times `ratio` is its target; 1: no target.
+    std::vector<double> ratio(nSpecies, 1.0);
+    auto check = [&](double r, const SourcePos& where, const std::string& key, double target,
                      double grown) {
         if (!(grown > 0)) {
             throw SpecError(where, key,
                             "expected species with leaves to scale to it, got " + fmt(target) +
                                 " for trees without leaves");
         }
-        if (!(k >= kMinLeafScale && k <= kMaxLeafScale)) {
+        if (!(r >= kMinLeavesKept && r <= kMaxLeafScale * kMaxLeafScale)) {
             throw SpecError(where, key,
-                            "expected a leaf area index the grown leaves reach with their sizes "
-                            "scaled " +
-                                fmt(kMinLeafScale) + "–" + fmt(kMaxLeafScale) + "× (they give " +
-                                fmt(grown / area) + ", so " + fmt(target) + " needs ×" + fmt(k) +
-                                "), got " + fmt(target));
+                            "expected a leaf area index the grown leaves reach with at least " +
+                                fmt(100 * kMinLeavesKept) +
+                                " % of their area kept or their sizes scaled up to " +
+                                fmt(kMaxLeafScale) + "× (they give " + fmt(grown / area) + ", so " +
+                                fmt(target) + " needs ×" + fmt(r) + " of their area), got " +
+                                fmt(target));
         }
     };
     double fixed = 0;  // m² of leaves of the species with their own lai
     for (size_t s = 0; s < nSpecies; ++s) {
         const PlotSpecies& ps = spec.species[s];
         if (ps.lai < 0) continue;
-        const double k = std::sqrt(ps.lai * area / leafArea[s]);
-        check(k, ps.where, ps.keyPath + ".lai", ps.lai, leafArea[s]);
-        factor[s] = k;
+        const double r = ps.lai * area / leafArea[s];
+        check(r, ps.where, ps.keyPath + ".lai", ps.lai, leafArea[s]);
+        ratio[s] = r;
         fixed += ps.lai * area;
     }
     if (spec.lai > 0) {
@@ -187,18 +249,38 @@ void reachLai(const PlotSpec& spec, GrownPlot& plot) {
                                 "expected more than the species' own lai (" + fmt(fixed / area) +
                                     "), got " + fmt(spec.lai));
             }
-            const double k = rest > 0 ? std::sqrt(want / rest) : 0.0;
-            check(k, spec.where, key, want / area, rest);
+            const double r = rest > 0 ? want / rest : 0.0;
+            check(r, spec.where, key, want / area, rest);
             for (size_t s = 0; s < nSpecies; ++s) {
-                if (spec.species[s].lai < 0) factor[s] = k;
+                if (spec.species[s].lai < 0) ratio[s] = r;
             }
         }
     }
-    for (PlotTree& t : plot.trees) {
-        const auto s = static_cast<size_t>(t.stem.species);
-        const double k = s < nSpecies ? factor[s] : 1.0;
-        t.leafScale = k;
-        if (k != 1.0) scaleLeaves(t.grown.tree, k);
+    // Per species: thinned when its leaves are to lose area, then every (kept) leaf scaled by
+    // one factor to the target exactly.
+    for (size_t s = 0; s < nSpecies; ++s) {
+        if (ratio[s] == 1.0 || !(leafArea[s] > 0)) continue;  // (leafless: in no target)
+        std::vector<PlotTree*> trees;
+        for (PlotTree& t : plot.trees) {
+            if (static_cast<size_t>(t.stem.species) == s) trees.push_back(&t);
+        }
+        const double kept = ratio[s] < 1.0 ? thinLeaves(trees, ratio[s]) : leafArea[s];
+        const double k = kept > 0 ? std::sqrt(ratio[s] * leafArea[s] / kept) : 0.0;
+        if (!(k >= kMinLeafScale && k <= kMaxLeafScale)) {
+            const PlotSpecies& ps = spec.species[s];
+            const bool own = ps.lai >= 0;
+            throw SpecError(own ? ps.where : spec.where,
+                            own ? ps.keyPath + ".lai" : spec.keyPath + ".lai",
+                            "expected a leaf area index the thinned leaves reach with their "
+                            "sizes scaled " +
+                                fmt(kMinLeafScale) + "–" + fmt(kMaxLeafScale) + "× (the " +
+                                std::to_string(trees.size()) + " trees of " + ps.keyPath +
+                                " kept too few leaves), got " + fmt(own ? ps.lai : spec.lai));
+        }
+        for (PlotTree* t : trees) {
+            t->leafScale = k;
+            if (k != 1.0) scaleLeaves(t->grown.tree, k);
+        }
     }
     plot.lai = plotLai(plot);
 }
@@ -479,32 +561,59 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
     return plot;
 }
 
-CrownShape crownShape(const PlotTree& tree) {
-    CrownShape c;
-    c.base = {tree.stem.base.x, tree.stem.base.z};
-    const Tree& t = tree.grown.tree;
-    std::vector<Vec2> pts;
+namespace {
+
+// A crown's points (CrownShape): leaf centres and shoot tips, else shoot nodes.
+std::vector<Vec3> crownPoints(const Tree& t) {
+    std::vector<Vec3> pts;
     pts.reserve(t.leaves.size() + t.endpoints.size());
-    for (const Leaf& l : t.leaves) pts.push_back({l.position.x, l.position.z});
+    for (const Leaf& l : t.leaves) pts.push_back(l.position);
     for (int32_t e : t.endpoints) {
         if (e >= 0 && static_cast<size_t>(e) < t.nodes.size() && t.nodes[e].part == kShootPart) {
-            pts.push_back({t.nodes[e].position.x, t.nodes[e].position.z});
+            pts.push_back(t.nodes[e].position);
         }
     }
     if (pts.empty()) {
         for (const SkeletonNode& nd : t.nodes) {
-            if (nd.part == kShootPart) pts.push_back({nd.position.x, nd.position.z});
+            if (nd.part == kShootPart) pts.push_back(nd.position);
         }
     }
-    if (pts.empty()) {
+    return pts;
+}
+
+// The convex hull (x, z) of the crown points with lo ≤ y ≤ hi.
+std::vector<Vec2> layerHull(const Tree& t, double lo, double hi) {
+    std::vector<Vec2> p;
+    for (const Vec3& q : crownPoints(t)) {
+        if (q.y >= lo && q.y <= hi) p.push_back({q.x, q.z});
+    }
+    return convexHull(std::move(p));
+}
+
+}  // namespace
+
+CrownShape crownShape(const PlotTree& tree) {
+    CrownShape c;
+    c.base = {tree.stem.base.x, tree.stem.base.z};
+    const std::vector<Vec3> pts3 = crownPoints(tree.grown.tree);
+    if (pts3.empty()) {
         c.centroid = c.base;
+        c.low = c.top = tree.stem.base.y;
         return c;
     }
+    std::vector<Vec2> pts;
+    pts.reserve(pts3.size());
     Vec2 sum{0, 0};
-    for (const Vec2& p : pts) {
+    c.low = std::numeric_limits<double>::infinity();
+    c.top = -c.low;
+    for (const Vec3& q : pts3) {
+        const Vec2 p{q.x, q.z};
+        pts.push_back(p);
         sum.x += p.x;
         sum.y += p.y;
         c.radius = std::max(c.radius, std::hypot(p.x - c.base.x, p.y - c.base.y));
+        c.low = std::min(c.low, q.y);
+        c.top = std::max(c.top, q.y);
     }
     c.centroid = {sum.x / pts.size(), sum.y / pts.size()};
     c.hull = convexHull(std::move(pts));
@@ -586,7 +695,34 @@ std::vector<CrownOverlap> crownOverlaps(const GrownPlot& plot, double cell) {
             CrownOverlap o;
             o.a = std::min(plot.trees[i].stem.id, plot.trees[j].stem.id);
             o.b = std::max(plot.trees[i].stem.id, plot.trees[j].stem.id);
-            o.fraction = smaller > 0 ? static_cast<double>(both) / static_cast<double>(smaller) : 0;
+            o.projected =
+                smaller > 0 ? static_cast<double>(both) / static_cast<double>(smaller) : 0;
+            const double lo = std::max(shapes[i].low, shapes[j].low);
+            const double hi = std::min(shapes[i].top, shapes[j].top);
+            if (hi < lo) {
+                o.overtopped = both > 0;
+            } else if (both > 0) {
+                const std::vector<Vec2> hullI = layerHull(plot.trees[i].grown.tree, lo, hi);
+                const std::vector<Vec2> hullJ = layerHull(plot.trees[j].grown.tree, lo, hi);
+                if (hullI.size() >= 3 && hullJ.size() >= 3) {
+                    const Box2 bi = boxOf(hullI), bj = boxOf(hullJ);
+                    Box2 bb;
+                    bb.x0 = std::max(bi.x0, bj.x0);
+                    bb.x1 = std::min(bi.x1, bj.x1);
+                    bb.z0 = std::max(bi.z0, bj.z0);
+                    bb.z1 = std::min(bi.z1, bj.z1);
+                    const int64_t shared = bb.x0 > bb.x1 || bb.z0 > bb.z1
+                                               ? 0
+                                               : countCells(bb, cell, [&](const Vec2& q) {
+                                                     return inHull(hullI, q) && inHull(hullJ, q);
+                                                 });
+                    const int64_t small = std::min(
+                        countCells(bi, cell, [&](const Vec2& q) { return inHull(hullI, q); }),
+                        countCells(bj, cell, [&](const Vec2& q) { return inHull(hullJ, q); }));
+                    o.fraction =
+                        small > 0 ? static_cast<double>(shared) / static_cast<double>(small) : 0;
+                }
+            }
             out.push_back(o);
         }
     }

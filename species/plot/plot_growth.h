@@ -18,6 +18,9 @@ namespace sylva {
 // target: a target needing leaves scaled beyond them is refused (SpecError at its `lai`).
 constexpr double kMinLeafScale = 0.25;
 constexpr double kMaxLeafScale = 4.0;
+// The least share of a species' grown leaf area an LAI target may keep by thinning: a target
+// below it is refused (SpecError at its `lai`).
+constexpr double kMinLeavesKept = 0.01;
 
 // Close neighbours: trees whose bases are nearer than this many times the sum of their crown
 // radii shape each other (clip planes, tropism).
@@ -45,12 +48,16 @@ constexpr double kShadeTropism = 0.2;
 //    neighbours of the unit vectors from them weighted by crown radius / distance
 //    (GrammarOptions::lightTropism).
 // Without neighbours each tree grows alone, exactly as growSpecies grows it. Then the LAI
-// (spec.lai, per-species lai): every leaf of a species is scaled (size about its attachment,
-// so its area by factor²) by one factor so that the leaf area over the plot area reaches the
-// target; PlotTree::leafScale and GrownPlot::lai are set. Throws SpecError (at the `lai` key)
-// for a target that needs a factor outside [kMinLeafScale, kMaxLeafScale] or species that
-// have no leaves, BudgetExceeded from a tree's budgets. Growth runs in parallel (TBB) when
-// `threaded`; the result is identical either way.
+// (spec.lai, per-species lai), per species: a target below the grown leaf area thins the
+// leaves — each kept or dropped by a draw keyed by the tree's seed and the leaf's index, the
+// lower leaves of a crown (the shaded ones) dropped first, so the expected kept area is the
+// target — and then every kept leaf of the species is scaled (size about its attachment, so
+// its area by factor²) by one factor so that the leaf area over the plot area is the target;
+// a target above it only scales. PlotTree::leafScale, PlotTree::leavesGrown and
+// GrownPlot::lai are set. Throws SpecError (at the `lai` key) for a target that keeps less
+// than kMinLeavesKept of the grown area, needs leaves scaled outside [kMinLeafScale,
+// kMaxLeafScale], or species that have no leaves; BudgetExceeded from a tree's budgets.
+// Growth runs in parallel (TBB) when `threaded`; the result is identical either way.
 GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* datasetBudget,
                    bool threaded);
 
@@ -65,10 +72,11 @@ double plotLai(const GrownPlot& plot);
 // A tree's crown as seen from above: its horizontal points are its leaves' centres and its
 // branch tips (skeleton endpoints of the shoot; nodes if it has no leaves).
 struct CrownShape {
-    Vec2 base;               // x, z of the stem base
-    Vec2 centroid;           // mean x, z of the crown points
-    double radius = 0;       // largest horizontal distance of a crown point from the base, metres
-    std::vector<Vec2> hull;  // convex hull of the crown points (counter-clockwise in x, z)
+    Vec2 base;                // x, z of the stem base
+    Vec2 centroid;            // mean x, z of the crown points
+    double radius = 0;        // largest horizontal distance of a crown point from the base, metres
+    double low = 0, top = 0;  // lowest and highest crown point (y, plot metres)
+    std::vector<Vec2> hull;   // convex hull of the crown points (counter-clockwise in x, z)
 };
 CrownShape crownShape(const PlotTree& tree);
 
@@ -88,15 +96,22 @@ std::vector<CrownAsymmetry> crownAsymmetry(const GrownPlot& plot);
 // crowns grow away from their close neighbours. 0 when no tree qualifies.
 double crownNeighbourCosine(const std::vector<CrownAsymmetry>& trees);
 
-// Crown overlap of a pair: the fraction of the smaller crown's projected area (its convex
-// hull, rasterised on `cell`-metre cells) that the other's covers too.
+// Crown overlap of a pair, counted only where the crowns share space: in the layer of height
+// both occupy (from the higher of the two crowns' lowest points to the lower of their highest,
+// CrownShape::low/top), the fraction of the smaller crown's projected area there (the convex
+// hull of its crown points in the layer, rasterised on `cell`-metre cells) that the other's
+// covers too. A tree standing wholly under another's crown (a suppressed tree, in foresters'
+// crown classes) shares no layer with it: its pair is `overtopped`, not overlapped.
 struct CrownOverlap {
-    int32_t a = 0, b = 0;  // tree ids, a < b
-    double fraction = 0;
+    int32_t a = 0, b = 0;     // tree ids, a < b
+    double fraction = 0;      // in the shared layer; 0 without one (or < 3 points of a crown in it)
+    double projected = 0;     // the whole crowns seen from above (heights ignored), as fraction
+    bool overtopped = false;  // projections meet but the crowns share no layer
 };
 // Every pair whose hulls' bounding boxes meet, in id order. cell ≤ 0: 1/50 of the smallest
 // crown radius, at least 2 cm.
 std::vector<CrownOverlap> crownOverlaps(const GrownPlot& plot, double cell = 0);
+// The largest `fraction` (shared layer) of the pairs; 0 without pairs.
 double maxCrownOverlap(const std::vector<CrownOverlap>& overlaps);
 
 }  // namespace sylva

@@ -280,6 +280,47 @@ TEST(PlotGrowth, LeafAreaIndexIsReached) {
     EXPECT_NEAR(shares.lai, 1.5, 0.075);
 }
 
+// Mean height of a tree's leaves in its own leaf layer (0 lowest, 1 highest), over `leaves`.
+double meanLayerHeight(const std::vector<Leaf>& leaves, double lo, double hi) {
+    double sum = 0;
+    for (const Leaf& l : leaves) sum += (l.position.y - lo) / (hi - lo);
+    return leaves.empty() ? 0.0 : sum / static_cast<double>(leaves.size());
+}
+
+// A target far below the grown leaf area (beyond what shrinking within kMinLeafScale could
+// reach: refused before thinning) is reached within 5 % by dropping leaves, the lower ones
+// first, and scaling the kept ones by a factor near 1; the same draws every time.
+TEST(PlotGrowth, LeafAreaIndexIsReachedByThinning) {
+    PlotSpec spec = makeSpec({"small-colonizer.toml"}, 12, 6);
+    const PlotLayout layout = row(3, 3.0);
+    const GrownPlot grown = growPlot(spec, layout, nullptr, false);
+    const double ratio = 0.05;  // needs ×0.22 leaf sizes by shrinking alone (< 0.25)
+    ASSERT_LT(std::sqrt(ratio), kMinLeafScale);
+    spec.lai = ratio * grown.lai;
+    const GrownPlot plot = growPlot(spec, layout, nullptr, false);
+    EXPECT_NEAR(plot.lai, spec.lai, 0.05 * spec.lai);
+    EXPECT_NEAR(plotLai(plot), plot.lai, 1e-12);
+    for (size_t k = 0; k < plot.trees.size(); ++k) {
+        const PlotTree& t = plot.trees[k];
+        const std::vector<Leaf>& all = grown.trees[k].grown.tree.leaves;
+        const std::vector<Leaf>& kept = t.grown.tree.leaves;
+        EXPECT_EQ(t.leavesGrown, static_cast<int64_t>(all.size()));
+        EXPECT_GT(kept.size(), 0u);
+        EXPECT_LT(kept.size(), all.size() / 10) << "tree " << k + 1;
+        EXPECT_GT(t.leafScale, 0.8);
+        EXPECT_LT(t.leafScale, 1.25);
+        // The kept leaves stand higher in the crown than the grown ones on average.
+        double lo = 1e300, hi = -1e300;
+        for (const Leaf& l : all) {
+            lo = std::min(lo, l.position.y);
+            hi = std::max(hi, l.position.y);
+        }
+        EXPECT_GT(meanLayerHeight(kept, lo, hi), meanLayerHeight(all, lo, hi) + 0.1)
+            << "tree " << k + 1;
+    }
+    EXPECT_TRUE(serialize(plot) == serialize(growPlot(spec, layout, nullptr, false)));
+}
+
 TEST(PlotGrowth, UnreachableLeafAreaIndexIsRefusedAtItsKey) {
     PlotSpec spec = makeSpec({"small-colonizer.toml"}, 12, 6);
     const PlotLayout layout = row(2, 3.0);
@@ -303,9 +344,10 @@ TEST(PlotGrowth, UnreachableLeafAreaIndexIsRefusedAtItsKey) {
 }
 
 TEST(PlotGrowth, OneAndTwoThreadsGrowTheSamePlot) {
-    const PlotSpec spec = makeSpec({"small-colonizer.toml", "small-canopy.toml"});
+    PlotSpec spec = makeSpec({"small-colonizer.toml", "small-canopy.toml"});
     // A row of both species (one shared marker set), and pairs of colonizers (three
-    // independent marker sets, grown in parallel).
+    // independent marker sets, grown in parallel), the leaves thinned to an LAI target.
+    spec.lai = 0.1 * growPlot(spec, row(6, 2.5, -1), nullptr, false).lai;
     for (const PlotLayout& layout : {row(6, 2.5, -1), pairs(3, 2.4, 8.0)}) {
         std::string one, two;
         tbb::task_arena(1).execute([&] { one = serialize(growPlot(spec, layout, nullptr, true)); });
@@ -340,6 +382,32 @@ TEST(PlotGrowth, CrownStatisticsHaveKnownAnswers) {
     ASSERT_EQ(overlaps.size(), 1u);
     // Two unit discs 1 apart share 2π/3 − √3/2 of their π.
     EXPECT_NEAR(overlaps[0].fraction, (2 * kPi / 3 - std::sqrt(3.0) / 2) / kPi, 0.01);
+    EXPECT_NEAR(overlaps[0].projected, overlaps[0].fraction, 1e-12);  // one layer: y = 2
+    EXPECT_FALSE(overlaps[0].overtopped);
+    // Tree 2's crown lifted above tree 1's: the projections still meet, the crowns share no
+    // layer (tree 1 is overtopped, not overlapped).
+    for (Leaf& l : plot.trees[1].grown.tree.leaves) l.position.y += 3.0;
+    const auto lifted = crownOverlaps(plot, 0.01);
+    ASSERT_EQ(lifted.size(), 1u);
+    EXPECT_EQ(lifted[0].fraction, 0.0);
+    EXPECT_TRUE(lifted[0].overtopped);
+    EXPECT_NEAR(lifted[0].projected, overlaps[0].projected, 1e-12);
+    EXPECT_EQ(maxCrownOverlap(lifted), 0.0);
+    // Tree 2 a deep crown (discs at y = 2 … 5): the layer both share is y = 2, where the
+    // overlap is the discs' again.
+    for (Leaf& l : plot.trees[1].grown.tree.leaves) l.position.y -= 3.0;
+    for (int y = 3; y <= 5; ++y) {
+        for (int a = 0; a < 360; a += 2) {
+            Leaf l;
+            const double th = a * kPi / 180;
+            l.position = {1 + 0.5 * std::cos(th), double(y), 0.5 * std::sin(th)};
+            plot.trees[1].grown.tree.leaves.push_back(l);
+        }
+    }
+    const auto deep = crownOverlaps(plot, 0.01);
+    ASSERT_EQ(deep.size(), 1u);
+    EXPECT_NEAR(deep[0].fraction, (2 * kPi / 3 - std::sqrt(3.0) / 2) / kPi, 0.01);
+    for (int k = 0; k < 3 * 180; ++k) plot.trees[1].grown.tree.leaves.pop_back();
     const auto asym = crownAsymmetry(plot);
     EXPECT_NEAR(asym[0].neighbours.x, -1.0, 1e-12);  // from tree 2 (at +x) toward tree 1
     EXPECT_NEAR(asym[1].neighbours.x, 1.0, 1e-12);
