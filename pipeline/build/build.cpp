@@ -397,13 +397,13 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
         function_node<Message, Message> mesh(
             g, unlimited,
             stageBody([&](InstanceWork& w) { meshStage(w, spec.outputs, o.out); }, stop));
-        function_node<Message, Message> render(
-            g, unlimited, stageBody(
-                              [&](InstanceWork& w) {
-                                  renderStage(w, spec.outputs);
-                                  scanStage(w, spec.outputs);
-                              },
-                              stop));
+        function_node<Message, Message> render(g, unlimited,
+                                               stageBody(
+                                                   [&](InstanceWork& w) {
+                                                       renderStage(w, spec.outputs);
+                                                       scanStage(w, spec.outputs);
+                                                   },
+                                                   stop));
         function_node<Message, Message> write(g, unlimited, [&](Message m) {
             m = stageBody([&](InstanceWork& w) { writeStage(w, spec.outputs, o.out); }, stop)(m);
             // Free the heavy parts before the message waits in the sequencer.

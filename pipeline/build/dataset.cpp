@@ -176,7 +176,8 @@ void readScan(Params& t, ScanOutputs& scan) {
     if (t.has("formats")) {
         scan.las = scan.forestFormer = scan.treeLearn = false;
         const std::vector<std::string> formats = t.stringArray("formats");
-        if (formats.empty()) t.fail("formats", "expected at least one of \"las\", \"forestformer\", \"treelearn\"");
+        if (formats.empty())
+            t.fail("formats", "expected at least one of \"las\", \"forestformer\", \"treelearn\"");
         for (const std::string& f : formats) {
             if (f == "las")
                 scan.las = true;
@@ -185,11 +186,13 @@ void readScan(Params& t, ScanOutputs& scan) {
             else if (f == "treelearn")
                 scan.treeLearn = true;
             else
-                t.fail("formats", "expected \"las\", \"forestformer\" or \"treelearn\", got \"" + f + "\"");
+                t.fail("formats",
+                       "expected \"las\", \"forestformer\" or \"treelearn\", got \"" + f + "\"");
         }
     }
-    scan.colour = t.choice("las_colour", scan.colour,
-                           {{"none", LasColour::kNone}, {"class", LasColour::kClass}, {"tree", LasColour::kTree}});
+    scan.colour = t.choice(
+        "las_colour", scan.colour,
+        {{"none", LasColour::kNone}, {"class", LasColour::kClass}, {"tree", LasColour::kTree}});
     scan.options = readScanOptions(t);
 }
 

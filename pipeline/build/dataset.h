@@ -13,12 +13,12 @@
 #include <utility>
 #include <vector>
 
+#include "pipeline/formats/scan_writers.h"
 #include "pipeline/render/camera.h"
 #include "pipeline/render/render.h"
+#include "pipeline/scan/scan_options.h"
 #include "species/geometry/tube_mesh.h"
 #include "species/geometry/watertight.h"
-#include "pipeline/formats/scan_writers.h"
-#include "pipeline/scan/scan_options.h"
 #include "species/plot/plot.h"
 #include "species/spec/species.h"
 
@@ -62,9 +62,9 @@ constexpr int64_t kMaxInstances = 9'000'000'000'000'000;
 struct ScanOutputs {
     bool enabled = false;  // the dataset has a [scan] table
     ScanOptions options;
-    bool las = true;           // scan.las (LAS 1.4)
-    bool forestFormer = false;  // scan_forestformer.ply (ForestFormer3D / ForAINetV2)
-    bool treeLearn = false;     // scan_treelearn.npy (TreeLearn)
+    bool las = true;                      // scan.las (LAS 1.4)
+    bool forestFormer = false;            // scan_forestformer.ply (ForestFormer3D / ForAINetV2)
+    bool treeLearn = false;               // scan_treelearn.npy (TreeLearn)
     LasColour colour = LasColour::kNone;  // LAS point format 6, or 7 coloured by class / tree
 };
 

@@ -26,11 +26,11 @@ struct InstanceWork {
     std::vector<Camera> cameras;
     std::vector<ViewImage> views;
     double growMs = 0, meshMs = 0, renderMs = 0, writeMs = 0;
-    std::shared_ptr<GrownPlot> plot;  // a plot instance's trees (job.plot), instead of grown
+    std::shared_ptr<GrownPlot> plot;     // a plot instance's trees (job.plot), instead of grown
     std::shared_ptr<InstanceScan> scan;  // [scan]: the scan of a tree (a plot's: writePlot)
     double scanMs = 0;
-    nlohmann::json record;            // the manifest line, made by write()
-    std::string error;                // set by the first stage that fails; later stages skip
+    nlohmann::json record;  // the manifest line, made by write()
+    std::string error;      // set by the first stage that fails; later stages skip
 };
 
 void growStage(InstanceWork& w);

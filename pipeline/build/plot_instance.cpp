@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <set>
 
+#include "core/rng.h"
+#include "pipeline/build/scan_instance.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/image_codecs.h"
 #include "pipeline/formats/mesh_writers.h"
@@ -61,8 +64,11 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     // it, and the views draw from the trees one by one (with the scene's tubes, or making each
     // tree's tubes in turn): no other copy of the plot's geometry is held.
     PlotScene scene;
-    if (meshes) {
+    const bool scanned = o.scan.enabled;
+    if (meshes || scanned) {  // [scan] sees the scene's meshes
         scene = makePlotScene(plot, o.tubes, /*leafMeshes=*/true, o.leafOutlines);
+    }
+    if (meshes) {
         const fs::path glb = rel / "scene.glb", ply = rel / "scene.ply";
         bytes += writeSceneGlb(scene, out / glb);
         files["scene_glb"] = glb.generic_string();
@@ -93,6 +99,7 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
         st["species"] = plotSpeciesName(plot, t.stem.species);
         st["base"] = {t.stem.base.x, t.stem.base.y, t.stem.base.z};
         st["leaf_scale"] = t.leafScale;
+        if (o.qsm) writeQsmFiles(t.grown.tree, out, rel, (dir / "").generic_string(), files, bytes);
         if (meshes) {
             const TreeMesh& m = scene.trees[k].mesh;
             st["mesh_vertices"] = m.wood.vertexCount() + m.leaves.vertexCount();
@@ -102,11 +109,20 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     }
     if (!plot.trees.empty()) files["trees"] = (rel / "trees").generic_string();
 
+    // The scan of the whole plot (terrain, trees, ground cover), its random streams keyed by
+    // the plot's seed.
+    std::optional<InstanceScan> scan;
+    if (scanned) {
+        scan = scanPlot(plot, scene, o.scan, Rng(plot.seed).derive("scan").seed());
+        writeScanFiles(*scan, o.scan, out, rel, files, bytes);
+        scan->result = ScanResult{};  // the points are written; the statistics stay
+    }
+
     if (views) {
         const std::vector<Camera> cameras = makePlotCameras(plot, o.views);
         const std::vector<ViewImage> images =
-            renderPlotViews(plot, meshes ? &scene : nullptr, o.tubes, o.leafOutlines, cameras,
-                            o.views.depth || o.views.depthPng, o.views.labels, o.render);
+            renderPlotViews(plot, meshes || scanned ? &scene : nullptr, o.tubes, o.leafOutlines,
+                            cameras, o.views.depth || o.views.depthPng, o.views.labels, o.render);
         scene = PlotScene{};  // (last use)
         ViewFiles vf;
         if (o.views.depthPng) vf.integerDepthScale = integerDepthScale(images);
@@ -178,6 +194,14 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
         std::isfinite(overlap) ? nlohmann::json(overlap) : nlohmann::json(nullptr);
     statsJson["max_projected_crown_overlap"] = projected;
     statsJson["overtopped_crown_pairs"] = overtopped;
+    if (scan) {
+        statsJson["scan_points"] = scan->stats["points"];
+        statsJson["scan_wood_surface_hit"] = scan->stats["wood_surface_hit_mean"];
+        statsJson["scan_multiple_return_share"] = scan->stats["multiple_return_share"];
+        if (scan->stats.contains("points_per_m2")) {
+            statsJson["scan_points_per_m2"] = scan->stats["points_per_m2"];
+        }
+    }
     put("plot_json", "plot.json", statsJson.dump(2) + "\n");
 
     nlohmann::json rec;
@@ -189,6 +213,7 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     rec["files"] = files;
     rec["bytes_written"] = bytes;
     rec["stats"] = statsJson;
+    if (scan) rec["scan"] = scan->stats;
     return rec;
 }
 

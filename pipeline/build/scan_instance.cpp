@@ -23,9 +23,12 @@ int tlsStations(const ScanOptions& o) {
 
 const char* systemIdentifier(ScanPlatform p) {
     switch (p) {
-        case ScanPlatform::kTls: return "sylva TLS simulation";
-        case ScanPlatform::kAls: return "sylva ALS simulation";
-        case ScanPlatform::kUls: return "sylva ULS simulation";
+        case ScanPlatform::kTls:
+            return "sylva TLS simulation";
+        case ScanPlatform::kAls:
+            return "sylva ALS simulation";
+        case ScanPlatform::kUls:
+            return "sylva ULS simulation";
     }
     return "sylva simulation";
 }
