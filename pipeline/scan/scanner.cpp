@@ -27,16 +27,20 @@ constexpr double kGoldenAngle = 2.39996322972865332;  // π (3 − √5)
 
 // The beam's sub-ray pattern: offsets (in units of the beam's 1/e² radius) and weights.
 struct BeamPattern {
-    std::vector<double> r, theta, weight;
+    std::vector<double> r, cosTheta, sinTheta, weight;
+    std::vector<double> tilt, scale;  // r·tan(divergence/2), 1/√(1 + tilt²)
     double totalWeight = 0;
-    explicit BeamPattern(int n) {
+    BeamPattern(int n, double tanHalf) {
         for (int i = 0; i < n; ++i) {
             // A sunflower (Vogel) disc: even coverage for any count, the axis first.
             const double ri = n == 1 ? 0.0 : std::sqrt(i / (n - 0.5));
             r.push_back(ri);
-            theta.push_back(i * kGoldenAngle);
+            cosTheta.push_back(std::cos(i * kGoldenAngle));
+            sinTheta.push_back(std::sin(i * kGoldenAngle));
             weight.push_back(std::exp(-2 * ri * ri));  // Gaussian beam: 1/e² at r = 1
             totalWeight += weight.back();
+            tilt.push_back(ri * tanHalf);
+            scale.push_back(1 / std::sqrt(1 + tilt.back() * tilt.back()));
         }
     }
 };
@@ -172,7 +176,7 @@ class Scanner {
         : s_(scene.impl()),
           o_(o),
           pattern_(scene, o),
-          beam_(o.subRays),
+          beam_(o.subRays, std::tan(o.beamDivergence / 2)),
           base_(seed),
           tuning_(tuning) {
         count_ = pattern_.count();
@@ -202,11 +206,15 @@ class Scanner {
             const Vec3 d0 = p.direction;
             const Vec3 u = anyPerpendicular(d0);
             const Vec3 v = cross(d0, u);
+            // The pattern turned by φ: (cos, sin)(θ_j + φ) from (cos, sin) θ_j, one sincos.
+            const double cphi = std::cos(phi), sphi = std::sin(phi);
             for (int j = 0; j < S; ++j) {
                 Vec3 d = d0;
                 if (beam_.r[j] > 0) {
-                    const double a = beam_.theta[j] + phi, r = beam_.r[j] * tanHalf_;
-                    d = normalize(d0 + (u * std::cos(a) + v * std::sin(a)) * r);
+                    const double c = beam_.cosTheta[j] * cphi - beam_.sinTheta[j] * sphi;
+                    const double sn = beam_.sinTheta[j] * cphi + beam_.cosTheta[j] * sphi;
+                    // d0 ⟂ u, v: the tilted direction's length is √(1 + tilt²).
+                    d = (d0 + (u * c + v * sn) * beam_.tilt[j]) * beam_.scale[j];
                 }
                 RayState ray;
                 ray.o[0] = static_cast<float>(p.origin.x);
