@@ -4,15 +4,17 @@
 //     a 90° × 100° window at 0.1° steps (≈ 900 × 1000 pulses);
 //   EmbreeRawTree/<mode>/<threads>: the same first-pass rays through the same BVH, closest hits
 //     only (mode 0 rtcIntersect1, 1 rtcIntersect16, 2 rtcIntersect1M): Embree's own limit;
-//   ScanPlot/<platform>/<sub_rays>/<threads>: a 1 ha, 400-tree plot — the 0.1 ha benchmark plot
+//   ScanPlot/<platform>/<sub_rays>/<threads>: a 1 ha, 400-tree plot (platform 0 TLS) — the 0.1 ha
+//   benchmark plot
 //     (bench/plot-0.1ha.toml, 40 trees grown once) instanced on a 3 × 3 + 1 tiling to 400 trees on
 //     a 1 ha ground plane — scanned by TLS (one station in the middle, 0.1° steps, capped at
-//     1.5 M pulses), and ULS at 60 m (capped at 1.5 M pulses);
+//     1.5 M pulses), ULS at 60 m and ALS at 500 m (platform 1, 2; capped at 1.5 M pulses);
 //   ScanSceneBuild/<instanced>: the BVH of those 400 trees, instanced (40 prototypes) or with
 //     every copy's triangles (the plot's meshes copied out 10 times): seconds and Embree bytes;
 //   ScanRepeat: 10 scenes built, scanned and destroyed in one process: resident memory after
 //     the first and after the tenth.
 #include <benchmark/benchmark.h>
+#include <malloc.h>
 #include <sys/resource.h>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
@@ -38,7 +40,10 @@ using namespace sylva;
 
 namespace {
 
+// Resident memory after glibc returns its free pages (malloc_trim): what the process holds, not
+// what the allocator keeps cached for later.
 double residentMiB() {
+    malloc_trim(0);
     std::ifstream in("/proc/self/statm");
     long pages = 0, resident = 0;
     in >> pages >> resident;
@@ -216,7 +221,10 @@ const ScanScene& hectareScene() {
 void ScanPlot(benchmark::State& state) {
     const ScanScene& s = hectareScene();
     const bool tls = state.range(0) == 0;
-    ScanOptions o = defaultScanOptions(tls ? ScanPlatform::kTls : ScanPlatform::kUls);
+    const ScanPlatform platform = tls                   ? ScanPlatform::kTls
+                                  : state.range(0) == 1 ? ScanPlatform::kUls
+                                                        : ScanPlatform::kAls;
+    ScanOptions o = defaultScanOptions(platform);
     if (tls) {
         o.stations = {{0, 0, 1.5}};
         o.horizontalStep = o.verticalStep = 0.1 * kScanDeg;
@@ -243,13 +251,15 @@ void ScanPlot(benchmark::State& state) {
     }();
 }
 BENCHMARK(ScanPlot)
-    ->ArgNames({"uls", "sub_rays", "threads"})
+    ->ArgNames({"platform", "sub_rays", "threads"})
     ->Args({0, 1, 1})
     ->Args({0, 19, 1})
     ->Args({0, 19, 2})
     ->Args({1, 1, 1})
     ->Args({1, 19, 1})
     ->Args({1, 19, 2})
+    ->Args({2, 1, 1})
+    ->Args({2, 19, 1})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(1);
@@ -288,6 +298,7 @@ void ScanRepeat(benchmark::State& state) {
                 benchmark::DoNotOptimize(scan(s, o, k).points.size());
             }
             if (k == 0) first = residentMiB();
+            if (k == 4) state.counters["rss_after_5_MiB"] = residentMiB();
         }
         last = residentMiB();
     }

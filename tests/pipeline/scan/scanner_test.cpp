@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/render/plot_render.h"
 #include "pipeline/scan/scan_pattern.h"
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
@@ -448,4 +449,51 @@ TEST(Scanner, AirborneStripsCoverTheAreaWithinTheScanAngle) {
         }
         EXPECT_EQ(std::count(cells.begin(), cells.end(), 0), 0) << int(platform);
     }
+}
+
+TEST(Scanner, APlotScanLabelsEveryTreeTheTerrainAndTheGroundCover) {
+    PlotSpec spec;
+    const GrownPlot plot = test::handPlot(spec, {{-4, -3}, {3, -2}, {0, 4}});
+    const PlotScene scene = makePlotScene(plot, TubeOptions{}, true, true);
+    const ScanScene s = makeScanScene(plot, scene);
+    EXPECT_NEAR(s.groundHeight(3, 2), plot.layout.terrain.height(3, 2), 1e-12);
+    ScanOptions o = defaultScanOptions(ScanPlatform::kTls);
+    o.stations = {{0, 0, 1.5}, {-8, 8, 2.0}};
+    o.horizontalStep = o.verticalStep = 0.3 * kScanDeg;
+    o.leafTransmission = 0;
+    o.rangeNoise = 0;
+    const ScanResult r = scan(s, o, 11);
+    ASSERT_EQ(r.trajectory.size(), 2u);
+    EXPECT_NEAR(r.trajectory[1].y, plot.layout.terrain.height(-8, 8) + 2.0, 1e-9);
+    std::vector<Aabb> boxes(plot.trees.size());
+    for (size_t k = 0; k < plot.trees.size(); ++k) {
+        for (const Mesh* m : {&scene.trees[k].mesh.wood, &scene.trees[k].mesh.leaves}) {
+            for (size_t i = 0; i < m->positions.size(); i += 3) {
+                boxes[k].extend(Vec3{m->positions[i], m->positions[i + 1], m->positions[i + 2]});
+            }
+        }
+    }
+    std::vector<int> perTree(plot.trees.size() + 1, 0);
+    int cover = 0;
+    for (const ScanPoint& p : r.points) {
+        ASSERT_GE(p.label.treeId, 0);
+        ASSERT_LE(p.label.treeId, static_cast<int>(plot.trees.size()));
+        ++perTree[p.label.treeId];
+        if (p.label.treeId > 0) {
+            const Aabb& b = boxes[p.label.treeId - 1];
+            EXPECT_TRUE(p.x >= b.lo.x - 1e-4 && p.x <= b.hi.x + 1e-4 && p.y >= b.lo.y - 1e-4 &&
+                        p.y <= b.hi.y + 1e-4 && p.z >= b.lo.z - 1e-4 && p.z <= b.hi.z + 1e-4);
+            EXPECT_EQ(p.label.species, plot.trees[p.label.treeId - 1].stem.species);
+        } else if (p.label.part == kScanTerrain) {
+            EXPECT_NEAR(p.y, plot.layout.terrain.height(p.x, p.z), 1e-3);
+            EXPECT_EQ(p.classification, kForTerrain);
+        } else {
+            EXPECT_EQ(p.label.part, kScanLowVegetation);
+            EXPECT_EQ(p.classification, kForLowVegetation);
+            EXPECT_EQ(p.semantic, kSemGround);
+            ++cover;
+        }
+    }
+    for (size_t k = 0; k <= plot.trees.size(); ++k) EXPECT_GT(perTree[k], 50) << k;
+    EXPECT_GT(cover, 0);
 }
