@@ -185,7 +185,6 @@ class Scanner {
             throw InputError("scan: the survey has " + std::to_string(count_) +
                              " pulses, more than 1e9: cap it with [scan] pulses or scan less");
         }
-        tanHalf_ = std::tan(o.beamDivergence / 2);
     }
 
     uint64_t count() const { return count_; }
@@ -366,7 +365,6 @@ class Scanner {
     Rng base_;
     ScanTuning tuning_;
     uint64_t count_ = 0;
-    double tanHalf_ = 0;
 };
 
 }  // namespace
