@@ -323,6 +323,8 @@ void ScanScene::addInstance(int prototype, const Vec3& base, double rotationY, i
     inst.prototype = prototype;
     inst.treeId = treeId;
     inst.firstObjectId = s.nextObjectId;
+    inst.cosY = c;
+    inst.sinY = sn;
     s.nextObjectId += static_cast<int32_t>(p.geometries.size());
     s.instanceOf[id] = static_cast<int>(s.instances.size());
     s.instances.push_back(inst);
@@ -415,6 +417,7 @@ ScanScene makeScanScene(const GrownPlot& plot, const PlotScene& scene) {
     s.commit();
     const Terrain terrain = plot.layout.terrain;
     s.setGround([terrain](double x, double z) { return terrain.height(x, z); });
+    if (!plot.spec) return s;  // the strips cover the scene's bounds
     Aabb area;
     const PlotArea& a = plot.spec->area;
     const double hx = a.shape == PlotArea::Shape::kCircle ? a.radius : a.width / 2;

@@ -43,6 +43,7 @@ struct ScanInstance {
     int prototype = 0;
     int32_t treeId = 0;
     int32_t firstObjectId = 0;  // objectId of the prototype's geometry 0 for this copy
+    float cosY = 1, sinY = 0;   // its rotation about +y (Embree reports normals unrotated)
 };
 
 struct ResolvedHit {

@@ -250,9 +250,18 @@ class Scanner {
                 rec.sub = r.sub;
                 rec.t = h.t;
                 rec.d[0] = r.d[0], rec.d[1] = r.d[1], rec.d[2] = r.d[2];
-                const double ng = std::sqrt(double(h.ng[0]) * h.ng[0] + double(h.ng[1]) * h.ng[1] +
-                                            double(h.ng[2]) * h.ng[2]);
-                const double dn = r.d[0] * h.ng[0] + r.d[1] * h.ng[1] + r.d[2] * h.ng[2];
+                float n[3] = {h.ng[0], h.ng[1], h.ng[2]};
+                if (h.instID != RTC_INVALID_GEOMETRY_ID) {
+                    // Embree gives an instance's normals in its prototype's frame: rotate them
+                    // as the copy was (about +y; column-major x' = c x + s z, z' = −s x + c z).
+                    const ScanInstance& inst = s_.instances[s_.instanceOf[h.instID]];
+                    const float x = n[0], z = n[2];
+                    n[0] = inst.cosY * x + inst.sinY * z;
+                    n[2] = -inst.sinY * x + inst.cosY * z;
+                }
+                const double ng =
+                    std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
+                const double dn = r.d[0] * n[0] + r.d[1] * n[1] + r.d[2] * n[2];
                 rec.cosine = ng > 0 ? static_cast<float>(std::abs(dn) / ng) : 0.f;
                 rec.geomID = h.geomID, rec.primID = h.primID, rec.instID = h.instID;
                 w.hits.push_back(rec);

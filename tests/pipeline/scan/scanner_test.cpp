@@ -497,3 +497,56 @@ TEST(Scanner, APlotScanLabelsEveryTreeTheTerrainAndTheGroundCover) {
     for (size_t k = 0; k <= plot.trees.size(); ++k) EXPECT_GT(perTree[k], 50) << k;
     EXPECT_GT(cover, 0);
 }
+
+TEST(Scanner, AnInstancedTreeScansAsTheSameTreePlacedFlat) {
+    // The hand tree turned 70° about +y and moved to (2, 0, −6): as a flat copy of its meshes,
+    // and as an instance of its prototype. The same pulses give the same points, intensities
+    // (incidence from the instance's rotated normals) and labels, with the instance's tree id.
+    const Tree tree = test::handTree(5, 0.2, 1.8, 0.0);
+    TreeMesh mesh;
+    std::vector<int32_t> nodes;
+    mesh.wood = tubeMesh(tree, TubeOptions{}, &nodes);
+    mesh.leaves = leafMesh(tree);
+    const double a = 70 * kScanDeg;
+    const Vec3 base{2, 0, -6};
+    TreeMesh placed = mesh;
+    for (Mesh* m : {&placed.wood, &placed.leaves}) {
+        for (size_t i = 0; i < m->positions.size(); i += 3) {
+            const double x = m->positions[i], z = m->positions[i + 2];
+            m->positions[i] = static_cast<float>(std::cos(a) * x + std::sin(a) * z + base.x);
+            m->positions[i + 2] = static_cast<float>(-std::sin(a) * x + std::cos(a) * z + base.z);
+        }
+    }
+    ScanTreeInput in;
+    in.tree = &tree;
+    in.mesh = &placed;
+    in.woodNodes = &nodes;
+    in.treeId = 7;
+    ScanScene flat;
+    flat.addTree(in);
+    flat.commit();
+    ScanScene inst;
+    in.mesh = &mesh;
+    const int proto = inst.addPrototype(in);
+    inst.addInstance(proto, base, a, 7);
+    inst.commit();
+    EXPECT_EQ(inst.triangles(), flat.triangles());
+    ScanOptions o = window(25, 0.2);
+    o.verticalCentre = 15 * kScanDeg;
+    const ScanResult rf = scan(flat, o, 12), ri = scan(inst, o, 12);
+    ASSERT_GT(rf.points.size(), 2000u);
+    std::map<std::pair<uint64_t, int>, const ScanPoint*> byReturn;
+    for (const ScanPoint& p : rf.points) byReturn[{p.pulse, p.returnNumber}] = &p;
+    size_t matched = 0;
+    for (const ScanPoint& p : ri.points) {
+        EXPECT_EQ(p.label.treeId, 7);
+        auto it = byReturn.find({p.pulse, p.returnNumber});
+        if (it == byReturn.end() || distance(pointOf(p), pointOf(*it->second)) > 1e-3) continue;
+        ++matched;
+        EXPECT_NEAR(p.intensity, it->second->intensity, 40);  // 0.06 %
+        EXPECT_EQ(p.label.nodeId, it->second->label.nodeId);
+        EXPECT_EQ(p.label.part, it->second->label.part);
+        EXPECT_EQ(p.classification, it->second->classification);
+    }
+    EXPECT_GT(matched, rf.points.size() * 98 / 100);
+}
