@@ -61,7 +61,8 @@ struct ScanPoint {
     uint16_t intensity = 0;       // 0 … 65535, from incidence angle and part reflectance
     uint8_t returnNumber = 1;     // 1 … numberOfReturns
     uint8_t numberOfReturns = 1;  // returns of this pulse, ≤ the scanner's maximum (≤ 15)
-    uint8_t channel = 0;  // scanner channel: the TLS station or ALS/ULS strip index (0 … 3)
+    uint8_t channel = 0;    // scanner channel: the TLS station or ALS/ULS strip index (0 … 3)
+    uint16_t sourceId = 0;  // LAS point source ID: the station or strip index (0 … 65535)
     bool scanDirection = false;  // LAS scan direction flag (mirror moving +)
     bool edgeOfFlightLine = false;
     float scanAngleDeg = 0;  // from nadir (ALS/ULS) or the station's horizon (TLS)
@@ -77,6 +78,7 @@ struct ScanPose {
     double x = 0, y = 0, z = 0;  // scene frame, metres
     double headingDeg = 0;       // direction of travel (ALS/ULS) or 0 (TLS)
     uint8_t channel = 0;
+    uint16_t sourceId = 0;  // the station or strip index (ScanPoint::sourceId)
 };
 
 struct ScanResult {

@@ -21,6 +21,7 @@
 
 #include "core/params.h"
 #include "pipeline/build/dataset.h"
+#include "pipeline/scan/scan_options.h"
 #include "species/spec/species.h"
 #include "tests/test_support.h"
 
@@ -144,6 +145,8 @@ KeyLog acceptedKeys(int& speciesFiles, int& datasetFiles) {
         if (isDatasetFile(t)) {
             loadDataset(f.string(), &log);
             ++datasetFiles;
+        } else if (t.contains("scan")) {
+            loadScanSpec(f.string(), &log);  // a [scan] table alone (tests/data/scan/scan-*.toml)
         } else {
             SpeciesFile s = loadSpecies(f.string());
             DrawContext draw;

@@ -1,0 +1,63 @@
+// Where and when every pulse of a survey leaves the scanner, in closed form (pulse k → origin,
+// direction, time), so any block of pulses can be made on any thread.
+//
+// TLS: per station (in order) a grid of columns (azimuth, clockwise from the start of the
+// horizontal field) × rows (elevation, bottom to top within a column, as a rotating mirror
+// sweeps); pulse k of a station is column k / rows, row k % rows, at k / pulse_rate seconds
+// after the station's first pulse; stations follow each other without a pause.
+// ALS/ULS: parallel strips over the scene's area (serpentine: every other strip flown back),
+// `L = round(pulse_rate / scan_rate)` shots per scan line; an oscillating mirror sweeps −max →
+// +max and back (every shot emitted), a rotating one turns a full circle per line (shots within
+// the maximum angle of nadir emitted). The platform moves along the strip during a line; strips
+// follow each other without a pause.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/math.h"
+#include "pipeline/scan/scan_options.h"
+#include "pipeline/scan/scan_point.h"
+
+namespace sylva {
+
+class ScanScene;
+
+struct ScanPulse {
+    Vec3 origin;
+    Vec3 direction;              // unit
+    double time = 0;             // seconds since the survey began
+    float scanAngleDeg = 0;      // from nadir, + to the right of travel (ALS/ULS); elevation (TLS)
+    uint16_t source = 0;         // station or strip index
+    bool scanDirection = false;  // mirror moving left → right (+)
+    bool edge = false;           // first or last shot of a scan line
+};
+
+class ScanPattern {
+  public:
+    ScanPattern(const ScanScene& scene, const ScanOptions& options);
+
+    uint64_t count() const { return count_; }  // every pulse of the survey (no cap)
+    void pulse(uint64_t k, ScanPulse& out) const;
+    // Stations (TLS) or the platform at the start of every scan line (ALS/ULS), for the pulses
+    // [0, pulses).
+    std::vector<ScanPose> trajectory(uint64_t pulses) const;
+
+  private:
+    ScanOptions o_;
+    uint64_t count_ = 0;
+    // TLS
+    std::vector<Vec3> stations_;
+    uint64_t columns_ = 0, rows_ = 0;
+    double azimuth0_ = 0, elevation0_ = 0;
+    // ALS/ULS
+    struct Strip {
+        Vec3 start;             // platform at the strip's first line
+        double dx = 0, dz = 0;  // unit direction of travel
+        double t0 = 0;          // time of its first pulse
+    };
+    std::vector<Strip> strips_;
+    uint64_t shotsPerLine_ = 1, firstShot_ = 0, emittedPerLine_ = 0, linesPerStrip_ = 0;
+};
+
+}  // namespace sylva
