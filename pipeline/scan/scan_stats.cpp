@@ -41,15 +41,30 @@ ScanStats::ScanStats(int stations, double groundArea, int maxReturns)
 void ScanStats::addTree(int32_t treeId, const Tree& tree) {
     TreeWood w;
     w.id = treeId;
-    w.area.assign(tree.nodes.size(), 0.0);
-    w.hit.assign(tree.nodes.size(), 0);
-    for (size_t i = 0; i < tree.nodes.size(); ++i) {
-        const SkeletonNode& n = tree.nodes[i];
-        if (n.parent < 0 || n.part != kShootPart) continue;
-        const SkeletonNode& p = tree.nodes[static_cast<size_t>(n.parent)];
-        const double length = distance(n.position, p.position);
-        w.area[i] = 2 * kPi * 0.5 * (n.radius + p.radius) * length;
+    const size_t n = tree.nodes.size();
+    w.area.assign(n, 0.0);
+    w.hit.assign(n, 0);
+    w.start.assign(n, Vec3{});
+    w.axis.assign(n, Vec3{0, 1, 0});
+    w.e1.assign(n, Vec3{1, 0, 0});
+    w.e2.assign(n, Vec3{0, 0, 1});
+    for (size_t i = 0; i < n; ++i) {
+        const SkeletonNode& node = tree.nodes[i];
+        if (node.parent < 0 || node.part != kShootPart) continue;
+        const SkeletonNode& p = tree.nodes[static_cast<size_t>(node.parent)];
+        const double length = distance(node.position, p.position);
+        if (!(length > 0)) continue;
+        w.area[i] = 2 * kPi * 0.5 * (node.radius + p.radius) * length;
         w.total += w.area[i];
+        // The segment's frame: its axis and two unit vectors across it (the first from the
+        // world axis least parallel to it), so a point's angle around the axis picks a sector.
+        const Vec3 d = (node.position - p.position) * (1.0 / length);
+        const Vec3 ref = std::abs(d.y) < 0.9 ? Vec3{0, 1, 0} : Vec3{1, 0, 0};
+        const Vec3 a = normalize(cross(ref, d));
+        w.start[i] = p.position;
+        w.axis[i] = d;
+        w.e1[i] = a;
+        w.e2[i] = cross(d, a);
     }
     const auto at = std::lower_bound(trees_.begin(), trees_.end(), treeId,
                                      [](const TreeWood& a, int32_t id) { return a.id < id; });
@@ -75,7 +90,14 @@ void ScanStats::addPoints(const std::vector<ScanPoint>& points) {
         if (p.label.treeId > 0 && p.label.nodeId >= 0) {
             if (TreeWood* w = find(p.label.treeId)) {
                 const auto n = static_cast<size_t>(p.label.nodeId);
-                if (n < w->hit.size()) w->hit[n] = 1;
+                if (n < w->hit.size() && w->area[n] > 0) {
+                    const Vec3 v = Vec3{p.x, p.y, p.z} - w->start[n];
+                    const double angle = std::atan2(dot(v, w->e2[n]), dot(v, w->e1[n]));
+                    int sector =
+                        static_cast<int>(std::floor((angle + kPi) / (2 * kPi) * kWoodSectors));
+                    sector = std::clamp(sector, 0, kWoodSectors - 1);
+                    w->hit[n] |= static_cast<uint8_t>(1u << sector);
+                }
             }
         }
     }
@@ -85,7 +107,9 @@ double ScanStats::woodSurfaceHit(int32_t treeId) const {
     const TreeWood* w = find(treeId);
     if (!w || !(w->total > 0)) return 0;
     double hit = 0;
-    for (size_t i = 0; i < w->area.size(); ++i) hit += w->hit[i] ? w->area[i] : 0.0;
+    for (size_t i = 0; i < w->area.size(); ++i) {
+        hit += w->area[i] * __builtin_popcount(w->hit[i]) / kWoodSectors;
+    }
     return hit / w->total;
 }
 

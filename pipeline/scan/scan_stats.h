@@ -3,10 +3,12 @@
 // each FOR-instance class, the share of pulses with several returns, and occlusion — the
 // fraction of each tree's wood surface the scan hit.
 //
-// Occlusion is measured per skeleton segment: a tree's wood surface is the lateral area of its
-// shoot's segments (2π · mean radius · length, the tube sylva meshes around each), and a segment
-// counts as hit when at least one point carries its node id (ScanLabel::nodeId, the node the
-// segment ends at). Roots are left out (below ground no scanner sees them).
+// Occlusion is measured on the skeleton's tubes: a tree's wood surface is the lateral area of its
+// shoot's segments (2π · mean radius · length, the tube sylva meshes around each), each cut into
+// kWoodSectors equal sectors around its axis; a sector counts as hit when a point carrying the
+// segment's node id (ScanLabel::nodeId, the node the segment ends at) lies in it. One TLS
+// station sees about half of an isolated stem's sectors. Roots are left out (below ground no
+// scanner sees them).
 #pragma once
 
 #include <cstdint>
@@ -17,6 +19,8 @@
 #include "species/model/tree.h"
 
 namespace sylva {
+
+constexpr int kWoodSectors = 8;
 
 class ScanStats {
   public:
@@ -39,7 +43,8 @@ class ScanStats {
     struct TreeWood {
         int32_t id = 0;
         std::vector<double> area;  // per node: lateral area of the segment ending at it (m²)
-        std::vector<uint8_t> hit;  // per node
+        std::vector<uint8_t> hit;  // per node: a bit per sector hit
+        std::vector<Vec3> start, axis, e1, e2;  // per node: the segment's frame
         double total = 0;
     };
     TreeWood* find(int32_t treeId);

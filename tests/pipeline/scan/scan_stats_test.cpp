@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "tests/test_support.h"
 
 namespace sylva {
@@ -12,8 +14,11 @@ namespace {
 using test::addNode;
 
 ScanPoint point(uint64_t pulse, uint8_t ret, uint8_t of, uint8_t cls, int32_t tree = 0,
-                int32_t node = -1, uint8_t channel = 0) {
+                int32_t node = -1, uint8_t channel = 0, Vec3 at = {0.1, 0.5, 0}) {
     ScanPoint p;
+    p.x = at.x;
+    p.y = at.y;
+    p.z = at.z;
     p.pulse = pulse;
     p.returnNumber = ret;
     p.numberOfReturns = of;
@@ -53,15 +58,29 @@ TEST(ScanStats, CountsSharesAndOcclusionHaveKnownAnswers) {
     EXPECT_NEAR(j["class_fraction"]["terrain"].get<double>(), 0.25, 1e-12);
     EXPECT_NEAR(j["class_fraction"]["live_branches"].get<double>(), 0.25, 1e-12);
     EXPECT_EQ(j["class_fraction"]["woody_branches"].get<double>(), 0.0);
+    // Both stem points lie on the first segment's +x side: one sector of eight.
     const double first = 2 * kPi * 0.1, second = 2 * kPi * 0.075;
-    EXPECT_NEAR(s.woodSurfaceHit(7), first / (first + second), 1e-12);
+    EXPECT_NEAR(s.woodSurfaceHit(7), first / 8 / (first + second), 1e-12);
     EXPECT_EQ(s.woodSurfaceHit(9), 0.0);  // not a tree of the scene
     ASSERT_EQ(j["trees"].size(), 1u);
     EXPECT_EQ(j["trees"][0]["tree"], 7);
-    EXPECT_NEAR(j["wood_surface_hit_mean"].get<double>(), first / (first + second), 1e-12);
+    EXPECT_NEAR(j["wood_surface_hit_mean"].get<double>(), first / 8 / (first + second), 1e-12);
 
-    s.addPoints({point(3, 1, 1, kForStem, 7, 2)});  // the second segment: all wood hit
-    EXPECT_NEAR(s.woodSurfaceHit(7), 1.0, 1e-12);
+    // Points all around both segments (eight directions, at mid height): all wood hit; the
+    // near half seen from one side (the +x half: four sectors): half of it.
+    ScanStats all(0, 1, 1), half(0, 1, 1);
+    all.addTree(7, twoSegments());
+    half.addTree(7, twoSegments());
+    for (int k = 0; k < 8; ++k) {
+        const double a = (k + 0.5) * kPi / 4;
+        for (int32_t node : {1, 2}) {
+            const Vec3 at{0.1 * std::cos(a), node - 0.5, 0.1 * std::sin(a)};
+            all.addPoints({point(k, 1, 1, kForStem, 7, node, 0, at)});
+            if (at.x > 0) half.addPoints({point(k, 1, 1, kForStem, 7, node, 0, at)});
+        }
+    }
+    EXPECT_NEAR(all.woodSurfaceHit(7), 1.0, 1e-12);
+    EXPECT_NEAR(half.woodSurfaceHit(7), 0.5, 1e-12);
 }
 
 TEST(ScanStats, TlsCountsPointsPerStation) {
