@@ -34,6 +34,34 @@ double drawPerStem(const PlotSpecies& s, bool present, const toml::table& holder
     return p.number("v", range);
 }
 
+// Ground cover ([plot.ground_cover]): a Poisson count of density × area cards, each at a
+// uniform place in the plot, a blade of grass or forb leaning 20–70° from vertical towards a
+// uniform azimuth (so both an airborne and a terrestrial scanner see it), its length uniform in
+// [height / 2, height] and its width `width`, its base on the terrain.
+std::vector<Leaf> groundCover(const PlotSpec& spec, const Terrain& terrain, Rng rng) {
+    std::vector<Leaf> cards;
+    const GroundCoverOptions& g = spec.groundCover;
+    if (!(g.density > 0)) return cards;
+    const int64_t n = poissonCount(g.density * spec.area.area(), rng);
+    const std::vector<Vec2> at = poissonPoints(n, spec.area, rng);
+    cards.reserve(at.size());
+    for (const Vec2& p : at) {
+        const double lean = rng.uniform(20.0, 70.0) * kPi / 180;
+        const double azimuth = rng.uniform(0.0, 2 * kPi);
+        const double length = rng.uniform(0.5, 1.0) * g.height;
+        const Vec3 towards{std::cos(azimuth), 0, std::sin(azimuth)};
+        Leaf card;
+        card.tangent = normalize(Vec3{0, std::cos(lean), 0} + towards * std::sin(lean));
+        card.normal = normalize(cross(Vec3{-towards.z, 0, towards.x}, card.tangent));
+        card.size = length;
+        card.aspect = g.width / length;
+        card.shape = LeafShape::kCard;
+        card.position = Vec3{p.x, terrain.height(p.x, p.y), p.y} + card.tangent * (length / 2);
+        cards.push_back(card);
+    }
+    return cards;
+}
+
 }  // namespace
 
 PlotLayout layoutPlot(const PlotSpec& spec, uint64_t plotSeed) {
@@ -84,6 +112,7 @@ PlotLayout layoutPlot(const PlotSpec& spec, uint64_t plotSeed) {
             addStem(static_cast<int32_t>(k), p);
         }
     }
+    layout.groundCover = groundCover(spec, layout.terrain, root.derive("ground-cover"));
     return layout;
 }
 

@@ -18,9 +18,11 @@ namespace sylva {
 //  - every stem: base = (x, terrain height there, z); id 1 … N in order (canopy first);
 //    seed = hash(plot seed, "tree", id); targetHeight drawn from its species' `height` with
 //    the stem's seed (0: as grown).
+//  - ground cover: a Poisson count of density × area cards at uniform places, each leaning
+//    20–70° towards a uniform azimuth, its base on the terrain (layout.cpp groundCover).
 // Streams (derived from plotSeed by these keys, so nothing depends on thread count or on the
 // other streams' use): "terrain/noise", "canopy/count/<k>", "canopy/points",
-// "canopy/species", "understory/<k>/count", "understory/<k>/points".
+// "canopy/species", "understory/<k>/count", "understory/<k>/points", "ground-cover".
 PlotLayout layoutPlot(const PlotSpec& spec, uint64_t plotSeed);
 
 // The seed of tree `id` of a plot instance.

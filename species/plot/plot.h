@@ -141,7 +141,8 @@ struct PlotStem {
 
 struct PlotLayout {
     Terrain terrain;
-    std::vector<PlotStem> stems;  // canopy stems first, then understory; ids in order
+    std::vector<PlotStem> stems;    // canopy stems first, then understory; ids in order
+    std::vector<Leaf> groundCover;  // low-vegetation cards standing on the terrain
 };
 
 // A grown tree in the plot: its skeleton and leaves in plot-local metres (standing vertical at

@@ -371,6 +371,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
     GrownPlot plot;
     plot.spec = &spec;
     plot.layout = std::move(layout);
+    plot.groundCover = plot.layout.groundCover;
     const std::vector<PlotStem>& stems = plot.layout.stems;
     const size_t n = stems.size();
     for (const PlotStem& st : stems) {

@@ -222,5 +222,36 @@ TEST(PlotLayout, SameSeedSameLayout) {
     }
 }
 
+// Ground cover: a Poisson count of density × area cards (mean 10/m² on the 40 × 30 m slope:
+// 12,000, sd 110), each inside the plot with its base — the card's lower end — on the terrain,
+// leaning 20–70° from vertical, no longer than `height` and at least half of it, `width` wide;
+// the same seed the same cards, a plot without [ground_cover] none.
+TEST(PlotLayout, GroundCoverStandsOnTheTerrain) {
+    const DatasetSpec d = loadDataset(kPlotData + "plots.toml");
+    const PlotSpec& spec = plotNamed(d, "mixed-slope");
+    ASSERT_EQ(spec.groundCover.density, 10);
+    const PlotLayout l = layoutPlot(spec, 99);
+    EXPECT_NEAR(static_cast<double>(l.groundCover.size()), 12000, 5 * 110);
+    for (const Leaf& c : l.groundCover) {
+        const Vec3 base = c.position - c.tangent * (c.size / 2);
+        ASSERT_TRUE(spec.area.contains(base.x, base.z));
+        ASSERT_NEAR(base.y, l.terrain.height(base.x, base.z), 1e-9);
+        const double lean = std::acos(c.tangent.y) * 180 / kPi;
+        ASSERT_GE(lean, 20 - 1e-9);
+        ASSERT_LE(lean, 70 + 1e-9);
+        ASSERT_NEAR(dot(c.normal, c.tangent), 0, 1e-12);
+        ASSERT_NEAR(length(c.normal), 1, 1e-12);
+        ASSERT_GE(c.size, 0.5 * 0.25 - 1e-12);
+        ASSERT_LE(c.size, 0.25 + 1e-12);
+        ASSERT_NEAR(c.size * c.aspect, 0.12, 1e-12);
+    }
+    const PlotLayout again = layoutPlot(spec, 99);
+    ASSERT_EQ(again.groundCover.size(), l.groundCover.size());
+    for (size_t k = 0; k < l.groundCover.size(); ++k) {
+        ASSERT_EQ(again.groundCover[k].position.x, l.groundCover[k].position.x);
+    }
+    EXPECT_TRUE(layoutPlot(plotNamed(d, "clustered"), 99).groundCover.empty());
+}
+
 }  // namespace
 }  // namespace sylva
