@@ -325,7 +325,7 @@ void encodeLas(const ScanResult& scan, const LasOptions& options, const Sink& si
         c.u8(p.label.part);  // user data: the ScanPart hit
         const double angle = std::clamp(p.scanAngleDeg / 0.006, -30000.0, 30000.0);
         c.i16(static_cast<int16_t>(roundHalfAway(angle)));
-        c.u16(0);  // point source ID 0: the point originated in this file
+        c.u16(p.sourceId);  // point source ID: the TLS station or flight strip index
         c.f64(options.gpsStart + p.gpsTime);
         if (rgb) {
             const auto col = options.colour == LasColour::kClass ? lasClassColour(p.classification)

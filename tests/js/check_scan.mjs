@@ -50,6 +50,7 @@ function scenePoint(i) {
         numberOfReturns: nr,
         returnNumber: 1 + (i % nr),
         channel: i % 4,
+        sourceId: i % 8,
         scanDirection: i % 2,
         edge: i % 11 === 0 ? 1 : 0,
         scanAngle: -45 + 0.3 * i,
@@ -168,7 +169,7 @@ async function check(file, format) {
         expectEq(at('Classification'), get.Classification(i), p.classification);
         expectEq(at('UserData'), get.UserData(i), p.part);
         expectNear(at('ScanAngle'), get.ScanAngle(i), p.scanAngle, 0.003 + 1e-5);
-        expectEq(at('PointSourceId'), get.PointSourceId(i), 0);
+        expectEq(at('PointSourceId'), get.PointSourceId(i), p.sourceId);
         expectNear(at('GpsTime'), get.GpsTime(i), GPS_START + p.gpsTime, 1e-9);
         if (format === 7) {
             const c = classColour[p.classification];

@@ -41,6 +41,7 @@ def formula():
         "nr": nr,
         "rn": 1 + i % nr,
         "channel": i % 4,
+        "source": i % 8,
         "dir": i % 2,
         "edge": (i % 11 == 0).astype(int),
         "angle": -45 + 0.3 * i,
@@ -165,6 +166,7 @@ def main():
         assert np.array_equal((p["flags"] >> 6) & 1, f["dir"])
         assert np.array_equal(p["flags"] >> 7, f["edge"])
         assert np.array_equal(p["classification"], f["cls"])
+        assert np.array_equal(p["source"], f["source"])
         assert np.array_equal(p["user_data"], f["part"])
         assert np.abs(p["scan_angle"] * 0.006 - f["angle"]).max() <= 0.003 + 1e-5
         assert np.allclose(p["gps_time"], GPS_START + f["gps"], rtol=0, atol=1e-9)
@@ -187,7 +189,8 @@ def main():
                            ("hitObjectId", "object"), ("branch_order", "order"),
                            ("node_id", "node"), ("classification", "cls"),
                            ("return_number", "rn"), ("number_of_returns", "nr"),
-                           ("scanner_channel", "channel"), ("intensity", "intensity")):
+                           ("scanner_channel", "channel"), ("intensity", "intensity"),
+                           ("point_source_id", "source")):
             assert np.array_equal(las[field], f[key]), field
         assert np.allclose(las["gps_time"], GPS_START + f["gps"], rtol=0, atol=1e-9)
         assert ("red" in las.fields) == (fmt == 7)

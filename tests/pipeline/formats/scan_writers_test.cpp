@@ -39,6 +39,7 @@ ScanResult formulaScan(int n) {
         p.numberOfReturns = static_cast<uint8_t>(1 + (i / 4) % 15);
         p.returnNumber = static_cast<uint8_t>(1 + i % p.numberOfReturns);
         p.channel = static_cast<uint8_t>(i % 4);
+        p.sourceId = static_cast<uint16_t>(i % 8);  // a station index; channel = it mod 4
         p.scanDirection = i % 2 == 1;
         p.edgeOfFlightLine = i % 11 == 0;
         p.scanAngleDeg = static_cast<float>(-45 + 0.3 * i);
@@ -204,7 +205,7 @@ TEST(LasWriter, RecordsDecodeToThePoints) {
         EXPECT_EQ(at<uint8_t>(b, o + 16), p.classification);
         EXPECT_EQ(at<uint8_t>(b, o + 17), p.label.part);
         EXPECT_NEAR(at<int16_t>(b, o + 18) * 0.006, p.scanAngleDeg, 0.003 + 1e-6);
-        EXPECT_EQ(at<uint16_t>(b, o + 20), 0);
+        EXPECT_EQ(at<uint16_t>(b, o + 20), p.sourceId);
         EXPECT_EQ(at<double>(b, o + 22), 123456.5 + p.gpsTime);
         EXPECT_EQ(at<int32_t>(b, o + 30), p.label.treeId);
         EXPECT_EQ(at<uint16_t>(b, o + 34), p.label.species);
