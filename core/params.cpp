@@ -38,6 +38,15 @@ std::string formatNumber(double v, int significantDigits) {
     return buf;
 }
 
+std::string formatFixed(double v, int decimals) {
+    if (!std::isfinite(v)) return "";
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+    std::string s = buf;
+    if (s[0] == '-' && s.find_first_not_of("-0.") == std::string::npos) s = s.substr(1);
+    return s;
+}
+
 std::string Range::describe(bool integer) const {
     std::string noun = integer ? "an integer" : "a number";
     bool noLo = lo <= -1e299, noHi = hi >= 1e299;

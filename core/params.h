@@ -29,6 +29,8 @@ std::string fileBytes(const std::string& path);
 
 // A number for an error message: printf "%.*g" with `significantDigits` digits.
 std::string formatNumber(double v, int significantDigits = 12);
+// Fixed decimals for tables (CSV): never "-0.000"; "" for a non-finite value.
+std::string formatFixed(double v, int decimals);
 
 // The largest magnitude a number in a spec may have when its key's range sets no bound of its
 // own (Range::any(), positive(), nonNegative(), atLeast()): 10⁹ (metres, degrees, counts). Larger

@@ -3,20 +3,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/params.h"
+
 namespace sylva {
 
 namespace {
-
-std::string fixed(double v, int decimals) {
-    if (!std::isfinite(v)) return "";
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-    std::string s = buf;
-    if (s == "-0" || s.find_first_not_of("-0.") == std::string::npos) {
-        s = s[0] == '-' ? s.substr(1) : s;  // no "-0.000"
-    }
-    return s;
-}
 
 nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
@@ -40,10 +31,10 @@ std::string treeTableCsv(const std::vector<TreeRecord>& table) {
     for (const TreeRecord& r : table) {
         out += std::to_string(r.id) + "," + field(r.name) + "," + field(r.species);
         for (double v : {r.base.x, r.base.y, r.base.z, r.height, r.dbh, r.crownBase}) {
-            out += "," + fixed(v, 3);
+            out += "," + formatFixed(v, 3);
         }
-        for (double v : r.crownRadius) out += "," + fixed(v, 3);
-        out += "," + fixed(r.nearestNeighbour, 3) + "," + fixed(r.leafArea, 4) + "\n";
+        for (double v : r.crownRadius) out += "," + formatFixed(v, 3);
+        out += "," + formatFixed(r.nearestNeighbour, 3) + "," + formatFixed(r.leafArea, 4) + "\n";
     }
     return out;
 }

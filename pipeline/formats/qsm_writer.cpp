@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/params.h"
 #include "pipeline/formats/atomic_file.h"
 
 namespace sylva {
@@ -21,14 +22,6 @@ int32_t continuingChild(const Tree& tree, const ChildIndex& children, int32_t i)
         if (tree.nodes[c].order == node.order && tree.nodes[c].part == node.part) return c;
     }
     return -1;
-}
-
-std::string fixed(double v, int decimals) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-    std::string s = buf;
-    if (s[0] == '-' && s.find_first_not_of("-0.") == std::string::npos) s = s.substr(1);
-    return s;
 }
 
 // save_model_text.m: round(10000 * v) / 10000 printed with %g (MATLAB's fprintf is C's).
@@ -108,13 +101,13 @@ std::string qsmCylinderCsv(const std::vector<QsmCylinder>& cylinders) {
         "radius,length,start_x,start_y,start_z,axis_x,axis_y,axis_z,parent,extension,branch,"
         "BranchOrder,PositionInBranch,added,UnmodRadius,node_id\n";
     for (const QsmCylinder& c : cylinders) {
-        out += fixed(c.radius, 6) + "," + fixed(c.length, 6);
-        for (int a = 0; a < 3; ++a) out += "," + fixed(c.start[a], 6);
-        for (int a = 0; a < 3; ++a) out += "," + fixed(c.axis[a], 6);
+        out += formatFixed(c.radius, 6) + "," + formatFixed(c.length, 6);
+        for (int a = 0; a < 3; ++a) out += "," + formatFixed(c.start[a], 6);
+        for (int a = 0; a < 3; ++a) out += "," + formatFixed(c.axis[a], 6);
         for (int32_t v : {c.parent, c.extension, c.branch, c.branchOrder, c.positionInBranch}) {
             out += "," + std::to_string(v);
         }
-        out += ",0," + fixed(c.radius, 6) + "," + std::to_string(c.node) + "\n";
+        out += ",0," + formatFixed(c.radius, 6) + "," + std::to_string(c.node) + "\n";
     }
     return out;
 }

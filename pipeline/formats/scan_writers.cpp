@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string_view>
 
+#include "core/params.h"
 #include "pipeline/formats/atomic_file.h"
 
 namespace sylva {
@@ -84,15 +85,6 @@ void encodeRecords(size_t n, size_t size, const Sink& sink, Record&& record) {
         if (c.p != block.data() + block.size()) throw std::logic_error("record size mismatch");
         sink(block);
     }
-}
-
-// Decimal text for CSV and JSON-free tables: fixed decimals, never "-0.000".
-std::string fixed(double v, int decimals) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-    std::string s = buf;
-    if (s[0] == '-' && s.find_first_not_of("-0.") == std::string::npos) s = s.substr(1);
-    return s;
 }
 
 void checkPoint(const ScanPoint& p, size_t index) {
@@ -170,9 +162,9 @@ LasSummary summarize(const ScanResult& scan, const LasOptions& options) {
         for (double v : {lo[a], hi[a]}) {
             const double units = (v - s.offset[a]) / options.scale;  // checked before rounding
             if (!(std::fabs(units) < 2147483647.0)) {
-                throw std::invalid_argument("scan extent " + fixed(hi[a] - lo[a], 3) +
+                throw std::invalid_argument("scan extent " + formatFixed(hi[a] - lo[a], 3) +
                                             " m too large for LAS scale " +
-                                            fixed(options.scale, 6) + " m");
+                                            formatFixed(options.scale, 6) + " m");
             }
         }
         // The bounds of the coordinates as stored: rounding is monotonic, so the extreme points
@@ -408,7 +400,7 @@ std::array<uint16_t, 2> lasCreationDate(double gpsStart) {
     // is GPS time − 10⁹ s. Leap seconds (18 s since 1980) are ignored.
     const double gpsSeconds = gpsStart + 1e9;
     if (!std::isfinite(gpsStart) || gpsSeconds < 0 || gpsSeconds > 2e12) {
-        throw std::invalid_argument("LAS gpsStart " + fixed(gpsStart, 3) +
+        throw std::invalid_argument("LAS gpsStart " + formatFixed(gpsStart, 3) +
                                     " is not an adjusted standard GPS time after 1980");
     }
     const int64_t days = 3657 + static_cast<int64_t>(std::floor(gpsSeconds / 86400));
@@ -506,9 +498,9 @@ std::string trajectoryCsv(const ScanResult& scan, double gpsStart) {
     std::string out = "gps_time,x,y,z,heading_deg,channel\n";
     for (const ScanPose& pose : scan.trajectory) {
         const Vec3 q = surveyFrame(pose.x, pose.y, pose.z);
-        out += fixed(gpsStart + pose.gpsTime, 6) + "," + fixed(q.x, 4) + "," + fixed(q.y, 4) + "," +
-               fixed(q.z, 4) + "," + fixed(pose.headingDeg, 4) + "," +
-               std::to_string(pose.channel) + "\n";
+        out += formatFixed(gpsStart + pose.gpsTime, 6) + "," + formatFixed(q.x, 4) + "," +
+               formatFixed(q.y, 4) + "," + formatFixed(q.z, 4) + "," +
+               formatFixed(pose.headingDeg, 4) + "," + std::to_string(pose.channel) + "\n";
     }
     return out;
 }
