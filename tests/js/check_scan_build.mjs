@@ -10,7 +10,9 @@
 //     semantic_seg (terrain 2 and low vegetation 1 → 1; stem 4 and woody branches 6 → 2; live
 //     branches 5 → 2 (its wood) or 3 (leaves)) and with the part hit (user data); branch_order 0
 //     on stems; node_id −1 exactly when the hit is not wood; 1 ≤ return number ≤ number of
-//     returns ≤ the platform's max_returns; with RGB by tree, one colour per tree, grey for 0;
+//     returns ≤ the platform's max_returns; GPS time non-decreasing (pulse order); a single
+//     tree's TLS points within [min_range, max_range] of the station; with RGB by tree, one
+//     colour per tree, grey for 0;
 //   - the manifest's scan block: class fractions and points per TLS station (point source ID)
 //     equal to the counts, every tree of scan.trees with wood_surface_hit > 0 has wood points,
 //     no points of a tree the list does not name;
@@ -112,6 +114,7 @@ async function checkRecord(dir, spec, record) {
     // through the trunk (x = y = 0 in the survey frame) facing the station.
     const station = platform === 'tls' && record.kind !== 'plot' && spec.scan.stations?.length === 1
         ? JSON.parse(fs.readFileSync(path.join(dir, record.files.scan_stations), 'utf8'))[0] : null;
+    const minRange = spec.scan.min_range ?? 1.5, maxRange = spec.scan.max_range ?? 600;  // TLS defaults
     const side = { near: 0, far: 0, stemNear: 0, stemFar: 0 };
     const cylinders = new Map();  // node_id → the QSM cylinder (survey frame) ending at it
     if (station) {
@@ -137,6 +140,15 @@ async function checkRecord(dir, spec, record) {
         xyz.forEach((v, a) => {
             if (v < header.min[a] || v > header.max[a]) pointFail(w(`point outside the header bounds on axis ${a}`), at(i, v));
         });
+        if (i > 0 && p.GpsTime < rows[(i - 1) * COLUMNS.length + 10]) {
+            pointFail(w('GPS time decreasing (points are in pulse order)'), at(i, p.GpsTime));
+        }
+        if (station) {
+            const range = Math.hypot(p.X - station.x, p.Y - station.y, p.Z - station.z);
+            if (!(range >= minRange - 0.1 && range <= maxRange + 0.1)) {
+                pointFail(w(`range from the station outside [${minRange}, ${maxRange}] m`), at(i, range));
+            }
+        }
         const cls = p.Classification, sem = p.semantic_seg, part = get.UserData(i), tree = p.treeID;
         byClass[cls] += 1;
         byReturn[p.ReturnNumber - 1] += 1;

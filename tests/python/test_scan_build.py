@@ -10,6 +10,7 @@ package, and checks for every manifest record with a scan (exit 1 on a failure):
     same order: x, y, z within half the LAS scale, semantic_seg and treeID equal;
   - scan_treelearn.npy (np.load, N x 4) likewise: x, y, z within half the scale, and the label
     TreeLearn's load_data derives from the LAS's treeID and classification (docs/scanning.md);
+  - a single tree's TLS scan_stations.json and scan_trajectory.csv at the spec's stations;
   - every tree's qsm.csv (a plot's trees/tree-NNNN/qsm.csv) against its skeleton.ply (read with
     numpy): one row per shoot segment of non-zero length, node_id the segment's end node, start
     and start + axis * length the segment's nodes in the survey frame, the parent row ending at
@@ -103,7 +104,7 @@ def check_qsm(what, qsm_path, skel_path):
     return nodes
 
 
-def check_record(out, ds_dir, inst):
+def check_record(out, ds_dir, spec, inst):
     r = inst.record
     rid = r["id"]
     h, las = read_las(inst.path("scan_las"))
@@ -155,6 +156,21 @@ def check_record(out, ds_dir, inst):
         check("%s: TreeLearn label = load_data's rule on the LAS" % rid, len(bad) == 0,
               "%d points, first %s" % (len(bad), bad[:1]))
 
+    # TLS stations and trajectory against the spec's stations (a single tree stands on flat
+    # ground at height 0): survey (x, -z, height), one trajectory row per station.
+    if r.get("kind") != "plot" and spec["scan"].get("platform", "tls") == "tls":
+        with open(inst.path("scan_stations")) as f:
+            stations = json.load(f)
+        want = [(s["x"], -s["z"], s.get("height", 1.5)) for s in spec["scan"]["stations"]]
+        got = [(s["x"], s["y"], s["z"]) for s in stations]
+        check("%s: scan_stations.json = the spec's stations" % rid,
+              len(got) == len(want) and np.allclose(got, want, atol=1e-9), (got, want))
+        with open(inst.path("scan_trajectory")) as f:
+            traj = list(csv.DictReader(f))
+        check("%s: scan_trajectory.csv has one row per station at it" % rid,
+              len(traj) == len(want) and np.allclose(
+                  [(float(t["x"]), float(t["y"]), float(t["z"])) for t in traj], want, atol=1e-4))
+
     # QSM tables against the skeletons, and the wood points' node_id and branch_order.
     if r.get("kind") == "plot":
         tree_dirs = sorted(Path(ds_dir, r["files"]["trees"]).glob("tree-*"))
@@ -203,7 +219,7 @@ def main():
         scanned = [inst for inst in ds if "scan" in inst.record]
         check("%s: every record has a scan" % d, scanned and len(scanned) == len(ds))
         for inst in scanned:
-            summary.append("%s %d points" % (inst.id, check_record(out, d, inst)))
+            summary.append("%s %d points" % (inst.id, check_record(out, d, ds.info["spec"], inst)))
     if failures:
         for f in failures[:40]:
             print("test_scan_build: %s" % f, file=sys.stderr)
