@@ -133,7 +133,7 @@ KeyLog acceptedKeys(int& speciesFiles, int& datasetFiles) {
         for (const auto& e : fs::recursive_directory_iterator(kSource / dir)) {
             if (!e.is_regular_file() || e.path().extension() != ".toml") continue;
             const fs::path folder = e.path().parent_path().filename();
-            if (folder == "bad" || folder == "hostile") continue;
+            if (folder == "bad" || folder == "bad_datasets" || folder == "hostile") continue;
             files.push_back(e.path());
         }
     }
