@@ -5,10 +5,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <csignal>
 #include <cstring>
+#include <fstream>
 #include <thread>
 
 #include "tests/test_support.h"
@@ -130,6 +132,46 @@ std::vector<CliResult> runAllSylva(const std::vector<std::vector<std::string>>& 
     std::vector<CliResult> results;
     for (const CliChild& c : children) results.push_back(finishSylva(c));
     return results;
+}
+
+void expectBadSpecFixture(const fs::path& spec) {
+    std::vector<std::string> expect;
+    int line = 0;
+    std::ifstream in(spec);
+    for (std::string l; std::getline(in, l);) {
+        if (l.rfind("# expect: ", 0) == 0) expect.push_back(l.substr(10));
+        if (l.rfind("# line: ", 0) == 0) line = std::stoi(l.substr(8));
+    }
+    ASSERT_FALSE(expect.empty()) << spec;
+    ASSERT_GT(line, 0) << spec;
+    TempDir t;
+    const fs::path work = t / "work", out = work / "build_out";
+    fs::create_directories(work);
+    CliOptions o;
+    o.logDir = t.path();  // the run's output files stay out of the work directory
+    for (const auto& args : std::vector<std::vector<std::string>>{
+             {"validate", spec.string()}, {"build", spec.string(), "--out", out.string()}}) {
+        SCOPED_TRACE(args[0]);
+        const CliResult r = runSylva(args, work, o);
+        EXPECT_EQ(r.code, 2) << describeRun(r);
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+        const std::string at = spec.filename().string() + ":" + std::to_string(line) + ":";
+        EXPECT_NE(r.err.find(at), std::string::npos) << "expected \"" << at << "\" in: " << r.err;
+        for (const std::string& e : expect) {
+            EXPECT_NE(r.err.find(e), std::string::npos) << "expected \"" << e << "\" in: " << r.err;
+        }
+    }
+    EXPECT_FALSE(fs::exists(out));
+    EXPECT_TRUE(fs::is_empty(work)) << "the failed runs wrote into " << work;
+}
+
+std::vector<std::string> tomlFiles(const fs::path& dir) {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir)) {
+        if (e.path().extension() == ".toml") names.push_back(e.path().filename().string());
+    }
+    std::sort(names.begin(), names.end());
+    return names;
 }
 
 std::string describeRun(const CliResult& r) {

@@ -55,6 +55,14 @@ std::vector<CliResult> runAllSylva(const std::vector<std::vector<std::string>>& 
                                    const std::filesystem::path& dir,
                                    const CliOptions& options = {});
 
+// A bad-spec fixture: its leading comments say what the error must say (`# expect: <text>`, any
+// number) and on which line (`# line: <n>`). Runs `sylva validate SPEC` and `sylva build SPEC
+// --out work/out` in an empty work directory and expects, for both: exit 2, one line on stderr
+// naming SPEC:<n>: and every expected text, and nothing written (no out, the work dir empty).
+void expectBadSpecFixture(const std::filesystem::path& spec);
+// The .toml files of `dir`, sorted by name (a bad-spec test's parameters).
+std::vector<std::string> tomlFiles(const std::filesystem::path& dir);
+
 // "exit N\n--- stdout:\n…--- stderr:\n…", for failure messages.
 std::string describeRun(const CliResult& r);
 

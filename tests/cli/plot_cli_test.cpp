@@ -41,48 +41,12 @@ SylvaRun sylva(const std::vector<std::string>& args, const fs::path& dir) {
     return sylva::test::runSylva(args, dir, o);
 }
 
-std::vector<std::string> badPlotFixtures() {
-    std::vector<std::string> names;
-    for (const auto& e : fs::directory_iterator(kPlotData / "bad")) {
-        if (e.path().extension() == ".toml") names.push_back(e.path().filename().string());
-    }
-    std::sort(names.begin(), names.end());
-    return names;
-}
+std::vector<std::string> badPlotFixtures() { return sylva::test::tomlFiles(kPlotData / "bad"); }
 
 class PlotBadSpec : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(PlotBadSpec, OneLineErrorExitTwoAndNothingWritten) {
-    const fs::path spec = kPlotData / "bad" / GetParam();
-    std::vector<std::string> expect;
-    int line = 0;
-    std::ifstream in(spec);
-    for (std::string l; std::getline(in, l);) {
-        if (l.rfind("# expect: ", 0) == 0) expect.push_back(l.substr(10));
-        if (l.rfind("# line: ", 0) == 0) line = std::stoi(l.substr(8));
-    }
-    ASSERT_FALSE(expect.empty()) << spec;
-    ASSERT_GT(line, 0) << spec;
-    TempDir t;
-    const fs::path work = t / "work";
-    fs::create_directories(work);
-    const fs::path out = work / "build_out";
-    const std::vector<std::vector<std::string>> runs = {
-        {"validate", spec.string()}, {"build", spec.string(), "--out", out.string()}};
-    for (size_t k = 0; k < runs.size(); ++k) {
-        SCOPED_TRACE(runs[k][0]);
-        const SylvaRun r = sylva(runs[k], work);
-        EXPECT_EQ(r.code, 2) << r.err;
-        ASSERT_FALSE(r.err.empty());
-        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-        const std::string at = spec.filename().string() + ":" + std::to_string(line) + ":";
-        EXPECT_NE(r.err.find(at), std::string::npos) << "expected \"" << at << "\" in: " << r.err;
-        for (const std::string& e : expect) {
-            EXPECT_NE(r.err.find(e), std::string::npos) << "expected \"" << e << "\" in: " << r.err;
-        }
-    }
-    EXPECT_FALSE(fs::exists(out));
-    EXPECT_TRUE(fs::is_empty(work)) << "the failed runs wrote into " << work;
+    sylva::test::expectBadSpecFixture(kPlotData / "bad" / GetParam());
 }
 
 INSTANTIATE_TEST_SUITE_P(Cli, PlotBadSpec, ::testing::ValuesIn(badPlotFixtures()),

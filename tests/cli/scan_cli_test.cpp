@@ -31,46 +31,13 @@ using sylva::test::TempDir;
 const fs::path kScanData = fs::path(SYLVA_SOURCE_DIR) / "tests" / "data" / "scan";
 
 std::vector<std::string> badFixtures() {
-    std::vector<std::string> names;
-    for (const auto& e : fs::directory_iterator(kScanData / "bad_datasets")) {
-        if (e.path().extension() == ".toml") names.push_back(e.path().filename().string());
-    }
-    std::sort(names.begin(), names.end());
-    return names;
+    return sylva::test::tomlFiles(kScanData / "bad_datasets");
 }
 
 class ScanBadDataset : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(ScanBadDataset, OneLineErrorExitTwoAndNothingWritten) {
-    const fs::path spec = kScanData / "bad_datasets" / GetParam();
-    std::vector<std::string> expect;
-    int line = 0;
-    std::ifstream in(spec);
-    for (std::string l; std::getline(in, l);) {
-        if (l.rfind("# expect: ", 0) == 0) expect.push_back(l.substr(10));
-        if (l.rfind("# line: ", 0) == 0) line = std::stoi(l.substr(8));
-    }
-    ASSERT_FALSE(expect.empty()) << spec;
-    ASSERT_GT(line, 0) << spec;
-    TempDir t;
-    const fs::path work = t / "work", out = work / "out";
-    fs::create_directories(work);
-    sylva::test::CliOptions o;
-    o.logDir = t.path();
-    for (const auto& args : std::vector<std::vector<std::string>>{
-             {"validate", spec.string()}, {"build", spec.string(), "--out", out.string()}}) {
-        SCOPED_TRACE(args[0]);
-        const CliResult r = runSylva(args, work, o);
-        EXPECT_EQ(r.code, 2) << describeRun(r);
-        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-        const std::string at = spec.filename().string() + ":" + std::to_string(line) + ":";
-        EXPECT_NE(r.err.find(at), std::string::npos) << "expected \"" << at << "\" in: " << r.err;
-        for (const std::string& e : expect) {
-            EXPECT_NE(r.err.find(e), std::string::npos) << "expected \"" << e << "\" in: " << r.err;
-        }
-    }
-    EXPECT_FALSE(fs::exists(out));
-    EXPECT_TRUE(fs::is_empty(work));
+    sylva::test::expectBadSpecFixture(kScanData / "bad_datasets" / GetParam());
 }
 
 INSTANTIATE_TEST_SUITE_P(Cli, ScanBadDataset, ::testing::ValuesIn(badFixtures()),
