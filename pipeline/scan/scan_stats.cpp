@@ -84,6 +84,7 @@ const ScanStats::TreeWood* ScanStats::find(int32_t treeId) const {
 void ScanStats::addPoints(const std::vector<ScanPoint>& points) {
     for (const ScanPoint& p : points) {
         ++points_;
+        if (!inside_ || inside_(p.x, p.z)) ++areaPoints_;
         ++classCount_[p.classification & 15];
         ++perChannel_[p.channel & 3];
         if (p.returnNumber == 1) ++returnsHistogram_[std::min<int>(p.numberOfReturns, 15)];
@@ -131,7 +132,7 @@ nlohmann::json ScanStats::json(uint64_t pulses) const {
         for (int s = 0; s < stations_ && s < 4; ++s) per.push_back(perChannel_[s]);
         j["points_per_station"] = per;
     } else {
-        j["points_per_m2"] = groundArea_ > 0 ? static_cast<double>(points_) / groundArea_ : 0.0;
+        j["points_per_m2"] = groundArea_ > 0 ? static_cast<double>(areaPoints_) / groundArea_ : 0.0;
     }
     nlohmann::json cls = nlohmann::json::object();
     for (int c = 0; c < 16; ++c) {

@@ -93,5 +93,19 @@ TEST(ScanStats, TlsCountsPointsPerStation) {
     EXPECT_EQ(j["multiple_return_share"].get<double>(), 0.0);
 }
 
+// A plot's density counts the points above its area, not the margin's (scanPlot sets the area).
+TEST(ScanStats, DensityCountsOnlyPointsAboveTheArea) {
+    ScanStats s(0, 100.0, 4);
+    s.setArea([](double x, double z) { return std::abs(x) <= 5 && std::abs(z) <= 5; });
+    s.addPoints({point(0, 1, 1, kForTerrain, 0, -1, 0, {0, 0, 0}),
+                 point(1, 1, 1, kForTerrain, 0, -1, 0, {4.9, 0, -4.9}),
+                 point(2, 1, 1, kForStem, 0, -1, 0, {-5, 3, 5}),
+                 point(3, 1, 1, kForTerrain, 0, -1, 0, {5.5, 0, 0}),
+                 point(4, 1, 1, kForLiveBranches, 0, -1, 0, {0, 20, -7})});
+    const nlohmann::json j = s.json(5);
+    EXPECT_EQ(j["points"].get<uint64_t>(), 5u);
+    EXPECT_NEAR(j["points_per_m2"].get<double>(), 3 / 100.0, 1e-12);
+}
+
 }  // namespace
 }  // namespace sylva
