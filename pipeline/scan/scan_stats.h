@@ -63,7 +63,7 @@ class ScanStats {
     uint64_t points_ = 0;
     uint64_t areaPoints_ = 0;  // points above the area (all without setArea)
     uint64_t classCount_[16] = {};
-    std::vector<uint64_t> perChannel_;        // points per channel (TLS station)
+    std::vector<uint64_t> perStation_;        // TLS: points per station (ScanPoint::sourceId)
     std::vector<uint64_t> returnsHistogram_;  // first returns by number of returns (1 … 15)
 };
 

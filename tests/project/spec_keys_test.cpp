@@ -125,15 +125,15 @@ DocKeys documentedKeys() {
     return d;
 }
 
-// Every species and dataset file of the repository (bad and hostile specs excluded), read with
-// a KeyLog.
+// Every species and dataset file of the repository (bad, bad_datasets and hostile specs excluded),
+// read with a KeyLog.
 KeyLog acceptedKeys(int& speciesFiles, int& datasetFiles) {
     std::vector<fs::path> files;
     for (const char* dir : {"species", "datasets", "bench", "tests/data"}) {
         for (const auto& e : fs::recursive_directory_iterator(kSource / dir)) {
             if (!e.is_regular_file() || e.path().extension() != ".toml") continue;
             const fs::path folder = e.path().parent_path().filename();
-            if (folder == "bad" || folder == "hostile") continue;
+            if (folder == "bad" || folder == "hostile" || folder == "bad_datasets") continue;
             files.push_back(e.path());
         }
     }
