@@ -81,6 +81,9 @@ InstanceScan scanPlot(const GrownPlot& plot, const PlotScene& scene, const ScanO
     s.result = sylva::scan(s3, scan.options, seed);
     const double area = plot.spec->area.area();
     ScanStats stats(tlsStations(scan.options), area, scan.options.maxReturns);
+    // The density is over the plot area: the margin's terrain and trees are scanned too.
+    const PlotArea& outline = plot.spec->area;
+    stats.setArea([&outline](double x, double z) { return outline.contains(x, z); });
     for (const PlotTree& t : plot.trees) stats.addTree(t.stem.id, t.grown.tree);
     stats.addPoints(s.result.points);
     s.stats = stats.json(s.result.pulses);

@@ -35,7 +35,7 @@ ScanStats::ScanStats(int stations, double groundArea, int maxReturns)
     : stations_(stations),
       groundArea_(groundArea),
       maxReturns_(maxReturns),
-      perChannel_(4, 0),
+      perStation_(static_cast<size_t>(std::max(stations, 0)), 0),
       returnsHistogram_(16, 0) {}
 
 void ScanStats::addTree(int32_t treeId, const Tree& tree) {
@@ -84,8 +84,9 @@ const ScanStats::TreeWood* ScanStats::find(int32_t treeId) const {
 void ScanStats::addPoints(const std::vector<ScanPoint>& points) {
     for (const ScanPoint& p : points) {
         ++points_;
+        if (!inside_ || inside_(p.x, p.z)) ++areaPoints_;
         ++classCount_[p.classification & 15];
-        ++perChannel_[p.channel & 3];
+        if (p.sourceId < perStation_.size()) ++perStation_[p.sourceId];
         if (p.returnNumber == 1) ++returnsHistogram_[std::min<int>(p.numberOfReturns, 15)];
         if (p.label.treeId > 0 && p.label.nodeId >= 0) {
             if (TreeWood* w = find(p.label.treeId)) {
@@ -128,10 +129,10 @@ nlohmann::json ScanStats::json(uint64_t pulses) const {
         echoing ? static_cast<double>(multiple) / static_cast<double>(echoing) : 0.0;
     if (stations_ > 0) {
         nlohmann::json per = nlohmann::json::array();
-        for (int s = 0; s < stations_ && s < 4; ++s) per.push_back(perChannel_[s]);
+        for (uint64_t n : perStation_) per.push_back(n);
         j["points_per_station"] = per;
     } else {
-        j["points_per_m2"] = groundArea_ > 0 ? static_cast<double>(points_) / groundArea_ : 0.0;
+        j["points_per_m2"] = groundArea_ > 0 ? static_cast<double>(areaPoints_) / groundArea_ : 0.0;
     }
     nlohmann::json cls = nlohmann::json::object();
     for (int c = 0; c < 16; ++c) {

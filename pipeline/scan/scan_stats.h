@@ -12,7 +12,9 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <nlohmann/json.hpp>
+#include <utility>
 #include <vector>
 
 #include "pipeline/scan/scan_point.h"
@@ -30,6 +32,9 @@ class ScanStats {
 
     // A tree of the scene and its skeleton (node ids of its points index it).
     void addTree(int32_t treeId, const Tree& tree);
+    // The ground the density counts (x, z in the scene frame): only points above it make
+    // points_per_m2 (a plot's area without its margin); without it every point counts.
+    void setArea(std::function<bool(double x, double z)> inside) { inside_ = std::move(inside); }
     // Points in any order and any number of batches (the scanner's sink).
     void addPoints(const std::vector<ScanPoint>& points);
 
@@ -54,9 +59,11 @@ class ScanStats {
     double groundArea_;
     int maxReturns_;
     std::vector<TreeWood> trees_;  // sorted by id
+    std::function<bool(double, double)> inside_;
     uint64_t points_ = 0;
+    uint64_t areaPoints_ = 0;  // points above the area (all without setArea)
     uint64_t classCount_[16] = {};
-    std::vector<uint64_t> perChannel_;        // points per channel (TLS station)
+    std::vector<uint64_t> perStation_;        // TLS: points per station (ScanPoint::sourceId)
     std::vector<uint64_t> returnsHistogram_;  // first returns by number of returns (1 … 15)
 };
 

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -143,6 +144,43 @@ TEST(CliScan, TreesScanTheSameOnOneAndTwoThreadsAndAsShards) {
 
 TEST(CliScan, PlotScansTheSameOnOneAndTwoThreadsAndAsShards) {
     expectSameScans(kScanData / "uls_plot.toml");
+}
+
+// The ULS plot's points_per_m2 is over its 20 m x 20 m area: the points above it (LAS survey
+// frame x east, y north = scene −z), not those of the 2 m margin, over 400 m².
+TEST(CliScan, PlotDensityCountsThePointsAboveTheArea) {
+    TempDir t;
+    const CliResult r = runSylva(
+        {"build", (kScanData / "uls_plot.toml").string(), "--out", (t / "out").string()}, t.path());
+    ASSERT_EQ(r.code, 0) << describeRun(r);
+    const std::vector<nlohmann::json> recs = manifest(t / "out" / "manifest.jsonl");
+    ASSERT_EQ(recs.size(), 1u);
+    const std::string las = slurp(t / "out" / recs[0]["files"]["scan_las"].get<std::string>());
+    ASSERT_GE(las.size(), 375u);
+    uint32_t first = 0;
+    uint16_t length = 0;
+    double scale[3], offset[3];
+    std::memcpy(&first, las.data() + 96, 4);
+    std::memcpy(&length, las.data() + 105, 2);
+    std::memcpy(scale, las.data() + 131, 24);
+    std::memcpy(offset, las.data() + 155, 24);
+    const uint64_t n = lasPointCount(las);
+    ASSERT_EQ(las.size(), first + n * length);
+    uint64_t inside = 0, nearEdge = 0;  // within 1 mm of the edge: either side after rounding
+    for (uint64_t i = 0; i < n; ++i) {
+        int32_t xy[2];
+        std::memcpy(xy, las.data() + first + i * length, 8);
+        const double x = xy[0] * scale[0] + offset[0], y = xy[1] * scale[1] + offset[1];
+        const double m = std::max(std::abs(x), std::abs(y));
+        if (m <= 10.0 - 0.001)
+            ++inside;
+        else if (m <= 10.0 + 0.001)
+            ++nearEdge;
+    }
+    const double density = recs[0]["scan"]["points_per_m2"].get<double>();
+    EXPECT_LT(inside + nearEdge, n) << "the margin has points";
+    EXPECT_GE(density, inside / 400.0 - 1e-9);
+    EXPECT_LE(density, (inside + nearEdge) / 400.0 + 1e-9);
 }
 
 }  // namespace

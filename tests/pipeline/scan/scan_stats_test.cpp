@@ -14,7 +14,7 @@ namespace {
 using test::addNode;
 
 ScanPoint point(uint64_t pulse, uint8_t ret, uint8_t of, uint8_t cls, int32_t tree = 0,
-                int32_t node = -1, uint8_t channel = 0, Vec3 at = {0.1, 0.5, 0}) {
+                int32_t node = -1, uint16_t channel = 0, Vec3 at = {0.1, 0.5, 0}) {
     ScanPoint p;
     p.x = at.x;
     p.y = at.y;
@@ -23,7 +23,8 @@ ScanPoint point(uint64_t pulse, uint8_t ret, uint8_t of, uint8_t cls, int32_t tr
     p.returnNumber = ret;
     p.numberOfReturns = of;
     p.classification = cls;
-    p.channel = channel;
+    p.channel = static_cast<uint8_t>(channel % 4);  // as the scanner: the station modulo 4
+    p.sourceId = channel;                           // the station itself
     p.label.treeId = tree;
     p.label.nodeId = node;
     return p;
@@ -91,6 +92,35 @@ TEST(ScanStats, TlsCountsPointsPerStation) {
     EXPECT_EQ(j["points_per_station"], nlohmann::json({1, 2}));
     EXPECT_FALSE(j.contains("points_per_m2"));
     EXPECT_EQ(j["multiple_return_share"].get<double>(), 0.0);
+}
+
+// A plot's density counts the points above its area, not the margin's (scanPlot sets the area).
+TEST(ScanStats, DensityCountsOnlyPointsAboveTheArea) {
+    ScanStats s(0, 100.0, 4);
+    s.setArea([](double x, double z) { return std::abs(x) <= 5 && std::abs(z) <= 5; });
+    s.addPoints({point(0, 1, 1, kForTerrain, 0, -1, 0, {0, 0, 0}),
+                 point(1, 1, 1, kForTerrain, 0, -1, 0, {4.9, 0, -4.9}),
+                 point(2, 1, 1, kForStem, 0, -1, 0, {-5, 3, 5}),
+                 point(3, 1, 1, kForTerrain, 0, -1, 0, {5.5, 0, 0}),
+                 point(4, 1, 1, kForLiveBranches, 0, -1, 0, {0, 20, -7})});
+    const nlohmann::json j = s.json(5);
+    EXPECT_EQ(j["points"].get<uint64_t>(), 5u);
+    EXPECT_NEAR(j["points_per_m2"].get<double>(), 3 / 100.0, 1e-12);
+}
+
+// More than four stations: each keeps its own count (the LAS channel repeats modulo 4, the
+// point source ID does not).
+TEST(ScanStats, TlsCountsEveryStationBeyondFour) {
+    ScanStats s(6, 0.0, 1);
+    std::vector<ScanPoint> points;
+    for (uint16_t station = 0; station < 6; ++station) {
+        for (int k = 0; k <= station; ++k) {
+            points.push_back(point(points.size(), 1, 1, kForTerrain, 0, -1, station));
+        }
+    }
+    s.addPoints(points);
+    const nlohmann::json j = s.json(points.size());
+    EXPECT_EQ(j["points_per_station"], nlohmann::json({1, 2, 3, 4, 5, 6}));
 }
 
 }  // namespace
