@@ -19,6 +19,8 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { createRequire } from 'node:module';
 
+import { checker } from './expect.mjs';
+
 const { Las } = createRequire(import.meta.url)('copc');
 
 const dir = process.argv[2];
@@ -26,14 +28,7 @@ if (!dir) {
     console.error('usage: node check_scan.mjs DIR');
     process.exit(2);
 }
-const failures = [];
-const fail = (what) => failures.push(what);
-const expectEq = (what, got, want) => {
-    if (got !== want) fail(`${what}: expected ${want}, got ${got}`);
-};
-const expectNear = (what, got, want, tol) => {
-    if (!(Math.abs(got - want) <= tol)) fail(`${what}: expected ${want} ± ${tol}, got ${got}`);
-};
+const { failures, fail, expectEq, expectNear } = checker();
 
 // The scan, point i, as formulaScan writes it (scene frame, +y up) ...
 const N = 300;

@@ -31,6 +31,8 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { createRequire } from 'node:module';
 
+import { checker } from './expect.mjs';
+
 const { Las } = createRequire(import.meta.url)('copc');
 
 const [out, ...datasets] = process.argv.slice(2);
@@ -38,14 +40,7 @@ if (!out || datasets.length === 0) {
     console.error('usage: node check_scan_build.mjs OUT DATASET_DIR...');
     process.exit(2);
 }
-const failures = [];
-const fail = (what) => failures.push(what);
-const expectEq = (what, got, want) => {
-    if (got !== want) fail(`${what}: expected ${want}, got ${got}`);
-};
-const expectNear = (what, got, want, tol) => {
-    if (!(Math.abs(got - want) <= tol)) fail(`${what}: expected ${want} ± ${tol}, got ${got}`);
-};
+const { failures, fail, expectEq, expectNear } = checker();
 // A point that fails a per-point rule is reported once per rule (the first one), with a count.
 const pointFailures = new Map();
 const pointFail = (what, detail) => {
