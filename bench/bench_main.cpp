@@ -269,14 +269,11 @@ static void WriteViewFile(benchmark::State& state) {
 }
 BENCHMARK(WriteViewFile)->DenseRange(0, 3)->Unit(benchmark::kMicrosecond);
 
-// A whole dataset built and written: trees per second on 1 core and on all cores.
-static void DatasetBuild(benchmark::State& state, const char* specPath) {
-    const int threads =
-        state.range(0) > 0 ? static_cast<int>(state.range(0)) : tbb::info::default_concurrency();
-    DatasetSpec spec = loadDataset(std::string(SYLVA_SOURCE_DIR "/") + specPath);
-    fs::path out = fs::temp_directory_path() / ("sylva-bench-build-" + std::to_string(getpid()));
-    int64_t trees = 0;
-    double bytes = 0;
+// Builds `spec` into a fresh `out` on `threads` once per iteration (removing the last build
+// untimed), then calls measure(summary) untimed; removes `out` at the end.
+template <class Measure>
+static void buildEachIteration(benchmark::State& state, const DatasetSpec& spec,
+                               const fs::path& out, int threads, Measure measure) {
     for (auto _ : state) {
         state.PauseTiming();
         fs::remove_all(out);
@@ -285,14 +282,28 @@ static void DatasetBuild(benchmark::State& state, const char* specPath) {
         o.out = out;
         o.threads = threads;
         o.progress = false;
-        trees += buildDataset(spec, o).built;
+        const auto summary = buildDataset(spec, o);
         state.PauseTiming();
-        for (const auto& f : fs::recursive_directory_iterator(out)) {
-            if (f.is_regular_file()) bytes += static_cast<double>(f.file_size());
-        }
+        measure(summary);
         state.ResumeTiming();
     }
     fs::remove_all(out);
+}
+
+// A whole dataset built and written: trees per second on 1 core and on all cores.
+static void DatasetBuild(benchmark::State& state, const char* specPath) {
+    const int threads =
+        state.range(0) > 0 ? static_cast<int>(state.range(0)) : tbb::info::default_concurrency();
+    DatasetSpec spec = loadDataset(std::string(SYLVA_SOURCE_DIR "/") + specPath);
+    fs::path out = fs::temp_directory_path() / ("sylva-bench-build-" + std::to_string(getpid()));
+    int64_t trees = 0;
+    double bytes = 0;
+    buildEachIteration(state, spec, out, threads, [&](const auto& summary) {
+        trees += summary.built;
+        for (const auto& f : fs::recursive_directory_iterator(out)) {
+            if (f.is_regular_file()) bytes += static_cast<double>(f.file_size());
+        }
+    });
     state.counters["threads"] = threads;
     state.counters["trees_per_second"] =
         benchmark::Counter(static_cast<double>(trees), benchmark::Counter::kIsRate);
@@ -331,22 +342,11 @@ static void PlotBuild(benchmark::State& state, const char* specPath) {
     DatasetSpec spec = loadDataset(std::string(SYLVA_SOURCE_DIR "/") + specPath);
     fs::path out = fs::temp_directory_path() / ("sylva-bench-plot-" + std::to_string(getpid()));
     int64_t trees = 0;
-    for (auto _ : state) {
-        state.PauseTiming();
-        fs::remove_all(out);
-        state.ResumeTiming();
-        BuildOptions o;
-        o.out = out;
-        o.threads = tbb::info::default_concurrency();
-        o.progress = false;
-        buildDataset(spec, o);
-        state.PauseTiming();
+    buildEachIteration(state, spec, out, tbb::info::default_concurrency(), [&](const auto&) {
         for (const auto& d : fs::recursive_directory_iterator(out)) {
             if (d.is_directory() && d.path().parent_path().filename() == "trees") ++trees;
         }
-        state.ResumeTiming();
-    }
-    fs::remove_all(out);
+    });
     state.counters["trees"] = static_cast<double>(trees) / static_cast<double>(state.iterations());
     state.counters["trees_per_second"] =
         benchmark::Counter(static_cast<double>(trees), benchmark::Counter::kIsRate);

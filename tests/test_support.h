@@ -54,6 +54,31 @@ inline std::string slurp(const std::filesystem::path& p) {
     return s.str();
 }
 
+// `name` with every character but letters and digits made '_': a GoogleTest parameter's name
+// (e.g. a fixture file's stem) or a directory name.
+inline std::string identifier(std::string name) {
+    for (char& c : name) {
+        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+    }
+    return name;
+}
+
+// What a bad-spec fixture says its error must be: its `# expect: <text>` comments (any number)
+// and its `# line: <n>` (0 when absent).
+struct FixtureComments {
+    std::vector<std::string> expect;
+    int line = 0;
+};
+inline FixtureComments fixtureComments(const std::filesystem::path& file) {
+    FixtureComments f;
+    std::ifstream in(file);
+    for (std::string l; std::getline(in, l);) {
+        if (l.rfind("# expect: ", 0) == 0) f.expect.push_back(l.substr(10));
+        if (l.rfind("# line: ", 0) == 0) f.line = std::stoi(l.substr(8));
+    }
+    return f;
+}
+
 // A fresh directory under the system temp directory, named after the process and the running
 // test, removed with everything in it when it goes out of scope.
 class TempDir {
@@ -64,11 +89,9 @@ class TempDir {
         if (const auto* info = ::testing::UnitTest::GetInstance()->current_test_info()) {
             name += std::string("_") + info->test_suite_name() + "_" + info->name();
         }
-        for (char& c : name) {
-            if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-        }
-        dir_ = std::filesystem::temp_directory_path() /
-               (name + "_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+        dir_ =
+            std::filesystem::temp_directory_path() /
+            (identifier(name) + "_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
         std::filesystem::remove_all(dir_);
         std::filesystem::create_directories(dir_);
     }

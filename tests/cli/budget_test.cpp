@@ -34,7 +34,6 @@ using sylva::test::slurp;
 using sylva::test::TempDir;
 
 const fs::path kSource = SYLVA_SOURCE_DIR;
-const fs::path kExe = SYLVA_EXE;
 const fs::path kData = kSource / "tests" / "data";
 constexpr int kHang = 60;  // seconds: a run still going then has no working budget
 
@@ -128,11 +127,8 @@ TEST_P(CliBudgetBomb, IsAOneLineSpecErrorBeforeAnythingGrows) {
 
 INSTANTIATE_TEST_SUITE_P(Cli, CliBudgetBomb, ::testing::ValuesIn(kBombs),
                          [](const ::testing::TestParamInfo<Bomb>& info) {
-                             std::string n = fs::path(info.param.name).stem().string();
-                             for (char& c : n) {
-                                 if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                             }
-                             return n;
+                             return sylva::test::identifier(
+                                 fs::path(info.param.name).stem().string());
                          });
 
 // A species raises the budget it was over: the estimate then meets the next one (its level-1

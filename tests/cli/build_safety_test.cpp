@@ -35,7 +35,6 @@ namespace fs = std::filesystem;
 using sylva::test::slurp;
 using sylva::test::TempDir;
 
-const fs::path kExe = SYLVA_EXE;
 const fs::path kData = fs::path(SYLVA_SOURCE_DIR) / "tests" / "data";
 
 void spit(const fs::path& p, const std::string& bytes) {

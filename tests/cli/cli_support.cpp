@@ -135,13 +135,7 @@ std::vector<CliResult> runAllSylva(const std::vector<std::vector<std::string>>& 
 }
 
 void expectBadSpecFixture(const fs::path& spec) {
-    std::vector<std::string> expect;
-    int line = 0;
-    std::ifstream in(spec);
-    for (std::string l; std::getline(in, l);) {
-        if (l.rfind("# expect: ", 0) == 0) expect.push_back(l.substr(10));
-        if (l.rfind("# line: ", 0) == 0) line = std::stoi(l.substr(8));
-    }
+    const auto [expect, line] = fixtureComments(spec);
     ASSERT_FALSE(expect.empty()) << spec;
     ASSERT_GT(line, 0) << spec;
     TempDir t;

@@ -33,7 +33,6 @@ namespace fs = std::filesystem;
 using sylva::test::slurp;
 
 const fs::path kSource = SYLVA_SOURCE_DIR;
-const fs::path kExe = SYLVA_EXE;
 const fs::path kData = kSource / "tests" / "data";
 const fs::path kDataset = kData / "tiny_dataset.toml";
 const fs::path kTiny = kData / "tiny.toml";
@@ -513,11 +512,7 @@ TEST_P(CliBadSpec, OneLineErrorExitTwoAndNothingWritten) {
 
 INSTANTIATE_TEST_SUITE_P(Cli, CliBadSpec, ::testing::ValuesIn(badFixtureNames()),
                          [](const ::testing::TestParamInfo<std::string>& info) {
-                             std::string n = fs::path(info.param).stem().string();
-                             for (char& c : n) {
-                                 if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                             }
-                             return n;
+                             return sylva::test::identifier(fs::path(info.param).stem().string());
                          });
 
 TEST(CliBadSpecs, FixturesCoverEveryKindOfError) {

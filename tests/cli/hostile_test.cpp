@@ -41,7 +41,6 @@ namespace fs = std::filesystem;
 using sylva::test::slurp;
 using sylva::test::TempDir;
 
-const fs::path kExe = SYLVA_EXE;
 const fs::path kData = fs::path(SYLVA_SOURCE_DIR) / "tests" / "data";
 const fs::path kHostile = kData / "hostile";
 constexpr double kMaxCpuSeconds = 2.0;    // per run of the binary
@@ -175,11 +174,7 @@ TEST_P(HostileSpec, OneLineAtTheKeyExitTwoNothingWrittenUnderTwoSeconds) {
 
 INSTANTIATE_TEST_SUITE_P(Cli, HostileSpec, ::testing::ValuesIn(fixtureNames()),
                          [](const ::testing::TestParamInfo<std::string>& info) {
-                             std::string n = fs::path(info.param).stem().string();
-                             for (char& c : n) {
-                                 if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                             }
-                             return n;
+                             return sylva::test::identifier(fs::path(info.param).stem().string());
                          });
 
 TEST(HostileSpecs, AtLeastSixtyFixturesOfEveryKind) {

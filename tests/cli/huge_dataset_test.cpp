@@ -31,7 +31,6 @@ namespace fs = std::filesystem;
 using sylva::test::slurp;
 using sylva::test::TempDir;
 
-const fs::path kExe = SYLVA_EXE;
 const fs::path kTiny = fs::path(SYLVA_SOURCE_DIR) / "tests" / "data" / "tiny.toml";
 
 // What one run may use beyond `sylva --help` (≈ 130 MiB here, nearly all of it the 260 shared

@@ -25,7 +25,6 @@ namespace fs = std::filesystem;
 using sylva::test::slurp;
 using sylva::test::TempDir;
 
-const fs::path kExe = SYLVA_EXE;
 const fs::path kDataset = fs::path(SYLVA_SOURCE_DIR) / "tests" / "data" / "merge_dataset.toml";
 
 using CliRun = sylva::test::CliResult;

@@ -28,7 +28,6 @@ using sylva::test::slurp;
 using sylva::test::TempDir;
 
 const fs::path kSource = SYLVA_SOURCE_DIR;
-const fs::path kExe = SYLVA_EXE;
 const fs::path kPlotData = kSource / "tests" / "data" / "plot";
 
 using SylvaRun = sylva::test::CliResult;
@@ -51,10 +50,7 @@ TEST_P(PlotBadSpec, OneLineErrorExitTwoAndNothingWritten) {
 
 INSTANTIATE_TEST_SUITE_P(Cli, PlotBadSpec, ::testing::ValuesIn(badPlotFixtures()),
                          [](const ::testing::TestParamInfo<std::string>& info) {
-                             std::string n = fs::path(info.param).stem().string();
-                             for (char& c : n)
-                                 if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                             return n;
+                             return sylva::test::identifier(fs::path(info.param).stem().string());
                          });
 
 // The kinds of error issue 16 lists each have a fixture.

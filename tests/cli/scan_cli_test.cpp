@@ -43,10 +43,7 @@ TEST_P(ScanBadDataset, OneLineErrorExitTwoAndNothingWritten) {
 
 INSTANTIATE_TEST_SUITE_P(Cli, ScanBadDataset, ::testing::ValuesIn(badFixtures()),
                          [](const ::testing::TestParamInfo<std::string>& info) {
-                             std::string n = fs::path(info.param).stem().string();
-                             for (char& c : n)
-                                 if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                             return n;
+                             return sylva::test::identifier(fs::path(info.param).stem().string());
                          });
 
 // The kinds of bad scanner spec issue 17 names each have a fixture.

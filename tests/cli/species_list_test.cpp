@@ -24,7 +24,6 @@ namespace fs = std::filesystem;
 using sylva::test::slurp;
 
 const fs::path kSource = SYLVA_SOURCE_DIR;
-const fs::path kExe = SYLVA_EXE;
 
 // A tiny iterated-graph species (as tests/data/tiny.toml) with the given name, description
 // and an optional extra top-level line (to break it).

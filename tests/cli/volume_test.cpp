@@ -32,7 +32,6 @@ using namespace sylva;
 using sylva::test::slurp;
 
 const fs::path kSource = SYLVA_SOURCE_DIR;
-const fs::path kExe = SYLVA_EXE;
 
 class Scratch {
   public:

@@ -12,6 +12,7 @@
 
 #include "core/errors.h"
 #include "pipeline/scan/scan_options.h"
+#include "tests/test_support.h"
 
 namespace fs = std::filesystem;
 using namespace sylva;
@@ -64,13 +65,7 @@ TEST(ScanSpec, BadSpecsFailWithOneLineAtTheirKey) {
     }
     for (const fs::path& f : files) {
         SCOPED_TRACE(f.filename().string());
-        std::vector<std::string> expect;
-        int line = 0;
-        std::ifstream in(f);
-        for (std::string l; std::getline(in, l);) {
-            if (l.rfind("# expect: ", 0) == 0) expect.push_back(l.substr(10));
-            if (l.rfind("# line: ", 0) == 0) line = std::stoi(l.substr(8));
-        }
+        const auto [expect, line] = sylva::test::fixtureComments(f);
         ASSERT_FALSE(expect.empty());
         ASSERT_GT(line, 0);
         try {
