@@ -67,9 +67,7 @@ InstanceScan scanTree(const Tree& tree, const TreeMesh& mesh, const std::vector<
     stats.addTree(1, tree);
     stats.addPoints(s.result.points);
     s.stats = stats.json(s.result.pulses);
-    s.stats["platform"] = scan.options.platform == ScanPlatform::kTls   ? "tls"
-                          : scan.options.platform == ScanPlatform::kAls ? "als"
-                                                                        : "uls";
+    s.stats["platform"] = scanPlatformName(scan.options.platform);
     s.stats["ground_m2"] = 4 * half * half;
     return s;
 }
@@ -87,9 +85,7 @@ InstanceScan scanPlot(const GrownPlot& plot, const PlotScene& scene, const ScanO
     for (const PlotTree& t : plot.trees) stats.addTree(t.stem.id, t.grown.tree);
     stats.addPoints(s.result.points);
     s.stats = stats.json(s.result.pulses);
-    s.stats["platform"] = scan.options.platform == ScanPlatform::kTls   ? "tls"
-                          : scan.options.platform == ScanPlatform::kAls ? "als"
-                                                                        : "uls";
+    s.stats["platform"] = scanPlatformName(scan.options.platform);
     s.stats["ground_m2"] = area;
     return s;
 }

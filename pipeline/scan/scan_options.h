@@ -79,6 +79,9 @@ struct ScanOptions {
 //        lines/s, 0.22 mrad, 50 mm, 4 returns 3.5 m apart, 500 m at 60 m/s, 20 % overlap.
 ScanOptions defaultScanOptions(ScanPlatform platform);
 
+// The platform's word in spec files and the manifest: "tls", "als", "uls".
+const char* scanPlatformName(ScanPlatform platform);
+
 // Reads a [scan] table (Params of that table). Errors name file:line:col and the key, e.g.
 // `d.toml:12:14: scan.pulse_rate: expected a number > 0, got -5`. Keys of another platform
 // (`stations` with platform = "als") are errors. Finishes the table (unknown keys are errors).

@@ -20,21 +20,21 @@ const std::vector<std::string> kAirborneKeys = {"altitude",       "speed",      
                                                 "overlap",        "heading_deg", "scan_rate",
                                                 "scan_angle_deg", "mirror"};
 
-const char* platformWord(ScanPlatform p) {
-    return p == ScanPlatform::kTls ? "tls" : p == ScanPlatform::kAls ? "als" : "uls";
-}
-
 void refuseKeys(Params& p, const std::vector<std::string>& keys, const char* owner,
                 ScanPlatform platform) {
     for (const std::string& k : keys) {
         if (p.has(k)) {
             p.fail(k, std::string("a key of ") + owner + " scans; platform is \"" +
-                          platformWord(platform) + "\"");
+                          scanPlatformName(platform) + "\"");
         }
     }
 }
 
 }  // namespace
+
+const char* scanPlatformName(ScanPlatform p) {
+    return p == ScanPlatform::kTls ? "tls" : p == ScanPlatform::kAls ? "als" : "uls";
+}
 
 ScanOptions defaultScanOptions(ScanPlatform platform) {
     ScanOptions o;  // TLS: RIEGL VZ-400
