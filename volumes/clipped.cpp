@@ -32,7 +32,38 @@ class Clipped final : public Volume {
     std::vector<HalfSpace> cut_;
 };
 
+// The half-spaces hold only within their layers: the sign is exact, the magnitude a bound
+// only near a layer's edges (where a plane's distance starts or stops counting).
+class ShyClipped final : public Volume {
+  public:
+    ShyClipped(VolumePtr inner, std::vector<ShyBound> bounds)
+        : inner_(std::move(inner)), bounds_(std::move(bounds)) {}
+
+    double signedDistance(const Vec3& p) const override {
+        double d = inner_->signedDistance(p);
+        for (const ShyBound& b : bounds_) {
+            if (p.y >= b.low && p.y <= b.high) d = std::max(d, b.plane.distance(p));
+        }
+        return d;
+    }
+    Aabb bounds() const override { return inner_->bounds(); }
+    std::string describe() const override {
+        return inner_->describe() + " clipped by " + std::to_string(bounds_.size()) +
+               " planes within layers";
+    }
+
+  private:
+    VolumePtr inner_;
+    std::vector<ShyBound> bounds_;
+};
+
 }  // namespace
+
+VolumePtr makeShyClipped(VolumePtr inner, std::vector<ShyBound> bounds) {
+    if (!inner) throw std::invalid_argument("makeShyClipped: no volume");
+    if (bounds.empty()) return inner;
+    return std::make_shared<ShyClipped>(std::move(inner), std::move(bounds));
+}
 
 VolumePtr makeClipped(VolumePtr inner, std::vector<HalfSpace> cut) {
     if (!inner) throw std::invalid_argument("makeClipped: no volume");

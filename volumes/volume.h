@@ -84,6 +84,29 @@ struct HalfSpace {
 VolumePtr makeClipped(VolumePtr inner, std::vector<HalfSpace> cut);
 // True when p lies in every half-space.
 bool insideAll(const std::vector<HalfSpace>& cut, const Vec3& p);
+// A crown-shyness bound between two trees of a plot whose crowns share a layer of height
+// (species/plot/plot_growth.h): within the layer low ≤ y ≤ high the crown keeps inside the
+// half-space; above or below it (where one crown overtops the other) it is free. A grower may
+// move the plane back by up to `slack` metres (a ragged edge; GrammarOptions::shyBounds).
+struct ShyBound {
+    HalfSpace plane;
+    double low = 0, high = 0;
+    double slack = 0;
+    bool holds(const Vec3& p) const { return p.y < low || p.y > high || plane.distance(p) <= 0; }
+};
+// True when p keeps every bound.
+inline bool keepsAll(const std::vector<ShyBound>& bounds, const Vec3& p) {
+    for (const ShyBound& b : bounds) {
+        if (!b.holds(p)) return false;
+    }
+    return true;
+}
+
+// `inner` ∩ every bound (inside where each holds): the sign of the distance exact, its
+// magnitude only a bound near the layers' edges; the inner volume's bounds, samples by
+// rejection from them.
+VolumePtr makeShyClipped(VolumePtr inner, std::vector<ShyBound> bounds);
+
 // p moved onto the boundary of each half-space it lies outside of, in order (for a point just
 // outside a corner of two planes, the second projection may leave it slightly outside the
 // first: callers that need it exactly inside test insideAll).

@@ -12,7 +12,7 @@ namespace {
 
 // Sub-keys of a stem's derivation-path key, one stream each.
 constexpr uint64_t kRootKey = 0x6772616d6d6172ull;  // "grammar"
-constexpr uint64_t kRuleTag = 1, kEvenTag = 2, kLeafTag = 3, kFruitTag = 4;
+constexpr uint64_t kRuleTag = 1, kEvenTag = 2, kLeafTag = 3, kFruitTag = 4, kShyTag = 5;
 
 double lerp(double a, double b, double t) { return a + (b - a) * t; }
 
@@ -21,6 +21,7 @@ struct StemCurve {
     std::vector<Vec3> point, tangent, normal;
     std::vector<double> width;  // metres (diameter)
     std::vector<int32_t> node;  // skeleton node of each point
+    int drawnSegments = 0;      // segments as drawn, before a shyness bound stopped the stem
 };
 
 struct Pending {
@@ -184,16 +185,23 @@ void expand(Derivation& d, int state, int parentStem, int level, int order, uint
 
 // Where a stem grows from: the parent's sampled point nearest the drawn fraction of its
 // length (never the parent's base, which is the grandparent's node), or the ground point.
+// A parent stopped short by a shyness bound keeps its drawn length's fractions: a point
+// beyond its end was never grown (`grown` false).
 struct Attachment {
     Vec3 base, tangent, normal;
     double width;  // the parent's width there, metres
     int32_t node;
+    bool grown = true;
 };
 Attachment attachment(const Derivation& d, int parentStem, double position) {
     if (parentStem < 0) return {{0, 0, 0}, {0, 1, 0}, {1, 0, 0}, d.trunkWidth, 0};
     const StemCurve& pc = d.curves[parentStem];
-    const int n = static_cast<int>(pc.point.size()) - 1;
+    const int kept = static_cast<int>(pc.point.size()) - 1;
+    const int n = std::max(kept, pc.drawnSegments);
     const int j = std::clamp(static_cast<int>(std::lround(position * n)), 1, n);
+    if (j > kept)
+        return {pc.point[kept], pc.tangent[kept], pc.normal[kept],
+                pc.width[kept], pc.node[kept],    false};
     return {pc.point[j], pc.tangent[j], pc.normal[j], pc.width[j], pc.node[j]};
 }
 
@@ -304,6 +312,36 @@ bool cutAtGround(StemSamples& ss) {
     return false;
 }
 
+// Crown shyness (GrammarOptions::shyBounds), each plane moved back by u × its slack: a sample
+// beyond a bound is moved onto its plane when the stem rises there (its last segment more than
+// kShySlideRise above the horizontal: it grows on up along the neighbour's crown, as a shaded
+// shoot turns to the light above), and the stem stops at the sample before it otherwise.
+// Returns the number of segments kept (0: not even the first).
+constexpr double kShySlideRise = 0.5;  // sin 30°
+
+int keepInsideBounds(StemSamples& ss, const std::vector<ShyBound>& bounds, double u) {
+    std::vector<ShyBound> moved = bounds;
+    for (ShyBound& b : moved) b.plane.offset -= u * b.slack;
+    for (size_t i = 1; i < ss.point.size(); ++i) {
+        if (keepsAll(moved, ss.point[i])) continue;
+        const Vec3 step = ss.point[i] - ss.point[i - 1];
+        const double len = length(step);
+        if (len > 0 && step.y > kShySlideRise * len) {
+            for (const ShyBound& b : moved) {
+                const double d = b.plane.distance(ss.point[i]);
+                if (b.holds(ss.point[i])) continue;
+                ss.point[i] -= b.plane.normal * (d + 1e-9);
+                ss.der[i] -= b.plane.normal * std::max(0.0, dot(ss.der[i], b.plane.normal));
+            }
+            if (keepsAll(moved, ss.point[i])) continue;  // (a corner may still hold it out)
+        }
+        ss.point.resize(i);
+        ss.der.resize(i);
+        return static_cast<int>(i) - 1;
+    }
+    return static_cast<int>(ss.point.size()) - 1;
+}
+
 // Turns the samples into the stem's skeleton nodes (widths linear from begin to end, the
 // reference normal carried by parallel transport).
 StemCurve addNodes(Derivation& d, const StemSamples& ss, const Attachment& at, const Vec3& dir,
@@ -388,6 +426,10 @@ void drawStem(Derivation& d, const Pending& pd) {
     if (straight || vertical) tilt = tropism = bend = 0.0;
 
     const Attachment at = attachment(d, pd.parentStem, position);
+    if (!at.grown) {  // on the part of a stopped parent that never grew
+        ++d.stats.shyStopped;
+        return;
+    }
     if (pd.distichousSide >= 0) azimuth += distichousAngle(at, pd.distichousSide);
     // Intrinsic Euler angles: azimuth about the parent's tangent, tilt away from it, roll
     // about the new axis.
@@ -443,7 +485,19 @@ void drawStem(Derivation& d, const Pending& pd) {
     } else if (!root && o.groundClearance > 0) {
         clearGround(ss, o.groundClearance);
     }
+    const int drawn = static_cast<int>(ss.point.size()) - 1;
+    if (!root && pd.order > 0 && !o.shyBounds.empty()) {
+        const double u = d.rng.derive(hashCombine(pd.key, kShyTag)).uniform();
+        const int kept = keepInsideBounds(ss, o.shyBounds, u);
+        if (kept < drawn) {
+            ++d.stats.shyStopped;
+            if (kept == 0) return;
+            // The width tapers as along the drawn stem: its end is the width where it stopped.
+            st.widthEnd = lerp(st.widthBegin, st.widthEnd, static_cast<double>(kept) / drawn);
+        }
+    }
     StemCurve sc = addNodes(d, ss, at, dir, refN, pd.order, c, root ? kRootPart : kShootPart, st);
+    sc.drawnSegments = drawn;
 
     d.tree.endpoints.push_back(st.nodes.back());
     d.stats.depthReached = std::max(d.stats.depthReached, c + 1);
@@ -608,6 +662,16 @@ Tree growGrammar(const GrammarOptions& o, Rng& rng, GrammarStats* statsOut,
     for (size_t si = 0; si < d.stems.size(); ++si) {
         emitParticles(d, si, y);
         emitFruit(d, si);
+    }
+    // Crown shyness: a leaf or fruit card whose centre lies beyond a bound (on a stopped
+    // branch's last stretch, or a stem moved onto a plane) is not kept.
+    if (!o.shyBounds.empty()) {
+        std::vector<Leaf>& leaves = d.tree.leaves;
+        const auto kept = std::remove_if(leaves.begin(), leaves.end(), [&](const Leaf& l) {
+            return !keepsAll(o.shyBounds, l.position);
+        });
+        d.stats.shyLeaves = leaves.end() - kept;
+        leaves.erase(kept, leaves.end());
     }
 
     if (statsOut) *statsOut = d.stats;

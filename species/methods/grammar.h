@@ -55,6 +55,7 @@
 #include "core/budget.h"
 #include "core/rng.h"
 #include "species/model/tree.h"
+#include "volumes/volume.h"
 
 namespace sylva {
 
@@ -158,6 +159,14 @@ struct GrammarOptions {
     // direction (half of it to order-0 stems; not a straight leader's, not roots') before it is
     // normalised. Zero: none.
     Vec3 lightTropism{0, 0, 0};
+    // Plots: crown shyness where the crown shares a layer of height with a neighbour's
+    // (ShyBound, in the tree's frame; plot_growth.h). A branch (a shoot stem of order ≥ 1)
+    // stops growing at its last sample inside every bound — each bound's plane moved back for
+    // this stem by one keyed draw u ∈ [0, 1) times the bound's slack, so the crown's edge
+    // toward a neighbour is ragged, not a cut — and a stem is never begun beyond its parent's end:
+    // branches that would have grown from the part of the parent not grown are not drawn
+    // (the open L-systems' branch collision: Měch & Prusinkiewicz 1996). Empty: none.
+    std::vector<ShyBound> shyBounds;
     Season season = Season::kSummer;
     std::array<GrammarSeason, 4> seasons = defaultSeasons();
 
@@ -198,8 +207,10 @@ struct GrammarStats {
     int64_t truncated = 0;   // states not expanded because of D or max_stems
     int64_t leaves = 0;
     int64_t fruit = 0;
-    int64_t roots = 0;   // stems of root states (aerial roots)
-    int64_t rooted = 0;  // of them, those reaching the ground
+    int64_t roots = 0;       // stems of root states (aerial roots)
+    int64_t rooted = 0;      // of them, those reaching the ground
+    int64_t shyStopped = 0;  // branches stopped short, or never begun, at a shyness bound
+    int64_t shyLeaves = 0;   // leaf and fruit cards not kept beyond a bound (in leaves, fruit)
 };
 
 // Grows one tree. Deterministic in rng's seed; independent of thread count (serial). Every

@@ -149,15 +149,23 @@ class GrammarMethod : public GrowthMethod {
         stats["fruit"] = static_cast<double>(s.fruit);
         stats["roots"] = static_cast<double>(s.roots);
         stats["rooted_roots"] = static_cast<double>(s.rooted);
+        if (!o_.shyBounds.empty()) {
+            stats["shy_stopped"] = static_cast<double>(s.shyStopped);
+            stats["shy_leaves_dropped"] = static_cast<double>(s.shyLeaves);
+        }
         return t;
     }
 
-    // A light/shade tropism away from the neighbours' crowns (GrammarOptions::lightTropism).
+    // A light/shade tropism away from the neighbours' crowns (GrammarOptions::lightTropism)
+    // and crown shyness where their crowns share a layer (GrammarOptions::shyBounds).
     Tree growAmong(Rng& rng, bool threaded, std::map<std::string, double>& stats,
                    const GrowthGuard& guard, const Neighbourhood& neighbours) const override {
-        if (!(length2(neighbours.away) > 0)) return grow(rng, threaded, stats, guard);
+        if (!(length2(neighbours.away) > 0) && neighbours.bounds.empty()) {
+            return grow(rng, threaded, stats, guard);
+        }
         GrammarOptions o = o_;
         o.lightTropism = neighbours.away;
+        o.shyBounds = neighbours.bounds;
         return GrammarMethod(std::move(o)).grow(rng, threaded, stats, guard);
     }
 

@@ -294,8 +294,10 @@ class Grower {
     // Alone (shared == nullptr): the tree's own markers, root at the origin. Together
     // (growSpaceColonizationTogether): the crown's markers go into the plot's shared set, the
     // root stands at `origin` and the tree grows in the plot's frame until end() moves it back.
+    // `territory` (together only): the markers a bud may perceive (ColonizingTree::territory).
     Grower(const SpaceColonizationOptions& o, Rng& rng, const GrowthGuard& guard,
-           MarkerSet* shared = nullptr, const Vec3& origin = {0, 0, 0})
+           MarkerSet* shared = nullptr, const Vec3& origin = {0, 0, 0},
+           const std::vector<ShyBound>* territory = nullptr)
         : o_(o),
           rng_(rng),
           guard_(guard),
@@ -310,6 +312,7 @@ class Grower {
           persistent_(shared ? *shared : own_),
           shared_(shared != nullptr),
           origin_(origin),
+          territory_(territory && !territory->empty() ? territory : nullptr),
           owner_(),
           best_() {}
 
@@ -363,7 +366,8 @@ class Grower {
     MarkerSet own_;          // the tree's markers when it grows alone
     MarkerSet& persistent_;  // own_, or the plot's shared set
     const bool shared_;
-    const Vec3 origin_;  // the root's place in the plot (shared only)
+    const Vec3 origin_;                       // the root's place in the plot (shared only)
+    const std::vector<ShyBound>* territory_;  // null: every marker (shared only)
     int iterations_ = 0;
     std::vector<int32_t> owner_;  // baseline competition scratch, −1 between iterations
     std::vector<double> best_;
@@ -420,6 +424,15 @@ std::vector<std::vector<Perceived>> Grower::perceiveBuds() const {
     std::vector<std::vector<Perceived>> lists(n);
     forEachIndex(n, o_.threaded, [&](size_t i) {
         lists[i] = perceive(persistent_, buds_[i].position, buds_[i].direction, r_, cosTheta_);
+        if (territory_) {
+            std::vector<Perceived>& l = lists[i];
+            l.erase(std::remove_if(l.begin(), l.end(),
+                                   [&](const Perceived& p) {
+                                       return !keepsAll(*territory_,
+                                                        persistent_.position[p.marker]);
+                                   }),
+                    l.end());
+        }
     });
     return lists;
 }
@@ -944,7 +957,7 @@ void growSpaceColonizationTogether(std::vector<ColonizingTree>& trees, bool thre
     std::vector<std::unique_ptr<Grower>> growers;
     for (size_t t : together) {
         growers.push_back(std::make_unique<Grower>(trees[t].options, trees[t].rng, guardOf(t),
-                                                   &shared, trees[t].origin));
+                                                   &shared, trees[t].origin, &trees[t].territory));
     }
     // Every tree's markers, then every bole (whose occupancy zones clear any tree's markers),
     // in tree order: the shared set's order is fixed.

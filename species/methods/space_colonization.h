@@ -151,6 +151,10 @@ struct ColonizingTree {
     Vec3 origin;  // where its root stands in the shared space (plot metres)
     Rng rng;      // the tree's own stream, as growSpaceColonization would get it
     const GrowthGuard* guard = nullptr;  // nullptr: unlimited
+    // Crown shyness (plot metres): its buds perceive only the markers that keep every bound, so
+    // it grows no branch into a neighbour's side of the layer their crowns share, and markers
+    // in the gap between two bounds are nobody's. Empty: every marker.
+    std::vector<ShyBound> territory;
     std::map<std::string, double> stats;
     Tree tree;  // out: in the tree's own frame (root at the origin)
 };

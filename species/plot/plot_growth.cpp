@@ -393,6 +393,10 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
     // The clip planes of crown-shy trees in the plot's frame: the placed tree is cut at them
     // (its leaves and the parts its method grew beyond its clipped volume).
     std::vector<std::vector<HalfSpace>> plotClip(n);
+    // The crown-shyness bounds of space-colonization trees (plot frame), held again once the
+    // tree is placed: its scale to its drawn height may have moved its crown over them.
+    std::vector<std::vector<ShyBound>> pbounds(n);
+    std::vector<uint8_t> shy(n, 0);  // a grammar tree grown within shyness bounds
 
     if (!spec.neighbours) {
         forEach(n, threaded, [&](size_t i) {
@@ -413,10 +417,12 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
             done[i] = 1;
         });
         std::vector<double> radius(n);  // predicted crown radius in the plot, metres
+        std::vector<double> top(n);     // predicted crown top (plot y)
         for (size_t i = 0; i < n; ++i) {
             const double h = std::max(own[i].height, 1e-3);
             if (stems[i].targetHeight > 0) preScale[i] = stems[i].targetHeight / h;
             radius[i] = std::max(own[i].radius, 1e-3) * preScale[i];
+            top[i] = stems[i].base.y + h * preScale[i];
         }
         // Close neighbours (every pair: a plot has at most a few thousand stems).
         std::vector<std::vector<size_t>> close(n);
@@ -429,20 +435,42 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
             }
         }
 
-        // The crown-shyness plane between tree i and its close neighbour j: normal u (unit,
-        // horizontal, toward j), offset from i's base in plot metres; false when it does not
-        // cut i's crown.
-        auto shyPlane = [&](size_t i, size_t j, Vec3& u, double& offset) {
+        // The crown-shyness plane between tree i and its close neighbour j (docs/plots.md,
+        // "Crown shyness"): normal u (unit, horizontal, toward j), offset from i's base in plot
+        // metres, and the gap; false when it does not cut i's crown. The distance d between
+        // the stems is shared in proportion to the predicted crown radii; each crown's radius
+        // toward the other is its share, at most its own radius; the gap is crown_shyness
+        // (the larger of the two species') × the larger of those two radii, half of it taken
+        // from each side, a side keeping at least half its share (so the planes of a pair
+        // never cross).
+        auto shyPlane = [&](size_t i, size_t j, Vec3& u, double& offset, double& gap) {
             u = {stems[j].base.x - stems[i].base.x, 0, stems[j].base.z - stems[i].base.z};
             const double d = length(u);
             if (!(d > 1e-9)) return false;
             u = u / d;
-            const double gap = std::max(spec.species[stems[i].species].crownShyness,
-                                        spec.species[stems[j].species].crownShyness) *
-                               std::max(radius[i], radius[j]);
-            offset = d * radius[i] / (radius[i] + radius[j]) - 0.5 * gap;
-            offset = std::max(offset, 0.1 * radius[i]);  // never cut to a sliver
+            const double share = d * radius[i] / (radius[i] + radius[j]);
+            const double shyness = std::max(spec.species[stems[i].species].crownShyness,
+                                            spec.species[stems[j].species].crownShyness);
+            gap = shyness * std::max(std::min(radius[i], share), std::min(radius[j], d - share));
+            offset = std::max(share - 0.5 * gap, 0.5 * share);
             return offset < radius[i];
+        };
+        // The same plane held up to the lower of the two crowns' predicted tops (and kShyAbove
+        // of the shorter tree's height over it, for its leaves above its top node), in the
+        // plot's frame: above it the taller crown may spread over the shorter (overtopping it),
+        // below it neither grows into the other's side — not even under the other's crown base,
+        // where its branches would stand in that crown's shade. False when the plane does not
+        // cut i's crown.
+        auto shyBound = [&](size_t i, size_t j, ShyBound& b) {
+            Vec3 u;
+            double offset = 0, gap = 0;
+            b.low = -std::numeric_limits<double>::infinity();
+            b.high = std::min(top[i], top[j]) +
+                     kShyAbove * std::min(top[i] - stems[i].base.y, top[j] - stems[j].base.y);
+            if (!shyPlane(i, j, u, offset, gap)) return false;
+            b.plane = {u, dot(u, stems[i].base) + offset};
+            b.slack = 0.5 * gap;
+            return true;
         };
 
         // 3a. Space colonization: one shared marker set per group of trees that reach each
@@ -475,18 +503,28 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
                 const size_t i = m[k];
                 ColonizingTree& c = together[k];
                 c.options = scaledOptions(*prepared[i].method->spaceColonization(), preScale[i]);
-                // Neighbours of other methods take no markers: the crown keeps clear of them
-                // as theirs keep clear of it (crown shyness; the crown is at plot scale here).
-                std::vector<HalfSpace> cut;
+                // Crown shyness toward every close neighbour, in the layer both crowns share:
+                // the crown's markers drawn on its side of the planes only, as many as the
+                // species' density there gives (the crown volume's share kept), and its buds
+                // perceive no marker beyond them (another tree's) — a marker in the gap is
+                // nobody's. The crown is at plot scale, about the tree's root, here.
                 for (size_t j : close[i]) {
-                    Vec3 u;
-                    double offset = 0;
-                    if (!prepared[j].method->spaceColonization() && shyPlane(i, j, u, offset)) {
-                        cut.push_back({u, offset});
-                    }
+                    ShyBound b;
+                    if (shyBound(i, j, b)) pbounds[i].push_back(b);
                 }
-                if (c.options.crown && !cut.empty()) {
-                    c.options.crown = makeClipped(c.options.crown, std::move(cut));
+                if (c.options.crown && !pbounds[i].empty()) {
+                    std::vector<ShyBound> local = pbounds[i];
+                    for (ShyBound& b : local) {
+                        b.plane.offset -= dot(b.plane.normal, stems[i].base);
+                        b.low -= stems[i].base.y;
+                        b.high -= stems[i].base.y;
+                    }
+                    const VolumePtr whole = c.options.crown;
+                    c.options.crown = makeShyClipped(whole, std::move(local));
+                    const double kept = c.options.crown->measure() / whole->measure();
+                    c.options.markers = static_cast<int>(
+                        std::lround(c.options.markers * std::clamp(kept, 0.0, 1.0)));
+                    c.territory = pbounds[i];
                 }
                 c.options.threaded = threaded;
                 c.origin = stems[i].base;
@@ -511,33 +549,50 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
             }
         });
 
-        // 3b. The others, each with its neighbourhood in its own frame (plot metres / s).
+        // 3b. The others, each with its neighbourhood in its own frame (plot metres / s):
+        // iterated graph and canopy clip their crown volumes at the planes (at every height),
+        // the grammar stops its branches at them in the layers the crowns share and turns
+        // them away from the neighbours.
         forEach(n, threaded, [&](size_t i) {
             if (done[i] && prepared[i].method->spaceColonization()) return;
             const double s = preScale[i];
+            const bool hasVolumes = !prepared[i].method->volumes().empty();
             Neighbourhood nb;
             Vec3 away{0, 0, 0};
             for (size_t j : close[i]) {
                 Vec3 u;
-                double offset = 0;
-                if (shyPlane(i, j, u, offset)) {
+                double offset = 0, gap = 0;
+                if (hasVolumes && shyPlane(i, j, u, offset, gap)) {
                     nb.clip.push_back({u, offset / s});
                     plotClip[i].push_back({u, dot(u, stems[i].base) + offset});
                 }
+                ShyBound b;
+                if (!hasVolumes && shyBound(i, j, b)) {
+                    u = b.plane.normal;
+                    b.plane.offset = (b.plane.offset - dot(u, stems[i].base)) / s;
+                    b.low = (b.low - stems[i].base.y) / s;
+                    b.high = (b.high - stems[i].base.y) / s;
+                    b.slack /= s;
+                    nb.bounds.push_back(b);
+                }
                 const double d = std::hypot(stems[j].base.x - stems[i].base.x,
                                             stems[j].base.z - stems[i].base.z);
-                if (d > 1e-9) away -= u * (radius[j] / d);
+                const Vec3 toJ{stems[j].base.x - stems[i].base.x, 0,
+                               stems[j].base.z - stems[i].base.z};
+                if (d > 1e-9) away -= toJ / d * (radius[j] / d);
             }
             const double a = length(away);
             if (a > 1e-12) nb.away = away * (kShadeTropism * std::min(1.0, a) / a);
-            if (prepared[i].method->volumes().empty()) plotClip[i].clear();  // tropism only
-            if (done[i] && nb.clip.empty() && !(length2(nb.away) > 0)) return;
+            if (done[i] && nb.clip.empty() && nb.bounds.empty() && !(length2(nb.away) > 0)) {
+                return;
+            }
             prepared[i].out.methodStats.clear();
             const GrowthGuard guard(prepared[i].out.budget);
             Rng rng(prepared[i].seed);
             grown[i] = prepared[i].method->growAmong(rng, threaded, prepared[i].out.methodStats,
                                                      guard, nb);
             done[i] = 1;
+            shy[i] = !nb.bounds.empty();
         });
     }
 
@@ -549,11 +604,20 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
         t.stem = stems[i];
         t.grown = finishSpecies(prepared[i], std::move(grown[i]), guard);
         const double h = measure(t.grown.tree).height;
-        const double s = t.stem.targetHeight > 0 && h > 0 ? t.stem.targetHeight / h : 1.0;
+        // A grammar tree whose branches the shyness bounds stopped keeps the scale they were set
+        // at: scaled to its drawn height instead, its crown would cross them again (its top may
+        // have come from branches that were stopped; its height is then below the drawn). A
+        // space-colonization tree is scaled to its height and cut at its bounds again (below).
+        const double s = shy[i]                             ? preScale[i]
+                         : t.stem.targetHeight > 0 && h > 0 ? t.stem.targetHeight / h
+                                                            : 1.0;
         place(t.grown.tree, t.stem.base, s);
         if (t.stem.slenderness > 0) standSlenderness(t.grown.tree, t.stem.base, t.stem.slenderness);
         if (!plotClip[i].empty()) {
             pruneTree(t.grown.tree, [&](const Vec3& p) { return insideAll(plotClip[i], p); });
+        }
+        if (!pbounds[i].empty()) {
+            pruneTree(t.grown.tree, [&](const Vec3& p) { return keepsAll(pbounds[i], p); });
         }
     });
 

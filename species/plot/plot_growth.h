@@ -29,24 +29,32 @@ constexpr double kNeighbourReach = 1.25;
 // one): the length of the horizontal vector added to each branch's unit direction (half of it
 // to the trunk's).
 constexpr double kShadeTropism = 0.2;
+// How far above the lower of two crowns' predicted tops their crown-shyness plane still holds,
+// a fraction of the shorter tree's height (its leaves stand above its highest node).
+constexpr double kShyAbove = 0.05;
 
 // Grows every stem of `layout` (PlotStem::species indexes spec.species) and places it: the
 // root node at the stem's base on the terrain, the tree vertical, scaled uniformly about its
 // base so its height (highest shoot node above the root) is targetHeight when that is > 0 —
-// node radii and leaf sizes with it. With spec.neighbours (the default) the trees know their
-// neighbours:
+// node radii and leaf sizes with it (a grammar tree grown within shyness bounds keeps the
+// scale they were set at instead, and may be shorter). With spec.neighbours (the default)
+// the trees know their neighbours, and every crown keeps a crown-shyness gap: between each
+// close pair a vertical plane, the distance between the stems shared in proportion to their
+// predicted crown radii, each side moved back by half the gap — crown_shyness (the larger of
+// the two species') × the larger of the two crowns' radii toward each other (each its share,
+// at most its radius) — and never past half its share:
 //  - space colonization: the plot's space-colonization trees compete for one shared marker
 //    set per group of trees linked through close neighbours (growSpaceColonizationTogether;
 //    Palubicki et al. 2009), each grown at its target scale (internode, bole, crown), then
-//    brought back to the species' scale for its form and leaves like any tree of it;
-//    toward close neighbours of other methods its crown volume is clipped as below;
-//  - iterated graph and canopy: the crown volume is clipped by a half-space per close
-//    neighbour, its plane between the two stems split in proportion to their crown radii and
-//    moved back by half the gap, the gap being crown_shyness × the larger of the two crown
-//    radii (the larger of the two species' shyness);
+//    brought back to the species' scale for its form and leaves like any tree of it; its
+//    markers are drawn, and its buds perceive, only on its side of its planes up to the
+//    lower crown's top (ShyBound; ColonizingTree::territory), and the placed tree is cut at
+//    them;
+//  - iterated graph and canopy: the crown volume is clipped at the planes (at every height);
 //  - grammar: a light/shade tropism away from the neighbours' crowns, the sum over close
 //    neighbours of the unit vectors from them weighted by crown radius / distance
-//    (GrammarOptions::lightTropism).
+//    (GrammarOptions::lightTropism), and its branches stop at (or, rising, grow up along) the
+//    planes up to the lower crown's top (GrammarOptions::shyBounds).
 // Without neighbours each tree grows alone, exactly as growSpecies grows it. Then the LAI
 // (spec.lai, per-species lai), per species: a target below the grown leaf area thins the
 // leaves — each kept or dropped by a draw keyed by the tree's seed and the leaf's index, the

@@ -22,6 +22,9 @@ struct SpaceColonizationOptions;
 struct Neighbourhood {
     // Crown shyness: the crown keeps inside every half-space (iterated-graph, canopy).
     std::vector<HalfSpace> clip;
+    // Crown shyness up to the lower of two crowns' tops (grammar): a branch stops at, or
+    // rising grows up along, each bound's plane (GrammarOptions::shyBounds).
+    std::vector<ShyBound> bounds;
     // Light/shade tropism (grammar): horizontal, away from the neighbours' crowns; its length
     // is the strength, added to every shoot stem's direction before it is normalised.
     Vec3 away{0, 0, 0};

@@ -75,9 +75,10 @@ TEST(PlotValidate, PlotsOnlyDatasetIsValid) {
         << r.out;
 }
 
-// The columns of a tree table that leaves do not change (id, name, species, base, DBH, crown
-// base, nearest-neighbour distance): heights, crown radii and leaf areas include the leaves,
-// which a same_seed LAI axis scales.
+// The columns of a tree table that leaves do not change (id, name, species, base, DBH,
+// nearest-neighbour distance): heights, crown radii and leaf areas include the leaves, which a
+// same_seed LAI axis scales, and the crown base is the lowest leaf or leaf-carrying branch,
+// which its thinning can move (a low branch keeps leaves at one LAI and none at another).
 std::string woodColumns(const std::string& csv) {
     std::string out, line;
     std::istringstream in(csv);
@@ -85,8 +86,7 @@ std::string woodColumns(const std::string& csv) {
         std::vector<std::string> cells;
         std::istringstream cs(line);
         for (std::string c; std::getline(cs, c, ',');) cells.push_back(c);
-        for (size_t k : {0, 1, 2, 3, 4, 5, 7, 8, 17})
-            out += (k < cells.size() ? cells[k] : "?") + ",";
+        for (size_t k : {0, 1, 2, 3, 4, 5, 7, 17}) out += (k < cells.size() ? cells[k] : "?") + ",";
         out += "\n";
     }
     return out;

@@ -577,6 +577,125 @@ TEST(Grammar, GroundClearanceBendsDescendingStemsAboveTheGround) {
     }
 }
 
+// s → a (a 2 m trunk); a → four straight branches spread evenly about it at `tilt` from the
+// vertical, 2 m long, each with a leaf particle every 10 cm.
+GrammarOptions fan(double tiltDeg) {
+    GrammarOptions o;
+    o.start = o.state("s");
+    const int a = o.state("a"), b = o.state("b");
+    o.rules[o.start] = {{{a}, 1.0}};
+    o.rules[a] = {{{b, b, b, b}, 1.0}};
+    o.maxDepth = 2;
+    GrammarGeometry trunk;
+    trunk.lengthLo = trunk.lengthHi = 2.0;
+    o.transition[{o.start, a}] = trunk;
+    GrammarGeometry branch;
+    branch.lengthLo = branch.lengthHi = 2.0;
+    branch.tiltLo = branch.tiltHi = tiltDeg * kDeg;
+    branch.evenSpread = true;
+    branch.azimuthLo = branch.azimuthHi = 0.0;
+    o.transition[{a, b}] = branch;
+    o.particles[b].enabled = true;
+    o.particles[b].perMetre = 10;
+    return o;
+}
+
+// Crown shyness (GrammarOptions::shyBounds): every branch point and leaf below the layer's top
+// keeps the bound; a branch heading out (30° above the horizontal) stops at it, one rising
+// steeply (20° from the vertical) is moved onto the plane and keeps its heights; the trunk is
+// never touched; above the layer branches are free.
+TEST(Grammar, ShyBoundsStopOrTurnBranchesAtTheNeighboursPlane) {
+    ShyBound bound;
+    bound.plane = {{1, 0, 0}, 0.5};  // x ≤ 0.5
+    bound.low = -1e300;
+    bound.high = 10.0;
+    bool stoppedOne = false, slidOne = false;
+    for (double tilt : {60.0, 20.0}) {
+        GrammarOptions o = fan(tilt);
+        Rng r0(7);
+        GrammarStats freeStats;
+        std::vector<GrammarStem> freeStems;
+        const Tree free = growGrammar(o, r0, &freeStats, &freeStems);
+        o.shyBounds = {bound};
+        Rng r1(7);
+        GrammarStats stats;
+        std::vector<GrammarStem> stems;
+        const Tree held = growGrammar(o, r1, &stats, &stems);
+        ASSERT_EQ(stems.size(), freeStems.size());
+        EXPECT_EQ(freeStats.shyStopped, 0);
+        double freeReach = -1e300;
+        for (const SkeletonNode& n : free.nodes) freeReach = std::max(freeReach, n.position.x);
+        ASSERT_GT(freeReach, 0.6) << "some branch must cross the plane when free";
+        for (const SkeletonNode& n : held.nodes) EXPECT_TRUE(bound.holds(n.position)) << tilt;
+        for (const Leaf& l : held.leaves) EXPECT_TRUE(bound.holds(l.position)) << tilt;
+        // The trunk (stem 0) is the same.
+        ASSERT_EQ(stems[0].nodes.size(), freeStems[0].nodes.size());
+        for (size_t k = 0; k < stems[0].nodes.size(); ++k) {
+            EXPECT_EQ(held.nodes[stems[0].nodes[k]].position.y,
+                      free.nodes[freeStems[0].nodes[k]].position.y);
+        }
+        for (size_t si = 1; si < stems.size(); ++si) {
+            const Vec3 freeTip = free.nodes[freeStems[si].nodes.back()].position;
+            const Vec3 tip = held.nodes[stems[si].nodes.back()].position;
+            if (freeTip.x <= 0.5) {  // never reached the plane: unchanged
+                EXPECT_EQ(stems[si].nodes.size(), freeStems[si].nodes.size());
+                continue;
+            }
+            if (tilt == 60.0) {  // heading out: stopped short, at its last point inside
+                EXPECT_LT(stems[si].nodes.size(), freeStems[si].nodes.size());
+                EXPECT_GT(tip.x, 0.5 - 0.2);  // within a segment or two of the plane
+                stoppedOne = true;
+            } else {  // rising: along the plane, its top at the free stem's height
+                EXPECT_EQ(stems[si].nodes.size(), freeStems[si].nodes.size());
+                EXPECT_NEAR(tip.x, 0.5, 1e-6);
+                EXPECT_EQ(tip.y, freeTip.y);
+                slidOne = true;
+            }
+        }
+        EXPECT_EQ(stats.shyStopped > 0, tilt == 60.0);
+        // Above the layer a branch is free: with the layer's top under the branches, the tree
+        // grows as it does alone.
+        o.shyBounds[0].high = 1.0;
+        Rng r2(7);
+        const Tree above = growGrammar(o, r2);
+        EXPECT_EQ(above.nodes.size(), free.nodes.size());
+        EXPECT_EQ(above.leaves.size(), free.leaves.size());
+    }
+    EXPECT_TRUE(stoppedOne);
+    EXPECT_TRUE(slidOne);
+}
+
+// A branch never begins on the part of its parent that a bound stopped: a fir's laterals
+// drawn beyond a stopped branch's end are not drawn, and the slack moves each stem's stop by
+// its own draw (tips spread, not on one line).
+TEST(Grammar, ShyBoundsDropLateralsBeyondAStoppedParentAndRaggedTheEdge) {
+    GrammarOptions o = firLike(5);
+    Rng r0(11);
+    std::vector<GrammarStem> freeStems;
+    growGrammar(o, r0, nullptr, &freeStems);
+    ShyBound bound;
+    bound.plane = {{0, 0, 1}, 0.4};  // z ≤ 0.4
+    bound.low = -1e300;
+    bound.high = 1e300;
+    bound.slack = 0.3;
+    o.shyBounds = {bound};
+    Rng r1(11);
+    std::vector<GrammarStem> stems;
+    GrammarStats stats;
+    const Tree held = growGrammar(o, r1, &stats, &stems);
+    EXPECT_LT(stems.size(), freeStems.size());  // laterals of stopped parents not drawn
+    std::vector<double> tips;
+    for (const GrammarStem& st : stems) {
+        if (st.order == 0) continue;
+        const Vec3 tip = held.nodes[st.nodes.back()].position;
+        EXPECT_LE(tip.z, 0.4 + 1e-9);
+        if (tip.z > 0.4 - 0.3 - 0.15) tips.push_back(tip.z);  // stopped near the plane
+    }
+    ASSERT_GE(tips.size(), 4u);
+    const auto [lo, hi] = std::minmax_element(tips.begin(), tips.end());
+    EXPECT_GT(*hi - *lo, 0.1);  // spread over the slack
+}
+
 TEST(Grammar, StraightLeaderIsAVerticalLine) {
     for (uint64_t seed : {1u, 2u, 3u}) {
         GrammarOptions o = firLike(9);  // leader tilts 0–5°, curve noise 0.05–0.1

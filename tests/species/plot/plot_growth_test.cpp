@@ -179,15 +179,23 @@ double gapBetween(const PlotTree& a, const PlotTree& b) {
     return d - reach(a, u) - reach(b, u * -1.0);
 }
 
+// The gap held between equal crowns of radius `radius` (predicted, at the trees' scale) in a
+// row `spacing` apart: crown_shyness × each crown's radius toward the other, the smaller of
+// its radius and its half of the spacing.
+double expectedGap(double shyness, double radius, double spacing) {
+    return shyness * std::min(radius, 0.5 * spacing);
+}
+
 void expectShyness(const std::string& file, double spacing) {
     PlotSpec spec = makeSpec({file});
     spec.species[0].crownShyness = 0.2;
     const PlotLayout layout = row(4, spacing);
     const GrownPlot plot = growPlot(spec, layout, nullptr, false);
-    // The crown radius the gap is a fraction of: the crown volume's (both test species: 2 m).
-    const double radius = 2.0;
+    // The crown volume's radius (every test species: 2 m).
+    const double gap = expectedGap(0.2, 2.0, spacing);
+    ASSERT_GT(gap, 0.2);
     for (size_t k = 0; k + 1 < plot.trees.size(); ++k) {
-        EXPECT_GE(gapBetween(plot.trees[k], plot.trees[k + 1]), 0.2 * radius * 0.95)
+        EXPECT_GE(gapBetween(plot.trees[k], plot.trees[k + 1]), gap * 0.95)
             << file << " trees " << k + 1 << "–" << k + 2;
     }
     EXPECT_LE(maxCrownOverlap(crownOverlaps(plot)), spec.species[0].maxOverlap) << file;
@@ -199,18 +207,75 @@ void expectShyness(const std::string& file, double spacing) {
 
 TEST(PlotGrowth, CanopyCrownsKeepTheShynessGap) { expectShyness("small-canopy.toml", 3.0); }
 TEST(PlotGrowth, IteratedGraphCrownsKeepTheShynessGap) { expectShyness("small-graph.toml", 2.6); }
+// Shared markers: each colonizer's buds perceive only the markers on its side of the planes.
+TEST(PlotGrowth, ColonizerCrownsKeepTheShynessGap) { expectShyness("small-colonizer.toml", 2.6); }
 
-// Colonizers between canopy trees: each side keeps its half of the gap (the colonizer's crown
-// is clipped toward neighbours that take no markers).
+// Grammar crowns (the lemon preset, about 2 m wide alone) 2 m apart: their branches stop at
+// (or, rising, grow up along) the planes, so the gap holds and the crowns share no space.
+TEST(PlotGrowth, GrammarCrownsKeepTheShynessGap) {
+    PlotSpec spec = makeSpec({"lemon.toml"}, 30, 60);
+    spec.species[0].crownShyness = 0.2;
+    const PlotLayout layout = row(4, 2.0);
+    spec.neighbours = false;
+    const GrownPlot alone = growPlot(spec, layout, nullptr, false);
+    spec.neighbours = true;
+    const GrownPlot plot = growPlot(spec, layout, nullptr, false);
+    double smallest = 1e300;  // the crowns' predicted radii: each grown alone
+    for (const PlotTree& t : alone.trees) {
+        smallest = std::min(smallest, crownShape(t).radius);
+    }
+    const double gap = expectedGap(0.2, smallest, 2.0);
+    ASSERT_GT(gap, 0.15);
+    for (size_t k = 0; k + 1 < plot.trees.size(); ++k) {
+        EXPECT_LT(gapBetween(alone.trees[k], alone.trees[k + 1]), 0.0) << "alone " << k + 1;
+        EXPECT_GE(gapBetween(plot.trees[k], plot.trees[k + 1]), gap * 0.95)
+            << "trees " << k + 1 << "–" << k + 2;
+    }
+    EXPECT_LE(maxCrownOverlap(crownOverlaps(plot)), spec.species[0].maxOverlap);
+    EXPECT_GT(maxCrownOverlap(crownOverlaps(alone)), 0.1);
+}
+
+// Colonizers between canopy trees: each side keeps its half of the gap (the colonizer's
+// markers and perception end at its planes; the canopy trees' volumes are clipped at theirs).
 TEST(PlotGrowth, MixedMethodsKeepTheShynessGap) {
     PlotSpec spec = makeSpec({"small-colonizer.toml", "small-canopy.toml"});
     const PlotLayout layout = row(4, 3.0, -1);
     const GrownPlot plot = growPlot(spec, layout, nullptr, false);
     for (size_t k = 0; k + 1 < plot.trees.size(); ++k) {
-        EXPECT_GE(gapBetween(plot.trees[k], plot.trees[k + 1]), 0.1 * 2.0 * 0.95)
+        EXPECT_GE(gapBetween(plot.trees[k], plot.trees[k + 1]), expectedGap(0.1, 2.0, 3.0) * 0.95)
             << "trees " << k + 1 << "–" << k + 2;
     }
     EXPECT_LE(maxCrownOverlap(crownOverlaps(plot)), 0.05);
+}
+
+// The planes hold up to the lower crown's top (and kShyAbove of the shorter tree's height
+// over it): a tall colonizer 3 m from a short one keeps to its side below that height and
+// spreads over the short tree above it.
+TEST(PlotGrowth, TallerCrownsSpreadOverShorterOnesOnlyAboveThem) {
+    PlotSpec spec = makeSpec({"small-colonizer.toml"});
+    PlotLayout layout = row(2, 3.0, 0, 0.0, 9.0);
+    layout.stems[1].targetHeight = 4.0;
+    const GrownPlot plot = growPlot(spec, layout, nullptr, false);
+    const PlotTree& tall = plot.trees[0];
+    const PlotTree& shortTree = plot.trees[1];
+    const double limit = 4.0 * (1 + kShyAbove);  // the short tree's top (flat ground: y = 0)
+    const Vec3 u{1, 0, 0};                       // from the tall tree toward the short one
+    double reachBelow = -1e300, reachAbove = -1e300;
+    auto note = [&](const Vec3& p) {
+        const double r = dot(p - tall.stem.base, u);
+        (p.y <= limit ? reachBelow : reachAbove) =
+            std::max(p.y <= limit ? reachBelow : reachAbove, r);
+    };
+    for (const Leaf& l : tall.grown.tree.leaves) note(l.position);
+    for (const SkeletonNode& n : tall.grown.tree.nodes) note(n.position);
+    double shortReach = -1e300;
+    for (const Leaf& l : shortTree.grown.tree.leaves) {
+        shortReach = std::max(shortReach, dot(l.position - shortTree.stem.base, u * -1.0));
+    }
+    // Below: the tall crown keeps short of the short one's (with the gap between them).
+    EXPECT_LT(reachBelow + shortReach, 3.0);
+    // Above: it spreads over the short tree's stem.
+    EXPECT_GT(reachAbove, 3.0);
 }
 
 TEST(PlotGrowth, TreesStandVerticalOnTheTerrainAtTheirHeight) {
