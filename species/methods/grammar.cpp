@@ -319,6 +319,20 @@ bool cutAtGround(StemSamples& ss) {
 // Returns the number of segments kept (0: not even the first).
 constexpr double kShySlideRise = 0.5;  // sin 30°
 
+// Every sample beyond a bound moved onto its plane (the bounds in order), the derivative
+// turned along it: a leaning trunk grows on up along a neighbour's plane.
+void slideOnto(Vec3& p, Vec3& der, const std::vector<ShyBound>& bounds) {
+    for (const ShyBound& b : bounds) {
+        if (b.holds(p)) continue;
+        p -= b.plane.normal * (b.plane.distance(p) + 1e-9);
+        der -= b.plane.normal * std::max(0.0, dot(der, b.plane.normal));
+    }
+}
+
+void slideInsideBounds(StemSamples& ss, const std::vector<ShyBound>& bounds) {
+    for (size_t i = 1; i < ss.point.size(); ++i) slideOnto(ss.point[i], ss.der[i], bounds);
+}
+
 int keepInsideBounds(StemSamples& ss, const std::vector<ShyBound>& bounds, double u) {
     std::vector<ShyBound> moved = bounds;
     for (ShyBound& b : moved) b.plane.offset -= u * b.slack;
@@ -327,12 +341,7 @@ int keepInsideBounds(StemSamples& ss, const std::vector<ShyBound>& bounds, doubl
         const Vec3 step = ss.point[i] - ss.point[i - 1];
         const double len = length(step);
         if (len > 0 && step.y > kShySlideRise * len) {
-            for (const ShyBound& b : moved) {
-                const double d = b.plane.distance(ss.point[i]);
-                if (b.holds(ss.point[i])) continue;
-                ss.point[i] -= b.plane.normal * (d + 1e-9);
-                ss.der[i] -= b.plane.normal * std::max(0.0, dot(ss.der[i], b.plane.normal));
-            }
+            slideOnto(ss.point[i], ss.der[i], moved);
             if (keepsAll(moved, ss.point[i])) continue;  // (a corner may still hold it out)
         }
         ss.point.resize(i);
@@ -442,8 +451,17 @@ void drawStem(Derivation& d, const Pending& pd) {
         if (!(length(refN) > 1e-9)) refN = anyPerpendicular(dir);
     }
     if (!root && !straight && length2(o.lightTropism) > 0) {
-        // A trunk (order 0) leans half as much as the branches turn toward the light.
-        dir = normalize(dir + o.lightTropism * (pd.order == 0 ? 0.5 : 1.0));
+        // A trunk (order 0) leans by half the tropism; a branch turns toward the light about
+        // the vertical, its rise kept (so a tree among neighbours grows no taller than alone:
+        // its crown-shyness planes hold up to the height it has alone).
+        const Vec3 h{dir.x, 0, dir.z};
+        const double lh = length(h);
+        if (pd.order == 0) {
+            dir = normalize(dir + o.lightTropism * 0.5);
+        } else if (lh > 1e-9) {
+            const Vec3 turned = normalize(h / lh + o.lightTropism) * lh;
+            dir = normalize(Vec3{turned.x, dir.y, turned.z});
+        }
         refN = refN - dir * dot(refN, dir);
         refN = length(refN) > 1e-9 ? normalize(refN) : anyPerpendicular(dir);
     }
@@ -486,7 +504,9 @@ void drawStem(Derivation& d, const Pending& pd) {
         clearGround(ss, o.groundClearance);
     }
     const int drawn = static_cast<int>(ss.point.size()) - 1;
-    if (!root && pd.order > 0 && !o.shyBounds.empty()) {
+    if (!root && pd.order == 0 && !o.shyBounds.empty()) {
+        slideInsideBounds(ss, o.shyBounds);  // a trunk is never stopped
+    } else if (!root && !o.shyBounds.empty()) {
         const double u = d.rng.derive(hashCombine(pd.key, kShyTag)).uniform();
         const int kept = keepInsideBounds(ss, o.shyBounds, u);
         if (kept < drawn) {

@@ -155,17 +155,23 @@ struct GrammarOptions {
                                    // bends toward the horizontal and never reaches y = 0
     bool straightLeader = false;   // order-0 stems straight up (+y): no tilt, curve, tropism
     // Plots (species/plot/plot_growth.h): a light/shade tropism away from the neighbours'
-    // crowns, horizontal, its length the strength; added to every shoot stem's initial
-    // direction (half of it to order-0 stems; not a straight leader's, not roots') before it is
-    // normalised. Zero: none.
+    // crowns, horizontal, its length the strength. An order-0 stem's initial direction gets
+    // half of it added before it is normalised (the trunk leans); a branch's horizontal part
+    // gets it added to its unit horizontal direction, then its horizontal length and its rise
+    // are restored (the branch turns about the vertical, no higher than alone). Not a straight
+    // leader, not roots. Zero: none.
     Vec3 lightTropism{0, 0, 0};
-    // Plots: crown shyness where the crown shares a layer of height with a neighbour's
-    // (ShyBound, in the tree's frame; plot_growth.h). A branch (a shoot stem of order ≥ 1)
-    // stops growing at its last sample inside every bound — each bound's plane moved back for
-    // this stem by one keyed draw u ∈ [0, 1) times the bound's slack, so the crown's edge
-    // toward a neighbour is ragged, not a cut — and a stem is never begun beyond its parent's end:
-    // branches that would have grown from the part of the parent not grown are not drawn
-    // (the open L-systems' branch collision: Měch & Prusinkiewicz 1996). Empty: none.
+    // Plots: crown shyness up to the lower of two crowns' tops (ShyBound, in the tree's frame;
+    // plot_growth.h). A branch (a shoot stem of order ≥ 1) stops growing at its last sample
+    // inside every bound — each bound's plane moved back for this stem by one keyed draw
+    // u ∈ [0, 1) times the bound's slack, so the crown's edge toward a neighbour is ragged, not
+    // a cut — unless the stretch that crosses rises more than 30° above the horizontal: that
+    // sample is moved onto the plane and the branch grows on up along it. A stem is never
+    // begun beyond its parent's end: branches that would have grown from the part of the
+    // parent not grown are not drawn (the open L-systems' branch collision: Měch &
+    // Prusinkiewicz 1996). A trunk (order 0) is never stopped: its samples beyond a plane are
+    // moved onto it. Leaf and fruit cards whose centres lie beyond a bound are dropped.
+    // Empty: none.
     std::vector<ShyBound> shyBounds;
     Season season = Season::kSummer;
     std::array<GrammarSeason, 4> seasons = defaultSeasons();

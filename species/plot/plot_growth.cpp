@@ -551,14 +551,14 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
 
         // 3b. The others, each with its neighbourhood in its own frame (plot metres / s):
         // iterated graph and canopy clip their crown volumes at the planes (at every height),
-        // the grammar stops its branches at them in the layers the crowns share and turns
-        // them away from the neighbours.
-        forEach(n, threaded, [&](size_t i) {
-            if (done[i] && prepared[i].method->spaceColonization()) return;
+        // the grammar stops its branches at them up to the lower crown's top and turns them
+        // away from the neighbours.
+        auto growAmong = [&](size_t i) {
             const double s = preScale[i];
             const bool hasVolumes = !prepared[i].method->volumes().empty();
             Neighbourhood nb;
             Vec3 away{0, 0, 0};
+            plotClip[i].clear();
             for (size_t j : close[i]) {
                 Vec3 u;
                 double offset = 0, gap = 0;
@@ -593,7 +593,35 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
                                                      guard, nb);
             done[i] = 1;
             shy[i] = !nb.bounds.empty();
-        });
+        };
+        std::vector<size_t> pending;
+        for (size_t i = 0; i < n; ++i) {
+            if (!(done[i] && prepared[i].method->spaceColonization())) pending.push_back(i);
+        }
+        // A grammar tree among neighbours may grow a little taller than alone (a turned stem
+        // bends differently): its planes' neighbours are grown again with its top as grown, so
+        // the planes hold up to the lower crown's real top (at most kShyRegrowths times).
+        for (int pass = 0; !pending.empty(); ++pass) {
+            forEach(pending.size(), threaded, [&](size_t k) { growAmong(pending[k]); });
+            if (pass == kShyRegrowths) break;
+            std::vector<uint8_t> raised(n, 0);
+            for (size_t i : pending) {
+                if (!shy[i]) continue;
+                const double grownTop = stems[i].base.y + measure(grown[i]).height * preScale[i];
+                if (grownTop > top[i] + 1e-6) {
+                    top[i] = grownTop;
+                    raised[i] = 1;
+                }
+            }
+            std::vector<size_t> again;
+            for (size_t i = 0; i < n; ++i) {
+                if (!shy[i]) continue;
+                bool affected = raised[i] != 0;
+                for (size_t j : close[i]) affected = affected || raised[j] != 0;
+                if (affected) again.push_back(i);
+            }
+            pending = std::move(again);
+        }
     }
 
     // 4. Form, leaves, placement.

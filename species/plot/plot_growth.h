@@ -26,12 +26,15 @@ constexpr double kMinLeavesKept = 0.01;
 // radii shape each other (clip planes, tropism).
 constexpr double kNeighbourReach = 1.25;
 // The grammar method's light/shade tropism at full strength (a neighbour crown touching this
-// one): the length of the horizontal vector added to each branch's unit direction (half of it
-// to the trunk's).
+// one): the length of the horizontal vector added to each branch's unit horizontal direction
+// (half of it to the trunk's unit direction; GrammarOptions::lightTropism).
 constexpr double kShadeTropism = 0.2;
 // How far above the lower of two crowns' predicted tops their crown-shyness plane still holds,
 // a fraction of the shorter tree's height (its leaves stand above its highest node).
 constexpr double kShyAbove = 0.05;
+// How many times grammar trees are grown again with their neighbours' tops as grown (a tree
+// among neighbours may grow taller than alone, and its planes must hold up to its real top).
+constexpr int kShyRegrowths = 3;
 
 // Grows every stem of `layout` (PlotStem::species indexes spec.species) and places it: the
 // root node at the stem's base on the terrain, the tree vertical, scaled uniformly about its

@@ -12,7 +12,9 @@
 #include <vector>
 
 #include "core/errors.h"
+#include "pipeline/build/dataset.h"
 #include "species/plot/inventory.h"
+#include "species/plot/layout.h"
 #include "species/spec/species.h"
 
 namespace sylva {
@@ -276,6 +278,19 @@ TEST(PlotGrowth, TallerCrownsSpreadOverShorterOnesOnlyAboveThem) {
     EXPECT_LT(reachBelow + shortReach, 3.0);
     // Above: it spreads over the short tree's stem.
     EXPECT_GT(reachAbove, 3.0);
+}
+
+// The tropical preset's second plot: 101 grammar trees of eight species on rolling ground
+// (alone, their crowns run through each other: a pair's shared layer wholly). Among
+// neighbours no pair shares space in the layer both occupy — which needs the planes to hold
+// up to the crowns' tops as grown: some grow taller among neighbours than alone, and without
+// growing their neighbours again (kShyRegrowths = 0) a sal and a gulmohar overlap 0.32.
+TEST(PlotGrowth, TropicalPresetCrownsShareNoSpace) {
+    const DatasetSpec d =
+        loadDataset(std::string(SYLVA_SOURCE_DIR) + "/datasets/plot-tropical-mixed.toml");
+    const PlotSpec& p = d.plots[0];
+    const GrownPlot among = growPlot(p, layoutPlot(p, plotSeed(d.seed, p, 1)), &d.budget, true);
+    EXPECT_LE(maxCrownOverlap(crownOverlaps(among, 0.1)), 0.05);  // 0.1 m cells, as plot.json
 }
 
 TEST(PlotGrowth, TreesStandVerticalOnTheTerrainAtTheirHeight) {
