@@ -1,6 +1,8 @@
 // Half-space clips of a volume: a crown cut by the planes between a plot tree and its
-// neighbours (species/plot/plot_growth.cpp), signed distance max(inner, planes).
+// neighbours (species/plot/plot_growth.cpp), at every height or within layers (ShyBound),
+// signed distance max(inner, planes).
 #include <algorithm>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -12,32 +14,13 @@
 namespace sylva {
 namespace {
 
+// Every bound holds within its layer (a half-space of makeClipped: at every height): the sign
+// of the distance exact, its magnitude a bound only near a layer's edges (where a plane's
+// distance starts or stops counting).
 class Clipped final : public Volume {
   public:
-    Clipped(VolumePtr inner, std::vector<HalfSpace> cut)
-        : inner_(std::move(inner)), cut_(std::move(cut)) {}
-
-    double signedDistance(const Vec3& p) const override {
-        double d = inner_->signedDistance(p);
-        for (const HalfSpace& h : cut_) d = std::max(d, h.distance(p));
-        return d;
-    }
-    Aabb bounds() const override { return inner_->bounds(); }
-    std::string describe() const override {
-        return inner_->describe() + " clipped by " + std::to_string(cut_.size()) + " planes";
-    }
-
-  private:
-    VolumePtr inner_;
-    std::vector<HalfSpace> cut_;
-};
-
-// The half-spaces hold only within their layers: the sign is exact, the magnitude a bound
-// only near a layer's edges (where a plane's distance starts or stops counting).
-class ShyClipped final : public Volume {
-  public:
-    ShyClipped(VolumePtr inner, std::vector<ShyBound> bounds)
-        : inner_(std::move(inner)), bounds_(std::move(bounds)) {}
+    Clipped(VolumePtr inner, std::vector<ShyBound> bounds, bool layered)
+        : inner_(std::move(inner)), bounds_(std::move(bounds)), layered_(layered) {}
 
     double signedDistance(const Vec3& p) const override {
         double d = inner_->signedDistance(p);
@@ -48,13 +31,14 @@ class ShyClipped final : public Volume {
     }
     Aabb bounds() const override { return inner_->bounds(); }
     std::string describe() const override {
-        return inner_->describe() + " clipped by " + std::to_string(bounds_.size()) +
-               " planes within layers";
+        return inner_->describe() + " clipped by " + std::to_string(bounds_.size()) + " planes" +
+               (layered_ ? " within layers" : "");
     }
 
   private:
     VolumePtr inner_;
     std::vector<ShyBound> bounds_;
+    bool layered_;
 };
 
 }  // namespace
@@ -62,13 +46,17 @@ class ShyClipped final : public Volume {
 VolumePtr makeShyClipped(VolumePtr inner, std::vector<ShyBound> bounds) {
     if (!inner) throw std::invalid_argument("makeShyClipped: no volume");
     if (bounds.empty()) return inner;
-    return std::make_shared<ShyClipped>(std::move(inner), std::move(bounds));
+    return std::make_shared<Clipped>(std::move(inner), std::move(bounds), true);
 }
 
 VolumePtr makeClipped(VolumePtr inner, std::vector<HalfSpace> cut) {
     if (!inner) throw std::invalid_argument("makeClipped: no volume");
     if (cut.empty()) return inner;
-    return std::make_shared<Clipped>(std::move(inner), std::move(cut));
+    std::vector<ShyBound> bounds;
+    bounds.reserve(cut.size());
+    const double inf = std::numeric_limits<double>::infinity();
+    for (const HalfSpace& h : cut) bounds.push_back({h, -inf, inf});
+    return std::make_shared<Clipped>(std::move(inner), std::move(bounds), false);
 }
 
 bool insideAll(const std::vector<HalfSpace>& cut, const Vec3& p) {

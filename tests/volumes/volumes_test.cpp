@@ -595,5 +595,34 @@ TEST(ClippedVolume, IntersectsTheHalfSpaces) {
     EXPECT_EQ(makeClipped(makeSphere(1.0), {})->describe(), makeSphere(1.0)->describe());
 }
 
+// A plane held only within a layer (ShyBound, as between two plot crowns up to the lower
+// one's top): below y = 0.2 the half-ball beyond x = 0.5 is cut, above it the sphere is whole.
+TEST(ClippedVolume, LayeredBoundsHoldOnlyWithinTheirLayer) {
+    ShyBound b;
+    b.plane = {{1, 0, 0}, 0.5};
+    b.low = -1e300;
+    b.high = 0.2;
+    const VolumePtr v = makeShyClipped(makeSphere(1.0), {b});
+    EXPECT_FALSE(v->inside({0.7, 0, 0}));   // in the layer, beyond the plane
+    EXPECT_TRUE(v->inside({0.7, 0.3, 0}));  // above the layer
+    EXPECT_TRUE(v->inside({0.4, 0, 0}));
+    EXPECT_TRUE(b.holds({0.7, 0.3, 0}));
+    EXPECT_FALSE(b.holds({0.7, 0.1, 0}));
+    EXPECT_TRUE(keepsAll({}, {9, 9, 9}));
+    Rng rng(5);
+    for (int i = 0; i < 200; ++i) {
+        const auto p = v->sample(rng);
+        ASSERT_TRUE(p);
+        EXPECT_TRUE(b.holds(*p));
+    }
+    // The cap beyond x = 0.5 loses its part below y = 0.2: h = 0.5, the cap's volume
+    // πh²(3r − h)/3, of which the slice y > 0.2 (computed by the same rejection) stays.
+    const double cap = kPi * 0.5 * 0.5 * (3 - 0.5) / 3;
+    const VolumePtr capAbove =
+        makeShyClipped(makeClipped(makeSphere(1.0), {{{-1, 0, 0}, -0.5}, {{0, -1, 0}, -0.2}}), {});
+    EXPECT_NEAR(v->measure(), 4 * kPi / 3 - cap + capAbove->measure(), 0.05);
+    EXPECT_EQ(makeShyClipped(makeSphere(1.0), {})->describe(), makeSphere(1.0)->describe());
+}
+
 }  // namespace
 }  // namespace sylva
