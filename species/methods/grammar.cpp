@@ -312,15 +312,8 @@ bool cutAtGround(StemSamples& ss) {
     return false;
 }
 
-// Crown shyness (GrammarOptions::shyBounds), each plane moved back by u × its slack: a sample
-// beyond a bound is moved onto its plane when the stem rises there (its last segment more than
-// kShySlideRise above the horizontal: it grows on up along the neighbour's crown, as a shaded
-// shoot turns to the light above), and the stem stops at the sample before it otherwise.
-// Returns the number of segments kept (0: not even the first).
-constexpr double kShySlideRise = 0.5;  // sin 30°
-
-// Every sample beyond a bound moved onto its plane (the bounds in order), the derivative
-// turned along it: a leaning trunk grows on up along a neighbour's plane.
+// A sample beyond a bound moved onto its plane (the bounds in order), its derivative turned
+// along it.
 void slideOnto(Vec3& p, Vec3& der, const std::vector<ShyBound>& bounds) {
     for (const ShyBound& b : bounds) {
         if (b.holds(p)) continue;
@@ -329,9 +322,18 @@ void slideOnto(Vec3& p, Vec3& der, const std::vector<ShyBound>& bounds) {
     }
 }
 
+// Crown shyness for a trunk (GrammarOptions::shyBounds): never stopped, every sample beyond a
+// plane moved onto it — a leaning trunk grows on up along a neighbour's plane.
 void slideInsideBounds(StemSamples& ss, const std::vector<ShyBound>& bounds) {
     for (size_t i = 1; i < ss.point.size(); ++i) slideOnto(ss.point[i], ss.der[i], bounds);
 }
+
+// Crown shyness (GrammarOptions::shyBounds), each plane moved back by u × its slack: a sample
+// beyond a bound is moved onto its plane when the stem rises there (its last segment more than
+// kShySlideRise above the horizontal: it grows on up along the neighbour's crown, as a shaded
+// shoot turns to the light above), and the stem stops at the sample before it otherwise.
+// Returns the number of segments kept (0: not even the first).
+constexpr double kShySlideRise = 0.5;  // sin 30°
 
 int keepInsideBounds(StemSamples& ss, const std::vector<ShyBound>& bounds, double u) {
     std::vector<ShyBound> moved = bounds;

@@ -503,8 +503,8 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
                 const size_t i = m[k];
                 ColonizingTree& c = together[k];
                 c.options = scaledOptions(*prepared[i].method->spaceColonization(), preScale[i]);
-                // Crown shyness toward every close neighbour, in the layer both crowns share:
-                // the crown's markers drawn on its side of the planes only, as many as the
+                // Crown shyness toward every close neighbour, up to the lower crown's top: the
+                // crown's markers drawn on its side of the planes only, as many as the
                 // species' density there gives (the crown volume's share kept), and its buds
                 // perceive no marker beyond them (another tree's) — a marker in the gap is
                 // nobody's. The crown is at plot scale, about the tree's root, here.
@@ -521,7 +521,8 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
                     }
                     const VolumePtr whole = c.options.crown;
                     c.options.crown = makeShyClipped(whole, std::move(local));
-                    const double kept = c.options.crown->measure() / whole->measure();
+                    const double all = whole->measure();
+                    const double kept = all > 0 ? c.options.crown->measure() / all : 1.0;
                     c.options.markers = static_cast<int>(
                         std::lround(c.options.markers * std::clamp(kept, 0.0, 1.0)));
                     c.territory = pbounds[i];
