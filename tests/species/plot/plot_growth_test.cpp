@@ -437,6 +437,15 @@ TEST(PlotGrowth, OneAndTwoThreadsGrowTheSamePlot) {
         EXPECT_TRUE(one == two);
         EXPECT_TRUE(one == serial);
     }
+    // Grammar trees among colonizers: stopped branches, slid trunks and the regrowth passes.
+    const PlotSpec mixed = makeSpec({"lemon.toml", "small-colonizer.toml"}, 30, 60);
+    const PlotLayout layout = row(6, 2.0, -1);
+    std::string one, two;
+    tbb::task_arena(1).execute([&] { one = serialize(growPlot(mixed, layout, nullptr, true)); });
+    tbb::task_arena(2).execute([&] { two = serialize(growPlot(mixed, layout, nullptr, true)); });
+    EXPECT_FALSE(one.empty());
+    EXPECT_TRUE(one == two);
+    EXPECT_TRUE(one == serialize(growPlot(mixed, layout, nullptr, false)));
 }
 
 TEST(PlotGrowth, CrownStatisticsHaveKnownAnswers) {
