@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <sstream>
 #include <thread>
@@ -26,6 +27,23 @@ using test::addNode;
 using test::slurp;
 
 namespace fs = std::filesystem;
+
+// Runs `body` in a forked child whose files may not grow past 4096 bytes (SIGXFSZ ignored, so
+// a write beyond fails with EFBIG: no root and no small file system needed) and returns the
+// child's exit code, body's result (10 if the limit could not be set, −1 if it did not exit).
+int exitCodeUnderFileSizeLimit(const std::function<int()>& body) {
+    const pid_t child = ::fork();
+    if (child == 0) {
+        ::signal(SIGXFSZ, SIG_IGN);
+        struct rlimit rl = {4096, 4096};
+        if (::setrlimit(RLIMIT_FSIZE, &rl) != 0) ::_exit(10);
+        ::_exit(body());
+    }
+    if (child < 0) return -1;
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
 
 Tree smallTree() {
     Tree t;
@@ -220,25 +238,17 @@ TEST(AtomicFileWriter, StreamsPiecesThenCommitsOrLeavesNothing) {
     EXPECT_EQ(listDir(file.parent_path()), std::vector<std::string>{"streamed.bin"});
 
     const fs::path big = tmp.path() / "big.bin";
-    const pid_t child = ::fork();
-    if (child == 0) {
-        ::signal(SIGXFSZ, SIG_IGN);
-        struct rlimit rl = {4096, 4096};
-        if (::setrlimit(RLIMIT_FSIZE, &rl) != 0) ::_exit(10);
-        try {
-            AtomicFileWriter w(big, 4096);
-            for (int i = 0; i < 10; ++i) w.write(std::string(1000, 'x'));
-            w.commit();
-            ::_exit(11);
-        } catch (const ResourceError& e) {
-            ::_exit(e.error() == EFBIG && e.path() == big.string() ? 0 : 12);
-        }
-    }
-    ASSERT_GT(child, 0);
-    int status = 0;
-    ::waitpid(child, &status, 0);
-    ASSERT_TRUE(WIFEXITED(status)) << status;
-    EXPECT_EQ(WEXITSTATUS(status), 0);
+    EXPECT_EQ(exitCodeUnderFileSizeLimit([&] {
+                  try {
+                      AtomicFileWriter w(big, 4096);
+                      for (int i = 0; i < 10; ++i) w.write(std::string(1000, 'x'));
+                      w.commit();
+                      return 11;
+                  } catch (const ResourceError& e) {
+                      return e.error() == EFBIG && e.path() == big.string() ? 0 : 12;
+                  }
+              }),
+              0);
     EXPECT_EQ(listDir(tmp.path()), std::vector<std::string>{"d"});  // no big.bin, no temp
 }
 
@@ -273,33 +283,26 @@ TEST(AppendLog, AppendsAndDropsTornLastLine) {
 TEST(AppendLog, FullDiskIsAResourceErrorAndLeavesCompleteLines) {
     TempDir tmp;
     const fs::path file = tmp.path() / "big.bin", log = tmp.path() / "manifest.jsonl";
-    const pid_t child = ::fork();
-    if (child == 0) {
-        ::signal(SIGXFSZ, SIG_IGN);
-        struct rlimit rl = {4096, 4096};
-        if (::setrlimit(RLIMIT_FSIZE, &rl) != 0) ::_exit(10);
-        try {
-            writeFileAtomic(file, std::string(10000, 'x'));
-            ::_exit(11);
-        } catch (const ResourceError& e) {
-            if (e.error() != EFBIG || e.path() != file.string()) ::_exit(12);
-        }
-        AppendLog a(log);
-        const std::string line(1000, 'y');
-        for (int i = 0; i < 10; ++i) {
-            try {
-                a.append(line);
-            } catch (const ResourceError& e) {
-                ::_exit(e.error() == EFBIG && i == 4 ? 0 : 13);  // 4 × 1001 bytes fit in 4096
-            }
-        }
-        ::_exit(14);
-    }
-    ASSERT_GT(child, 0);
-    int status = 0;
-    ::waitpid(child, &status, 0);
-    ASSERT_TRUE(WIFEXITED(status)) << status;
-    EXPECT_EQ(WEXITSTATUS(status), 0);
+    EXPECT_EQ(exitCodeUnderFileSizeLimit([&] {
+                  try {
+                      writeFileAtomic(file, std::string(10000, 'x'));
+                      return 11;
+                  } catch (const ResourceError& e) {
+                      if (e.error() != EFBIG || e.path() != file.string()) return 12;
+                  }
+                  AppendLog a(log);
+                  const std::string line(1000, 'y');
+                  for (int i = 0; i < 10; ++i) {
+                      try {
+                          a.append(line);
+                      } catch (const ResourceError& e) {
+                          // 4 × 1001 bytes fit in 4096.
+                          return e.error() == EFBIG && i == 4 ? 0 : 13;
+                      }
+                  }
+                  return 14;
+              }),
+              0);
     EXPECT_FALSE(fs::exists(file));
     EXPECT_EQ(listDir(tmp.path()), std::vector<std::string>{"manifest.jsonl"});
     EXPECT_EQ(fs::file_size(log), 4u * 1001u);  // the fifth line's first 92 bytes cut off again

@@ -108,6 +108,15 @@ std::string bytesOf(const std::vector<ScanPoint>& pts) {
     return s;
 }
 
+// A tree's tube and leaf meshes as the build makes them, with the skeleton node of every wood
+// triangle.
+std::pair<TreeMesh, std::vector<int32_t>> meshTree(const Tree& tree) {
+    std::pair<TreeMesh, std::vector<int32_t>> m;
+    m.first.wood = tubeMesh(tree, TubeOptions{}, &m.second);
+    m.first.leaves = leafMesh(tree);
+    return m;
+}
+
 }  // namespace
 
 TEST(Scanner, PlaneAtKnownDistanceGivesTheAnalyticRange) {
@@ -267,10 +276,7 @@ TEST(Scanner, ReturnsPerPulseNeverExceedTheMaximum) {
 
 TEST(Scanner, EveryPointCarriesTheLabelOfTheTriangleItHit) {
     const Tree tree = test::handTree(6, 0.2, 2.0, 0.3);
-    TreeMesh mesh;
-    std::vector<int32_t> nodes;
-    mesh.wood = tubeMesh(tree, TubeOptions{}, &nodes);
-    mesh.leaves = leafMesh(tree);
+    const auto [mesh, nodes] = meshTree(tree);
     const ScanScene s = makeScanScene(tree, mesh, nodes, 10);
     ScanOptions o = defaultScanOptions(ScanPlatform::kTls);
     o.stations = {{0, 6, 1.5}};
@@ -364,10 +370,7 @@ TEST(Scanner, OneStationSeesOnlyTheNearHalfOfATrunk) {
 
 TEST(Scanner, OneAndTwoThreadsGiveTheSamePoints) {
     const Tree tree = test::handTree(6, 0.2, 2.0, 0.3);
-    TreeMesh mesh;
-    std::vector<int32_t> nodes;
-    mesh.wood = tubeMesh(tree, TubeOptions{}, &nodes);
-    mesh.leaves = leafMesh(tree);
+    const auto [mesh, nodes] = meshTree(tree);
     const ScanScene s = makeScanScene(tree, mesh, nodes, 10);
     ScanOptions o = defaultScanOptions(ScanPlatform::kTls);
     o.stations = {{0, 5, 1.5}, {4, -3, 1.2}};
@@ -503,10 +506,7 @@ TEST(Scanner, AnInstancedTreeScansAsTheSameTreePlacedFlat) {
     // and as an instance of its prototype. The same pulses give the same points, intensities
     // (incidence from the instance's rotated normals) and labels, with the instance's tree id.
     const Tree tree = test::handTree(5, 0.2, 1.8, 0.0);
-    TreeMesh mesh;
-    std::vector<int32_t> nodes;
-    mesh.wood = tubeMesh(tree, TubeOptions{}, &nodes);
-    mesh.leaves = leafMesh(tree);
+    const auto [mesh, nodes] = meshTree(tree);
     const double a = 70 * kScanDeg;
     const Vec3 base{2, 0, -6};
     TreeMesh placed = mesh;
