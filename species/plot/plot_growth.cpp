@@ -472,6 +472,15 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
             b.slack = 0.5 * gap;
             return true;
         };
+        // A bound of tree i (plot frame) in the tree's own frame at scale 1/s: its root at the
+        // origin, metres divided by s.
+        auto treeFrame = [&](ShyBound b, size_t i, double s) {
+            b.plane.offset = (b.plane.offset - dot(b.plane.normal, stems[i].base)) / s;
+            b.low = (b.low - stems[i].base.y) / s;
+            b.high = (b.high - stems[i].base.y) / s;
+            b.slack /= s;
+            return b;
+        };
 
         // 3a. Space colonization: one shared marker set per group of trees that reach each
         // other (connected through close neighbours), every tree at its target scale; the
@@ -513,12 +522,8 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
                     if (shyBound(i, j, b)) pbounds[i].push_back(b);
                 }
                 if (c.options.crown && !pbounds[i].empty()) {
-                    std::vector<ShyBound> local = pbounds[i];
-                    for (ShyBound& b : local) {
-                        b.plane.offset -= dot(b.plane.normal, stems[i].base);
-                        b.low -= stems[i].base.y;
-                        b.high -= stems[i].base.y;
-                    }
+                    std::vector<ShyBound> local;
+                    for (const ShyBound& b : pbounds[i]) local.push_back(treeFrame(b, i, 1.0));
                     const VolumePtr whole = c.options.crown;
                     c.options.crown = makeShyClipped(whole, std::move(local));
                     const double all = whole->measure();
@@ -568,14 +573,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
                     plotClip[i].push_back({u, dot(u, stems[i].base) + offset});
                 }
                 ShyBound b;
-                if (!hasVolumes && shyBound(i, j, b)) {
-                    u = b.plane.normal;
-                    b.plane.offset = (b.plane.offset - dot(u, stems[i].base)) / s;
-                    b.low = (b.low - stems[i].base.y) / s;
-                    b.high = (b.high - stems[i].base.y) / s;
-                    b.slack /= s;
-                    nb.bounds.push_back(b);
-                }
+                if (!hasVolumes && shyBound(i, j, b)) nb.bounds.push_back(treeFrame(b, i, s));
                 const double d = std::hypot(stems[j].base.x - stems[i].base.x,
                                             stems[j].base.z - stems[i].base.z);
                 const Vec3 toJ{stems[j].base.x - stems[i].base.x, 0,
