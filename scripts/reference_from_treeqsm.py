@@ -19,7 +19,17 @@ path with '/' replaced by '_', the newest version of a path last:
 
 then
     /usr/bin/python3 scripts/reference_from_treeqsm.py DATA \
-        --out species/reference/treeqsm-broadleaf.json --markdown TABLE.md
+        --out species/reference/treeqsm-broadleaf.json --markdown TABLE.md --split
+
+With --split it also writes treeqsm-broadleaf-fit.json and treeqsm-broadleaf-holdout.json next
+to --out: the same tables over two fixed halves of the trees (SPLIT_RULE below: stratified by
+source and height, 26 trees fit, 25 held out; each file's "split" names the rule and its trees,
+its "trees", "sources" and n/trees counts are its half's), for fitting species to one half and
+judging them on the other. It prints the two-sample KS distance between the halves per
+distribution — the noise floor a model cannot be expected to beat on the held-out trees — both
+between the tree-weighted samples and between the two quantile tables as `sylva stats` reads
+them; --random-splits N adds its median and 90th percentile over N random splits of the same
+sizes per source.
 
 Needs numpy and scipy (Debian: python3-numpy python3-scipy; scipy.io.loadmat reads the .mat
 files). TreeQSM's cylinder fields (treeqsm.m): radius, length (m), start (xyz, z up), axis
@@ -280,6 +290,169 @@ def markdown_table(dists):
     return out
 
 
+SPLIT_RULE = (
+    "by tree, stratified by source and height: the sources are taken from the fewest trees to "
+    "the most (rTwig 1, qsm2r 2, ITSMe 5, treeRchitecture 43); within a source the trees are "
+    "sorted by height (ascending, ties by file name) and dealt alternately to the two halves, "
+    "starting with the half that has fewer trees so far (fit when equal). So rTwig's one tree "
+    "goes to fit, the shorter walnut to holdout, ITSMe's 1st, 3rd and 5th by height to holdout, "
+    "and treeRchitecture's 1st, 3rd, ... 43rd to fit: 26 trees fit, 25 holdout, each half with "
+    "small and giant trees of every source it can have")
+
+
+def split_trees(records):
+    """The fit / holdout split of SPLIT_RULE: a list of 'fit' or 'holdout', one per record."""
+    by_source = {}
+    for i, r in enumerate(records):
+        by_source.setdefault(r["source"], []).append(i)
+    half = [None] * len(records)
+    count = {"fit": 0, "holdout": 0}
+    for source in sorted(by_source, key=lambda s: (len(by_source[s]), s)):
+        idx = sorted(by_source[source],
+                     key=lambda i: (records[i]["counts"]["height_m"], records[i]["file"]))
+        first = "fit" if count["fit"] <= count["holdout"] else "holdout"
+        second = "holdout" if first == "fit" else "fit"
+        for k, i in enumerate(idx):
+            half[i] = first if k % 2 == 0 else second
+            count[half[i]] += 1
+    return half
+
+
+def distributions(records, probs, quiet=False):
+    """The quantile tables of the records' trees (each tree weighs 1)."""
+    dists = {}
+    for key, unit, definition in DISTRIBUTIONS:
+        groups = [r["values"][key] for r in records if len(r["values"][key]) >= MIN_VALUES]
+        allv = [x for g in groups for x in g]
+        qs = weighted_quantiles(groups, probs)
+        dists[key] = {"unit": unit, "definition": definition, "n": len(allv),
+                      "trees": len(groups), "min": min(allv), "max": max(allv),
+                      "p": probs, "q": [round(x, 6) for x in qs]}
+        if not quiet:
+            print("%-22s n=%6d trees=%2d  q05 %.3f  q25 %.3f  q50 %.3f  q75 %.3f  q95 %.3f  "
+                  "[%.3f, %.3f]" % (key, len(allv), len(groups), *[np.interp(p, probs, qs)
+                                    for p in (0.05, 0.25, 0.5, 0.75, 0.95)],
+                                    min(allv), max(allv)))
+    return dists
+
+
+def source_counts(records):
+    sources = {}
+    for r in records:
+        s = sources.setdefault(r["source"], {"trees": 0, "cylinders": 0, "forks": 0,
+                                             "capped_forks": 0, "species": []})
+        s["trees"] += 1
+        for k in ("cylinders", "forks", "capped_forks"):
+            s[k] += r["counts"][k]
+        if r["species"] not in s["species"]:
+            s["species"].append(r["species"])
+    return sources
+
+
+def reference_json(records, dists, name, description, split=None):
+    ref = {
+        "name": name,
+        "description": description,
+        "derivation": "scripts/reference_from_treeqsm.py",
+        "weighting": "every tree weighs 1 (each of its values 1/n_tree); a tree joins a "
+                     "distribution with at least %d values of it" % MIN_VALUES,
+        "quantiles": "p: probabilities (0 = min, 1 = max), q: quantiles of the "
+                     "tree-weighted pooled values, linear between cumulative-weight "
+                     "midpoints",
+        "cap_ratio": CAP_RATIO,
+        "trees": len(records),
+    }
+    if split is not None:
+        ref["split"] = split
+    ref["sources"] = [{"repository": SOURCES[src][0], "paper": SOURCES[src][1], **s}
+                      for src, s in source_counts(records).items()]
+    ref["distributions"] = dists
+    return ref
+
+
+def ks_weighted(groups_a, groups_b):
+    """Exact two-sample KS distance between two tree-weighted samples (each group, a tree,
+    weighs 1 in total): sup |F_a - F_b| of the weighted empirical step CDFs."""
+    def cdf(groups):
+        v = np.concatenate([np.asarray(g, float) for g in groups])
+        w = np.concatenate([np.full(len(g), 1.0 / len(g)) for g in groups])
+        o = np.argsort(v, kind="stable")
+        return v[o], np.cumsum(w[o]) / w.sum()
+    va, ca = cdf(groups_a)
+    vb, cb = cdf(groups_b)
+    x = np.union1d(va, vb)
+    fa = np.concatenate([[0.0], ca])[np.searchsorted(va, x, side="right")]
+    fb = np.concatenate([[0.0], cb])[np.searchsorted(vb, x, side="right")]
+    return float(np.max(np.abs(fa - fb)))
+
+
+def table_cdf(p, q, x, side):
+    """The piecewise-linear CDF through the table's points (q_k, p_k), as `sylva stats` builds
+    it (docs/metrics.md, "The KS distance"), at x from the left or the right."""
+    p = np.asarray(p, float)
+    q = np.asarray(q, float)
+    if side == "right":
+        if x < q[0]:
+            return 0.0
+        if x >= q[-1]:
+            return 1.0
+        k = int(np.searchsorted(q, x, side="right")) - 1
+        return float(p[k] + (p[k + 1] - p[k]) * (x - q[k]) / (q[k + 1] - q[k]))
+    if x <= q[0]:
+        return 0.0
+    if x > q[-1]:
+        return 1.0
+    k = int(np.searchsorted(q, x, side="left"))
+    return float(p[k - 1] + (p[k] - p[k - 1]) * (x - q[k - 1]) / (q[k] - q[k - 1]))
+
+
+def ks_tables(a, b):
+    """KS distance between two quantile tables, both read as sylva reads a reference: the
+    largest difference of their piecewise-linear CDFs at any knot, from either side."""
+    d = 0.0
+    for x in np.union1d(a["q"], b["q"]):
+        for side in ("left", "right"):
+            d = max(d, abs(table_cdf(a["p"], a["q"], x, side) -
+                           table_cdf(b["p"], b["q"], x, side)))
+    return d
+
+
+def split_noise(records, halves, probs, random_splits, seed):
+    """KS between the fit and holdout halves, per distribution, and the same over random
+    splits of the same sizes per source (to show how much the floor itself varies)."""
+    out = {}
+    for key, _, _ in DISTRIBUTIONS:
+        groups = {h: [r["values"][key] for r, hh in zip(records, halves)
+                      if hh == h and len(r["values"][key]) >= MIN_VALUES]
+                  for h in ("fit", "holdout")}
+        out[key] = {"ks": ks_weighted(groups["fit"], groups["holdout"])}
+    tabs = {h: distributions([r for r, hh in zip(records, halves) if hh == h], probs, True)
+            for h in ("fit", "holdout")}
+    for key in out:
+        out[key]["ks_tables"] = ks_tables(tabs["fit"][key], tabs["holdout"][key])
+    if random_splits:
+        rng = np.random.default_rng(seed)
+        by_source = {}
+        for i, r in enumerate(records):
+            by_source.setdefault(r["source"], []).append(i)
+        n_fit = {s: sum(1 for i in idx if halves[i] == "fit") for s, idx in by_source.items()}
+        ds = {key: [] for key in out}
+        for _ in range(random_splits):
+            fit = set()
+            for s, idx in by_source.items():
+                fit.update(rng.permutation(idx)[:n_fit[s]].tolist())
+            for key in out:
+                ga = [records[i]["values"][key] for i in range(len(records))
+                      if i in fit and len(records[i]["values"][key]) >= MIN_VALUES]
+                gb = [records[i]["values"][key] for i in range(len(records))
+                      if i not in fit and len(records[i]["values"][key]) >= MIN_VALUES]
+                ds[key].append(ks_weighted(ga, gb))
+        for key in out:
+            out[key]["random_median"] = float(np.median(ds[key]))
+            out[key]["random_p90"] = float(np.quantile(ds[key], 0.9))
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("data", help="directory with treeRchitecture/, qsm2r/, rTwig/, ITSMe/")
@@ -287,44 +460,34 @@ def main():
     ap.add_argument("--step", type=float, default=0.02, help="quantile step (default 0.02)")
     ap.add_argument("--per-tree", help="write a CSV of per-tree counts and medians here")
     ap.add_argument("--markdown", help="write the quantile table of docs/metrics.md here")
+    ap.add_argument("--split", action="store_true",
+                    help="also write <out>-fit.json and <out>-holdout.json next to --out (the "
+                         "split by tree of SPLIT_RULE) and print the KS distance between them")
+    ap.add_argument("--random-splits", type=int, default=0,
+                    help="with --split: also KS over this many random splits of the same "
+                         "sizes per source (seed 1)")
     args = ap.parse_args()
+    if args.split and not args.out:
+        ap.error("--split needs --out")
 
     probs = [round(k * args.step, 10) for k in range(int(round(1 / args.step)) + 1)]
-    per = {k: [] for k, _, _ in DISTRIBUTIONS}
-    sources = {}
+    records = []
     rows = []
     for source, name, var, species, note in TREES:
         path = os.path.join(args.data, source, name)
         if not os.path.exists(path):
             raise SystemExit("%s: missing (see the recipe at the top of this script)" % path)
         values, counts = measure(load_qsm(path, var))
-        for k in per:
-            per[k].append(values[k])
-        s = sources.setdefault(source, {"trees": 0, "cylinders": 0, "forks": 0,
-                                        "capped_forks": 0, "species": []})
-        s["trees"] += 1
-        for k in ("cylinders", "forks", "capped_forks"):
-            s[k] += counts[k]
-        if species not in s["species"]:
-            s["species"].append(species)
+        records.append({"source": source, "file": name, "species": species, "values": values,
+                        "counts": counts})
         row = {"source": source, "file": name, **counts}
-        for k in per:
+        for k, _, _ in DISTRIBUTIONS:
             row[k + "_n"] = len(values[k])
             row[k + "_median"] = float(np.median(values[k])) if values[k] else math.nan
         rows.append(row)
 
-    dists = {}
-    for key, unit, definition in DISTRIBUTIONS:
-        groups = [g for g in per[key] if len(g) >= MIN_VALUES]
-        allv = [x for g in groups for x in g]
-        qs = weighted_quantiles(groups, probs)
-        dists[key] = {"unit": unit, "definition": definition, "n": len(allv),
-                      "trees": len(groups), "min": min(allv), "max": max(allv),
-                      "p": probs, "q": [round(x, 6) for x in qs]}
-        print("%-22s n=%6d trees=%2d  q05 %.3f  q25 %.3f  q50 %.3f  q75 %.3f  q95 %.3f  "
-              "[%.3f, %.3f]" % (key, len(allv), len(groups), *[np.interp(p, probs, qs) for p in
-                                (0.05, 0.25, 0.5, 0.75, 0.95)], min(allv), max(allv)))
-    for src, s in sources.items():
+    dists = distributions(records, probs)
+    for src, s in source_counts(records).items():
         print("%-16s trees %3d  cylinders %6d  forks %5d (capped %d)" %
               (src, s["trees"], s["cylinders"], s["forks"], s["capped_forks"]))
 
@@ -339,24 +502,38 @@ def main():
         with open(args.markdown, "w") as f:
             f.write(markdown_table(dists))
     if args.out:
-        ref = {
-            "name": "treeqsm-broadleaf",
-            "description": "Broadleaf tree architecture from published TreeQSM models "
-                           "(terrestrial laser scans); see README.md for the sources",
-            "derivation": "scripts/reference_from_treeqsm.py",
-            "weighting": "every tree weighs 1 (each of its values 1/n_tree); a tree joins a "
-                         "distribution with at least %d values of it" % MIN_VALUES,
-            "quantiles": "p: probabilities (0 = min, 1 = max), q: quantiles of the "
-                         "tree-weighted pooled values, linear between cumulative-weight "
-                         "midpoints",
-            "cap_ratio": CAP_RATIO,
-            "trees": len(TREES),
-            "sources": [{"repository": SOURCES[src][0], "paper": SOURCES[src][1], **s}
-                        for src, s in sources.items()],
-            "distributions": dists,
-        }
+        ref = reference_json(records, dists, "treeqsm-broadleaf",
+                             "Broadleaf tree architecture from published TreeQSM models "
+                             "(terrestrial laser scans); see README.md for the sources")
         with open(args.out, "w") as f:
             f.write(compact_json(ref) + "\n")
+    if args.split:
+        halves = split_trees(records)
+        stem = args.out[:-5] if args.out.endswith(".json") else args.out
+        for h in ("fit", "holdout"):
+            sub = [r for r, hh in zip(records, halves) if hh == h]
+            print("\n%s half: %d trees" % (h, len(sub)))
+            d = distributions(sub, probs)
+            split = {"half": h, "rule": SPLIT_RULE,
+                     "other_half": os.path.basename(stem) + "-" +
+                                   ("holdout" if h == "fit" else "fit") + ".json",
+                     "trees": ["%s/%s" % (r["source"], r["file"]) for r in sub],
+                     "height_m": [round(r["counts"]["height_m"], 2) for r in sub]}
+            ref = reference_json(sub, d, "treeqsm-broadleaf-" + h,
+                                 "The %s half of treeqsm-broadleaf (51 TreeQSM broadleaf "
+                                 "trees split by tree, see \"split\" and README.md)" % h,
+                                 split)
+            with open("%s-%s.json" % (stem, h), "w") as f:
+                f.write(compact_json(ref) + "\n")
+        noise = split_noise(records, halves, probs, args.random_splits, 1)
+        print("\nKS distance, fit half vs holdout half (tree-weighted step CDFs; between the "
+              "two quantile tables as sylva reads them%s):" %
+              ("; median and 90 %% over %d random splits" % args.random_splits
+               if args.random_splits else ""))
+        for key, v in noise.items():
+            extra = ("  random median %.3f  p90 %.3f" % (v["random_median"], v["random_p90"])
+                     if "random_median" in v else "")
+            print("  %-22s %.3f  tables %.3f%s" % (key, v["ks"], v["ks_tables"], extra))
 
 
 if __name__ == "__main__":
