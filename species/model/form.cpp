@@ -1,13 +1,21 @@
 #include "species/model/form.h"
 
+
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
+#include "volumes/point_grid.h"
+
 namespace sylva {
 
+bool FormOptions::turnsBranches() const {
+    return angleSdRad > 0 || bendRadPerM != 0 || bendSdRadPerM > 0 || lengthSd > 0;
+}
+
 bool FormOptions::active() const {
-    return clearBole > 0 || pipeExponent > 0 || scale != 1.0 || asymmetry > 0 || leanRad > 0 ||
-           ground != GroundRule::kNone;
+    return clearBole > 0 || pipeExponent > 0 || turnsBranches() || scale != 1.0 ||
+           width != 1.0 || asymmetry > 0 || leanRad > 0 || ground != GroundRule::kNone;
 }
 
 namespace {
@@ -67,6 +75,7 @@ void clearBole(Tree& tree, double height) {
 // directions).
 struct ShootMap {
     double scale = 1.0;
+    double width = 1.0;  // × horizontal, over scale
     double asymmetry = 0.0;
     Vec3 along{1, 0, 0}, across{0, 0, 1};  // the asymmetry's horizontal axes
     Vec3 leanAxis{0, 0, 1};
@@ -75,6 +84,8 @@ struct ShootMap {
     Vec3 turn(const Vec3& v) const { return lean > 0 ? rotate(v, leanAxis, lean) : v; }
     Vec3 operator()(Vec3 p) const {
         p = p * scale;
+        p.x *= width;
+        p.z *= width;
         if (asymmetry > 0) {
             p += along * (asymmetry * dot(p, along)) - across * (asymmetry * dot(p, across));
         }
@@ -121,38 +132,164 @@ void pruneAtGround(Tree& tree) {
 
 }  // namespace
 
-void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
-                    double baseRadius) {
+void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper, double baseRadius,
+                    double exponentSd, const Rng* rng) {
     auto& nodes = tree.nodes;
     const int32_t n = static_cast<int32_t>(nodes.size());
     if (n == 0) return;
     const ChildIndex children(tree);
+    // The exponent of each fork: the mean, or a draw of its own keyed by the fork's index.
+    auto forkExponent = [&](int32_t i) {
+        if (!(exponentSd > 0) || rng == nullptr) return exponent;
+        Rng draw = rng->derive(static_cast<uint64_t>(i));
+        for (int attempt = 0; attempt < 8; ++attempt) {
+            const double e = draw.normal(exponent, exponentSd);
+            if (e >= kMinForkExponent && e <= kMaxForkExponent) return e;
+        }
+        return exponent;
+    };
+    // Radii from the tips with the exponents `exponentAt` gives; children have larger indices
+    // than their parents, so one reverse sweep sees them first.
     std::vector<double> r(n, 0.0);
-    // Children have larger indices than their parents: one reverse sweep sees them first.
-    for (int32_t i = n - 1; i >= 0; --i) {
-        if (!isShoot(nodes[i]) && i != 0) continue;
-        int shootChildren = 0;
-        double sum = 0.0, only = 0.0;
-        int32_t onlyChild = -1;
-        for (int32_t k = children.offset[i]; k < children.offset[i + 1]; ++k) {
-            const int32_t c = children.child[k];
-            if (!isShoot(nodes[c])) continue;
-            ++shootChildren;
-            sum += std::pow(r[c], exponent);
-            only = r[c];
-            onlyChild = c;
+    auto sweep = [&](auto&& exponentAt) {
+        for (int32_t i = n - 1; i >= 0; --i) {
+            if (!isShoot(nodes[i]) && i != 0) continue;
+            int shootChildren = 0;
+            double only = 0.0;
+            int32_t onlyChild = -1;
+            for (int32_t k = children.offset[i]; k < children.offset[i + 1]; ++k) {
+                const int32_t c = children.child[k];
+                if (!isShoot(nodes[c])) continue;
+                ++shootChildren;
+                only = r[c];
+                onlyChild = c;
+            }
+            if (shootChildren == 0) {
+                r[i] = i == 0 ? nodes[0].radius : tipRadius;  // a rootless base keeps its radius
+            } else if (shootChildren == 1) {
+                r[i] = only * (1.0 + taper * distance(nodes[i].position, nodes[onlyChild].position));
+            } else {
+                const double e = exponentAt(i);
+                double sum = 0.0;
+                for (int32_t k = children.offset[i]; k < children.offset[i + 1]; ++k) {
+                    const int32_t c = children.child[k];
+                    if (isShoot(nodes[c])) sum += std::pow(r[c], e);
+                }
+                r[i] = std::pow(sum, 1.0 / e);
+            }
         }
-        if (shootChildren == 0) {
-            r[i] = i == 0 ? nodes[0].radius : tipRadius;  // a rootless base keeps its radius
-        } else if (shootChildren == 1) {
-            r[i] = only * (1.0 + taper * distance(nodes[i].position, nodes[onlyChild].position));
-        } else {
-            r[i] = std::pow(sum, 1.0 / exponent);
-        }
+    };
+    double base = baseRadius;
+    if (exponentSd > 0 && rng != nullptr && !(baseRadius > 0)) {
+        sweep([&](int32_t) { return exponent; });
+        base = r[0];
     }
-    const double k = baseRadius > 0 && r[0] > 0 ? baseRadius / r[0] : 1.0;
+    sweep(forkExponent);
+    const double k = base > 0 && r[0] > 0 ? base / r[0] : 1.0;
     for (int32_t i = 0; i < n; ++i) {
         if (isShoot(nodes[i]) || i == 0) nodes[i].radius = r[i] * k;
+    }
+}
+
+namespace {
+
+// A rotation as the images of the axes (Frame's toWorld applies it).
+Frame identityRotation() { return {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}; }
+Frame rotated(const Frame& f, const Vec3& axis, double angle) {
+    return {rotate(f.u, axis, angle), rotate(f.v, axis, angle), rotate(f.w, axis, angle)};
+}
+
+constexpr double kDeg = kPi / 180.0;
+constexpr double kMaxElevation = 80 * kDeg;  // a bending segment stops this far from vertical
+constexpr double kMinInsertion = 5 * kDeg, kMaxInsertion = 150 * kDeg;
+constexpr double kFreeLeafReach = 1.0;  // metres: a free leaf moves with a shoot node this near
+constexpr double kMinStretch = 0.25, kMaxStretch = 3.0;  // a branch's drawn length factor
+
+}  // namespace
+
+void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
+    auto& nodes = tree.nodes;
+    const int32_t n = static_cast<int32_t>(nodes.size());
+    if (n < 2) return;
+    const Vec3 up{0, 1, 0};
+    std::vector<Vec3> was(n);
+    for (int32_t i = 0; i < n; ++i) was[i] = nodes[i].position;
+    std::vector<Frame> turn(n, identityRotation());
+    std::vector<double> bend(n, 0.0);     // the branch's rate, radians per metre (down > 0)
+    std::vector<double> stretch(n, 1.0);  // the branch's length factor
+    const Rng branches = rng.derive("form-branches");
+    for (int32_t i = 1; i < n; ++i) {
+        SkeletonNode& node = nodes[i];
+        const int32_t p = node.parent;
+        if (!isShoot(node)) {  // roots keep their shape; a hanging one follows its node
+            node.position = was[i] + (nodes[p].position - was[p]);  // (the base never moves)
+            continue;
+        }
+        Vec3 d = turn[p].toWorld(was[i] - was[p]);  // the segment as its parent left it
+        Frame t = turn[p];
+        if (node.order > nodes[p].order && isShoot(nodes[p])) {  // a branch begins
+            // Three draws per branch, always taken in this order so that each option's draw
+            // does not depend on the others being set.
+            Rng draw = branches.derive(static_cast<uint64_t>(i));
+            const double zAngle = draw.normal(), zBend = draw.normal(), zLength = draw.normal();
+            bend[i] = o.bendRadPerM + o.bendSdRadPerM * zBend;
+            stretch[i] = std::clamp(
+                std::exp(o.lengthSd * zLength - 0.5 * o.lengthSd * o.lengthSd), kMinStretch,
+                kMaxStretch);
+            const double dAngle = node.order == 1 ? o.angleSdRad * zAngle : 0.0;
+            const int32_t pp = nodes[p].parent;
+            const Vec3 stem = pp >= 0 ? nodes[p].position - nodes[pp].position : up;
+            if (dAngle != 0 && length(d) > 0 && length(stem) > 0) {
+                const double a0 = angleBetween(stem, d);
+                const double a1 = std::clamp(a0 + dAngle, std::min(a0, kMinInsertion),
+                                             std::max(a0, kMaxInsertion));
+                Vec3 axis = cross(stem, d);
+                axis = length(axis) > 1e-9 * length(stem) * length(d)
+                           ? normalize(axis)
+                           : anyPerpendicular(normalize(stem));
+                t = rotated(t, axis, a1 - a0);
+                d = rotate(d, axis, a1 - a0);
+            }
+        } else if (node.order == nodes[p].order) {
+            bend[i] = bend[p];
+            stretch[i] = stretch[p];
+        }
+        d = d * stretch[i];
+        const double len = length(d);
+        if (node.order >= 1 && bend[i] != 0 && len > 0) {
+            const double e0 = std::asin(std::clamp(d.y / len, -1.0, 1.0));
+            const double e1 = std::clamp(e0 - bend[i] * len, std::min(e0, -kMaxElevation),
+                                         std::max(e0, kMaxElevation));
+            const Vec3 axis = cross(d, up);  // turning about it by +a raises the segment
+            if (length(axis) > 1e-9 * len) {
+                t = rotated(t, normalize(axis), e1 - e0);
+                d = rotate(d, normalize(axis), e1 - e0);
+            }
+        }
+        turn[i] = t;
+        node.position = nodes[p].position + d;
+    }
+
+    // Leaves follow the node that carries them, or the shoot node nearest a free one.
+    PackedPointGrid grid;
+    bool gridBuilt = false;
+    for (Leaf& leaf : tree.leaves) {
+        int32_t k = leaf.node;
+        if (k < 0) {
+            if (!gridBuilt) {
+                grid.assign(was, kFreeLeafReach);
+                gridBuilt = true;
+            }
+            double best = kFreeLeafReach * kFreeLeafReach;
+            grid.forEachWithin(leaf.position, kFreeLeafReach, [&](int32_t id, const Vec3& q) {
+                const double d2 = distance2(q, leaf.position);
+                if (isShoot(nodes[id]) && (d2 < best || (d2 == best && id < k))) best = d2, k = id;
+            });
+            if (k < 0) continue;
+        }
+        leaf.position = nodes[k].position + turn[k].toWorld(leaf.position - was[k]);
+        leaf.normal = turn[k].toWorld(leaf.normal);
+        leaf.tangent = turn[k].toWorld(leaf.tangent);
     }
 }
 
@@ -160,11 +297,15 @@ void applyForm(Tree& tree, const FormOptions& o, const Rng& rng) {
     if (!o.active() || tree.nodes.empty()) return;
     if (o.clearBole > 0) clearBole(tree, o.clearBole);
     if (o.pipeExponent > 0) {
-        pipeModelRadii(tree, o.pipeExponent, o.tipRadius, o.pipeTaper, o.baseRadius);
+        const Rng forks = rng.derive("form-forks");
+        pipeModelRadii(tree, o.pipeExponent, o.tipRadius, o.pipeTaper, o.baseRadius,
+                       o.pipeExponentSd, &forks);
     }
+    if (o.turnsBranches()) turnBranches(tree, o, rng);
 
     ShootMap map;
     map.scale = o.scale;
+    map.width = o.width;
     map.asymmetry = o.asymmetry;
     if (o.asymmetry > 0) {
         const double phi = 2.0 * kPi * rng.derive("form-asymmetry").uniform();

@@ -6,14 +6,22 @@
 //  2. pipe model    radii from the tips: r_parent^n = Σ r_child^n at forks (Shinozaki et al.
 //                   1964's pipe model; n = 2 is Leonardo's rule, measured 1.8–2.3 across
 //                   species by Eloy 2011, n = 3 Murray's law), a tip radius, an optional taper
-//                   along the branch between forks, optionally rescaled to a base radius
-//  3. scale         the whole tree (positions, radii) by a factor: per-instance size
-//  4. asymmetry     the shoot stretched by (1 + a) along a horizontal direction, (1 − a) across
-//  5. lean          the shoot tilted from the vertical about the base
-//  6. ground        a shoot branch that goes below y = 0 is cut where it meets the ground
+//                   along the branch between forks, optionally rescaled to a base radius; n may
+//                   be drawn per fork around the species' mean (real forks spread widely about
+//                   it: Eloy 2011, Fig. 2; the TreeQSM reference's interquartile range 1.9–4.5)
+//  3. branches      each branch leaving the stem turned at its insertion by an angle drawn per
+//                   branch; every branch stretched by a length factor drawn per branch (its
+//                   vigour) and bent along its length (gravitropic sag or upturned tips) at a
+//                   rate drawn per branch: a branch leaves at one angle and bends
+//  4. scale         the whole tree (positions, radii) by a factor: per-instance size; a
+//                   horizontal factor on top widens or narrows the crown per instance
+//  5. asymmetry     the shoot stretched by (1 + a) along a horizontal direction, (1 − a) across
+//  6. lean          the shoot tilted from the vertical about the base
+//  7. ground        a shoot branch that goes below y = 0 is cut where it meets the ground
 //
-// Leaves carried by a node (Leaf::node ≥ 0) keep their offset from it (turned with the lean),
-// so they stay on their twigs; free leaves (node −1) move as points. The root system below the
+// Leaves carried by a node (Leaf::node ≥ 0) keep their offset from it (turned with its branch
+// and the lean), so they stay on their twigs; free leaves (node −1) move as points, and with
+// step 3 they move with the shoot node nearest them. The root system below the
 // base (part == kRootPart) is only scaled; aerial roots hanging from a shoot node (prop roots)
 // move with it horizontally and stretch vertically, so a root standing on the ground stays on
 // it and a vertical one stays vertical. Frame: +y up, metres, the root node at the origin.
@@ -37,21 +45,54 @@ struct FormOptions {
                                 // toward the base between forks (≈ e^(taper · length))
     double baseRadius = 0.0;    // metres (before scaling); > 0: pipe radii rescaled so the
                                 // base has it (the tips follow); 0: radii from tipRadius
-    double scale = 1.0;         // ×, the whole tree
+    double pipeExponentSd = 0.0;  // per fork: n ~ N(pipeExponent, sd), redrawn outside
+                                  // [kMinForkExponent, kMaxForkExponent]; 0: n at every fork
+    double angleSdRad = 0.0;      // per branch leaving the stem: its insertion angle + N(0, sd),
+                                  // radians
+    double lengthSd = 0.0;        // per branch: its length × e^(σz − σ²/2), z ~ N(0, 1) (a
+                                  // log-normal factor of mean 1, held in [0.25, 3])
+    double bendRadPerM = 0.0;     // per branch: radians per metre (before scaling) turned
+                                  // toward the ground along the branch; < 0 turns it upward
+    double bendSdRadPerM = 0.0;   // per branch: spread of that rate, radians per metre
+    double scale = 1.0;           // ×, the whole tree
+    double width = 1.0;           // ×, the shoot's horizontal extent about the base (crown
+                                  // width per instance, over `scale`)
     double asymmetry = 0.0;     // fraction in [0, 0.9)
     double leanRad = 0.0;       // radians from the vertical
     GroundRule ground = GroundRule::kNone;
 
+    // True when step 3 turns or bends branches.
+    bool turnsBranches() const;
     // True when any step changes the tree.
     bool active() const;
 };
 
-// Applies the steps in the order above. `rng` gives the asymmetry's and the lean's azimuths
-// (their own derived streams). Removed nodes are dropped with their subtrees, leaves and
+// The range a fork's drawn pipe exponent is held to (the reference's own bounds are [0.5, 6];
+// below 1.2 the parent of two equal children would be more than 1.78 × as thick as each).
+constexpr double kMinForkExponent = 1.2;
+constexpr double kMaxForkExponent = 6.0;
+
+// Applies the steps in the order above. `rng` gives the per-fork exponents, the per-branch
+// turns and bends, and the asymmetry's and the lean's azimuths (each its own derived stream,
+// keyed per fork and per branch by the node index). Removed nodes are dropped with their subtrees, leaves and
 // endpoints; indices stay parent-before-child.
 void applyForm(Tree& tree, const FormOptions& options, const Rng& rng);
 
-// The pipe model alone (step 2), exposed for tests: shoot radii from the tips.
-void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper, double baseRadius);
+// The pipe model alone (step 2), exposed for tests: shoot radii from the tips. With
+// exponentSd > 0 each fork draws its own exponent from `rng` (keyed by the fork's node index);
+// without a base radius the radii are then rescaled so the base keeps the radius the mean
+// exponent gives it (the spread changes the forks, not the tree's thickness).
+void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper, double baseRadius,
+                    double exponentSd = 0.0, const Rng* rng = nullptr);
+
+// Step 3 alone, exposed for tests: every branch (a node whose order is above its parent's)
+// draws its insertion change, length factor and bend rate; a branch of order 1 (leaving the
+// stem) is turned about its fork by its insertion change, insertion angles held within
+// [5°, 150°] (unless the method's are outside); every segment of a branch is stretched by the
+// branch's factor and then turned toward (or away from) the ground by the branch's rate × its
+// length, elevations held within ±80°. Whole subtrees move with their segment; leaves go with
+// their node, at their own size and offset (free leaves with the shoot node nearest them,
+// within 1 m); hanging roots move with the node they hang from.
+void turnBranches(Tree& tree, const FormOptions& options, const Rng& rng);
 
 }  // namespace sylva

@@ -14,7 +14,16 @@ FormOptions readForm(Params& species) {
     o.tipRadius = f->number("tip_radius", o.tipRadius, Range::positive());
     o.pipeTaper = f->number("pipe_taper", o.pipeTaper, Range::closed(0, 10));
     o.baseRadius = f->number("base_radius", o.baseRadius, Range::nonNegative());
+    o.pipeExponentSd = f->number("pipe_exponent_sd", o.pipeExponentSd, Range::closed(0, 2));
+    if (o.pipeExponentSd > 0 && !(o.pipeExponent > 0)) {
+        f->fail("pipe_exponent_sd", "needs pipe_exponent (the mean it spreads about)");
+    }
+    o.angleSdRad = f->degrees("angle_sd_deg", o.angleSdRad, Range::closed(0, 45));
+    o.bendRadPerM = f->degrees("bend_deg_per_m", o.bendRadPerM, Range::closed(-90, 90));
+    o.bendSdRadPerM = f->degrees("bend_sd_deg_per_m", o.bendSdRadPerM, Range::closed(0, 90));
+    o.lengthSd = f->number("length_sd", o.lengthSd, Range::closed(0, 1.5));
     o.scale = f->number("scale", o.scale, Range::leftOpen(0, 100));
+    o.width = f->number("width", o.width, Range::closed(0.25, 4));
     o.asymmetry = f->number("asymmetry", o.asymmetry, Range::closed(0, 0.9));
     o.leanRad = f->degrees("lean_deg", o.leanRad, Range::closed(0, 60));
     o.ground =

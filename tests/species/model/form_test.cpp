@@ -1,11 +1,14 @@
 // The form stage (species/model/form.h) on hand-built skeletons with known answers: pipe-model
-// radii, the clear bole, scale, asymmetry, lean and the ground plane, leaves following their
-// twigs; and its reader's ranges.
+// radii (one exponent or one per fork), the clear bole, turned and bent branches, scale and
+// width, asymmetry, lean and the ground plane, leaves following their twigs; and its reader's
+// ranges.
 #include "species/model/form.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "species/model/tree_metrics.h"
 #include "species/spec/form_spec.h"
@@ -201,6 +204,208 @@ TEST(Form, GroundCutsBranchesAtTheGroundAndLiftsTheTrunk) {
     }
 }
 
+// A trunk of `forks` 0.1-m segments, each node carrying a 45° lateral of `segments` 0.5-m
+// segments (order 1) heading along +x.
+Tree comb(int forks, int segments) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0});
+    int32_t stem = 0;
+    for (int k = 1; k <= forks; ++k) {
+        stem = addNode(t, stem, {0, 0.1 * k, 0});
+        int32_t at = stem;
+        for (int s = 1; s <= segments; ++s) {
+            const double d = 0.5 * s / std::sqrt(2.0);
+            at = addNode(t, at, {d, 0.1 * k + d, 0}, 0.01, 1);
+        }
+    }
+    return t;
+}
+
+std::vector<double> sortedForkExponents(const Tree& t) {
+    const ChildIndex kids(t);
+    std::vector<double> e;
+    for (size_t i = 0; i < t.nodes.size(); ++i) {
+        if (kids.count(static_cast<int>(i)) < 2) continue;
+        std::vector<double> rc;
+        for (int32_t k = kids.offset[i]; k < kids.offset[i + 1]; ++k) {
+            rc.push_back(t.nodes[kids.child[k]].radius);
+        }
+        e.push_back(radiusExponent(t.nodes[i].radius, rc));
+    }
+    std::sort(e.begin(), e.end());
+    return e;
+}
+
+TEST(Form, PipeExponentSpreadDrawsOneExponentPerFork) {
+    Tree fixed = comb(400, 1);
+    pipeModelRadii(fixed, 2.5, 0.01, 0.0, 0.0);
+    Tree spread = comb(400, 1);
+    const Rng rng(7);
+    pipeModelRadii(spread, 2.5, 0.01, 0.0, 0.0, 0.6, &rng);
+    const std::vector<double> e = sortedForkExponents(spread);
+    ASSERT_EQ(e.size(), 399u);  // the top node carries only its lateral
+    // Each fork has the drawn exponent, within [1.2, 6]; N(2.5, 0.6): median 2.5, IQR 0.81.
+    EXPECT_GE(e.front(), kMinForkExponent - 1e-9);
+    EXPECT_LE(e.back(), kMaxForkExponent + 1e-9);
+    const double median = e[e.size() / 2];
+    const double iqr = e[e.size() * 3 / 4] - e[e.size() / 4];
+    EXPECT_NEAR(median, 2.5, 0.1);
+    EXPECT_NEAR(iqr, 1.349 * 0.6, 0.15);
+    // The fixed exponent has no spread; the base keeps the mean exponent's radius.
+    const std::vector<double> f = sortedForkExponents(fixed);
+    EXPECT_NEAR(f.front(), 2.5, 1e-6);
+    EXPECT_NEAR(f.back(), 2.5, 1e-6);
+    EXPECT_NEAR(spread.nodes[0].radius, fixed.nodes[0].radius, 1e-12);
+    // Keyed by the fork: the same stream gives the same radii, another stream others.
+    Tree again = comb(400, 1);
+    pipeModelRadii(again, 2.5, 0.01, 0.0, 0.0, 0.6, &rng);
+    for (size_t i = 0; i < again.nodes.size(); ++i) {
+        ASSERT_EQ(again.nodes[i].radius, spread.nodes[i].radius);
+    }
+    Tree other = comb(400, 1);
+    const Rng rng2(8);
+    pipeModelRadii(other, 2.5, 0.01, 0.0, 0.0, 0.6, &rng2);
+    EXPECT_NE(sortedForkExponents(other)[200], e[200]);
+}
+
+double elevationDeg(const Vec3& a, const Vec3& b) {
+    const Vec3 d = b - a;
+    return std::asin(d.y / length(d)) * 180 / kPi;
+}
+
+TEST(Form, BendTurnsEachSegmentByTheRateTimesTheLengthBefore) {
+    Tree t = comb(1, 6);  // one lateral of six 0.5-m segments at 45° elevation
+    t.leaves = {leafAt(7, t.nodes[7].position + Vec3{0, 0.05, 0})};
+    const Tree before = t;
+    FormOptions o;
+    o.bendRadPerM = 10 * kPi / 180;  // 10° per metre toward the ground: 5° per segment
+    turnBranches(t, o, Rng(3));
+    EXPECT_EQ(t.nodes[1].position, before.nodes[1].position);  // the trunk stays
+    for (int s = 1; s <= 6; ++s) {
+        const int32_t i = 1 + s, p = t.nodes[i].parent;
+        EXPECT_NEAR(elevationDeg(t.nodes[p].position, t.nodes[i].position), 45.0 - 5.0 * s, 1e-9);
+        EXPECT_NEAR(distance(t.nodes[p].position, t.nodes[i].position), 0.5, 1e-12);
+    }
+    // The leaf went with its node, its offset turned with the last segment (30° of turn).
+    const Vec3 offset = t.leaves[0].position - t.nodes[7].position;
+    EXPECT_NEAR(length(offset), 0.05, 1e-12);
+    EXPECT_NEAR(std::acos(offset.y / 0.05) * 180 / kPi, 30.0, 1e-9);
+
+    Tree steep = comb(1, 6);
+    o.bendRadPerM = 90 * kPi / 180;  // would pass the vertical: held 80° below the horizontal
+    turnBranches(steep, o, Rng(3));
+    EXPECT_NEAR(elevationDeg(steep.nodes[6].position, steep.nodes[7].position), -80.0, 1e-9);
+    Tree rising = comb(1, 6);
+    o.bendRadPerM = -10 * kPi / 180;  // negative: upturned
+    turnBranches(rising, o, Rng(3));
+    EXPECT_NEAR(elevationDeg(rising.nodes[6].position, rising.nodes[7].position), 75.0, 1e-9);
+}
+
+TEST(Form, InsertionAnglesSpreadPerBranchAndBranchesTurnWhole) {
+    Tree t = comb(600, 3);
+    const Tree before = t;
+    FormOptions o;
+    o.angleSdRad = 15 * kPi / 180;
+    turnBranches(t, o, Rng(11));
+    std::vector<double> angles;
+    for (size_t i = 1; i < t.nodes.size(); ++i) {
+        const SkeletonNode& n = t.nodes[i];
+        const SkeletonNode& p = t.nodes[n.parent];
+        if (n.order == 0) {
+            EXPECT_EQ(n.position, before.nodes[i].position);
+            continue;
+        }
+        // Rigid: every segment keeps its length, and the branch stays straight.
+        EXPECT_NEAR(distance(n.position, p.position), 0.5, 1e-9);
+        if (p.order == 0) {
+            const Vec3 stem = p.position - t.nodes[p.parent].position;
+            angles.push_back(angleBetween(stem, n.position - p.position) * 180 / kPi);
+        } else {
+            const Vec3 a = p.position - t.nodes[p.parent].position, b = n.position - p.position;
+            EXPECT_NEAR(angleBetween(a, b), 0.0, 1e-6);
+        }
+    }
+    ASSERT_EQ(angles.size(), 600u);
+    double mean = 0, ss = 0;
+    for (double a : angles) mean += a / angles.size();
+    for (double a : angles) ss += (a - mean) * (a - mean);
+    EXPECT_NEAR(mean, 45.0, 1.5);
+    EXPECT_NEAR(std::sqrt(ss / (angles.size() - 1)), 15.0, 1.5);
+    EXPECT_GE(*std::min_element(angles.begin(), angles.end()), 5.0 - 1e-9);
+}
+
+TEST(Form, LengthFactorsStretchEachBranchAsAWhole) {
+    Tree t = comb(800, 3);
+    t.leaves = {leafAt(4, t.nodes[4].position + Vec3{0, 0.05, 0})};
+    FormOptions o;
+    o.lengthSd = 0.5;
+    turnBranches(t, o, Rng(13));
+    std::vector<double> logs;
+    for (size_t i = 1; i < t.nodes.size(); ++i) {
+        const SkeletonNode& n = t.nodes[i];
+        const SkeletonNode& p = t.nodes[n.parent];
+        if (n.order == 0) continue;
+        const double len = distance(n.position, p.position);
+        if (p.order == 0) {
+            logs.push_back(std::log(len / 0.5));
+            // Only stretched: the direction is the method's (45° from the stem).
+            EXPECT_NEAR(angleBetween(n.position - p.position, {1, 1, 0}), 0.0, 1e-6);
+        } else {  // the rest of the branch has its first segment's factor
+            EXPECT_NEAR(len, distance(p.position, t.nodes[p.parent].position), 1e-9);
+        }
+    }
+    ASSERT_EQ(logs.size(), 800u);
+    double mean = 0, ss = 0;
+    for (double l : logs) mean += l / logs.size();
+    for (double l : logs) ss += (l - mean) * (l - mean);
+    EXPECT_NEAR(mean, -0.125, 0.05);  // ln of a mean-1 log-normal: −σ²/2
+    EXPECT_NEAR(std::sqrt(ss / (logs.size() - 1)), 0.5, 0.04);
+    // A leaf keeps its offset and size.
+    EXPECT_NEAR(distance(t.leaves[0].position, t.nodes[4].position), 0.05, 1e-12);
+}
+
+TEST(Form, OnlyBranchesLeavingTheStemChangeTheirInsertion) {
+    Tree t;  // a trunk, a lateral (order 1) and a lateral of the lateral (order 2)
+    addNode(t, -1, {0, 0, 0});
+    addNode(t, 0, {0, 1, 0});
+    addNode(t, 1, {0.5, 1.5, 0}, 0.01, 1);
+    addNode(t, 2, {1.0, 2.0, 0}, 0.01, 1);
+    addNode(t, 3, {1.0, 2.5, 0}, 0.01, 2);
+    const Tree before = t;
+    FormOptions o;
+    o.angleSdRad = 30 * kPi / 180;
+    turnBranches(t, o, Rng(2));
+    const Vec3 lateral = t.nodes[2].position - t.nodes[1].position;
+    EXPECT_GT(std::abs(angleBetween(lateral, {0, 1, 0}) - kPi / 4), 1e-6);  // turned
+    // The order-2 branch keeps its angle to its parent branch (turned with it, not apart).
+    const Vec3 parent = t.nodes[3].position - t.nodes[2].position;
+    const Vec3 child = t.nodes[4].position - t.nodes[3].position;
+    EXPECT_NEAR(angleBetween(parent, child), kPi / 4, 1e-9);
+    EXPECT_EQ(t.nodes[1].position, before.nodes[1].position);
+}
+
+TEST(Form, FreeLeavesMoveWithTheNearestShootNode) {
+    Tree t = comb(1, 2);
+    Leaf free = leafAt(-1, t.nodes[3].position + Vec3{0, 0.1, 0});
+    Leaf far = leafAt(-1, {5, 5, 5});
+    t.leaves = {free, far};
+    FormOptions o;
+    o.angleSdRad = 20 * kPi / 180;
+    turnBranches(t, o, Rng(5));
+    EXPECT_NEAR(distance(t.leaves[0].position, t.nodes[3].position), 0.1, 1e-12);
+    EXPECT_EQ(t.leaves[1].position, far.position);  // nothing within 1 m: stays
+}
+
+TEST(Form, WidthScalesTheShootHorizontallyAboutTheBase) {
+    Tree t = yFork();
+    FormOptions o;
+    o.width = 1.5;
+    applyForm(t, o, Rng(1));
+    EXPECT_NEAR(t.nodes[2].position.x, -0.75, 1e-12);
+    EXPECT_NEAR(t.nodes[2].position.y, 2.0, 1e-12);
+    EXPECT_NEAR(t.nodes[3].radius, 0.5, 1e-12);  // radii are not widened
+}
+
 TEST(Form, InactiveOptionsLeaveTheTreeAsGrown) {
     Tree t = yFork();
     t.leaves = {leafAt(2, {-0.5, 2.1, 0})};
@@ -216,7 +421,9 @@ TEST(Form, InactiveOptionsLeaveTheTreeAsGrown) {
 
 TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
     const toml::table good = toml::parse(
-        "[form]\nclear_bole = 2\npipe_exponent = 2.3\nlean_deg = 4\nground = \"prune\"\n");
+        "[form]\nclear_bole = 2\npipe_exponent = 2.3\nlean_deg = 4\nground = \"prune\"\n"
+        "pipe_exponent_sd = 0.5\nangle_sd_deg = 12\nbend_deg_per_m = -3\nbend_sd_deg_per_m = 2\n"
+        "width = 1.1\nlength_sd = 0.3\n");
     DrawContext draw;
     Params p(good, "s.toml", "", &draw);
     const FormOptions o = readForm(p);
@@ -224,6 +431,12 @@ TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
     EXPECT_EQ(o.pipeExponent, 2.3);
     EXPECT_NEAR(o.leanRad, 4 * kPi / 180, 1e-15);
     EXPECT_EQ(o.ground, GroundRule::kPrune);
+    EXPECT_EQ(o.pipeExponentSd, 0.5);
+    EXPECT_NEAR(o.angleSdRad, 12 * kPi / 180, 1e-15);
+    EXPECT_NEAR(o.bendRadPerM, -3 * kPi / 180, 1e-15);
+    EXPECT_NEAR(o.bendSdRadPerM, 2 * kPi / 180, 1e-15);
+    EXPECT_EQ(o.width, 1.1);
+    EXPECT_EQ(o.lengthSd, 0.3);
     EXPECT_TRUE(o.active());
 
     auto errorOf = [](const char* text) -> std::string {
@@ -241,6 +454,10 @@ TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
               "s.toml:2:17: form.pipe_exponent: expected 0 (off) or a value in [1, 4]");
     EXPECT_EQ(errorOf("[form]\nground = \"flat\"\n"),
               "s.toml:2:10: form.ground: expected one of \"none\", \"prune\", got \"flat\"");
+    EXPECT_EQ(errorOf("[form]\npipe_exponent_sd = 0.4\n"),
+              "s.toml:2:20: form.pipe_exponent_sd: needs pipe_exponent (the mean it spreads about)");
+    EXPECT_EQ(errorOf("[form]\nangle_sd_deg = 50\n"),
+              "s.toml:2:16: form.angle_sd_deg: expected a number in [0, 45], got 50");
     EXPECT_EQ(errorOf("[form]\nscael = 1.1\n"),
               "s.toml:2:9: form.scael: unknown key; did you mean \"scale\"?");
 }
