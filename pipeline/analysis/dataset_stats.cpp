@@ -242,6 +242,25 @@ Reference readReference(const fs::path& file) {
     return ref;
 }
 
+ReferenceValues skeletonReferenceValues(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) {
+        throw DatasetStatsInputError(path.string() +
+                                     ": cannot read (the manifest lists it as skeleton_ply)");
+    }
+    std::stringstream ss;
+    ss << in.rdbuf();
+    try {
+        return referenceValues(readSkeletonPly(ss.str(), path.string()));
+    } catch (const DatasetStatsInputError&) {
+        throw;
+    } catch (const InputError& e) {  // readSkeletonPly's message names the file
+        throw DatasetStatsInputError(e.what());
+    } catch (const std::invalid_argument& e) {
+        throw DatasetStatsInputError(path.string() + ": " + e.what());
+    }
+}
+
 namespace {
 
 using MetricValues = std::map<std::string, std::vector<double>>;
@@ -393,24 +412,7 @@ ReferenceFiles compareWithReference(const fs::path& dir, const fs::path& file, c
     for (const Record& r : records) {
         if (!habit.count(r.species)) habit[r.species] = r.habit;
         if (r.skeleton.empty()) continue;
-        const fs::path path = dir / r.skeleton;
-        std::ifstream in(path, std::ios::binary);
-        if (!in) {
-            throw DatasetStatsInputError(path.string() +
-                                         ": cannot read (the manifest lists it as skeleton_ply)");
-        }
-        std::stringstream ss;
-        ss << in.rdbuf();
-        ReferenceValues values;
-        try {
-            values = referenceValues(readSkeletonPly(ss.str(), path.string()));
-        } catch (const DatasetStatsInputError&) {
-            throw;
-        } catch (const InputError& e) {  // readSkeletonPly's message names the file
-            throw DatasetStatsInputError(e.what());
-        } catch (const std::invalid_argument& e) {
-            throw DatasetStatsInputError(path.string() + ": " + e.what());
-        }
+        const ReferenceValues values = skeletonReferenceValues(dir / r.skeleton);
         ReferenceValues& pool = pooled[r.species];
         for (int k = 0; k < kReferenceDistributions; ++k) {
             pool[k].insert(pool[k].end(), values[k].begin(), values[k].end());

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/errors.h"
+#include "species/model/reference_metrics.h"
 
 namespace sylva {
 
@@ -88,6 +89,10 @@ struct Reference {
 // unknown distribution or holds a table that is not one (p from 0 to 1 strictly increasing, q
 // non-decreasing, as many of each, at least two, every number finite).
 Reference readReference(const std::filesystem::path& file);
+
+// The reference distributions (reference_metrics.h) of the skeleton in a binary skeleton.ply.
+// Throws DatasetStatsInputError "PATH: …" when it cannot be read or is not a skeleton.
+ReferenceValues skeletonReferenceValues(const std::filesystem::path& path);
 
 // A summary of one metric's values.
 struct MetricSummary {

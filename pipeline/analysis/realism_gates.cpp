@@ -9,9 +9,21 @@
 #include <stdexcept>
 
 #include "core/errors.h"
+#include "pipeline/analysis/dataset_stats.h"
 #include "species/model/tree_metrics.h"
+#include "volumes/image_file.h"
 
 namespace sylva {
+
+const std::array<double, kReferenceDistributions> kSpreadGateIqr = {
+    0.31110,    // radius_ratio: 0.470–0.781
+    2.611508,   // radius_exponent: 1.927–4.538
+    51.78500,   // branch_angle_deg: 37.0–88.8°
+    0,          // tip_path_ratio: per tip, not per fork or branch
+    0.192226,   // branch_length_order1: 0.032–0.224
+    0.0909515,  // branch_length_order2: 0.024–0.115
+    0,          // branch_length_order3: the finest twigs, which a skeleton may not model
+};
 
 namespace {
 
@@ -51,8 +63,77 @@ double maxOf(const std::vector<double>& v) {
 
 bool within(double v, double lo, double hi) { return !std::isnan(v) && v >= lo && v <= hi; }
 
+// Type-7 interquartile range of `v` (sorted in place); NaN when empty.
+double iqr(std::vector<double>& v) {
+    if (v.empty()) return kNaN;
+    std::sort(v.begin(), v.end());
+    return quantileType7(v, 0.75) - quantileType7(v, 0.25);
+}
+
+// Forks and branches that a species must have before its spread is held to the reference's.
+constexpr size_t kSpreadMinValues = 20;
+
+// The smallest ratio of a pooled interquartile range to the reference's (kSpreadGateIqr) over the
+// distributions the habit is held to (the fork distributions for every habit, the branch
+// distributions for broadleaf trees, as the reference is of broadleaf trees), with the
+// distribution's name.
+std::pair<double, std::string> spreadRatio(const std::string& habit,
+                                           const std::vector<const InstanceShape*>& shapes) {
+    std::pair<double, std::string> worst{kNaN, ""};
+    for (int k = 0; k < kReferenceDistributions; ++k) {
+        if (!(kSpreadGateIqr[k] > 0)) continue;
+        const bool fork = k == kRadiusRatio || k == kRadiusExponent;
+        if (!fork && habit != "tree") continue;
+        std::vector<double> pooled;
+        for (const InstanceShape* s : shapes) {
+            pooled.insert(pooled.end(), s->reference[k].begin(), s->reference[k].end());
+        }
+        if (pooled.size() < kSpreadMinValues) continue;
+        const double ratio = iqr(pooled) / kSpreadGateIqr[k];
+        if (std::isnan(worst.first) || ratio < worst.first) {
+            worst = {ratio, kReferenceDistributionNames[k]};
+        }
+    }
+    return worst;
+}
+
+// Masks compared by the seed gate: the first this many instances' first views.
+constexpr size_t kSeedGateInstances = 4;
+
+// The largest intersection over union of the first views of the species' first instances
+// whose first view has the first one's azimuth and size (the same camera, framed to each
+// tree); NaN with fewer than two.
+double largestSeedIou(const std::vector<const InstanceShape*>& shapes) {
+    std::vector<const InstanceShape*> views;
+    for (const InstanceShape* s : shapes) {
+        if (views.size() == kSeedGateInstances) break;
+        if (s->mask.empty()) continue;
+        if (!views.empty() &&
+            (s->azimuthDeg != views[0]->azimuthDeg || s->maskWidth != views[0]->maskWidth ||
+             s->maskHeight != views[0]->maskHeight)) {
+            continue;
+        }
+        views.push_back(s);
+    }
+    double largest = kNaN;
+    for (size_t a = 0; a < views.size(); ++a) {
+        for (size_t b = a + 1; b < views.size(); ++b) {
+            size_t both = 0, either = 0;
+            for (size_t i = 0; i < views[a]->mask.size(); ++i) {
+                const bool x = views[a]->mask[i] != 0, y = views[b]->mask[i] != 0;
+                both += x && y;
+                either += x || y;
+            }
+            const double iou = either ? static_cast<double>(both) / either : 1.0;
+            if (std::isnan(largest) || iou > largest) largest = iou;
+        }
+    }
+    return largest;
+}
+
 SpeciesGates evaluateSpecies(const std::string& name,
-                             const std::vector<const nlohmann::json*>& records) {
+                             const std::vector<const nlohmann::json*>& records,
+                             const std::vector<const InstanceShape*>& shapes) {
     SpeciesGates s;
     s.species = name;
     s.habit = (*records.front()).value("habit", "");
@@ -84,6 +165,26 @@ SpeciesGates evaluateSpecies(const std::string& name,
         lean.size() == records.size() && steepest <= 3.0);
     const double foliage = mean(values(records, "leaf_pixel_fraction"));
     add("leaf_pixels", leafy, foliage, !std::isnan(foliage) && foliage >= 0.30);
+
+    // Crown shape per instance: mean crown diameter (its two principal extents) over height.
+    std::vector<double> shape;
+    for (const nlohmann::json* r : records) {
+        const nlohmann::json& st = (*r)["stats"];
+        auto number = [&](const char* key) {
+            return st.contains(key) && st[key].is_number() ? st[key].get<double>() : kNaN;
+        };
+        const double w = 0.5 * (number("crown_width_major_m") + number("crown_depth_m"));
+        const double h = number("height_m");
+        if (std::isfinite(w) && h > 0) shape.push_back(w / h);
+    }
+    const double shapeCv = sampleCv(shape);
+    add("crown_shape_cv", true, shapeCv, within(shapeCv, 0.08, 1e300));
+    const auto [spread, which] =
+        shapes.empty() ? std::pair<double, std::string>{kNaN, ""} : spreadRatio(s.habit, shapes);
+    add("spread", !std::isnan(spread), spread, spread >= 0.5);
+    s.gates.back().detail = which;
+    const double seedIou = largestSeedIou(shapes);
+    add("seed_iou", !std::isnan(seedIou), seedIou, seedIou < 0.85);
     return s;
 }
 
@@ -95,6 +196,7 @@ std::string cell(const GateResult& g) {
     } else {
         o.precision(g.gate == "stems_at_base" ? 1 : 3);
         o << g.value;
+        if (!g.detail.empty()) o << " (" << g.detail << ")";
     }
     if (!g.pass) o << " ✗";
     return o.str();
@@ -116,20 +218,29 @@ const std::vector<GateSpec>& realismGates() {
         {"stems_at_base", "stems_at_base of every instance", "1 (tree, conifer, palm)"},
         {"leader_lean", "max leader_lean_deg (°)", "≤ 3 (conifers)"},
         {"leaf_pixels", "mean leaf_pixel_fraction", "≥ 0.30 (leafy species)"},
+        {"crown_shape_cv", "coefficient of variation of crown diameter / height_m", "≥ 0.08"},
+        {"spread", "smallest pooled IQR / the reference's, per fork and branch distribution",
+         "≥ 0.5 (20+ values)"},
+        {"seed_iou", "largest silhouette IoU of 4 instances' first views (same camera)", "< 0.85"},
     };
     return gates;
 }
 
-std::vector<SpeciesGates> evaluateGates(const std::vector<nlohmann::json>& records) {
+std::vector<SpeciesGates> evaluateGates(const std::vector<nlohmann::json>& records,
+                                        const std::vector<InstanceShape>* shapes) {
     std::vector<std::string> order;
     std::map<std::string, std::vector<const nlohmann::json*>> bySpecies;
-    for (const nlohmann::json& r : records) {
-        const std::string name = r.value("species", "");
+    std::map<std::string, std::vector<const InstanceShape*>> shapesOf;
+    for (size_t i = 0; i < records.size(); ++i) {
+        const std::string name = records[i].value("species", "");
         if (!bySpecies.count(name)) order.push_back(name);
-        bySpecies[name].push_back(&r);
+        bySpecies[name].push_back(&records[i]);
+        if (shapes && i < shapes->size()) shapesOf[name].push_back(&(*shapes)[i]);
     }
     std::vector<SpeciesGates> out;
-    for (const std::string& name : order) out.push_back(evaluateSpecies(name, bySpecies[name]));
+    for (const std::string& name : order) {
+        out.push_back(evaluateSpecies(name, bySpecies[name], shapesOf[name]));
+    }
     return out;
 }
 
@@ -143,7 +254,48 @@ std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir)
         nlohmann::json r = nlohmann::json::parse(line, nullptr, false);
         if (!r.is_discarded() && r.is_object()) records.push_back(std::move(r));
     }
-    return evaluateGates(records);
+    std::vector<InstanceShape> shapes(records.size());
+    for (size_t i = 0; i < records.size(); ++i) {
+        const nlohmann::json& files = records[i].value("files", nlohmann::json::object());
+        auto file = [&](const char* key) -> std::string {
+            return files.is_object() && files.contains(key) && files[key].is_string()
+                       ? files[key].get<std::string>()
+                       : "";
+        };
+        if (const std::string skeleton = file("skeleton_ply"); !skeleton.empty()) {
+            shapes[i].reference = skeletonReferenceValues(datasetDir / skeleton);
+        }
+        const std::string transforms = file("transforms");
+        if (transforms.empty()) continue;
+        const std::filesystem::path tpath = datasetDir / transforms;
+        std::ifstream tin(tpath);
+        const nlohmann::json t = nlohmann::json::parse(tin, nullptr, false);
+        const bool framed = t.is_object() && t.contains("frames") && t["frames"].is_array() &&
+                            !t["frames"].empty() && t["frames"][0].is_object();
+        const nlohmann::json frame = framed ? t["frames"][0] : nlohmann::json();
+        if (!framed || !frame.contains("mask_path") || !frame["mask_path"].is_string() ||
+            !frame.contains("azimuth_deg") || !frame["azimuth_deg"].is_number()) {
+            throw InputError(tpath.string() +
+                             ": expected frames[0] with mask_path and azimuth_deg");
+        }
+        ImageFile mask;
+        try {
+            mask = readImageFile(
+                (tpath.parent_path() / frame["mask_path"].get<std::string>()).string());
+        } catch (const ImageError& e) {
+            throw InputError(e.what());
+        }
+        shapes[i].maskWidth = mask.width;
+        shapes[i].maskHeight = mask.height;
+        shapes[i].azimuthDeg = frame["azimuth_deg"].get<double>();
+        shapes[i].mask.resize(static_cast<size_t>(mask.width) * mask.height);
+        for (int y = 0; y < mask.height; ++y) {
+            for (int x = 0; x < mask.width; ++x) {
+                shapes[i].mask[static_cast<size_t>(y) * mask.width + x] = mask.at(x, y, 0) > 0.5f;
+            }
+        }
+    }
+    return evaluateGates(records, &shapes);
 }
 
 std::string gatesMarkdown(const std::vector<SpeciesGates>& species) {

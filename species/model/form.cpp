@@ -1,6 +1,5 @@
 #include "species/model/form.h"
 
-
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -14,8 +13,8 @@ bool FormOptions::turnsBranches() const {
 }
 
 bool FormOptions::active() const {
-    return clearBole > 0 || pipeExponent > 0 || turnsBranches() || scale != 1.0 ||
-           width != 1.0 || asymmetry > 0 || leanRad > 0 || ground != GroundRule::kNone;
+    return clearBole > 0 || pipeExponent > 0 || turnsBranches() || scale != 1.0 || width != 1.0 ||
+           asymmetry > 0 || leanRad > 0 || ground != GroundRule::kNone;
 }
 
 namespace {
@@ -167,7 +166,8 @@ void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
             if (shootChildren == 0) {
                 r[i] = i == 0 ? nodes[0].radius : tipRadius;  // a rootless base keeps its radius
             } else if (shootChildren == 1) {
-                r[i] = only * (1.0 + taper * distance(nodes[i].position, nodes[onlyChild].position));
+                r[i] =
+                    only * (1.0 + taper * distance(nodes[i].position, nodes[onlyChild].position));
             } else {
                 const double e = exponentAt(i);
                 double sum = 0.0;
@@ -233,9 +233,8 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
             Rng draw = branches.derive(static_cast<uint64_t>(i));
             const double zAngle = draw.normal(), zBend = draw.normal(), zLength = draw.normal();
             bend[i] = o.bendRadPerM + o.bendSdRadPerM * zBend;
-            stretch[i] = std::clamp(
-                std::exp(o.lengthSd * zLength - 0.5 * o.lengthSd * o.lengthSd), kMinStretch,
-                kMaxStretch);
+            stretch[i] = std::clamp(std::exp(o.lengthSd * zLength - 0.5 * o.lengthSd * o.lengthSd),
+                                    kMinStretch, kMaxStretch);
             const double dAngle = node.order == 1 ? o.angleSdRad * zAngle : 0.0;
             const int32_t pp = nodes[p].parent;
             const Vec3 stem = pp >= 0 ? nodes[p].position - nodes[pp].position : up;

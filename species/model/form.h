@@ -38,13 +38,13 @@ enum class GroundRule {
 };
 
 struct FormOptions {
-    double clearBole = 0.0;     // metres (before scaling); 0: keep every branch
-    double pipeExponent = 0.0;  // n of the pipe model; 0: the method's own radii
-    double tipRadius = 0.003;   // metres (before scaling): radius at every shoot tip
-    double pipeTaper = 0.0;     // per metre: radius × (1 + taper · segment length) per segment
-                                // toward the base between forks (≈ e^(taper · length))
-    double baseRadius = 0.0;    // metres (before scaling); > 0: pipe radii rescaled so the
-                                // base has it (the tips follow); 0: radii from tipRadius
+    double clearBole = 0.0;       // metres (before scaling); 0: keep every branch
+    double pipeExponent = 0.0;    // n of the pipe model; 0: the method's own radii
+    double tipRadius = 0.003;     // metres (before scaling): radius at every shoot tip
+    double pipeTaper = 0.0;       // per metre: radius × (1 + taper · segment length) per segment
+                                  // toward the base between forks (≈ e^(taper · length))
+    double baseRadius = 0.0;      // metres (before scaling); > 0: pipe radii rescaled so the
+                                  // base has it (the tips follow); 0: radii from tipRadius
     double pipeExponentSd = 0.0;  // per fork: n ~ N(pipeExponent, sd), redrawn outside
                                   // [kMinForkExponent, kMaxForkExponent]; 0: n at every fork
     double angleSdRad = 0.0;      // per branch leaving the stem: its insertion angle + N(0, sd),
@@ -57,8 +57,8 @@ struct FormOptions {
     double scale = 1.0;           // ×, the whole tree
     double width = 1.0;           // ×, the shoot's horizontal extent about the base (crown
                                   // width per instance, over `scale`)
-    double asymmetry = 0.0;     // fraction in [0, 0.9)
-    double leanRad = 0.0;       // radians from the vertical
+    double asymmetry = 0.0;       // fraction in [0, 0.9)
+    double leanRad = 0.0;         // radians from the vertical
     GroundRule ground = GroundRule::kNone;
 
     // True when step 3 turns or bends branches.
@@ -74,8 +74,8 @@ constexpr double kMaxForkExponent = 6.0;
 
 // Applies the steps in the order above. `rng` gives the per-fork exponents, the per-branch
 // turns and bends, and the asymmetry's and the lean's azimuths (each its own derived stream,
-// keyed per fork and per branch by the node index). Removed nodes are dropped with their subtrees, leaves and
-// endpoints; indices stay parent-before-child.
+// keyed per fork and per branch by the node index). Removed nodes are dropped with their subtrees,
+// leaves and endpoints; indices stay parent-before-child.
 void applyForm(Tree& tree, const FormOptions& options, const Rng& rng);
 
 // The pipe model alone (step 2), exposed for tests: shoot radii from the tips. With

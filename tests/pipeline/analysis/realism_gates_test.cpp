@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -33,7 +34,9 @@ nlohmann::json record(const std::string& species, const std::string& habit, doub
               {"stems_at_base", 1},
               {"leader_lean_deg", 1.0},
               {"leaves", 1000},
-              {"leaf_pixel_fraction", 0.5}}}};
+              {"leaf_pixel_fraction", 0.5},
+              {"crown_width_major_m", 6.0},
+              {"crown_depth_m", 4.0}}}};
 }
 
 std::vector<nlohmann::json> species(const std::string& name, const std::string& habit) {
@@ -56,6 +59,78 @@ TEST(RealismGates, MeasuresWithKnownAnswers) {
     EXPECT_NEAR(gate(r[0], "height_cv").value, 0.1, 1e-12);  // sd 1 (n − 1) over mean 10
     EXPECT_EQ(gate(r[0], "radius_exponent").value, 2.2);
     EXPECT_FALSE(gate(r[0], "leader_lean").applies);  // a tree, not a conifer
+    // Crown diameter 5 m over heights 9, 10, 11: ratios 5/9, 1/2, 5/11.
+    const double a = 5.0 / 9, b = 0.5, c = 5.0 / 11, m = (a + b + c) / 3;
+    const double sd = std::sqrt(((a - m) * (a - m) + (b - m) * (b - m) + (c - m) * (c - m)) / 2);
+    EXPECT_NEAR(gate(r[0], "crown_shape_cv").value, sd / m, 1e-12);
+    EXPECT_FALSE(gate(r[0], "spread").applies);  // no skeletons or views given
+    EXPECT_FALSE(gate(r[0], "seed_iou").applies);
+}
+
+// Instances whose skeletons give `per` values of every reference distribution, evenly spread
+// over [lo, lo + width · (reference IQR)] (so the pooled IQR is ≈ width/2 of the reference's),
+// and 2×2 masks.
+std::vector<InstanceShape> shapes(size_t n, double width, std::vector<uint8_t> mask) {
+    std::vector<InstanceShape> out(n);
+    for (size_t i = 0; i < n; ++i) {
+        for (int k = 0; k < kReferenceDistributions; ++k) {
+            for (int v = 0; v < 10; ++v) {
+                const double t = (i * 10 + v) / (n * 10.0 - 1);
+                out[i].reference[k].push_back(1 + t * width * kSpreadGateIqr[k]);
+            }
+        }
+        out[i].maskWidth = out[i].maskHeight = 2;
+        out[i].mask = mask;
+    }
+    return out;
+}
+
+TEST(RealismGates, SpreadHoldsForksAndBranchesToHalfTheReferenceIqr) {
+    const std::vector<nlohmann::json> recs = species("x", "tree");
+    // Uniform values: IQR = width/2 of the reference's.
+    std::vector<InstanceShape> wide = shapes(3, 1.2, {1, 1, 0, 0});
+    wide[1].mask = {1, 0, 1, 0};
+    wide[2].mask = {0, 1, 1, 1};
+    const SpeciesGates ok = evaluateGates(recs, &wide)[0];
+    EXPECT_TRUE(gate(ok, "spread").applies);
+    EXPECT_NEAR(gate(ok, "spread").value, 0.6, 0.01);
+    EXPECT_TRUE(gate(ok, "spread").pass);
+    const std::vector<InstanceShape> narrow = shapes(3, 0.9, {1, 1, 0, 0});
+    EXPECT_NEAR(gate(evaluateGates(recs, &narrow)[0], "spread").value, 0.45, 0.01);
+    EXPECT_FALSE(gate(evaluateGates(recs, &narrow)[0], "spread").pass);
+    // One distribution without spread fails it, and is named.
+    std::vector<InstanceShape> fixed = wide;
+    for (auto& s : fixed) s.reference[kRadiusExponent].assign(10, 2.3);
+    const GateResult& g = gate(evaluateGates(recs, &fixed)[0], "spread");
+    EXPECT_EQ(g.value, 0.0);
+    EXPECT_EQ(g.detail, "radius_exponent");
+    // Conifers are held to the fork distributions only: their branches may be regular.
+    std::vector<nlohmann::json> firs = species("x", "conifer");
+    std::vector<InstanceShape> whorls = wide;
+    for (auto& s : whorls) s.reference[kBranchAngle].assign(10, 80.0);
+    EXPECT_TRUE(gate(evaluateGates(firs, &whorls)[0], "spread").pass);
+    EXPECT_FALSE(gate(evaluateGates(recs, &whorls)[0], "spread").pass);
+    // Fewer than 20 values of every distribution: not gated.
+    const std::vector<InstanceShape> few = shapes(1, 0.1, {1, 1, 0, 0});
+    const std::vector<nlohmann::json> one(recs.begin(), recs.begin() + 1);
+    EXPECT_FALSE(gate(evaluateGates(one, &few)[0], "spread").applies);
+}
+
+TEST(RealismGates, SeedsMustNotBeClonesFromTheSameCamera) {
+    const std::vector<nlohmann::json> recs = species("x", "tree");
+    // IoU of {1,1,0,0} and {1,0,1,0}: 1/3; with {0,1,1,1}: 1/4 and 1/4.
+    std::vector<InstanceShape> s = shapes(3, 1.2, {1, 1, 0, 0});
+    s[1].mask = {1, 0, 1, 0};
+    s[2].mask = {0, 1, 1, 1};
+    EXPECT_NEAR(gate(evaluateGates(recs, &s)[0], "seed_iou").value, 1.0 / 3, 1e-12);
+    EXPECT_TRUE(gate(evaluateGates(recs, &s)[0], "seed_iou").pass);
+    // Two clones fail it.
+    s[2].mask = s[0].mask;
+    EXPECT_EQ(gate(evaluateGates(recs, &s)[0], "seed_iou").value, 1.0);
+    EXPECT_FALSE(gate(evaluateGates(recs, &s)[0], "seed_iou").pass);
+    // A view from another azimuth is not compared.
+    s[2].azimuthDeg = 90;
+    EXPECT_NEAR(gate(evaluateGates(recs, &s)[0], "seed_iou").value, 1.0 / 3, 1e-12);
 }
 
 TEST(RealismGates, EachGateFailsPastItsBound) {

@@ -454,8 +454,9 @@ TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
               "s.toml:2:17: form.pipe_exponent: expected 0 (off) or a value in [1, 4]");
     EXPECT_EQ(errorOf("[form]\nground = \"flat\"\n"),
               "s.toml:2:10: form.ground: expected one of \"none\", \"prune\", got \"flat\"");
-    EXPECT_EQ(errorOf("[form]\npipe_exponent_sd = 0.4\n"),
-              "s.toml:2:20: form.pipe_exponent_sd: needs pipe_exponent (the mean it spreads about)");
+    EXPECT_EQ(
+        errorOf("[form]\npipe_exponent_sd = 0.4\n"),
+        "s.toml:2:20: form.pipe_exponent_sd: needs pipe_exponent (the mean it spreads about)");
     EXPECT_EQ(errorOf("[form]\nangle_sd_deg = 50\n"),
               "s.toml:2:16: form.angle_sd_deg: expected a number in [0, 45], got 50");
     EXPECT_EQ(errorOf("[form]\nscael = 1.1\n"),
