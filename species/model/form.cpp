@@ -203,7 +203,7 @@ constexpr double kDeg = kPi / 180.0;
 constexpr double kMaxElevation = 80 * kDeg;  // a bending segment stops this far from vertical
 constexpr double kMinInsertion = 5 * kDeg, kMaxInsertion = 150 * kDeg;
 constexpr double kFreeLeafReach = 1.0;  // metres: a free leaf moves with a shoot node this near
-constexpr double kMinStretch = 0.25, kMaxStretch = 3.0;  // a branch's drawn length factor
+constexpr double kMinStretch = 0.25;    // the shortest a branch's drawn length factor makes it
 
 }  // namespace
 
@@ -218,6 +218,18 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
     std::vector<double> bend(n, 0.0);     // the branch's rate, radians per metre (down > 0)
     std::vector<double> stretch(n, 1.0);  // the branch's length factor
     const Rng branches = rng.derive("form-branches");
+    // How far each node's subtree reaches (the longest path down to a tip) and the tree's
+    // height: a branch's turn and shortening fall with its size (the big limbs hold the crown
+    // the method grew; small shoots vary freely).
+    std::vector<double> reach(n, 0.0);
+    double top = was[0].y;
+    for (int32_t i = n - 1; i > 0; --i) {
+        if (!isShoot(nodes[i])) continue;
+        top = std::max(top, was[i].y);
+        const int32_t p = nodes[i].parent;
+        reach[p] = std::max(reach[p], reach[i] + distance(was[i], was[p]));
+    }
+    const double freeReach = o.spreadReach * (top - was[0].y);
     for (int32_t i = 1; i < n; ++i) {
         SkeletonNode& node = nodes[i];
         const int32_t p = node.parent;
@@ -233,9 +245,10 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
             Rng draw = branches.derive(static_cast<uint64_t>(i));
             const double zAngle = draw.normal(), zBend = draw.normal(), zLength = draw.normal();
             bend[i] = o.bendRadPerM + o.bendSdRadPerM * zBend;
-            stretch[i] = std::clamp(std::exp(o.lengthSd * zLength - 0.5 * o.lengthSd * o.lengthSd),
-                                    kMinStretch, kMaxStretch);
-            const double dAngle = node.order == 1 ? o.angleSdRad * zAngle : 0.0;
+            const double size = reach[i] + distance(was[i], was[p]);
+            const double weight = size > freeReach ? freeReach / size : 1.0;
+            stretch[i] = std::max(kMinStretch, std::exp(-weight * o.lengthSd * std::abs(zLength)));
+            const double dAngle = node.order == 1 ? weight * o.angleSdRad * zAngle : 0.0;
             const int32_t pp = nodes[p].parent;
             const Vec3 stem = pp >= 0 ? nodes[p].position - nodes[pp].position : up;
             if (dAngle != 0 && length(d) > 0 && length(stem) > 0) {

@@ -10,9 +10,10 @@
 //                   be drawn per fork around the species' mean (real forks spread widely about
 //                   it: Eloy 2011, Fig. 2; the TreeQSM reference's interquartile range 1.9–4.5)
 //  3. branches      each branch leaving the stem turned at its insertion by an angle drawn per
-//                   branch; every branch stretched by a length factor drawn per branch (its
-//                   vigour) and bent along its length (gravitropic sag or upturned tips) at a
-//                   rate drawn per branch: a branch leaves at one angle and bends
+//                   branch; every branch shortened by a factor drawn per branch (its vigour:
+//                   a suppressed branch falls short, none outgrows the crown) and bent along its
+//                   length (gravitropic sag or upturned tips) at a rate drawn per branch: a branch
+//                   leaves at one angle and bends
 //  4. scale         the whole tree (positions, radii) by a factor: per-instance size; a
 //                   horizontal factor on top widens or narrows the crown per instance
 //  5. asymmetry     the shoot stretched by (1 + a) along a horizontal direction, (1 − a) across
@@ -49,8 +50,11 @@ struct FormOptions {
                                   // [kMinForkExponent, kMaxForkExponent]; 0: n at every fork
     double angleSdRad = 0.0;      // per branch leaving the stem: its insertion angle + N(0, sd),
                                   // radians
-    double lengthSd = 0.0;        // per branch: its length × e^(σz − σ²/2), z ~ N(0, 1) (a
-                                  // log-normal factor of mean 1, held in [0.25, 3])
+    double lengthSd = 0.0;        // per branch: its length × e^(−σ|z|), z ~ N(0, 1), at least
+                                  // 0.25: some branches fall short of the length the method
+                                  // grew them to (suppressed), none outgrows it
+    double spreadReach = 0.2;     // × tree height: a branch reaching farther (its longest path
+                                  // to a tip) turns and shortens less, by spreadReach·H / reach
     double bendRadPerM = 0.0;     // per branch: radians per metre (before scaling) turned
                                   // toward the ground along the branch; < 0 turns it upward
     double bendSdRadPerM = 0.0;   // per branch: spread of that rate, radians per metre
@@ -86,12 +90,13 @@ void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
                     double exponentSd = 0.0, const Rng* rng = nullptr);
 
 // Step 3 alone, exposed for tests: every branch (a node whose order is above its parent's)
-// draws its insertion change, length factor and bend rate; a branch of order 1 (leaving the
+// draws its insertion change, length factor and bend rate, the first two weighted by
+// min(1, spreadReach · height / the branch's reach); a branch of order 1 (leaving the
 // stem) is turned about its fork by its insertion change, insertion angles held within
-// [5°, 150°] (unless the method's are outside); every segment of a branch is stretched by the
-// branch's factor and then turned toward (or away from) the ground by the branch's rate × its
-// length, elevations held within ±80°. Whole subtrees move with their segment; leaves go with
-// their node, at their own size and offset (free leaves with the shoot node nearest them,
+// [5°, 150°] (unless the method's are outside); every segment of a branch is scaled by the
+// branch's length factor (≤ 1) and then turned toward (or away from) the ground by the branch's
+// rate × its length, elevations held within ±80°. Whole subtrees move with their segment; leaves go
+// with their node, at their own size and offset (free leaves with the shoot node nearest them,
 // within 1 m); hanging roots move with the node they hang from.
 void turnBranches(Tree& tree, const FormOptions& options, const Rng& rng);
 

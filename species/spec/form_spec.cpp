@@ -22,6 +22,7 @@ FormOptions readForm(Params& species) {
     o.bendRadPerM = f->degrees("bend_deg_per_m", o.bendRadPerM, Range::closed(-90, 90));
     o.bendSdRadPerM = f->degrees("bend_sd_deg_per_m", o.bendSdRadPerM, Range::closed(0, 90));
     o.lengthSd = f->number("length_sd", o.lengthSd, Range::closed(0, 1.5));
+    o.spreadReach = f->number("spread_reach", o.spreadReach, Range::leftOpen(0, 10));
     o.scale = f->number("scale", o.scale, Range::leftOpen(0, 100));
     o.width = f->number("width", o.width, Range::closed(0.25, 4));
     o.asymmetry = f->number("asymmetry", o.asymmetry, Range::closed(0, 0.9));

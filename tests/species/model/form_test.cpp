@@ -334,7 +334,7 @@ TEST(Form, InsertionAnglesSpreadPerBranchAndBranchesTurnWhole) {
     EXPECT_GE(*std::min_element(angles.begin(), angles.end()), 5.0 - 1e-9);
 }
 
-TEST(Form, LengthFactorsStretchEachBranchAsAWhole) {
+TEST(Form, LengthFactorsShortenEachBranchAsAWhole) {
     Tree t = comb(800, 3);
     t.leaves = {leafAt(4, t.nodes[4].position + Vec3{0, 0.05, 0})};
     FormOptions o;
@@ -348,7 +348,7 @@ TEST(Form, LengthFactorsStretchEachBranchAsAWhole) {
         const double len = distance(n.position, p.position);
         if (p.order == 0) {
             logs.push_back(std::log(len / 0.5));
-            // Only stretched: the direction is the method's (45° from the stem).
+            // Only shortened: the direction is the method's (45° from the stem).
             EXPECT_NEAR(angleBetween(n.position - p.position, {1, 1, 0}), 0.0, 1e-6);
         } else {  // the rest of the branch has its first segment's factor
             EXPECT_NEAR(len, distance(p.position, t.nodes[p.parent].position), 1e-9);
@@ -358,8 +358,11 @@ TEST(Form, LengthFactorsStretchEachBranchAsAWhole) {
     double mean = 0, ss = 0;
     for (double l : logs) mean += l / logs.size();
     for (double l : logs) ss += (l - mean) * (l - mean);
-    EXPECT_NEAR(mean, -0.125, 0.05);  // ln of a mean-1 log-normal: −σ²/2
-    EXPECT_NEAR(std::sqrt(ss / (logs.size() - 1)), 0.5, 0.04);
+    // ln factor = −σ|z|: mean −σ√(2/π) = −0.399, sd σ√(1 − 2/π) = 0.301; never above 0.
+    EXPECT_NEAR(mean, -0.399, 0.03);
+    EXPECT_NEAR(std::sqrt(ss / (logs.size() - 1)), 0.301, 0.03);
+    EXPECT_LE(*std::max_element(logs.begin(), logs.end()), 1e-12);
+    EXPECT_GE(*std::min_element(logs.begin(), logs.end()), std::log(0.25) - 1e-12);
     // A leaf keeps its offset and size.
     EXPECT_NEAR(distance(t.leaves[0].position, t.nodes[4].position), 0.05, 1e-12);
 }
@@ -382,6 +385,31 @@ TEST(Form, OnlyBranchesLeavingTheStemChangeTheirInsertion) {
     const Vec3 child = t.nodes[4].position - t.nodes[3].position;
     EXPECT_NEAR(angleBetween(parent, child), kPi / 4, 1e-9);
     EXPECT_EQ(t.nodes[1].position, before.nodes[1].position);
+}
+
+TEST(Form, BigLimbsTurnLessThanSmallShoots) {
+    // A 10-m trunk with one 6-m limb: the limb reaches 6 m, 3 × 0.2 × height.
+    auto tree = [] {
+        Tree t;
+        addNode(t, -1, {0, 0, 0});
+        addNode(t, 0, {0, 5, 0});
+        addNode(t, 1, {0, 10, 0});
+        int32_t at = 1;
+        for (int s = 1; s <= 6; ++s)
+            at = addNode(t, at, {s / std::sqrt(2.0), 5 + s / std::sqrt(2.0), 0}, 0.01, 1);
+        return t;
+    };
+    auto turned = [&](double reach) {
+        Tree t = tree();
+        FormOptions o;
+        o.angleSdRad = 20 * kPi / 180;
+        o.spreadReach = reach;
+        turnBranches(t, o, Rng(4));
+        return angleBetween(t.nodes[3].position - t.nodes[1].position, {0, 1, 0}) - kPi / 4;
+    };
+    const double free = turned(10.0), limb = turned(0.2);  // weight 1, and 2 m / 6 m
+    ASSERT_GT(std::abs(free), 1e-3);
+    EXPECT_NEAR(limb, free * (0.2 * 10.0) / 6.0, 1e-9);
 }
 
 TEST(Form, FreeLeavesMoveWithTheNearestShootNode) {
