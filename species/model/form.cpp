@@ -204,6 +204,7 @@ constexpr double kMaxElevation = 80 * kDeg;  // a bending segment stops this far
 constexpr double kMinInsertion = 5 * kDeg, kMaxInsertion = 150 * kDeg;
 constexpr double kFreeLeafReach = 1.0;  // metres: a free leaf moves with a shoot node this near
 constexpr double kMinStretch = 0.25;    // the shortest a branch's drawn length factor makes it
+constexpr double kMedianAbsNormal = 0.6744897501960817;  // median of |z|, z ~ N(0, 1)
 
 }  // namespace
 
@@ -247,7 +248,8 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
             bend[i] = o.bendRadPerM + o.bendSdRadPerM * zBend;
             const double size = reach[i] + distance(was[i], was[p]);
             const double weight = size > freeReach ? freeReach / size : 1.0;
-            stretch[i] = std::max(kMinStretch, std::exp(-weight * o.lengthSd * std::abs(zLength)));
+            stretch[i] = std::max(kMinStretch, std::exp(weight * o.lengthSd *
+                                                        (kMedianAbsNormal - std::abs(zLength))));
             const double dAngle = node.order == 1 ? weight * o.angleSdRad * zAngle : 0.0;
             const int32_t pp = nodes[p].parent;
             const Vec3 stem = pp >= 0 ? nodes[p].position - nodes[pp].position : up;

@@ -10,10 +10,10 @@
 //                   be drawn per fork around the species' mean (real forks spread widely about
 //                   it: Eloy 2011, Fig. 2; the TreeQSM reference's interquartile range 1.9–4.5)
 //  3. branches      each branch leaving the stem turned at its insertion by an angle drawn per
-//                   branch; every branch shortened by a factor drawn per branch (its vigour:
-//                   a suppressed branch falls short, none outgrows the crown) and bent along its
-//                   length (gravitropic sag or upturned tips) at a rate drawn per branch: a branch
-//                   leaves at one angle and bends
+//                   branch; every branch's length × a factor drawn per branch (its vigour: the
+//                   median branch keeps its length, suppressed ones fall well short) and bent along
+//                   its length (gravitropic sag or upturned tips) at a rate drawn per branch: a
+//                   branch leaves at one angle and bends
 //  4. scale         the whole tree (positions, radii) by a factor: per-instance size; a
 //                   horizontal factor on top widens or narrows the crown per instance
 //  5. asymmetry     the shoot stretched by (1 + a) along a horizontal direction, (1 − a) across
@@ -50,9 +50,10 @@ struct FormOptions {
                                   // [kMinForkExponent, kMaxForkExponent]; 0: n at every fork
     double angleSdRad = 0.0;      // per branch leaving the stem: its insertion angle + N(0, sd),
                                   // radians
-    double lengthSd = 0.0;        // per branch: its length × e^(−σ|z|), z ~ N(0, 1), at least
-                                  // 0.25: some branches fall short of the length the method
-                                  // grew them to (suppressed), none outgrows it
+    double lengthSd = 0.0;        // per branch: its length × e^(σ(0.674 − |z|)), z ~ N(0, 1),
+                                  // at least 0.25: the median branch keeps the method's length,
+                                  // none grows past e^(0.674σ) of it, and the shortened half has
+                                  // a long tail (suppressed shoots)
     double spreadReach = 0.2;     // × tree height: a branch reaching farther (its longest path
                                   // to a tip) turns and shortens less, by spreadReach·H / reach
     double bendRadPerM = 0.0;     // per branch: radians per metre (before scaling) turned
@@ -94,7 +95,7 @@ void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
 // min(1, spreadReach · height / the branch's reach); a branch of order 1 (leaving the
 // stem) is turned about its fork by its insertion change, insertion angles held within
 // [5°, 150°] (unless the method's are outside); every segment of a branch is scaled by the
-// branch's length factor (≤ 1) and then turned toward (or away from) the ground by the branch's
+// branch's length factor and then turned toward (or away from) the ground by the branch's
 // rate × its length, elevations held within ±80°. Whole subtrees move with their segment; leaves go
 // with their node, at their own size and offset (free leaves with the shoot node nearest them,
 // within 1 m); hanging roots move with the node they hang from.

@@ -334,7 +334,7 @@ TEST(Form, InsertionAnglesSpreadPerBranchAndBranchesTurnWhole) {
     EXPECT_GE(*std::min_element(angles.begin(), angles.end()), 5.0 - 1e-9);
 }
 
-TEST(Form, LengthFactorsShortenEachBranchAsAWhole) {
+TEST(Form, LengthFactorsScaleEachBranchAsAWhole) {
     Tree t = comb(800, 3);
     t.leaves = {leafAt(4, t.nodes[4].position + Vec3{0, 0.05, 0})};
     FormOptions o;
@@ -348,7 +348,7 @@ TEST(Form, LengthFactorsShortenEachBranchAsAWhole) {
         const double len = distance(n.position, p.position);
         if (p.order == 0) {
             logs.push_back(std::log(len / 0.5));
-            // Only shortened: the direction is the method's (45° from the stem).
+            // Only scaled: the direction is the method's (45° from the stem).
             EXPECT_NEAR(angleBetween(n.position - p.position, {1, 1, 0}), 0.0, 1e-6);
         } else {  // the rest of the branch has its first segment's factor
             EXPECT_NEAR(len, distance(p.position, t.nodes[p.parent].position), 1e-9);
@@ -358,10 +358,14 @@ TEST(Form, LengthFactorsShortenEachBranchAsAWhole) {
     double mean = 0, ss = 0;
     for (double l : logs) mean += l / logs.size();
     for (double l : logs) ss += (l - mean) * (l - mean);
-    // ln factor = −σ|z|: mean −σ√(2/π) = −0.399, sd σ√(1 − 2/π) = 0.301; never above 0.
-    EXPECT_NEAR(mean, -0.399, 0.03);
+    // ln factor = σ(0.674 − |z|): mean σ(0.674 − √(2/π)) = −0.062, sd σ√(1 − 2/π) = 0.301,
+    // median 0, never above 0.674σ = 0.337.
+    EXPECT_NEAR(mean, -0.062, 0.03);
     EXPECT_NEAR(std::sqrt(ss / (logs.size() - 1)), 0.301, 0.03);
-    EXPECT_LE(*std::max_element(logs.begin(), logs.end()), 1e-12);
+    std::vector<double> sorted = logs;
+    std::sort(sorted.begin(), sorted.end());
+    EXPECT_NEAR(sorted[sorted.size() / 2], 0.0, 0.03);
+    EXPECT_LE(sorted.back(), 0.5 * 0.6744897501960817 + 1e-12);
     EXPECT_GE(*std::min_element(logs.begin(), logs.end()), std::log(0.25) - 1e-12);
     // A leaf keeps its offset and size.
     EXPECT_NEAR(distance(t.leaves[0].position, t.nodes[4].position), 0.05, 1e-12);
