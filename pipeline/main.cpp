@@ -498,8 +498,8 @@ int main(int argc, char** argv) {
         fit->add_option("--evaluations", fitEvaluations,
                         "Budget of objective evaluations (default: [fit] evaluations)")
             ->check(unsignedValidator(100000000, ""));
-    auto* fitReferenceOption = fit->add_option(
-        "--reference", fitReference, "Reference file (default: [fit] reference)");
+    auto* fitReferenceOption =
+        fit->add_option("--reference", fitReference, "Reference file (default: [fit] reference)");
     fitReferenceOption->check(nonEmptyPath());
     fit->add_option("--threads", fitThreads,
                     "Worker threads, at most 1024 (default 0: all cores); the result is the same")

@@ -34,8 +34,8 @@ namespace {
 // The distributions a fit compares when [fit] lists none: every one a broadleaf tree is held
 // to but order-3 branch lengths (docs/metrics.md), plus the radius exponent.
 const std::vector<std::string> kDefaultDistributions = {
-    "radius_ratio",         "radius_exponent",      "branch_angle_deg",
-    "tip_path_ratio",       "branch_length_order1", "branch_length_order2"};
+    "radius_ratio",   "radius_exponent",      "branch_angle_deg",
+    "tip_path_ratio", "branch_length_order1", "branch_length_order2"};
 
 int distributionIndex(const std::string& name) {
     for (int k = 0; k < kReferenceDistributions; ++k) {
@@ -119,8 +119,9 @@ FitSpec readFitSpec(const std::string& speciesPath, KeyLog* keyLog,
     Params top(*species.table, speciesPath, "", &draw);
     top.documentAs("species");
     if (!top.has("fit")) {
-        top.failHere("expected a [fit] table (the reference, the parameters and their bounds; "
-                     "docs/fit.md)");
+        top.failHere(
+            "expected a [fit] table (the reference, the parameters and their bounds; "
+            "docs/fit.md)");
     }
     Params f = top.table("fit");
     if (referenceOverride) {
@@ -163,8 +164,7 @@ FitSpec readFitSpec(const std::string& speciesPath, KeyLog* keyLog,
     if (const toml::node* w = f.raw("weights")) {
         const toml::array* a = w->as_array();
         if (!a || a->size() != spec.distributions.size()) {
-            f.fail("weights", "expected an array of " +
-                                  std::to_string(spec.distributions.size()) +
+            f.fail("weights", "expected an array of " + std::to_string(spec.distributions.size()) +
                                   " numbers, one per distribution");
         }
         double sum = 0;
@@ -214,9 +214,8 @@ FitSpec readFitSpec(const std::string& speciesPath, KeyLog* keyLog,
             p.overrideKey = p.path;
         }
         if (node->is_table()) {
-            e.fail("path", "\"" + p.path +
-                               "\" is a distribution; fit one of its numbers (\"" + p.path +
-                               ".normal[0]\", \"" + p.path + ".uniform[1]\", …)");
+            e.fail("path", "\"" + p.path + "\" is a distribution; fit one of its numbers (\"" +
+                               p.path + ".normal[0]\", \"" + p.path + ".uniform[1]\", …)");
         }
         if (!node->is_number()) {
             e.fail("path", "\"" + p.path + "\" is not a number in " + speciesPath);
@@ -255,9 +254,9 @@ FitSpec readFitSpec(const std::string& speciesPath, KeyLog* keyLog,
         validateSpecies(species, &ov);
         for (const auto& [key, o] : ov) {
             if (!o.used) {
-                throw SpecError(o.where, "fit.parameter.path",
-                                "\"" + key + "\" is not a parameter species \"" + species.name +
-                                    "\" reads");
+                throw SpecError(
+                    o.where, "fit.parameter.path",
+                    "\"" + key + "\" is not a parameter species \"" + species.name + "\" reads");
             }
         }
     }
@@ -329,13 +328,15 @@ CmaesResult minimiseCmaes(const std::function<double(const std::vector<double>&)
     record(0);
     // One generation per evolve() call; memory = true keeps the mean, step and covariance
     // between calls, so this is one CMA-ES run of `generations` generations.
-    pagmo::cmaes cma(1u, -1, -1, -1, -1, options.sigma0, 1e-10, 1e-10, true, true, seed32);
+    // ftol = xtol = 0: no early stop on a flat population. With force_bounds a generation can
+    // put every candidate on the same bound, with equal objectives, which is no convergence.
+    pagmo::cmaes cma(1u, -1, -1, -1, -1, options.sigma0, 0.0, 0.0, true, true, seed32);
     const int64_t generations = (options.evaluations - lambda) / lambda;
     for (int64_t g = 1; g <= generations; ++g) {
-        const auto before = prob.get_fevals();
+        const auto before = pop.get_problem().get_fevals();
         pop = cma.evolve(pop);
         const auto made = pop.get_problem().get_fevals() - before;
-        if (made == 0) {  // CMA-ES's own tolerances met: it returned without a generation
+        if (made == 0) {  // CMA-ES's own stop (a step of 0): it returned without a generation
             r.converged = true;
             break;
         }
@@ -364,9 +365,9 @@ FitObjective::FitObjective(const FitSpec& spec) : impl_(std::make_unique<Impl>()
     for (const std::string& d : spec.distributions) {
         auto it = m.reference.distributions.find(d);
         if (it == m.reference.distributions.end()) {
-            throw SpecError(spec.distributionsWhere, "fit.distributions",
-                            "\"" + d + "\" is not in the reference file " +
-                                spec.reference.string());
+            throw SpecError(
+                spec.distributionsWhere, "fit.distributions",
+                "\"" + d + "\" is not in the reference file " + spec.reference.string());
         }
         m.tables.push_back(&it->second.table);
         m.kinds.push_back(distributionIndex(d));
@@ -469,9 +470,9 @@ std::string replaceFittedValues(const std::string& text, const std::vector<FitPa
             while (at < text.size() && (static_cast<unsigned char>(text[at]) & 0xC0) == 0x80) ++at;
         }
         size_t end = at;
-        while (end < text.size() && (std::isalnum(static_cast<unsigned char>(text[end])) ||
-                                     std::string_view("+-._").find(text[end]) !=
-                                         std::string_view::npos)) {
+        while (end < text.size() &&
+               (std::isalnum(static_cast<unsigned char>(text[end])) ||
+                std::string_view("+-._").find(text[end]) != std::string_view::npos)) {
             ++end;
         }
         if (end == at) throw std::invalid_argument("fit: no number at " + p.value.str());
@@ -501,8 +502,7 @@ std::string withoutProvenance(const std::string& text) {
 
 // --- the evaluation log -----------------------------------------------------------------------
 
-nlohmann::ordered_json evaluationJson(const FitSpec& spec, int64_t index,
-                                      const FitEvaluation& e) {
+nlohmann::ordered_json evaluationJson(const FitSpec& spec, int64_t index, const FitEvaluation& e) {
     nlohmann::ordered_json j;
     j["evaluation"] = index;
     nlohmann::ordered_json x = nlohmann::ordered_json::object();
@@ -528,7 +528,8 @@ std::optional<FitEvaluation> parseEvaluation(const FitSpec& spec, const std::str
     }
     FitEvaluation e;
     try {
-        for (const FitParameter& p : spec.parameters) e.x.push_back(j["x"].at(p.path).get<double>());
+        for (const FitParameter& p : spec.parameters)
+            e.x.push_back(j["x"].at(p.path).get<double>());
         e.objective = j["objective"].get<double>();
         for (const std::string& name : spec.distributions) {
             const nlohmann::json& d = j["d"].at(name);
@@ -586,8 +587,7 @@ std::string objectiveWords(const FitSpec& spec) {
     return s;
 }
 
-std::string provenance(const FitSpec& spec, const FitObjective& objective,
-                       const FitResult& r) {
+std::string provenance(const FitSpec& spec, const FitObjective& objective, const FitResult& r) {
     std::ostringstream o;
     o << kProvenanceBegin << "---\n";
     o << "# Fitted by `sylva fit` (pagmo2 CMA-ES) from "
@@ -595,12 +595,12 @@ std::string provenance(const FitSpec& spec, const FitObjective& objective,
       << " evaluations of " << spec.trees << " trees each, seed " << spec.seed << ", "
       << r.generations << " generations" << (r.converged ? " (converged)" : "") << ".\n";
     o << "# Reference: " << spec.reference.filename().string() << " (\""
-      << objective.referenceName() << "\", " << objective.referenceTrees()
-      << " measured trees).\n";
+      << objective.referenceName() << "\", " << objective.referenceTrees() << " measured trees).\n";
     o << "# Objective: weighted mean of the KS distance D (as sylva stats --reference) of the "
          "trees'\n#   pooled values to the reference, over "
-      << objectiveWords(spec) << ";\n#   a distribution without values counts 1, a tree that "
-                                 "fails makes the objective 1.\n";
+      << objectiveWords(spec)
+      << ";\n#   a distribution without values counts 1, a tree that "
+         "fails makes the objective 1.\n";
     o << "# Parameters (the file's value -> fitted):\n"
       << parameterLine(spec, r.before.x, r.after.x);
     o << "# D            before   after\n";
@@ -640,8 +640,8 @@ std::string convergenceSvg(const std::vector<CmaesGeneration>& gens, double wors
                   W, H, W, H);
     o << buf << "<rect width=\"100%\" height=\"100%\" fill=\"#fff\"/>\n";
     std::snprintf(buf, sizeof buf,
-                  "<path d=\"M%.1f %.1fV%.1fH%.1f\" fill=\"none\" stroke=\"#444\"/>\n", L, T,
-                  H - B, W - R);
+                  "<path d=\"M%.1f %.1fV%.1fH%.1f\" fill=\"none\" stroke=\"#444\"/>\n", L, T, H - B,
+                  W - R);
     o << buf;
     for (int t = 0; t <= 4; ++t) {
         const double v = lo + (hi - lo) * t / 4;
@@ -674,23 +674,23 @@ std::string convergenceSvg(const std::vector<CmaesGeneration>& gens, double wors
     return o.str();
 }
 
-std::string reportMarkdown(const FitSpec& spec, const FitObjective& objective,
-                           const FitResult& r, const std::vector<CmaesGeneration>& gens,
+std::string reportMarkdown(const FitSpec& spec, const FitObjective& objective, const FitResult& r,
+                           const std::vector<CmaesGeneration>& gens,
                            const std::map<int64_t, FitEvaluation>& bestByGeneration) {
     std::ostringstream o;
     o << "# sylva fit: " << spec.speciesName << "\n\n";
-    o << "Species file `" << fs::path(spec.speciesPath).filename().string()
-      << "`, reference `" << spec.reference.filename().string() << "` (\""
-      << objective.referenceName() << "\", " << objective.referenceTrees()
-      << " measured trees), " << spec.trees << " trees per evaluation, seed " << spec.seed
-      << ", " << r.evaluations << " evaluations in " << r.generations << " generations"
+    o << "Species file `" << fs::path(spec.speciesPath).filename().string() << "`, reference `"
+      << spec.reference.filename().string() << "` (\"" << objective.referenceName() << "\", "
+      << objective.referenceTrees() << " measured trees), " << spec.trees
+      << " trees per evaluation, seed " << spec.seed << ", " << r.evaluations << " evaluations in "
+      << r.generations << " generations"
       << (r.converged ? " (CMA-ES converged before the budget)" : "") << ".\n\n";
     o << "Objective: the weighted mean of KS D over " << objectiveWords(spec)
       << "; a distribution without values counts 1, a tree that fails makes it 1.\n\n";
     o << "## Before and after\n\n| | before (the file) | after (fitted) |\n|---|---:|---:|\n";
     for (size_t i = 0; i < spec.parameters.size(); ++i) {
-        o << "| `" << spec.parameters[i].path << "` | " << roundTripNumber(r.before.x[i])
-          << " | " << roundTripNumber(asWritten(spec, r.after.x)[i]) << " |\n";
+        o << "| `" << spec.parameters[i].path << "` | " << roundTripNumber(r.before.x[i]) << " | "
+          << roundTripNumber(asWritten(spec, r.after.x)[i]) << " |\n";
     }
     for (size_t k = 0; k < spec.distributions.size(); ++k) {
         o << "| D " << spec.distributions[k] << " | " << optNum4(r.before.d[k]) << " | "
@@ -698,8 +698,8 @@ std::string reportMarkdown(const FitSpec& spec, const FitObjective& objective,
     }
     o << "| **objective** | " << num4(r.before.objective) << " | " << num4(r.after.objective)
       << " |\n\n";
-    o << "## Convergence\n\n![best objective against evaluations]("
-      << r.plot.filename().string() << ")\n\n";
+    o << "## Convergence\n\n![best objective against evaluations](" << r.plot.filename().string()
+      << ")\n\n";
     o << "| generation | evaluations | best objective |";
     for (const std::string& d : spec.distributions) o << " " << d << " |";
     o << "\n|---:|---:|---:|";
@@ -708,7 +708,8 @@ std::string reportMarkdown(const FitSpec& spec, const FitObjective& objective,
     for (const CmaesGeneration& g : gens) {
         const FitEvaluation& best = bestByGeneration.at(g.generation);
         o << "| " << g.generation << " | " << g.evaluations << " | " << num4(g.best) << " |";
-        for (size_t k = 0; k < spec.distributions.size(); ++k) o << " " << optNum4(best.d[k]) << " |";
+        for (size_t k = 0; k < spec.distributions.size(); ++k)
+            o << " " << optNum4(best.d[k]) << " |";
         o << "\n";
     }
     return o.str();
@@ -731,18 +732,17 @@ FitResult runFit(const std::string& speciesPath, const FitOptions& options) {
     if (options.evaluations) {
         const int population = cmaesPopulation(spec.parameters.size());
         if (*options.evaluations < 2 * population) {
-            throw InputError("--evaluations: expected at least " +
-                             std::to_string(2 * population) + " (two CMA-ES populations of " +
-                             std::to_string(population) + "), got " +
-                             std::to_string(*options.evaluations));
+            throw InputError("--evaluations: expected at least " + std::to_string(2 * population) +
+                             " (two CMA-ES populations of " + std::to_string(population) +
+                             "), got " + std::to_string(*options.evaluations));
         }
         spec.evaluations = *options.evaluations;
     }
     const FitObjective objective(spec);  // reads the reference: bad input throws here
 
     FitResult r;
-    r.out = options.out.empty() ? fs::path("out") / "fit" / (spec.speciesName + ".toml")
-                                : options.out;
+    r.out =
+        options.out.empty() ? fs::path("out") / "fit" / (spec.speciesName + ".toml") : options.out;
     r.log = r.out.string() + ".fit.jsonl";
     r.report = r.out.string() + ".fit.md";
     r.plot = r.out.string() + ".fit.svg";
@@ -751,7 +751,8 @@ FitResult runFit(const std::string& speciesPath, const FitOptions& options) {
     // The log: reuse the evaluations of a log of the same spec and seed.
     const std::string header = logHeader(spec, objective);
     std::vector<std::string> logged;  // the log's evaluation lines
-    std::map<std::vector<double>, FitEvaluation> known;
+    // Evaluations by their exact parameter values, and whether they came from the log.
+    std::map<std::vector<double>, std::pair<FitEvaluation, bool>> known;
     std::error_code ec;
     if (options.resume && fs::exists(r.log, ec)) {
         std::vector<std::string> lines = AppendLog::readCompleteLines(r.log);
@@ -759,7 +760,7 @@ FitResult runFit(const std::string& speciesPath, const FitOptions& options) {
             for (size_t i = 1; i < lines.size(); ++i) {
                 std::optional<FitEvaluation> e = parseEvaluation(spec, lines[i]);
                 if (!e) break;
-                known.emplace(e->x, *e);
+                known.emplace(e->x, std::make_pair(*e, true));
                 logged.push_back(lines[i]);
             }
         } else if (options.progress) {
@@ -784,11 +785,12 @@ FitResult runFit(const std::string& speciesPath, const FitOptions& options) {
         FitEvaluation e;
         auto it = known.find(x);
         if (it != known.end()) {
-            e = it->second;
-            ++r.reused;
+            e = it->second.first;
+            r.reused += it->second.second;
         } else {
             e = objective.evaluate(x);
             ++computed;
+            known.emplace(x, std::make_pair(e, false));  // a candidate clipped to a bound again
         }
         const std::string line = evaluationJson(spec, index, e).dump();
         if (static_cast<size_t>(index) < logged.size()) {
@@ -862,12 +864,11 @@ FitResult runFit(const std::string& speciesPath, const FitOptions& options) {
                                        std::count(body.begin(), body.end(), '\n'));
     std::vector<FitParameter> at = spec.parameters;
     for (FitParameter& p : at) p.value.line -= shift;
-    writeFileAtomic(r.out, provenance(spec, objective, r) + replaceFittedValues(body, at, r.after.x));
-    writeFileAtomic(r.report,
-                    reportMarkdown(spec, objective, r, cr.generations, bestByGeneration));
+    writeFileAtomic(r.out,
+                    provenance(spec, objective, r) + replaceFittedValues(body, at, r.after.x));
+    writeFileAtomic(r.report, reportMarkdown(spec, objective, r, cr.generations, bestByGeneration));
     writeFileAtomic(r.plot, convergenceSvg(cr.generations, r.before.objective));
-    r.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return r;
 }
 

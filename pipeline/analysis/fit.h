@@ -37,12 +37,12 @@ struct FitParameter {
 
 // The [fit] table of a species file, with the species file's path.
 struct FitSpec {
-    std::string speciesPath;              // as given
-    std::string speciesName;              // the species' `name`
-    std::filesystem::path reference;      // `reference`, resolved against the species file
-    int trees = 16;                       // `trees`: trees per evaluation, ≥ 4
-    int64_t evaluations = 600;            // `evaluations`: the budget of objective evaluations
-    uint64_t seed = 1;                    // `seed`: tree seeds and CMA-ES
+    std::string speciesPath;                 // as given
+    std::string speciesName;                 // the species' `name`
+    std::filesystem::path reference;         // `reference`, resolved against the species file
+    int trees = 16;                          // `trees`: trees per evaluation, ≥ 4
+    int64_t evaluations = 600;               // `evaluations`: the budget of objective evaluations
+    uint64_t seed = 1;                       // `seed`: tree seeds and CMA-ES
     std::vector<std::string> distributions;  // `distributions`: reference distribution names
     SourcePos distributionsWhere;            // where they are (the [fit] table when absent)
     std::vector<double> weights;             // `weights`: one per distribution (default 1)
@@ -73,9 +73,9 @@ struct CmaesOptions {
 };
 
 struct CmaesGeneration {
-    int generation = 0;      // 0: the initial population
-    int64_t evaluations = 0;  // evaluations so far
-    double best = 0;          // the best objective so far
+    int generation = 0;         // 0: the initial population
+    int64_t evaluations = 0;    // evaluations so far
+    double best = 0;            // the best objective so far
     std::vector<double> bestX;  // its parameters
 };
 
@@ -83,13 +83,13 @@ struct CmaesResult {
     std::vector<double> bestX;
     double best = 0;
     int64_t evaluations = 0;
-    bool converged = false;  // stopped before the budget on CMA-ES's own tolerances
+    bool converged = false;  // CMA-ES stopped before the budget (its step fell to 0)
     std::vector<CmaesGeneration> generations;
 };
 
 // Minimises f over the box [lo, hi] with pagmo2's CMA-ES (force_bounds: candidates are clipped
-// to the box; ftol = xtol = 1e-9), one generation at a time so the budget and progress are
-// exact: evaluations = population × (1 + generations) ≤ options.evaluations. f is called
+// to the box; no early stop on ftol or xtol), one generation at a time so the budget and progress
+// are exact: evaluations = population × (1 + generations) ≤ options.evaluations. f is called
 // serially, in a fixed order; with a deterministic f the result depends on the seed only.
 // onGeneration (optional) is called after the initial population and after every generation.
 // Throws std::invalid_argument when the budget is below two populations or the box is empty.

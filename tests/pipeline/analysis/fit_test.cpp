@@ -175,7 +175,8 @@ fs::path plantedReference(const fs::path& dir, const FitSpec& spec) {
     ov["form.pipe_exponent"].holder.insert_or_assign("v", 2.6);
     ReferenceValues pool;
     for (uint64_t seed : fitTreeSeeds(spec.seed, spec.trees)) {
-        poolReferenceValues(pool, skeletonReferenceValues(growSpecies(species, seed, &ov, false).tree));
+        poolReferenceValues(pool,
+                            skeletonReferenceValues(growSpecies(species, seed, &ov, false).tree));
     }
     nlohmann::json j;
     j["name"] = "planted";
@@ -184,7 +185,8 @@ fs::path plantedReference(const fs::path& dir, const FitSpec& spec) {
         std::vector<double> v = pool[k];
         std::sort(v.begin(), v.end());
         const QuantileTable t = sampleTable(v);
-        j["distributions"][kReferenceDistributionNames[k]] = {{"p", t.p}, {"q", t.q}, {"n", v.size()}};
+        j["distributions"][kReferenceDistributionNames[k]] = {
+            {"p", t.p}, {"q", t.q}, {"n", v.size()}};
     }
     const fs::path file = dir / "planted.json";
     spit(file, j.dump());
