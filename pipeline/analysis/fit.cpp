@@ -220,7 +220,6 @@ FitSpec readFitSpec(const std::string& speciesPath, KeyLog* keyLog,
         if (!node->is_number()) {
             e.fail("path", "\"" + p.path + "\" is not a number in " + speciesPath);
         }
-        p.integer = p.element < 0 && node->is_integer();
         p.initial = *node->value<double>();
         const toml::source_region& src = node->source();
         p.value = {speciesPath, static_cast<int>(src.begin.line),
@@ -241,6 +240,22 @@ FitSpec readFitSpec(const std::string& speciesPath, KeyLog* keyLog,
                                   " parameters)");
     }
 
+    // An integer in the file may be a real-valued key written without a decimal point
+    // (`branch_angle_deg = 35`) or an integer key (`nodes = 300`): the species reader tells,
+    // refusing the value as a float only for the latter.
+    for (FitParameter& p : spec.parameters) {
+        const toml::node* node = species.table->at_path(p.path).node();
+        if (p.element >= 0 || !node->is_integer()) continue;
+        Overrides probe;
+        probe[p.overrideKey].holder.insert_or_assign("v", p.initial);
+        probe[p.overrideKey].where = p.where;
+        try {
+            validateSpecies(species, &probe);
+        } catch (const SpecError& err) {
+            p.integer = std::string(err.what()).find("expected an integer") != std::string::npos;
+            if (!p.integer) throw;
+        }
+    }
     // Every fitted key is one the species reads, and the species is valid at both ends of
     // every bound (an error there is at the parameter's path).
     std::vector<double> x;
@@ -436,7 +451,17 @@ FitEvaluation FitObjective::evaluate(const std::vector<double>& x) const {
 // --- the fitted file ----------------------------------------------------------------------
 
 std::string roundTripNumber(double v) {
-    char buf[40];
+    char buf[64];
+    // Plain decimals where they are short (20.0, 0.56, 2.6125), else the shortest %g.
+    if (std::fabs(v) >= 1e-4 && std::fabs(v) < 1e15) {
+        for (int d = 0; d <= 17; ++d) {
+            std::snprintf(buf, sizeof buf, "%.*f", d, v);
+            if (std::strtod(buf, nullptr) == v) {
+                std::string s = buf;
+                return s.find('.') == std::string::npos ? s + ".0" : s;
+            }
+        }
+    }
     for (int p = 1; p <= 17; ++p) {
         std::snprintf(buf, sizeof buf, "%.*g", p, v);
         if (std::strtod(buf, nullptr) == v) break;

@@ -28,7 +28,7 @@ struct FitParameter {
     std::string path;         // as written in [fit]: "form.pipe_exponent", "x.normal[0]"
     double lo = 0, hi = 0;    // bounds = [lo, hi], lo < hi, in the key's own unit
     double initial = 0;       // the file's own value (inside the bounds)
-    bool integer = false;     // a TOML integer in the file: candidates are rounded to integers
+    bool integer = false;     // an integer key (the species refuses a float): values rounded
     std::string overrideKey;  // the species parameter it overrides: path without ".normal[i]"
     int element = -1;         // the distribution element (0 or 1), or -1 for a plain number
     SourcePos value;          // where the file's value starts (the number replaced in place)

@@ -124,6 +124,29 @@ TEST(FitSpec, ReadsEveryKeyOfTheFixture) {
     EXPECT_TRUE(fs::is_regular_file(s.reference));
 }
 
+// `nodes = 300` is an integer key (the species refuses 300.0); `alpha_deg = 54` is a real key
+// written without a decimal point. Only the first is rounded.
+TEST(FitSpec, IntegerKeysAreToldFromWholeNumbers) {
+    TempDir t;
+    std::string text = slurp(kTinyPipe);
+    text.replace(text.find("[[fit.parameter]]"), std::string::npos,
+                 "[[fit.parameter]]\npath = \"levels[0].nodes\"\nbounds = [200, 400]\n\n"
+                 "[[fit.parameter]]\npath = \"levels[1].alpha_deg\"\nbounds = [40, 60]\n");
+    spit(t / "s.toml", text);
+    const FitSpec s =
+        readFitSpec((t / "s.toml").string(), nullptr,
+                    fs::path(SYLVA_SOURCE_DIR) / "species/reference/treeqsm-broadleaf.json");
+    ASSERT_EQ(s.parameters.size(), 2u);
+    EXPECT_TRUE(s.parameters[0].integer);
+    EXPECT_EQ(s.parameters[0].initial, 300);
+    EXPECT_FALSE(s.parameters[1].integer);
+    EXPECT_EQ(s.parameters[1].initial, 54);
+    const std::string out = replaceFittedValues(text, s.parameters, {312.4, 47.5});
+    EXPECT_NE(out.find("nodes = 312\n"), std::string::npos);
+    EXPECT_NE(out.find("alpha_deg = 47.5\n"), std::string::npos);
+    EXPECT_EQ(out.find("nodes = 300"), std::string::npos);
+}
+
 TEST(FitSpec, TheSpeciesReaderIgnoresTheFitTable) {
     const SpeciesFile s = loadSpecies(kTinyPipe.string());
     EXPECT_NO_THROW(validateSpecies(s, nullptr));
@@ -160,6 +183,9 @@ TEST(FitSpec, NumbersRoundTrip) {
     }
     EXPECT_EQ(roundTripNumber(2.6), "2.6");
     EXPECT_EQ(roundTripNumber(3.0), "3.0");
+    EXPECT_EQ(roundTripNumber(20.0), "20.0");  // not 2e+01
+    EXPECT_EQ(roundTripNumber(0.00028902096502518847), "0.00028902096502518847");
+    EXPECT_EQ(roundTripNumber(1e-300), "1e-300");
 }
 
 // --- a real fit -------------------------------------------------------------------------------
