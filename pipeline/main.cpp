@@ -1,5 +1,5 @@
 // The `sylva` command line: parse the arguments and dispatch to the libraries (build, grow,
-// validate, volume, species list, stats, report, merge). Exit codes: 0 success, 1 a runtime
+// validate, volume, species list, stats, report, merge, fit). Exit codes: 0 success, 1 a runtime
 // failure (some trees failed, I/O, a broken invariant), 2 bad input (InputError, core/errors.h).
 #include <tbb/global_control.h>
 #include <unistd.h>
@@ -20,6 +20,7 @@
 #include "core/budget.h"
 #include "core/params.h"
 #include "pipeline/analysis/dataset_stats.h"
+#include "pipeline/analysis/fit.h"
 #include "pipeline/analysis/merge.h"
 #include "pipeline/analysis/realism_gates.h"
 #include "pipeline/analysis/report.h"
@@ -186,6 +187,23 @@ int runReport(const std::string& dir) {
     std::printf("%s: %zu instances, %zu species, %zu metrics, %zu plots (%zu sweep) -> %s\n",
                 dir.c_str(), r.instances, r.species, r.metrics, r.plots, r.sweepPlots,
                 r.index.string().c_str());
+    return 0;
+}
+
+// Calibrates a species' [fit] parameters against its reference (pipeline/analysis/fit.h).
+// Exit 2 on a bad [fit] table, reference or option, before anything is written.
+int runFitCommand(const std::string& speciesPath, const FitOptions& o, int threads) {
+    std::unique_ptr<tbb::global_control> limit;
+    if (threads > 0) {
+        limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                      threads);
+    }
+    const FitResult r = runFit(speciesPath, o);
+    std::printf(
+        "%s: objective %.4f -> %.4f in %lld evaluations (%lld from the log), %.1f s -> %s\n",
+        speciesPath.c_str(), r.before.objective, r.after.objective,
+        static_cast<long long>(r.evaluations), static_cast<long long>(r.reused), r.seconds,
+        r.out.string().c_str());
     return 0;
 }
 
@@ -461,6 +479,34 @@ int main(int argc, char** argv) {
         "report", "Self-contained HTML report (plots, tables, contact sheets) -> DIR/report/");
     report->add_option("DIR", reportDir, "Dataset directory")->required()->check(nonEmptyPath());
 
+    std::string fitPath, fitOut, fitReference;
+    uint64_t fitSeed = 0, fitEvaluations = 0;
+    int fitThreads = 0;
+    bool fitFresh = false;
+    auto* fit = app.add_subcommand(
+        "fit",
+        "Fit a species' [fit] parameters to reference distributions of measured trees (CMA-ES) "
+        "-> the fitted species file, <out>.fit.jsonl, .fit.md, .fit.svg");
+    fit->add_option("SPECIES", fitPath, "Species file (.toml) with a [fit] table")
+        ->required()
+        ->check(nonEmptyPath());
+    auto* fitOutOption =
+        fit->add_option("--out", fitOut, "Fitted species file (default: out/fit/<species>.toml)");
+    auto* fitSeedOption = fit->add_option("--seed", fitSeed, "Fit seed (default: [fit] seed)")
+                              ->check(unsignedValidator(INT64_MAX, ""));
+    auto* fitEvaluationsOption =
+        fit->add_option("--evaluations", fitEvaluations,
+                        "Budget of objective evaluations (default: [fit] evaluations)")
+            ->check(unsignedValidator(100000000, ""));
+    auto* fitReferenceOption =
+        fit->add_option("--reference", fitReference, "Reference file (default: [fit] reference)");
+    fitReferenceOption->check(nonEmptyPath());
+    fit->add_option("--threads", fitThreads,
+                    "Worker threads, at most 1024 (default 0: all cores); the result is the same")
+        ->check(unsignedValidator(kMaxThreads, " (0: all cores)"));
+    fit->add_flag("--fresh", fitFresh,
+                  "Ignore an existing <out>.fit.jsonl (default: reuse its evaluations)");
+
     MergeOptions mergeOptions;
     auto* merge = app.add_subcommand(
         "merge", "Merge the --out directories of a sharded build into OUT, as one unsharded build");
@@ -499,6 +545,20 @@ int main(int argc, char** argv) {
         if (*speciesList) return runSpeciesList(speciesDir);
         if (*report) return runReport(reportDir);
         if (*stats) return runStats(statsDir, statsNoTiming, statsReference);
+        if (*fit) {
+            if (fitOutOption->count() > 0 && fitOut.empty()) {
+                throw InputError("--out: expected a file, got \"\"");
+            }
+            FitOptions o;
+            o.out = fitOut;
+            if (fitSeedOption->count() > 0) o.seed = fitSeed;
+            if (fitEvaluationsOption->count() > 0) {
+                o.evaluations = static_cast<int64_t>(fitEvaluations);
+            }
+            if (fitReferenceOption->count() > 0) o.reference = fs::path(fitReference);
+            o.resume = !fitFresh;
+            return runFitCommand(fitPath, o, fitThreads);
+        }
         if (*gates) {
             std::fputs(gatesMarkdown(evaluateGates(fs::path(gatesDir))).c_str(), stdout);
             return 0;

@@ -15,6 +15,7 @@
 #include "pipeline/build/output_lock.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/skeleton_reader.h"
+#include "pipeline/formats/skeleton_writers.h"
 #include "species/model/reference_metrics.h"
 
 namespace fs = std::filesystem;
@@ -239,10 +240,14 @@ Reference readReference(const fs::path& file) {
         ref.distributions[key] = dist;
     }
     if (ref.distributions.empty()) fail("\"distributions\" is empty");
+    if (j.contains("trees")) {
+        if (!j["trees"].is_number_unsigned()) fail("trees: expected a count (an integer >= 0)");
+        ref.trees = j["trees"].get<size_t>();
+    }
     return ref;
 }
 
-ReferenceValues skeletonReferenceValues(const fs::path& path) {
+ReferenceValues readSkeletonReferenceValues(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);
     if (!in) {
         throw DatasetStatsInputError(path.string() +
@@ -259,6 +264,22 @@ ReferenceValues skeletonReferenceValues(const fs::path& path) {
     } catch (const std::invalid_argument& e) {
         throw DatasetStatsInputError(path.string() + ": " + e.what());
     }
+}
+
+ReferenceValues skeletonReferenceValues(const Tree& tree) {
+    return referenceValues(readSkeletonPly(skeletonPly(tree), "skeleton.ply"));
+}
+
+void poolReferenceValues(ReferenceValues& pool, const ReferenceValues& tree) {
+    for (int k = 0; k < kReferenceDistributions; ++k) {
+        pool[k].insert(pool[k].end(), tree[k].begin(), tree[k].end());
+    }
+}
+
+std::optional<double> referenceDistance(std::vector<double> values, const QuantileTable& table) {
+    if (values.empty()) return std::nullopt;
+    std::sort(values.begin(), values.end());
+    return ksDistance(sampleTable(values), table);
 }
 
 namespace {
@@ -412,11 +433,7 @@ ReferenceFiles compareWithReference(const fs::path& dir, const fs::path& file, c
     for (const Record& r : records) {
         if (!habit.count(r.species)) habit[r.species] = r.habit;
         if (r.skeleton.empty()) continue;
-        const ReferenceValues values = skeletonReferenceValues(dir / r.skeleton);
-        ReferenceValues& pool = pooled[r.species];
-        for (int k = 0; k < kReferenceDistributions; ++k) {
-            pool[k].insert(pool[k].end(), values[k].begin(), values[k].end());
-        }
+        poolReferenceValues(pooled[r.species], readSkeletonReferenceValues(dir / r.skeleton));
         ++read[r.species];
     }
     if (read.empty()) {
@@ -447,7 +464,7 @@ ReferenceFiles compareWithReference(const fs::path& dir, const fs::path& file, c
             c.instances = read[sp];
             c.n = v.size();
             if (!v.empty()) {
-                c.d = ksDistance(sampleTable(v), it->second.table);
+                c.d = referenceDistance(v, it->second.table);
                 c.median = quantileType7(v, 0.5);
             }
             res.reference[sp][name] = c;

@@ -75,6 +75,7 @@ double ksDistance(const QuantileTable& a, const QuantileTable& b);
 // A reference file: quantile tables of the distributions in kReferenceDistributionNames.
 struct Reference {
     std::string name;  // the file's "name", else its file name
+    size_t trees = 0;  // the file's "trees" (trees measured); 0 when absent
     struct Distribution {
         QuantileTable table;
         size_t n = 0;      // values the table was made from ("n"; 0 when absent)
@@ -92,7 +93,21 @@ Reference readReference(const std::filesystem::path& file);
 
 // The reference distributions (reference_metrics.h) of the skeleton in a binary skeleton.ply.
 // Throws DatasetStatsInputError "PATH: …" when it cannot be read or is not a skeleton.
-ReferenceValues skeletonReferenceValues(const std::filesystem::path& path);
+ReferenceValues readSkeletonReferenceValues(const std::filesystem::path& path);
+
+// One tree's reference distributions as `sylva stats --reference` measures them: from the tree
+// written as skeleton.ply (skeletonPly: float positions and radii) and read back, so a tree
+// grown in memory (`sylva fit`) gives the values of its skeleton.ply in a dataset.
+// Throws std::invalid_argument as referenceValues does.
+ReferenceValues skeletonReferenceValues(const Tree& tree);
+
+// Adds one tree's values to a species' pool (every value weighs 1, as in the stats).
+void poolReferenceValues(ReferenceValues& pool, const ReferenceValues& tree);
+
+// The KS distance of pooled values (any order) to a reference table: ksDistance of their
+// sampleTable to it. None when `values` is empty. `sylva stats --reference` and `sylva fit`
+// both compute D with it.
+std::optional<double> referenceDistance(std::vector<double> values, const QuantileTable& table);
 
 // A summary of one metric's values.
 struct MetricSummary {

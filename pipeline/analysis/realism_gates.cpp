@@ -263,7 +263,7 @@ std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir)
                        : "";
         };
         if (const std::string skeleton = file("skeleton_ply"); !skeleton.empty()) {
-            shapes[i].reference = skeletonReferenceValues(datasetDir / skeleton);
+            shapes[i].reference = readSkeletonReferenceValues(datasetDir / skeleton);
         }
         const std::string transforms = file("transforms");
         if (transforms.empty()) continue;

@@ -80,6 +80,11 @@ SpeciesFile loadSpecies(const std::string& path) {
     return s;
 }
 
+SpeciesFile withOwnCache(SpeciesFile species) {
+    species.cache = std::make_shared<SpeciesCache>();
+    return species;
+}
+
 std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
                                                  const Overrides* overrides, LeafOptions* leaves,
                                                  FormOptions* form, BudgetTable* budget) {
@@ -101,6 +106,11 @@ std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, Dra
     BudgetTable b;
     if (auto t = p.optionalTable("budget")) b = readBudget(*t, false);
     if (budget) *budget = b;
+    // [fit]: `sylva fit`'s settings (pipeline/analysis/fit.h reads and checks them); a tree
+    // never depends on them.
+    if (const toml::node* fit = p.raw("fit"); fit && !fit->is_table()) {
+        p.fail("fit", "expected a table (the settings of sylva fit)");
+    }
     p.finish();
     return m;
 }

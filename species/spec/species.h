@@ -35,6 +35,11 @@ const std::vector<std::string>& speciesHabits();
 // Reads and checks the file's top-level keys. Throws SpecError.
 SpeciesFile loadSpecies(const std::string& path);
 
+// The same species with an empty cache of its own: a caller that grows it under ever new
+// overrides (`sylva fit`, one set per evaluation) drops the parsed methods it will not need
+// again with the copy, instead of keeping one per override set in the shared cache.
+SpeciesFile withOwnCache(SpeciesFile species);
+
 struct GrownTree {
     Tree tree;
     Budget budget;  // the tree's budgets (defaults, the species' [budget], the dataset's)

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "core/params.h"
+#include "pipeline/analysis/fit.h"
 #include "pipeline/build/dataset.h"
 #include "pipeline/scan/scan_options.h"
 #include "species/spec/species.h"
@@ -153,6 +154,7 @@ KeyLog acceptedKeys(int& speciesFiles, int& datasetFiles) {
             draw.draw = false;
             draw.keyLog = &log;
             instantiateSpecies(s, draw, nullptr);
+            if (t.contains("fit")) readFitSpec(f.string(), &log);  // `sylva fit`'s [fit]
             ++speciesFiles;
         }
     }
