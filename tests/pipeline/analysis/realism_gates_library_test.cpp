@@ -84,13 +84,11 @@ TEST(RealismGates, EveryLibrarySpeciesPasses) {
     std::cout << table;
     if (const char* path = std::getenv("SYLVA_GATES_TABLE")) std::ofstream(path) << table;
     EXPECT_EQ(gates.size(), presets.size());
-    // Open work: the branch lengths of these species do not yet spread as the reference's (their
-    // grammars and templates grow first- or second-order branches of nearly one length; the
-    // form stage's shortening cannot lengthen them). They must fail only there, and still fail,
-    // so that the list shrinks as they are refitted.
-    const std::set<std::string> kLengthSpreadOpen = {
-        "ashoka",          "aspen",        "cedar-of-lebanon", "kadamb",
-        "lombardy-poplar", "norway-maple", "peepal",           "stone-pine"};
+    // Open work: the first-order branch lengths of these species do not yet spread as the
+    // reference's (the ashoka's grammar grows short drooping branches of nearly one length
+    // along its column, the stone pine's template limbs of nearly one length). They must fail only
+    // there, and still fail, so that the list shrinks as they are refitted.
+    const std::set<std::string> kLengthSpreadOpen = {"ashoka", "stone-pine"};
     for (const SpeciesGates& s : gates) {
         EXPECT_EQ(s.instances, 16) << s.species;
         for (const GateResult& g : s.gates) {
@@ -108,6 +106,10 @@ TEST(RealismGates, EveryLibrarySpeciesPasses) {
     // record (at least 10 trees of a measure), where BAAD's trees reach the species' height:
     // saplings' proportions say nothing of grown trees (BAAD's european ash are 2–6 m
     // understorey saplings, its figs 19 forest saplings up to 10.7 m).
+    // Open-grown crowns: the library's Norway maple and pedunculate oak are solitary trees,
+    // as wide as tall, where BAAD's Acer and Quercus grew in stands (crown diameter at most
+    // 0.60 and 0.72 of the height). They must still be outside, so the list stays current.
+    const std::set<std::string> kOpenGrownCrown = {"norway-maple", "pedunculate-oak"};
     std::ifstream bin(source / "species/reference/baad-allometry.json");
     const nlohmann::json baad = nlohmann::json::parse(bin);
     int checked = 0;
@@ -123,6 +125,10 @@ TEST(RealismGates, EveryLibrarySpeciesPasses) {
         for (const char* key : {"height_m", "crown_diameter_ratio", "crown_depth_ratio"}) {
             if (!block->contains(key) || (*block)[key]["n"].get<int>() < 10) continue;
             const double v = measured.at(species).at(key);
+            if (kOpenGrownCrown.count(species) && std::string(key) == "crown_diameter_ratio") {
+                EXPECT_GT(v, (*block)[key]["max"].get<double>()) << species << " now inside";
+                continue;
+            }
             EXPECT_GE(v, (*block)[key]["min"].get<double>()) << species << " " << key;
             EXPECT_LE(v, (*block)[key]["max"].get<double>()) << species << " " << key;
             ++checked;
