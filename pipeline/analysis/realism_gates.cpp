@@ -142,7 +142,7 @@ SpeciesGates evaluateSpecies(const std::string& name,
     const bool leafy = maxOf(values(records, "leaves")) > 0;
 
     auto add = [&](const char* gate, bool applies, double value, bool pass) {
-        s.gates.push_back({gate, applies, !applies || pass, value});
+        s.gates.push_back({gate, applies, !applies || pass, value, ""});
     };
     const double lowest = minOf(values(records, "lowest_shoot_y_m"));
     add("ground", true, lowest, !std::isnan(lowest) && lowest >= -0.02);

@@ -23,7 +23,7 @@ bool isShoot(const SkeletonNode& n) { return n.part == kShootPart; }
 
 // Drops the nodes without keep[i] (a dropped node's children must be dropped too), their
 // leaves and endpoints; the rest keep their order, so parents stay before children.
-void compact(Tree& tree, const std::vector<char>& keep) {
+std::vector<int32_t> compact(Tree& tree, const std::vector<char>& keep) {
     const size_t n = tree.nodes.size();
     std::vector<int32_t> index(n, -1);
     std::vector<SkeletonNode> nodes;
@@ -50,6 +50,7 @@ void compact(Tree& tree, const std::vector<char>& keep) {
         if (e >= 0 && static_cast<size_t>(e) < n && index[e] >= 0) endpoints.push_back(index[e]);
     }
     tree.endpoints = std::move(endpoints);
+    return index;
 }
 
 // Step 1: the laterals that leave the order-0 axis below `height`, with their subtrees.
@@ -126,7 +127,17 @@ void pruneAtGround(Tree& tree) {
         if (leaf.node != -2) leaves.push_back(leaf);
     }
     tree.leaves = std::move(leaves);
-    compact(tree, keep);
+    // A node that loses every child to the ground (a branch cut there, or one whose children
+    // went below) is a tip now: an endpoint, as the method's tips are.
+    std::vector<char> hadChild(nodes.size(), 0), hasChild(nodes.size(), 0);
+    for (size_t i = 1; i < nodes.size(); ++i) {
+        hadChild[nodes[i].parent] = 1;
+        if (keep[i]) hasChild[nodes[i].parent] = 1;
+    }
+    const std::vector<int32_t> index = compact(tree, keep);
+    for (size_t i = 0; i < index.size(); ++i) {
+        if (index[i] >= 0 && hadChild[i] && !hasChild[i]) tree.endpoints.push_back(index[i]);
+    }
 }
 
 }  // namespace
@@ -234,10 +245,7 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
     for (int32_t i = 1; i < n; ++i) {
         SkeletonNode& node = nodes[i];
         const int32_t p = node.parent;
-        if (!isShoot(node)) {  // roots keep their shape; a hanging one follows its node
-            node.position = was[i] + (nodes[p].position - was[p]);  // (the base never moves)
-            continue;
-        }
+        if (!isShoot(node)) continue;  // roots: applyForm moves hanging ones with their node
         Vec3 d = turn[p].toWorld(was[i] - was[p]);  // the segment as its parent left it
         Frame t = turn[p];
         if (node.order > nodes[p].order && isShoot(nodes[p])) {  // a branch begins
@@ -315,7 +323,12 @@ void applyForm(Tree& tree, const FormOptions& o, const Rng& rng) {
         pipeModelRadii(tree, o.pipeExponent, o.tipRadius, o.pipeTaper, o.baseRadius,
                        o.pipeExponentSd, &forks);
     }
-    if (o.turnsBranches()) turnBranches(tree, o, rng);
+    // Where each node was before the branches turned: a hanging root follows its node from there.
+    std::vector<Vec3> grown;
+    if (o.turnsBranches()) {
+        for (const SkeletonNode& node : tree.nodes) grown.push_back(node.position);
+        turnBranches(tree, o, rng);
+    }
 
     ShootMap map;
     map.scale = o.scale;
@@ -350,7 +363,8 @@ void applyForm(Tree& tree, const FormOptions& o, const Rng& rng) {
         node.radius *= o.scale;
         node.position = isShoot(node) ? map(node.position) : node.position * o.scale;
         if (anchor[i] >= 0) {  // its anchor, a shoot node, has a smaller index: already moved
-            const Vec3 was = before[anchor[i]] * o.scale, now = tree.nodes[anchor[i]].position;
+            const Vec3 was = (grown.empty() ? before : grown)[anchor[i]] * o.scale;
+            const Vec3 now = tree.nodes[anchor[i]].position;
             const double stretch = was.y > 0 ? now.y / was.y : 1.0;
             node.position = {now.x + node.position.x - was.x, node.position.y * stretch,
                              now.z + node.position.z - was.z};

@@ -98,7 +98,8 @@ void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
 // branch's length factor and then turned toward (or away from) the ground by the branch's
 // rate × its length, elevations held within ±80°. Whole subtrees move with their segment; leaves go
 // with their node, at their own size and offset (free leaves with the shoot node nearest them,
-// within 1 m); hanging roots move with the node they hang from.
+// within 1 m); roots stay where they are (applyForm then moves a hanging root with the node it
+// hangs from, so that a root standing on the ground stays on it).
 void turnBranches(Tree& tree, const FormOptions& options, const Rng& rng);
 
 }  // namespace sylva

@@ -134,6 +134,17 @@ std::vector<CliResult> runAllSylva(const std::vector<std::vector<std::string>>& 
     return results;
 }
 
+void expectOneLineAt(const CliResult& r, const fs::path& spec, int line,
+                     const std::vector<std::string>& expect) {
+    EXPECT_EQ(r.code, 2) << describeRun(r);
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    const std::string at = spec.filename().string() + ":" + std::to_string(line) + ":";
+    EXPECT_NE(r.err.find(at), std::string::npos) << "expected \"" << at << "\" in: " << r.err;
+    for (const std::string& e : expect) {
+        EXPECT_NE(r.err.find(e), std::string::npos) << "expected \"" << e << "\" in: " << r.err;
+    }
+}
+
 void expectBadSpecFixture(const fs::path& spec) {
     const auto [expect, line] = fixtureComments(spec);
     ASSERT_FALSE(expect.empty()) << spec;
@@ -146,14 +157,7 @@ void expectBadSpecFixture(const fs::path& spec) {
     for (const auto& args : std::vector<std::vector<std::string>>{
              {"validate", spec.string()}, {"build", spec.string(), "--out", out.string()}}) {
         SCOPED_TRACE(args[0]);
-        const CliResult r = runSylva(args, work, o);
-        EXPECT_EQ(r.code, 2) << describeRun(r);
-        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-        const std::string at = spec.filename().string() + ":" + std::to_string(line) + ":";
-        EXPECT_NE(r.err.find(at), std::string::npos) << "expected \"" << at << "\" in: " << r.err;
-        for (const std::string& e : expect) {
-            EXPECT_NE(r.err.find(e), std::string::npos) << "expected \"" << e << "\" in: " << r.err;
-        }
+        expectOneLineAt(runSylva(args, work, o), spec, line, expect);
     }
     EXPECT_FALSE(fs::exists(out));
     EXPECT_TRUE(fs::is_empty(work)) << "the failed runs wrote into " << work;

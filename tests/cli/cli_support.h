@@ -60,6 +60,10 @@ std::vector<CliResult> runAllSylva(const std::vector<std::vector<std::string>>& 
 // --out work/out` in an empty work directory and expects, for both: exit 2, one line on stderr
 // naming SPEC:<n>: and every expected text, and nothing written (no out, the work dir empty).
 void expectBadSpecFixture(const std::filesystem::path& spec);
+// A run that failed on bad input: exit 2 and one line naming `spec`'s file name and `line`
+// ("NAME:LINE:") and containing every string of `expect`.
+void expectOneLineAt(const CliResult& r, const std::filesystem::path& spec, int line,
+                     const std::vector<std::string>& expect);
 // The .toml files of `dir`, sorted by name (a bad-spec test's parameters).
 std::vector<std::string> tomlFiles(const std::filesystem::path& dir);
 

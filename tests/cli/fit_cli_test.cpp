@@ -90,14 +90,8 @@ TEST_P(FitBadSpec, OneLineAtItsPlaceExitTwoNothingWritten) {
     fs::create_directories(work);
     CliOptions o;
     o.logDir = t.path();
-    const CliResult r = runSylva({"fit", spec.string(), "--out", "fit/x.toml"}, work, o);
-    EXPECT_EQ(r.code, 2) << describeRun(r);
-    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-    const std::string at = spec.filename().string() + ":" + std::to_string(line) + ":";
-    EXPECT_NE(r.err.find(at), std::string::npos) << "expected \"" << at << "\" in: " << r.err;
-    for (const std::string& e : expect) {
-        EXPECT_NE(r.err.find(e), std::string::npos) << "expected \"" << e << "\" in: " << r.err;
-    }
+    expectOneLineAt(runSylva({"fit", spec.string(), "--out", "fit/x.toml"}, work, o), spec, line,
+                    expect);
     EXPECT_TRUE(fs::is_empty(work)) << "the failed fit wrote into " << work;
     // The species itself is valid: `sylva validate` does not read [fit].
     const CliResult v = runSylva({"validate", spec.string()}, work, o);
