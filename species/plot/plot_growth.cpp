@@ -30,6 +30,7 @@
 #include "core/errors.h"
 #include "core/rng.h"
 #include "species/methods/space_colonization.h"
+#include "species/model/form.h"
 #include "species/model/leaf_shape.h"
 #include "species/plot/inventory.h"
 
@@ -386,6 +387,16 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
     forEach(n, threaded, [&](size_t i) {
         prepared[i] = prepareSpecies(spec.species[stems[i].species].species, stems[i].seed, nullptr,
                                      datasetBudget);
+        // In a stand the crown is the one the tree grew among its neighbours (their shyness
+        // planes): the form stage's per-branch turns, lengths and bends and its per-tree width,
+        // applied after growth, would carry it across them. Forks keep their drawn exponents.
+        if (prepared[i].form &&
+            (prepared[i].form->turnsBranches() || prepared[i].form->width != 1)) {
+            FormOptions f = *prepared[i].form;
+            f.angleSdRad = f.lengthSd = f.bendRadPerM = f.bendSdRadPerM = 0;
+            f.width = 1;
+            prepared[i].form = std::make_shared<const FormOptions>(f);
+        }
     });
     std::vector<Tree> grown(n);
     std::vector<uint8_t> done(n, 0);
@@ -396,6 +407,9 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
     // The crown-shyness bounds of space-colonization trees (plot frame), held again once the
     // tree is placed: its scale to its drawn height may have moved its crown over them.
     std::vector<std::vector<ShyBound>> pbounds(n);
+    // A grammar tree's bounds in the plot's frame: its form stage turns and stretches branches
+    // after it grew, so the placed tree is cut at them again (as a colonizer is at pbounds).
+    std::vector<std::vector<ShyBound>> gbounds(n);
     std::vector<uint8_t> shy(n, 0);  // a grammar tree grown within shyness bounds
 
     if (!spec.neighbours) {
@@ -565,6 +579,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
             Neighbourhood nb;
             Vec3 away{0, 0, 0};
             plotClip[i].clear();
+            gbounds[i].clear();
             for (size_t j : close[i]) {
                 Vec3 u;
                 double offset = 0, gap = 0;
@@ -573,7 +588,10 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
                     plotClip[i].push_back({u, dot(u, stems[i].base) + offset});
                 }
                 ShyBound b;
-                if (!hasVolumes && shyBound(i, j, b)) nb.bounds.push_back(treeFrame(b, i, s));
+                if (!hasVolumes && shyBound(i, j, b)) {
+                    nb.bounds.push_back(treeFrame(b, i, s));
+                    gbounds[i].push_back(b);
+                }
                 const double d = std::hypot(stems[j].base.x - stems[i].base.x,
                                             stems[j].base.z - stems[i].base.z);
                 const Vec3 toJ{stems[j].base.x - stems[i].base.x, 0,
@@ -645,6 +663,14 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
         }
         if (!pbounds[i].empty()) {
             pruneTree(t.grown.tree, [&](const Vec3& p) { return keepsAll(pbounds[i], p); });
+        }
+        if (!gbounds[i].empty()) {  // a trunk slid onto a plane lies on it: 1 µm of slack
+            pruneTree(t.grown.tree, [&](const Vec3& p) {
+                for (const ShyBound& b : gbounds[i]) {
+                    if (!b.holds(p) && b.plane.distance(p) > 1e-6) return false;
+                }
+                return true;
+            });
         }
     });
 
