@@ -63,13 +63,6 @@ double maxOf(const std::vector<double>& v) {
 
 bool within(double v, double lo, double hi) { return !std::isnan(v) && v >= lo && v <= hi; }
 
-// Type-7 interquartile range of `v` (sorted in place); NaN when empty.
-double iqr(std::vector<double>& v) {
-    if (v.empty()) return kNaN;
-    std::sort(v.begin(), v.end());
-    return quantileType7(v, 0.75) - quantileType7(v, 0.25);
-}
-
 // Forks and branches that a species must have before its spread is held to the reference's.
 constexpr size_t kSpreadMinValues = 20;
 
@@ -79,17 +72,16 @@ constexpr size_t kSpreadMinValues = 20;
 // distribution's name.
 std::pair<double, std::string> spreadRatio(const std::string& habit,
                                            const std::vector<const InstanceShape*>& shapes) {
+    ReferenceValues pooled;
+    for (const InstanceShape* s : shapes) poolReferenceValues(pooled, s->reference);
     std::pair<double, std::string> worst{kNaN, ""};
     for (int k = 0; k < kReferenceDistributions; ++k) {
         if (!(kSpreadGateIqr[k] > 0)) continue;
         const bool fork = k == kRadiusRatio || k == kRadiusExponent;
         if (!fork && habit != "tree") continue;
-        std::vector<double> pooled;
-        for (const InstanceShape* s : shapes) {
-            pooled.insert(pooled.end(), s->reference[k].begin(), s->reference[k].end());
-        }
-        if (pooled.size() < kSpreadMinValues) continue;
-        const double ratio = iqr(pooled) / kSpreadGateIqr[k];
+        if (pooled[k].size() < kSpreadMinValues) continue;
+        const MetricSummary q = summarize(pooled[k]);
+        const double ratio = (q.q75 - q.q25) / kSpreadGateIqr[k];
         if (std::isnan(worst.first) || ratio < worst.first) {
             worst = {ratio, kReferenceDistributionNames[k]};
         }
