@@ -16,11 +16,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <mutex>
 #include <optional>
 #include <set>
 #include <sstream>
+#include <thread>
 #include <tuple>
 #include <unordered_map>
 
@@ -82,6 +84,31 @@ static nlohmann::json tomlToJson(const toml::table& t) {
 }
 
 namespace {
+
+// Tests only: SYLVA_TEST_PAUSE_AT="<n>:<file>" holds the build (its lock taken) once it has
+// recorded n instances in this run (0: right after taking the lock) until <file> exists, at
+// most 10 minutes, so that a CLI test can act while a build is certainly running without
+// depending on how fast the machine is.
+struct TestPause {
+    int64_t at = -1;
+    fs::path release;
+    TestPause() {
+        const char* e = std::getenv("SYLVA_TEST_PAUSE_AT");
+        if (!e) return;
+        const char* colon = std::strchr(e, ':');
+        if (!colon) return;
+        at = std::atoll(e);
+        release = colon + 1;
+    }
+    void reached(int64_t recorded) const {
+        if (recorded != at) return;
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(10);
+        std::error_code ec;
+        while (!fs::exists(release, ec) && std::chrono::steady_clock::now() < deadline) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        }
+    }
+};
 
 struct Message {
     size_t seq = 0;  // position among the jobs run now (sequencer order)
@@ -358,6 +385,7 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
         const char* e = std::getenv("SYLVA_TEST_ABORT_AFTER");  // tests: simulate a kill
         return e ? std::atoll(e) : -1;
     }();
+    const TestPause pause;
 
     // Two phases, in job order: the trees of the species, many in flight; then the plots, one
     // at a time — a plot holds hundreds of trees and grows, meshes and renders them in parallel
@@ -439,6 +467,7 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
                 if (w.job.position < lastRecorded) fillsAGap = true;
                 ++summary.built;
                 if (abortAfter >= 0 && summary.built >= abortAfter) std::_Exit(137);
+                pause.reached(summary.built);
             } else {
                 ++failed;
                 if (summary.failedIds.size() < BuildSummary::kMaxFailedIds) {
@@ -507,6 +536,7 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
                                                 std::to_string(o.shardCount)
                                           : std::string());
     OutputLock lock(o.out, command, o.shardIndex, o.shardCount);
+    TestPause().reached(0);
     const fs::path datasetPath = o.out / datasetJsonName(o.shardIndex, o.shardCount);
     RunLog runs(o.out / runLogName(o.shardIndex, o.shardCount));
     SpaceReserve reserve(o.out / (".sylva" + shardSuffix(o.shardIndex, o.shardCount) + ".reserve"),

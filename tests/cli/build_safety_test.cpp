@@ -177,23 +177,57 @@ std::string hostName() {
 
 // --- 1. the lock -----------------------------------------------------------------------------
 
+// Options for a build held by SYLVA_TEST_PAUSE_AT once it has recorded `at` instances (0: right
+// after taking its lock) until `release` exists: the test acts while that build certainly runs,
+// however busy the machine is.
+sylva::test::CliOptions heldAt(int64_t at, const fs::path& release, const int* gate = nullptr) {
+    sylva::test::CliOptions o;
+    o.env = {"SYLVA_TEST_PAUSE_AT=" + std::to_string(at) + ":" + release.string()};
+    o.gate = gate;
+    o.watchdog = std::chrono::seconds(900);
+    return o;
+}
+
+// The first of `children` to end (its index), or -1 when none ends within a minute.
+int firstToEnd(const std::vector<Child>& children) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (std::chrono::steady_clock::now() < deadline) {
+        for (size_t i = 0; i < children.size(); ++i) {
+            siginfo_t info{};
+            if (::waitid(P_PID, static_cast<id_t>(children[i].pid), &info,
+                         WEXITED | WNOHANG | WNOWAIT) == 0 &&
+                info.si_pid == children[i].pid) {
+                return static_cast<int>(i);
+            }
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    return -1;
+}
+
 // Two builds into one --out started together: one builds, the other prints one line naming the
-// holder and exits 2 without writing; the dataset is a single build's.
+// holder and exits 2 without writing; the dataset is a single build's. Each build, once it holds
+// the lock, waits for the test's word, so the two certainly overlap.
 TEST(CliLock, TwoBuildsAtOnceOneWinsAndTheDatasetIsASingleBuilds) {
     TempDir t;
     const fs::path spec = writeSpec(t.path(), 25);  // 100 trees
     ASSERT_EQ(build(spec, t / "ref", t.path()).code, 0);
 
-    const fs::path out = t / "out";
+    const fs::path out = t / "out", release = t / "release";
     const std::vector<std::string> args = {"build", spec.string(), "--out", out.string()};
     int gate[2];
     ASSERT_EQ(::pipe(gate), 0);
-    Child a = spawn(args, t.path(), 0, gate), b = spawn(args, t.path(), 0, gate);
+    const std::vector<Child> children = {
+        sylva::test::spawnSylva(args, t.path(), heldAt(0, release, gate)),
+        sylva::test::spawnSylva(args, t.path(), heldAt(0, release, gate))};
     ::close(gate[0]);
     ::close(gate[1]);  // both go
-    RunResult ra = finish(a), rb = finish(b);
-    const RunResult& loser = ra.code == 2 ? ra : rb;
-    const RunResult& winner = ra.code == 2 ? rb : ra;
+    const int first = firstToEnd(children);
+    spit(release, "");  // the holder goes on
+    RunResult ra = finish(children[0]), rb = finish(children[1]);
+    ASSERT_GE(first, 0) << "neither build ended while the other held the lock";
+    const RunResult& loser = first == 0 ? ra : rb;
+    const RunResult& winner = first == 0 ? rb : ra;
     ASSERT_EQ(winner.code, 0) << describeRun(winner);
     expectOneLine(loser, 2);
     EXPECT_EQ(
@@ -212,14 +246,16 @@ TEST(CliLock, ASecondBuildWhileTheFirstRunsWritesNothing) {
     TempDir t;
     const fs::path spec = writeSpec(t.path(), 40);  // 160 trees
     ASSERT_EQ(build(spec, t / "ref", t.path()).code, 0);
-    const fs::path out = t / "out";
-    Child first = spawn({"build", spec.string(), "--out", out.string()}, t.path());
+    const fs::path out = t / "out", release = t / "release";
+    // Held after its second record, with more trees in flight.
+    Child first = sylva::test::spawnSylva({"build", spec.string(), "--out", out.string()}, t.path(),
+                                          heldAt(2, release));
     ASSERT_TRUE(waitForLines(first, out / "manifest.jsonl", 2)) << "the first build ended early";
     ASSERT_TRUE(fs::exists(out / ".sylva.lock"));
     const auto holder = nlohmann::json::parse(slurp(out / ".sylva.lock"));
     EXPECT_EQ(holder["pid"], first.pid);
     EXPECT_EQ(holder["host"], hostName());
-    // Paused (alive, lock held) so that it cannot finish while the second one starts up.
+    // Stopped as well, so that its trees in flight write nothing while the second one runs.
     ASSERT_EQ(::kill(first.pid, SIGSTOP), 0);
     int status = 0;
     ASSERT_EQ(::waitpid(first.pid, &status, WUNTRACED), first.pid);
@@ -234,6 +270,7 @@ TEST(CliLock, ASecondBuildWhileTheFirstRunsWritesNothing) {
     for (const auto& [rel, bytes] : after) {
         if (!files.count(rel)) ADD_FAILURE() << "added: " << rel;
     }
+    spit(release, "");
     ASSERT_EQ(::kill(first.pid, SIGCONT), 0);
     expectOneLine(second, 2);
     EXPECT_NE(second.err.find("(pid " + std::to_string(first.pid) + " on host "), std::string::npos)
@@ -253,7 +290,10 @@ TEST(CliLock, TerminatedBuildLeavesNoLockBehind) {
     TempDir t;
     const fs::path spec = writeSpec(t.path(), 40);
     const fs::path out = t / "out";
-    Child c = spawn({"build", spec.string(), "--out", out.string()}, t.path());
+    // Held after its first record (never released): it is certainly running when the signal
+    // comes.
+    Child c = sylva::test::spawnSylva({"build", spec.string(), "--out", out.string()}, t.path(),
+                                      heldAt(1, t / "never"));
     ASSERT_TRUE(waitForLines(c, out / "manifest.jsonl", 1)) << "the build ended early";
     ASSERT_EQ(::kill(c.pid, SIGTERM), 0);
     EXPECT_EQ(finish(c).code, 128 + SIGTERM);
@@ -463,7 +503,11 @@ TEST(CliRunLog, KilledAndResumedBuildHasTheDatasetJsonOfAnUninterruptedOne) {
     }
 
     const fs::path out = t / "out";
-    Child c = spawn({"build", spec.string(), "--out", out.string(), "--threads", "1"}, t.path());
+    // Held after its third record (never released), so the kill lands before the end however
+    // slow the machine is.
+    Child c =
+        sylva::test::spawnSylva({"build", spec.string(), "--out", out.string(), "--threads", "1"},
+                                t.path(), heldAt(3, t / "never"));
     ASSERT_TRUE(waitForLines(c, out / "manifest.jsonl", 3)) << "the build ended before the kill";
     ASSERT_EQ(::kill(c.pid, SIGKILL), 0);
     EXPECT_EQ(finish(c).code, 128 + SIGKILL);

@@ -39,7 +39,7 @@ CliChild spawnSylva(const std::vector<std::string>& args, const fs::path& dir,
     argv.push_back(nullptr);
     std::vector<std::string> envStore;
     for (char** e = environ; *e; ++e) {
-        if (std::strncmp(*e, "SYLVA_TEST_ABORT_AFTER=", 23) != 0) envStore.emplace_back(*e);
+        if (std::strncmp(*e, "SYLVA_TEST_", 11) != 0) envStore.emplace_back(*e);  // test hooks
     }
     envStore.insert(envStore.end(), options.env.begin(), options.env.end());
     std::vector<char*> envp;

@@ -17,7 +17,7 @@ namespace sylva::test {
 
 struct CliOptions {
     std::vector<std::string> env;  // "NAME=value", added to the test's environment (from which
-                                   // SYLVA_TEST_ABORT_AFTER is removed)
+                                   // the SYLVA_TEST_ hooks are removed)
     rlim_t fileSizeLimit = 0;      // > 0: RLIMIT_FSIZE in bytes (`ulimit -f`; SIGXFSZ default)
     rlim_t addressSpace = 0;       // > 0: RLIMIT_AS in bytes
     const int* gate = nullptr;     // a pipe: the child waits until its write end is closed

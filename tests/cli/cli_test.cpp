@@ -396,7 +396,10 @@ TEST(CliResume, RealKillAndTornLineThenRerunEqualsUninterrupted) {
 
     const fs::path out = t / "out";
     const fs::path manifest = out / "manifest.jsonl";
-    Child c = spawn({"build", spec.string(), "--out", out.string()}, t.path());
+    // Held after its third record (SYLVA_TEST_PAUSE_AT, never released): the kill lands
+    // before the end however slow the machine is, while the trees in flight are being written.
+    Child c = spawn({"build", spec.string(), "--out", out.string()}, t.path(),
+                    {"SYLVA_TEST_PAUSE_AT=3:" + (t / "never").string()});
     ASSERT_GT(c.pid, 0);
     bool exited = false;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
