@@ -9,7 +9,8 @@
 namespace sylva {
 
 bool FormOptions::turnsBranches() const {
-    return angleSdRad > 0 || bendRadPerM != 0 || bendSdRadPerM > 0 || lengthSd > 0;
+    return angleSdRad > 0 || angleShiftRad != 0 || bendRadPerM != 0 || bendSdRadPerM > 0 ||
+           lengthSd > 0;
 }
 
 bool FormOptions::active() const {
@@ -143,7 +144,7 @@ void pruneAtGround(Tree& tree) {
 }  // namespace
 
 void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper, double baseRadius,
-                    double exponentSd, const Rng* rng) {
+                    double exponentSd, const Rng* rng, ForkSpread spread) {
     auto& nodes = tree.nodes;
     const int32_t n = static_cast<int32_t>(nodes.size());
     if (n == 0) return;
@@ -152,6 +153,13 @@ void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
     auto forkExponent = [&](int32_t i) {
         if (!(exponentSd > 0) || rng == nullptr) return exponent;
         Rng draw = rng->derive(static_cast<uint64_t>(i));
+        if (spread == ForkSpread::kLogNormal) {
+            // Right-skewed as measured forks are (the TreeQSM reference: median 2.8–3.0, a
+            // tenth at its bound of 6, where a child is nearly as thick as its parent); held
+            // at the reference's bounds rather than redrawn, so that tail stays.
+            return std::clamp(exponent * std::exp(exponentSd * draw.normal(0.0, 1.0)),
+                              kMinLogForkExponent, kMaxForkExponent);
+        }
         for (int attempt = 0; attempt < 8; ++attempt) {
             const double e = draw.normal(exponent, exponentSd);
             if (e >= kMinForkExponent && e <= kMaxForkExponent) return e;
@@ -258,7 +266,8 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
             const double weight = size > freeReach ? freeReach / size : 1.0;
             stretch[i] = std::max(kMinStretch, std::exp(weight * o.lengthSd *
                                                         (kMedianAbsNormal - std::abs(zLength))));
-            const double dAngle = node.order == 1 ? weight * o.angleSdRad * zAngle : 0.0;
+            const double dAngle =
+                node.order == 1 ? weight * (o.angleShiftRad + o.angleSdRad * zAngle) : 0.0;
             const int32_t pp = nodes[p].parent;
             const Vec3 stem = pp >= 0 ? nodes[p].position - nodes[pp].position : up;
             if (dAngle != 0 && length(d) > 0 && length(stem) > 0) {
@@ -320,8 +329,10 @@ void applyForm(Tree& tree, const FormOptions& o, const Rng& rng) {
     if (o.clearBole > 0) clearBole(tree, o.clearBole);
     if (o.pipeExponent > 0) {
         const Rng forks = rng.derive("form-forks");
+        const bool logNormal = o.pipeExponentLogSd > 0;
         pipeModelRadii(tree, o.pipeExponent, o.tipRadius, o.pipeTaper, o.baseRadius,
-                       o.pipeExponentSd, &forks);
+                       logNormal ? o.pipeExponentLogSd : o.pipeExponentSd, &forks,
+                       logNormal ? ForkSpread::kLogNormal : ForkSpread::kNormal);
     }
     // Where each node was before the branches turned: a hanging root follows its node from there.
     std::vector<Vec3> grown;

@@ -48,22 +48,28 @@ struct FormOptions {
                                   // base has it (the tips follow); 0: radii from tipRadius
     double pipeExponentSd = 0.0;  // per fork: n ~ N(pipeExponent, sd), redrawn outside
                                   // [kMinForkExponent, kMaxForkExponent]; 0: n at every fork
-    double angleSdRad = 0.0;      // per branch leaving the stem: its insertion angle + N(0, sd),
-                                  // radians
-    double lengthSd = 0.0;        // per branch: its length × e^(σ(0.674 − |z|)), z ~ N(0, 1),
-                                  // at least 0.25: the median branch keeps the method's length,
-                                  // none grows past e^(0.674σ) of it, and the shortened half has
-                                  // a long tail (suppressed shoots)
-    double spreadReach = 0.2;     // × tree height: a branch reaching farther (its longest path
-                                  // to a tip) turns and shortens less, by spreadReach·H / reach
-    double bendRadPerM = 0.0;     // per branch: radians per metre (before scaling) turned
-                                  // toward the ground along the branch; < 0 turns it upward
-    double bendSdRadPerM = 0.0;   // per branch: spread of that rate, radians per metre
-    double scale = 1.0;           // ×, the whole tree
-    double width = 1.0;           // ×, the shoot's horizontal extent about the base (crown
-                                  // width per instance, over `scale`)
-    double asymmetry = 0.0;       // fraction in [0, 0.9)
-    double leanRad = 0.0;         // radians from the vertical
+    double pipeExponentLogSd = 0.0;  // per fork instead: n = pipeExponent · e^(σz), z ~ N(0, 1),
+                                     // held to [kMinLogForkExponent, kMaxForkExponent] (the
+                                     // median fork keeps pipeExponent; a long tail of near-
+                                     // continuations); excludes pipeExponentSd
+    double angleSdRad = 0.0;         // per branch leaving the stem: its insertion angle + N(0, sd),
+                                     // radians
+    double angleShiftRad = 0.0;      // and + this mean (radians; > 0 wider from the stem), both
+                                     // weighted by the branch's spread weight
+    double lengthSd = 0.0;       // per branch: its length × e^(σ(0.674 − |z|)), z ~ N(0, 1),
+                                 // at least 0.25: the median branch keeps the method's length,
+                                 // none grows past e^(0.674σ) of it, and the shortened half has
+                                 // a long tail (suppressed shoots)
+    double spreadReach = 0.2;    // × tree height: a branch reaching farther (its longest path
+                                 // to a tip) turns and shortens less, by spreadReach·H / reach
+    double bendRadPerM = 0.0;    // per branch: radians per metre (before scaling) turned
+                                 // toward the ground along the branch; < 0 turns it upward
+    double bendSdRadPerM = 0.0;  // per branch: spread of that rate, radians per metre
+    double scale = 1.0;          // ×, the whole tree
+    double width = 1.0;          // ×, the shoot's horizontal extent about the base (crown
+                                 // width per instance, over `scale`)
+    double asymmetry = 0.0;      // fraction in [0, 0.9)
+    double leanRad = 0.0;        // radians from the vertical
     GroundRule ground = GroundRule::kNone;
 
     // True when step 3 turns or bends branches.
@@ -76,6 +82,14 @@ struct FormOptions {
 // below 1.2 the parent of two equal children would be more than 1.78 × as thick as each).
 constexpr double kMinForkExponent = 1.2;
 constexpr double kMaxForkExponent = 6.0;
+// The log-normal draw's floor: the reference's own (a parent of two equal children 4 × as thick).
+constexpr double kMinLogForkExponent = 0.5;
+
+// How a fork's own exponent is drawn about the species' n.
+enum class ForkSpread {
+    kNormal,     // N(n, sd), redrawn outside [kMinForkExponent, kMaxForkExponent]
+    kLogNormal,  // n · e^(sd · z), held to [kMinLogForkExponent, kMaxForkExponent]
+};
 
 // Applies the steps in the order above. `rng` gives the per-fork exponents, the per-branch
 // turns and bends, and the asymmetry's and the lean's azimuths (each its own derived stream,
@@ -88,7 +102,8 @@ void applyForm(Tree& tree, const FormOptions& options, const Rng& rng);
 // without a base radius the radii are then rescaled so the base keeps the radius the mean
 // exponent gives it (the spread changes the forks, not the tree's thickness).
 void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper, double baseRadius,
-                    double exponentSd = 0.0, const Rng* rng = nullptr);
+                    double exponentSd = 0.0, const Rng* rng = nullptr,
+                    ForkSpread spread = ForkSpread::kNormal);
 
 // Step 3 alone, exposed for tests: every branch (a node whose order is above its parent's)
 // draws its insertion change, length factor and bend rate, the first two weighted by

@@ -393,7 +393,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
         if (prepared[i].form &&
             (prepared[i].form->turnsBranches() || prepared[i].form->width != 1)) {
             FormOptions f = *prepared[i].form;
-            f.angleSdRad = f.lengthSd = f.bendRadPerM = f.bendSdRadPerM = 0;
+            f.angleSdRad = f.angleShiftRad = f.lengthSd = f.bendRadPerM = f.bendSdRadPerM = 0;
             f.width = 1;
             prepared[i].form = std::make_shared<const FormOptions>(f);
         }

@@ -18,7 +18,16 @@ FormOptions readForm(Params& species) {
     if (o.pipeExponentSd > 0 && !(o.pipeExponent > 0)) {
         f->fail("pipe_exponent_sd", "needs pipe_exponent (the mean it spreads about)");
     }
+    o.pipeExponentLogSd =
+        f->number("pipe_exponent_log_sd", o.pipeExponentLogSd, Range::closed(0, 1.5));
+    if (o.pipeExponentLogSd > 0 && !(o.pipeExponent > 0)) {
+        f->fail("pipe_exponent_log_sd", "needs pipe_exponent (the median it spreads about)");
+    }
+    if (o.pipeExponentLogSd > 0 && o.pipeExponentSd > 0) {
+        f->fail("pipe_exponent_log_sd", "set either pipe_exponent_sd or pipe_exponent_log_sd");
+    }
     o.angleSdRad = f->degrees("angle_sd_deg", o.angleSdRad, Range::closed(0, 45));
+    o.angleShiftRad = f->degrees("angle_shift_deg", o.angleShiftRad, Range::closed(-45, 45));
     o.bendRadPerM = f->degrees("bend_deg_per_m", o.bendRadPerM, Range::closed(-90, 90));
     o.bendSdRadPerM = f->degrees("bend_sd_deg_per_m", o.bendSdRadPerM, Range::closed(0, 90));
     o.lengthSd = f->number("length_sd", o.lengthSd, Range::closed(0, 1.5));

@@ -268,6 +268,52 @@ TEST(Form, PipeExponentSpreadDrawsOneExponentPerFork) {
     EXPECT_NE(sortedForkExponents(other)[200], e[200]);
 }
 
+// A full binary tree of `depth` levels of forks (2^depth − 1 of them) above a trunk segment:
+// every fork's children carry equal numbers of tips, so its exponent is well conditioned
+// (r_child / r_parent stays above 0.25 for n ≥ 0.5).
+Tree binaryTree(int depth) {
+    Tree t;
+    addNode(t, -1, {0, 0, 0});
+    std::vector<int32_t> level = {addNode(t, 0, {0, 1, 0})};
+    for (int d = 0; d < depth; ++d) {
+        std::vector<int32_t> next;
+        for (int32_t p : level) {
+            const Vec3 at = t.nodes[p].position;
+            for (double side : {-1.0, 1.0}) {
+                next.push_back(addNode(t, p, at + Vec3{side * 0.1, 0.2, 0}, 0.01, d + 1));
+            }
+        }
+        level = next;
+    }
+    return t;
+}
+
+// The log-normal spread: n = 2.3 · e^(0.7z) held to [0.5, 6], so the median fork keeps 2.3,
+// the quartiles are 2.3 · e^(±0.472) = 1.44 and 3.69, 8.5 % of the forks sit at 6 (z > 1.370)
+// and 1.5 % at 0.5 (z < −2.18); the base keeps the median exponent's radius. 2,047 forks: the
+// quartiles' sampling error is about 0.03 (lower) and 0.08 (upper), the counts' 13 and 5.
+TEST(Form, LogNormalExponentSpreadIsSkewedAndHeldAtTheReferenceBounds) {
+    Tree fixed = binaryTree(11);
+    pipeModelRadii(fixed, 2.3, 0.01, 0.0, 0.0);
+    Tree spread = binaryTree(11);
+    const Rng rng(11);
+    pipeModelRadii(spread, 2.3, 0.01, 0.0, 0.0, 0.7, &rng, ForkSpread::kLogNormal);
+    const std::vector<double> e = sortedForkExponents(spread);
+    ASSERT_EQ(e.size(), 2047u);
+    EXPECT_NEAR(e.front(), kMinLogForkExponent, 1e-6);
+    EXPECT_NEAR(e.back(), kMaxForkExponent, 1e-6);
+    EXPECT_NEAR(e[e.size() / 2], 2.3, 0.12);
+    EXPECT_NEAR(e[e.size() / 4], 1.44, 0.1);
+    EXPECT_NEAR(e[e.size() * 3 / 4], 3.69, 0.25);
+    const auto atTop = std::count_if(e.begin(), e.end(), [](double x) { return x > 6 - 1e-6; });
+    const auto atFloor = std::count_if(e.begin(), e.end(), [](double x) { return x < 0.5 + 1e-6; });
+    EXPECT_GE(atTop, 135);  // 175 expected
+    EXPECT_LE(atTop, 215);
+    EXPECT_GE(atFloor, 13);  // 30 expected
+    EXPECT_LE(atFloor, 47);
+    EXPECT_NEAR(spread.nodes[0].radius, fixed.nodes[0].radius, 1e-12);
+}
+
 double elevationDeg(const Vec3& a, const Vec3& b) {
     const Vec3 d = b - a;
     return std::asin(d.y / length(d)) * 180 / kPi;
@@ -332,6 +378,39 @@ TEST(Form, InsertionAnglesSpreadPerBranchAndBranchesTurnWhole) {
     EXPECT_NEAR(mean, 45.0, 1.5);
     EXPECT_NEAR(std::sqrt(ss / (angles.size() - 1)), 15.0, 1.5);
     EXPECT_GE(*std::min_element(angles.begin(), angles.end()), 5.0 - 1e-9);
+}
+
+// The mean shift opens (or closes) every first-order branch by the same angle, weighted like
+// the spread: 45° + 20° = 65° for the comb's 1.5-m laterals at full weight, and 45° + 20° × w
+// with w = spread_reach · H / 1.5 m when the laterals reach farther than that.
+TEST(Form, AngleShiftOpensEveryFirstOrderBranchByItsWeight) {
+    auto insertions = [](double shiftDeg, double spreadReach) {
+        Tree t = comb(200, 3);
+        FormOptions o;
+        o.angleShiftRad = shiftDeg * kPi / 180;
+        o.spreadReach = spreadReach;
+        turnBranches(t, o, Rng(5));
+        std::vector<double> angles;
+        for (size_t i = 1; i < t.nodes.size(); ++i) {
+            const SkeletonNode& n = t.nodes[i];
+            const SkeletonNode& p = t.nodes[n.parent];
+            if (n.order != 1 || p.order != 0) continue;
+            const Vec3 stem = p.position - t.nodes[p.parent].position;
+            angles.push_back(angleBetween(stem, n.position - p.position) * 180 / kPi);
+        }
+        return angles;
+    };
+    const std::vector<double> open = insertions(20, 0.2), close = insertions(-20, 0.2);
+    ASSERT_EQ(open.size(), 200u);
+    for (size_t k = 0; k < open.size(); ++k) {
+        ASSERT_NEAR(open[k], 65.0, 1e-6);
+        ASSERT_NEAR(close[k], 25.0, 1e-6);
+    }
+    // Height 20 m + the top lateral's 1.5 / √2 m rise; spread_reach 0.025 gives a free reach of
+    // 0.527 m, so w = 0.351 and the shift 7.03°.
+    const double height = 20.0 + 1.5 / std::sqrt(2.0);
+    const double w = 0.025 * height / 1.5;
+    for (double a : insertions(20, 0.025)) ASSERT_NEAR(a, 45.0 + 20.0 * w, 1e-6);
 }
 
 TEST(Form, LengthFactorsScaleEachBranchAsAWhole) {
@@ -455,7 +534,9 @@ TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
     const toml::table good = toml::parse(
         "[form]\nclear_bole = 2\npipe_exponent = 2.3\nlean_deg = 4\nground = \"prune\"\n"
         "pipe_exponent_sd = 0.5\nangle_sd_deg = 12\nbend_deg_per_m = -3\nbend_sd_deg_per_m = 2\n"
-        "width = 1.1\nlength_sd = 0.3\n");
+        "width = 1.1\nlength_sd = 0.3\nangle_shift_deg = -7\n");
+    const toml::table logNormal =
+        toml::parse("[form]\npipe_exponent = 2.3\npipe_exponent_log_sd = 0.7\n");
     DrawContext draw;
     Params p(good, "s.toml", "", &draw);
     const FormOptions o = readForm(p);
@@ -469,7 +550,14 @@ TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
     EXPECT_NEAR(o.bendSdRadPerM, 2 * kPi / 180, 1e-15);
     EXPECT_EQ(o.width, 1.1);
     EXPECT_EQ(o.lengthSd, 0.3);
+    EXPECT_NEAR(o.angleShiftRad, -7 * kPi / 180, 1e-15);
     EXPECT_TRUE(o.active());
+    EXPECT_EQ(o.pipeExponentLogSd, 0.0);
+    {
+        DrawContext d;
+        Params q(logNormal, "s.toml", "", &d);
+        EXPECT_EQ(readForm(q).pipeExponentLogSd, 0.7);
+    }
 
     auto errorOf = [](const char* text) -> std::string {
         const toml::table t = toml::parse(text);
@@ -489,8 +577,19 @@ TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
     EXPECT_EQ(
         errorOf("[form]\npipe_exponent_sd = 0.4\n"),
         "s.toml:2:20: form.pipe_exponent_sd: needs pipe_exponent (the mean it spreads about)");
+    EXPECT_EQ(errorOf("[form]\npipe_exponent_log_sd = 0.4\n"),
+              "s.toml:2:24: form.pipe_exponent_log_sd: needs pipe_exponent (the median it spreads "
+              "about)");
+    EXPECT_EQ(
+        errorOf("[form]\npipe_exponent = 2\npipe_exponent_sd = 1\npipe_exponent_log_sd = 0.4\n"),
+        "s.toml:4:24: form.pipe_exponent_log_sd: set either pipe_exponent_sd or "
+        "pipe_exponent_log_sd");
+    EXPECT_EQ(errorOf("[form]\npipe_exponent = 2\npipe_exponent_log_sd = 2\n"),
+              "s.toml:3:24: form.pipe_exponent_log_sd: expected a number in [0, 1.5], got 2");
     EXPECT_EQ(errorOf("[form]\nangle_sd_deg = 50\n"),
               "s.toml:2:16: form.angle_sd_deg: expected a number in [0, 45], got 50");
+    EXPECT_EQ(errorOf("[form]\nangle_shift_deg = 60\n"),
+              "s.toml:2:19: form.angle_shift_deg: expected a number in [-45, 45], got 60");
     EXPECT_EQ(errorOf("[form]\nscael = 1.1\n"),
               "s.toml:2:9: form.scael: unknown key; did you mean \"scale\"?");
 }
