@@ -144,7 +144,7 @@ void pruneAtGround(Tree& tree) {
 }  // namespace
 
 void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper, double baseRadius,
-                    double exponentSd, const Rng* rng, ForkSpread spread) {
+                    double exponentSd, const Rng* rng, ForkSpread spread, double logMedian) {
     auto& nodes = tree.nodes;
     const int32_t n = static_cast<int32_t>(nodes.size());
     if (n == 0) return;
@@ -157,7 +157,8 @@ void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
             // Right-skewed as measured forks are (the TreeQSM reference: median 2.8–3.0, a
             // tenth at its bound of 6, where a child is nearly as thick as its parent); held
             // at the reference's bounds rather than redrawn, so that tail stays.
-            return std::clamp(exponent * std::exp(exponentSd * draw.normal(0.0, 1.0)),
+            const double median = logMedian > 0 ? logMedian : exponent;
+            return std::clamp(median * std::exp(exponentSd * draw.normal(0.0, 1.0)),
                               kMinLogForkExponent, kMaxForkExponent);
         }
         for (int attempt = 0; attempt < 8; ++attempt) {
@@ -332,7 +333,8 @@ void applyForm(Tree& tree, const FormOptions& o, const Rng& rng) {
         const bool logNormal = o.pipeExponentLogSd > 0;
         pipeModelRadii(tree, o.pipeExponent, o.tipRadius, o.pipeTaper, o.baseRadius,
                        logNormal ? o.pipeExponentLogSd : o.pipeExponentSd, &forks,
-                       logNormal ? ForkSpread::kLogNormal : ForkSpread::kNormal);
+                       logNormal ? ForkSpread::kLogNormal : ForkSpread::kNormal,
+                       o.pipeExponentLogMedian);
     }
     // Where each node was before the branches turned: a hanging root follows its node from there.
     std::vector<Vec3> grown;

@@ -52,10 +52,12 @@ struct FormOptions {
                                      // held to [kMinLogForkExponent, kMaxForkExponent] (the
                                      // median fork keeps pipeExponent; a long tail of near-
                                      // continuations); excludes pipeExponentSd
-    double angleSdRad = 0.0;         // per branch leaving the stem: its insertion angle + N(0, sd),
-                                     // radians
-    double angleShiftRad = 0.0;      // and + this mean (radians; > 0 wider from the stem), both
-                                     // weighted by the branch's spread weight
+    double pipeExponentLogMedian = 0.0;  // the log-normal draws' median; 0: pipeExponent (the base
+                                         // keeps pipeExponent's radius either way)
+    double angleSdRad = 0.0;     // per branch leaving the stem: its insertion angle + N(0, sd),
+                                 // radians
+    double angleShiftRad = 0.0;  // and + this mean (radians; > 0 wider from the stem), both
+                                 // weighted by the branch's spread weight
     double lengthSd = 0.0;       // per branch: its length × e^(σ(0.674 − |z|)), z ~ N(0, 1),
                                  // at least 0.25: the median branch keeps the method's length,
                                  // none grows past e^(0.674σ) of it, and the shortened half has
@@ -100,10 +102,11 @@ void applyForm(Tree& tree, const FormOptions& options, const Rng& rng);
 // The pipe model alone (step 2), exposed for tests: shoot radii from the tips. With
 // exponentSd > 0 each fork draws its own exponent from `rng` (keyed by the fork's node index);
 // without a base radius the radii are then rescaled so the base keeps the radius the mean
-// exponent gives it (the spread changes the forks, not the tree's thickness).
+// exponent gives it (the spread changes the forks, not the tree's thickness). A log-normal
+// spread draws about `logMedian` when it is > 0, about `exponent` otherwise.
 void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper, double baseRadius,
                     double exponentSd = 0.0, const Rng* rng = nullptr,
-                    ForkSpread spread = ForkSpread::kNormal);
+                    ForkSpread spread = ForkSpread::kNormal, double logMedian = 0.0);
 
 // Step 3 alone, exposed for tests: every branch (a node whose order is above its parent's)
 // draws its insertion change, length factor and bend rate, the first two weighted by

@@ -23,6 +23,14 @@ FormOptions readForm(Params& species) {
     if (o.pipeExponentLogSd > 0 && !(o.pipeExponent > 0)) {
         f->fail("pipe_exponent_log_sd", "needs pipe_exponent (the median it spreads about)");
     }
+    o.pipeExponentLogMedian =
+        f->number("pipe_exponent_log_median", o.pipeExponentLogMedian, Range::closed(0, 4));
+    if (o.pipeExponentLogMedian > 0 && !(o.pipeExponentLogSd > 0)) {
+        f->fail("pipe_exponent_log_median", "needs pipe_exponent_log_sd (the spread about it)");
+    }
+    if (o.pipeExponentLogMedian > 0 && o.pipeExponentLogMedian < 1) {
+        f->fail("pipe_exponent_log_median", "expected 0 (pipe_exponent) or a value in [1, 4]");
+    }
     if (o.pipeExponentLogSd > 0 && o.pipeExponentSd > 0) {
         f->fail("pipe_exponent_log_sd", "set either pipe_exponent_sd or pipe_exponent_log_sd");
     }

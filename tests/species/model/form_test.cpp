@@ -312,6 +312,16 @@ TEST(Form, LogNormalExponentSpreadIsSkewedAndHeldAtTheReferenceBounds) {
     EXPECT_GE(atFloor, 13);  // 30 expected
     EXPECT_LE(atFloor, 47);
     EXPECT_NEAR(spread.nodes[0].radius, fixed.nodes[0].radius, 1e-12);
+
+    // About a median of its own (2.8 · e^(±0.5 · 0.674): quartiles 2.00 and 3.92), while the
+    // base keeps the radius n = 2.3 gives it.
+    Tree own = binaryTree(11);
+    pipeModelRadii(own, 2.3, 0.01, 0.0, 0.0, 0.5, &rng, ForkSpread::kLogNormal, 2.8);
+    const std::vector<double> m = sortedForkExponents(own);
+    EXPECT_NEAR(m[m.size() / 2], 2.8, 0.12);
+    EXPECT_NEAR(m[m.size() / 4], 2.0, 0.1);
+    EXPECT_NEAR(m[m.size() * 3 / 4], 3.92, 0.25);
+    EXPECT_NEAR(own.nodes[0].radius, fixed.nodes[0].radius, 1e-12);
 }
 
 double elevationDeg(const Vec3& a, const Vec3& b) {
@@ -588,6 +598,14 @@ TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
               "s.toml:3:24: form.pipe_exponent_log_sd: expected a number in [0, 1.5], got 2");
     EXPECT_EQ(errorOf("[form]\nangle_sd_deg = 50\n"),
               "s.toml:2:16: form.angle_sd_deg: expected a number in [0, 45], got 50");
+    EXPECT_EQ(errorOf("[form]\npipe_exponent = 2\npipe_exponent_log_median = 2.8\n"),
+              "s.toml:3:28: form.pipe_exponent_log_median: needs pipe_exponent_log_sd (the spread "
+              "about it)");
+    EXPECT_EQ(
+        errorOf("[form]\npipe_exponent = 2\npipe_exponent_log_sd = 0.5\n"
+                "pipe_exponent_log_median = 0.5\n"),
+        "s.toml:4:28: form.pipe_exponent_log_median: expected 0 (pipe_exponent) or a value in "
+        "[1, 4]");
     EXPECT_EQ(errorOf("[form]\nangle_shift_deg = 60\n"),
               "s.toml:2:19: form.angle_shift_deg: expected a number in [-45, 45], got 60");
     EXPECT_EQ(errorOf("[form]\nscael = 1.1\n"),
