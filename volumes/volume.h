@@ -92,12 +92,15 @@ struct ShyBound {
     HalfSpace plane;
     double low = 0, high = 0;
     double slack = 0;
-    bool holds(const Vec3& p) const { return p.y < low || p.y > high || plane.distance(p) <= 0; }
+    // `tolerance` metres past the plane still hold (a point slid onto it).
+    bool holds(const Vec3& p, double tolerance = 0) const {
+        return p.y < low || p.y > high || plane.distance(p) <= tolerance;
+    }
 };
-// True when p keeps every bound.
-inline bool keepsAll(const std::vector<ShyBound>& bounds, const Vec3& p) {
+// True when p keeps every bound (within `tolerance` metres).
+inline bool keepsAll(const std::vector<ShyBound>& bounds, const Vec3& p, double tolerance = 0) {
     for (const ShyBound& b : bounds) {
-        if (!b.holds(p)) return false;
+        if (!b.holds(p, tolerance)) return false;
     }
     return true;
 }

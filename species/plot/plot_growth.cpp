@@ -407,8 +407,9 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
     // The crown-shyness bounds of space-colonization trees (plot frame), held again once the
     // tree is placed: its scale to its drawn height may have moved its crown over them.
     std::vector<std::vector<ShyBound>> pbounds(n);
-    // A grammar tree's bounds in the plot's frame: its form stage turns and stretches branches
-    // after it grew, so the placed tree is cut at them again (as a colonizer is at pbounds).
+    // A grammar tree's bounds in the plot's frame: its form stage (scale, asymmetry, lean; the
+    // turns and width are off in a stand) moves branches after it grew, so the placed tree is
+    // cut at them again (as a colonizer is at pbounds).
     std::vector<std::vector<ShyBound>> gbounds(n);
     std::vector<uint8_t> shy(n, 0);  // a grammar tree grown within shyness bounds
 
@@ -665,12 +666,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
             pruneTree(t.grown.tree, [&](const Vec3& p) { return keepsAll(pbounds[i], p); });
         }
         if (!gbounds[i].empty()) {  // a trunk slid onto a plane lies on it: 1 µm of slack
-            pruneTree(t.grown.tree, [&](const Vec3& p) {
-                for (const ShyBound& b : gbounds[i]) {
-                    if (!b.holds(p) && b.plane.distance(p) > 1e-6) return false;
-                }
-                return true;
-            });
+            pruneTree(t.grown.tree, [&](const Vec3& p) { return keepsAll(gbounds[i], p, 1e-6); });
         }
     });
 
