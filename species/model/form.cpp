@@ -251,6 +251,49 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
         reach[p] = std::max(reach[p], reach[i] + distance(was[i], was[p]));
     }
     const double freeReach = o.spreadReach * (top - was[0].y);
+    // Three draws per branch (a node whose order field rises above its parent's), keyed by the
+    // node and always taken in this order, so that each option's draw does not depend on the
+    // others being set; and the length factor they give it (its vigour).
+    struct Draws {
+        double angle, bend, length;
+    };
+    auto drawsOf = [&](int32_t i) {
+        Rng draw = branches.derive(static_cast<uint64_t>(i));
+        Draws z;
+        z.angle = draw.normal(), z.bend = draw.normal(), z.length = draw.normal();
+        return z;
+    };
+    auto weightOf = [&](int32_t i) {  // 1 for a small branch, less for one reaching far
+        const double size = reach[i] + distance(was[i], was[nodes[i].parent]);
+        return size > freeReach ? freeReach / size : 1.0;
+    };
+    auto stretchOf = [&](int32_t i, const Draws& z) {
+        return std::max(kMinStretch, std::exp(weightOf(i) * o.lengthSd *
+                                              (kMedianAbsNormal - std::abs(z.length))));
+    };
+    // Each node's continuing child, as the reference distributions define it: the child of the
+    // node's own order reaching furthest, or, where none has it (a grammar stem whose rule
+    // changes the state), the child reaching furthest once its length factor is applied, so
+    // that the tree's stem is the one this step grows. Each node's branch order counts along
+    // continuing children (TreeQSM's: the stem 0, a branch leaving a branch of order k, k + 1).
+    std::vector<int32_t> cont(n, -1);
+    std::vector<double> best(n, -1.0), bestAny(n, -1.0);
+    std::vector<int32_t> any(n, -1);
+    for (int32_t i = 1; i < n; ++i) {
+        const int32_t p = nodes[i].parent;
+        if (!isShoot(nodes[i]) || !isShoot(nodes[p])) continue;
+        const double r = reach[i] + distance(was[i], was[p]);
+        if (nodes[i].order == nodes[p].order && r > best[p]) best[p] = r, cont[p] = i;
+        if (nodes[i].order <= nodes[p].order) continue;
+        const double stretched = r * stretchOf(i, drawsOf(i));
+        if (stretched > bestAny[p]) bestAny[p] = stretched, any[p] = i;
+    }
+    std::vector<int32_t> branchOrder(n, 0);
+    for (int32_t i = 1; i < n; ++i) {
+        const int32_t p = nodes[i].parent;
+        if (cont[p] < 0) cont[p] = any[p];
+        branchOrder[i] = branchOrder[p] + (i == cont[p] ? 0 : 1);
+    }
     for (int32_t i = 1; i < n; ++i) {
         SkeletonNode& node = nodes[i];
         const int32_t p = node.parent;
@@ -258,17 +301,13 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
         Vec3 d = turn[p].toWorld(was[i] - was[p]);  // the segment as its parent left it
         Frame t = turn[p];
         if (node.order > nodes[p].order && isShoot(nodes[p])) {  // a branch begins
-            // Three draws per branch, always taken in this order so that each option's draw
-            // does not depend on the others being set.
-            Rng draw = branches.derive(static_cast<uint64_t>(i));
-            const double zAngle = draw.normal(), zBend = draw.normal(), zLength = draw.normal();
-            bend[i] = o.bendRadPerM + o.bendSdRadPerM * zBend;
-            const double size = reach[i] + distance(was[i], was[p]);
-            const double weight = size > freeReach ? freeReach / size : 1.0;
-            stretch[i] = std::max(kMinStretch, std::exp(weight * o.lengthSd *
-                                                        (kMedianAbsNormal - std::abs(zLength))));
-            const double dAngle =
-                node.order == 1 ? weight * (o.angleShiftRad + o.angleSdRad * zAngle) : 0.0;
+            const Draws z = drawsOf(i);
+            bend[i] = o.bendRadPerM + o.bendSdRadPerM * z.bend;
+            stretch[i] = stretchOf(i, z);
+            // Turned at its insertion only when it leaves the stem (not the one continuing it).
+            const double dAngle = branchOrder[i] == 1 && i != cont[p]
+                                      ? weightOf(i) * (o.angleShiftRad + o.angleSdRad * z.angle)
+                                      : 0.0;
             const int32_t pp = nodes[p].parent;
             const Vec3 stem = pp >= 0 ? nodes[p].position - nodes[pp].position : up;
             if (dAngle != 0 && length(d) > 0 && length(stem) > 0) {

@@ -108,10 +108,12 @@ void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
                     double exponentSd = 0.0, const Rng* rng = nullptr,
                     ForkSpread spread = ForkSpread::kNormal, double logMedian = 0.0);
 
-// Step 3 alone, exposed for tests: every branch (a node whose order is above its parent's)
-// draws its insertion change, length factor and bend rate, the first two weighted by
-// min(1, spreadReach · height / the branch's reach); a branch of order 1 (leaving the
-// stem) is turned about its fork by its insertion change, insertion angles held within
+// Step 3 alone, exposed for tests: every branch (a node whose order is above its parent's and
+// that does not continue it — the continuing child as the reference distributions define it,
+// so a grammar stem whose rule changes the state goes on as the stem) draws its insertion
+// change, length factor and bend rate, the first two weighted by min(1, spreadReach · height /
+// the branch's reach); a branch leaving the stem (of branch order 1, counted along continuing
+// children as TreeQSM counts) is turned about its fork by its insertion change, insertion angles held within
 // [5°, 150°] (unless the method's are outside); every segment of a branch is scaled by the
 // branch's length factor and then turned toward (or away from) the ground by the branch's
 // rate × its length, elevations held within ±80°. Whole subtrees move with their segment; leaves go

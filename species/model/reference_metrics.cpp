@@ -50,15 +50,21 @@ ReferenceValues referenceValues(const Tree& tree) {
             r = std::max(r, reach[i] + segLength(i));
         }
     }
-    // The continuing child: the child of the node's own order reaching furthest.
+    // The continuing child: the child of the node's own order reaching furthest, or, where no
+    // child has the node's order (a grammar stem whose rule changes the state), the child
+    // reaching furthest: a branch runs on to a tip, as TreeQSM makes every branch and the stem
+    // "as long as possible" (correct_segments.m, modify_topology), never ending at a fork.
     std::vector<int32_t> cont(n, -1);
     for (int32_t i = 0; i < n; ++i) {
-        double best = -1;
+        double best = -1, bestAny = -1;
+        int32_t any = -1;
         for (int32_t c : kids[i]) {
+            const double r = reach[c] + segLength(c);
+            if (r > bestAny) bestAny = r, any = c;
             if (nodes[c].order != nodes[i].order) continue;
-            double r = reach[c] + segLength(c);
             if (r > best) best = r, cont[i] = c;
         }
+        if (cont[i] < 0) cont[i] = any;
     }
 
     // Branch orders as TreeQSM numbers them: the stem (the chain from the root node) is 0, a

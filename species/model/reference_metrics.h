@@ -38,7 +38,9 @@ using ReferenceValues = std::array<std::vector<double>, kReferenceDistributions>
 // The distributions of one tree's shoot (part == kShootPart; the root system is left out).
 // Definitions: a *fork* is a shoot node with ≥ 2 shoot children. At every shoot node, the
 // *continuing child* is the shoot child of the node's own order (SkeletonNode::order) with the
-// longest path to a tip below it (ties: the smaller index), if any; every other shoot child
+// longest path to a tip below it (ties: the smaller index), or, where no child has the node's
+// order, the shoot child with the longest path (so a branch, and the stem, runs on to a tip, as
+// TreeQSM makes them "as long as possible"); every other shoot child
 // begins a *branch*, the maximal chain that follows continuing children. The *stem* is the
 // chain from the root node, of order 0; a branch leaving a branch of order k has order k + 1
 // (TreeQSM's numbering; a method may keep its order field at a fork where two children go on).

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <vector>
 
+#include "species/model/reference_metrics.h"
 #include "species/model/tree_metrics.h"
 #include "species/spec/form_spec.h"
 #include "tests/test_support.h"
@@ -396,6 +397,8 @@ TEST(Form, InsertionAnglesSpreadPerBranchAndBranchesTurnWhole) {
 TEST(Form, AngleShiftOpensEveryFirstOrderBranchByItsWeight) {
     auto insertions = [](double shiftDeg, double spreadReach) {
         Tree t = comb(200, 3);
+        // The stem goes on above its last lateral (else that lateral would continue it).
+        addNode(t, 1 + 199 * 4, {0, 20.1, 0});
         FormOptions o;
         o.angleShiftRad = shiftDeg * kPi / 180;
         o.spreadReach = spreadReach;
@@ -467,6 +470,7 @@ TEST(Form, OnlyBranchesLeavingTheStemChangeTheirInsertion) {
     addNode(t, 1, {0.5, 1.5, 0}, 0.01, 1);
     addNode(t, 2, {1.0, 2.0, 0}, 0.01, 1);
     addNode(t, 3, {1.0, 2.5, 0}, 0.01, 2);
+    addNode(t, 1, {0, 2, 0});  // the stem goes on (else the lateral would continue it)
     const Tree before = t;
     FormOptions o;
     o.angleSdRad = 30 * kPi / 180;
@@ -478,6 +482,73 @@ TEST(Form, OnlyBranchesLeavingTheStemChangeTheirInsertion) {
     const Vec3 child = t.nodes[4].position - t.nodes[3].position;
     EXPECT_NEAR(angleBetween(parent, child), kPi / 4, 1e-9);
     EXPECT_EQ(t.nodes[1].position, before.nodes[1].position);
+}
+
+TEST(Form, AStemThatChangesOrderGoesOnUnturnedAndItsBranchesTurn) {
+    // A grammar stem changes its order field where its rule changes the state: a 1-m order-0
+    // trunk whose top carries only order-1 children, a 2-m leader straight up with a 0.5-m
+    // order-2 twig at 45° and a 0.5-m limb at 45°. The leader continues the stem: it is not
+    // turned, while the limb and the twig, both leaving the stem, open by the shift.
+    Tree t;
+    addNode(t, -1, {0, 0, 0});
+    const int32_t top = addNode(t, 0, {0, 1, 0});
+    const int32_t mid = addNode(t, top, {0, 2, 0}, 0.01, 1);
+    const int32_t tip = addNode(t, mid, {0, 3, 0}, 0.01, 1);
+    const double h = 0.5 / std::sqrt(2.0);  // each leg of a 0.5-m segment at 45°
+    const int32_t twig = addNode(t, mid, Vec3{h, 2 + h, 0}, 0.01, 2);
+    const int32_t limb = addNode(t, top, Vec3{-h, 1 + h, 0}, 0.01, 1);
+    const Tree before = t;
+    FormOptions o;
+    o.angleShiftRad = 20 * kPi / 180;
+    o.spreadReach = 10.0;  // weight 1 everywhere
+    turnBranches(t, o, Rng(3));
+    EXPECT_EQ(t.nodes[mid].position, before.nodes[mid].position);
+    EXPECT_EQ(t.nodes[tip].position, before.nodes[tip].position);
+    const Vec3 up{0, 1, 0};
+    EXPECT_NEAR(angleBetween(t.nodes[limb].position - t.nodes[top].position, up) * 180 / kPi,
+                65.0, 1e-9);
+    EXPECT_NEAR(angleBetween(t.nodes[twig].position - t.nodes[mid].position, up) * 180 / kPi,
+                65.0, 1e-9);
+}
+
+TEST(Form, WhereScaffoldsChangeOrderTheLongestAfterVigourContinuesTheStem) {
+    // Four equal 2-m scaffolds of order 1 from the top of an order-0 trunk (45° out, a quarter
+    // turn apart), each with a 0.3-m order-2 twig pointing up from its middle. With length
+    // factors drawn per branch, the scaffold that continues the stem is the one reaching
+    // farthest once its factor is applied: it stays where it was grown, the other three and
+    // every twig open by the shift, and the stem the reference distributions find in the
+    // result is that scaffold — every first-order angle they measure is the shifted one.
+    for (uint64_t seed = 1; seed <= 20; ++seed) {
+        Tree t;
+        addNode(t, -1, {0, 0, 0});
+        const int32_t top = addNode(t, 0, {0, 1, 0});
+        std::vector<int32_t> first;
+        for (int k = 0; k < 4; ++k) {
+            const double az = k * kPi / 2;
+            const Vec3 u{std::cos(az) / std::sqrt(2.0), 1 / std::sqrt(2.0),
+                         std::sin(az) / std::sqrt(2.0)};
+            const int32_t a = addNode(t, top, Vec3{0, 1, 0} + u, 0.01, 1);
+            addNode(t, a, Vec3{0, 1, 0} + u * 2.0, 0.01, 1);
+            addNode(t, a, Vec3{0, 1, 0} + u + Vec3{0, 0.3, 0}, 0.01, 2);
+            first.push_back(a);
+        }
+        const Tree before = t;
+        FormOptions o;
+        o.angleShiftRad = 30 * kPi / 180;
+        o.lengthSd = 0.8;
+        o.spreadReach = 10.0;
+        turnBranches(t, o, Rng(seed));
+        int unturned = 0;
+        for (int32_t a : first) {
+            const Vec3 was = before.nodes[a].position - before.nodes[top].position;
+            const Vec3 now = t.nodes[a].position - t.nodes[top].position;
+            if (angleBetween(was, now) < 1e-9) ++unturned;
+        }
+        EXPECT_EQ(unturned, 1) << seed;
+        const ReferenceValues v = referenceValues(t);
+        ASSERT_EQ(v[kBranchAngle].size(), 4u) << seed;  // three scaffolds and the stem's twig
+        for (double a : v[kBranchAngle]) EXPECT_NEAR(a, 75.0, 1e-6) << seed;
+    }
 }
 
 TEST(Form, BigLimbsTurnLessThanSmallShoots) {

@@ -107,14 +107,15 @@ TEST(ReferenceMetrics, StraightStemWithTwoLateralsAtKnownAnglesAndLengths) {
     ASSERT_EQ(v[kBranchAngle].size(), 2u);
     EXPECT_NEAR(v[kBranchAngle][0], 60.0, 1e-9);
     EXPECT_NEAR(v[kBranchAngle][1], 90.0, 1e-9);
-    // Height 4: branch lengths 1 and 2 (order 1), 0.3 (order 2), 0.2 (order 3).
+    // Height 4: branch lengths 1 and 2 (order 1) and 0.5 (order 2): the order-3 node is the
+    // order-2 twig's only child, so it continues the twig (a branch runs on to a tip, as
+    // TreeQSM's do) rather than beginning a branch of order 3.
     ASSERT_EQ(v[kBranchLengthOrder1].size(), 2u);
     EXPECT_NEAR(v[kBranchLengthOrder1][0], 1.0 / 4, 1e-12);
     EXPECT_NEAR(v[kBranchLengthOrder1][1], 2.0 / 4, 1e-12);
     ASSERT_EQ(v[kBranchLengthOrder2].size(), 1u);
-    EXPECT_NEAR(v[kBranchLengthOrder2][0], 0.3 / 4, 1e-12);
-    ASSERT_EQ(v[kBranchLengthOrder3].size(), 1u);
-    EXPECT_NEAR(v[kBranchLengthOrder3][0], 0.2 / 4, 1e-12);
+    EXPECT_NEAR(v[kBranchLengthOrder2][0], 0.5 / 4, 1e-12);
+    EXPECT_TRUE(v[kBranchLengthOrder3].empty());
     // Tips in node order: stem top (4), first branch (1 + 1), second (2 + 2), the order-3 twig
     // (2 + 1 + 0.3 + 0.2).
     ASSERT_EQ(v[kTipPathRatio].size(), 4u);
@@ -151,22 +152,25 @@ TEST(ReferenceMetrics, StemDirectionIsTheSegmentIntoTheAttachmentOrTheFirstAtThe
 }
 
 TEST(ReferenceMetrics, TheLongerChildOfTheSameOrderContinuesTheBranch) {
-    // An order-1 branch forks into two children that keep order 1, 0.4 and 1.0 m long: the
-    // longer continues (a branch of 0.5 + 1.0 m), the shorter is the fork's lateral and begins a
-    // branch of order 2, as TreeQSM numbers a branch leaving an order-1 branch.
+    // An order-1 branch leaving a 3-m stem at 2 m forks into two children that keep order 1,
+    // 0.4 and 1.0 m long: the longer continues (a branch of 0.5 + 1.0 m), the shorter is the
+    // fork's lateral and begins a branch of order 2, as TreeQSM numbers a branch leaving an
+    // order-1 branch.
     Tree t;
     addNode(t, -1, {0, 0, 0}, 0.2);
     int32_t top = addNode(t, 0, {0, 2, 0}, 0.1);
     int32_t b = addNode(t, top, {0.5, 2, 0}, 0.05, 1);
     addNode(t, b, {0.5, 2.4, 0}, 0.02, 1);
     addNode(t, b, {1.5, 2, 0}, 0.04, 1);
+    addNode(t, top, {0, 3, 0}, 0.1);
     const ReferenceValues v = referenceValues(t);
     ASSERT_EQ(v[kBranchLengthOrder1].size(), 1u);
-    EXPECT_NEAR(v[kBranchLengthOrder1][0], 1.5 / 2.4, 1e-12);
+    EXPECT_NEAR(v[kBranchLengthOrder1][0], 1.5 / 3, 1e-12);
     ASSERT_EQ(v[kBranchLengthOrder2].size(), 1u);
-    EXPECT_NEAR(v[kBranchLengthOrder2][0], 0.4 / 2.4, 1e-12);
-    ASSERT_EQ(v[kRadiusRatio].size(), 1u);
-    EXPECT_NEAR(v[kRadiusRatio][0], 0.02 / 0.05, 1e-12);
+    EXPECT_NEAR(v[kBranchLengthOrder2][0], 0.4 / 3, 1e-12);
+    ASSERT_EQ(v[kRadiusRatio].size(), 2u);  // the branch on the stem, the twig on the branch
+    EXPECT_NEAR(v[kRadiusRatio][0], 0.05 / 0.1, 1e-12);
+    EXPECT_NEAR(v[kRadiusRatio][1], 0.02 / 0.05, 1e-12);
     // Only the branch leaving the stem is measured against it.
     EXPECT_EQ(v[kBranchAngle].size(), 1u);
 
@@ -181,6 +185,34 @@ TEST(ReferenceMetrics, TheLongerChildOfTheSameOrderContinuesTheBranch) {
     EXPECT_NEAR(w[kBranchAngle][0], 30.0, 1e-9);
     ASSERT_EQ(w[kBranchLengthOrder1].size(), 1u);
     EXPECT_NEAR(w[kBranchLengthOrder1][0], 1.0 / 3, 1e-12);
+}
+
+TEST(ReferenceMetrics, AStemWhoseChildrenAllChangeOrderGoesOnInTheFarthestReaching) {
+    // A grammar stem changes its order field where its rule changes the state: here a 1-m
+    // order-0 trunk whose top carries only order-1 children — a 2-m leader straight up (with a
+    // 0.5-m order-2 twig at 45° halfway) and a 0.5-m limb at 45°. As TreeQSM makes the stem as
+    // long as possible, the leader continues the stem (height 3 m): two branches leave it, the
+    // limb and the twig, both of order 1 at 45°; the stem is not cut at the trunk's top into
+    // two order-1 branches (the leader then 2 m long, the twig of order 2).
+    Tree t;
+    addNode(t, -1, {0, 0, 0}, 0.2);
+    const int32_t top = addNode(t, 0, {0, 1, 0}, 0.15);
+    const int32_t mid = addNode(t, top, {0, 2, 0}, 0.1, 1);
+    addNode(t, mid, {0, 3, 0}, 0.05, 1);
+    addNode(t, mid, Vec3{0, 2, 0} + dirDeg(45) * 0.5, 0.02, 2);
+    addNode(t, top, Vec3{0, 1, 0} + dirDeg(-45) * 0.5, 0.05, 1);
+    const ReferenceValues v = referenceValues(t);
+    ASSERT_EQ(v[kBranchLengthOrder1].size(), 2u);
+    EXPECT_NEAR(v[kBranchLengthOrder1][0], 0.5 / 3, 1e-12);  // the twig (node order)
+    EXPECT_NEAR(v[kBranchLengthOrder1][1], 0.5 / 3, 1e-12);  // the limb
+    EXPECT_TRUE(v[kBranchLengthOrder2].empty());
+    ASSERT_EQ(v[kBranchAngle].size(), 2u);
+    EXPECT_NEAR(v[kBranchAngle][0], 45.0, 1e-9);
+    EXPECT_NEAR(v[kBranchAngle][1], 45.0, 1e-9);
+    // The limb is the trunk top's one lateral: ratio 0.05 / 0.15.
+    ASSERT_EQ(v[kRadiusRatio].size(), 2u);
+    EXPECT_NEAR(v[kRadiusRatio][0], 0.05 / 0.15, 1e-12);
+    EXPECT_NEAR(v[kRadiusRatio][1], 0.02 / 0.1, 1e-12);
 }
 
 TEST(ReferenceMetrics, RootSystemIgnoredAndDegenerateTrees) {
