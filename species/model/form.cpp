@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "species/model/reference_metrics.h"
 #include "volumes/point_grid.h"
 
 namespace sylva {
@@ -271,27 +272,15 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
         return std::max(kMinStretch, std::exp(weightOf(i) * o.lengthSd *
                                               (kMedianAbsNormal - std::abs(z.length))));
     };
-    // Each node's continuing child, as the reference distributions define it: the child of the
-    // node's own order reaching furthest, or, where none has it (a grammar stem whose rule
-    // changes the state), the child reaching furthest once its length factor is applied, so
-    // that the tree's stem is the one this step grows. Each node's branch order counts along
-    // continuing children (TreeQSM's: the stem 0, a branch leaving a branch of order k, k + 1).
-    std::vector<int32_t> cont(n, -1);
-    std::vector<double> best(n, -1.0), bestAny(n, -1.0);
-    std::vector<int32_t> any(n, -1);
-    for (int32_t i = 1; i < n; ++i) {
-        const int32_t p = nodes[i].parent;
-        if (!isShoot(nodes[i]) || !isShoot(nodes[p])) continue;
-        const double r = reach[i] + distance(was[i], was[p]);
-        if (nodes[i].order == nodes[p].order && r > best[p]) best[p] = r, cont[p] = i;
-        if (nodes[i].order <= nodes[p].order) continue;
-        const double stretched = r * stretchOf(i, drawsOf(i));
-        if (stretched > bestAny[p]) bestAny[p] = stretched, any[p] = i;
-    }
+    // Each node's continuing child, as the reference distributions define it (the child of the
+    // node's own order reaching furthest, or, where none has it — a grammar stem whose rule
+    // changes the state, scaffold limbs from the top of a trunk — the thickest, which the turns
+    // and length factors below leave the thickest), and each node's branch order counted along
+    // them (TreeQSM's: the stem 0, a branch leaving a branch of order k, k + 1).
+    const std::vector<int32_t> cont = continuingChildren(tree, reach);
     std::vector<int32_t> branchOrder(n, 0);
     for (int32_t i = 1; i < n; ++i) {
         const int32_t p = nodes[i].parent;
-        if (cont[p] < 0) cont[p] = any[p];
         branchOrder[i] = branchOrder[p] + (i == cont[p] ? 0 : 1);
     }
     for (int32_t i = 1; i < n; ++i) {

@@ -26,6 +26,32 @@ double angleDeg(const Vec3& a, const Vec3& b) {
 }
 }  // namespace
 
+std::vector<int32_t> continuingChildren(const Tree& tree, const std::vector<double>& reach) {
+    const auto& nodes = tree.nodes;
+    const int32_t n = static_cast<int32_t>(nodes.size());
+    std::vector<int32_t> cont(n, -1), thickest(n, -1);
+    std::vector<double> best(n, -1.0);
+    auto isShoot = [&](int32_t i) { return nodes[i].part == kShootPart; };
+    auto reachOf = [&](int32_t i) {
+        return reach[i] + distance(nodes[i].position, nodes[nodes[i].parent].position);
+    };
+    for (int32_t i = 1; i < n; ++i) {
+        const int32_t p = nodes[i].parent;
+        if (p < 0 || !isShoot(i) || !isShoot(p)) continue;
+        const double r = reachOf(i);
+        if (nodes[i].order == nodes[p].order && r > best[p]) best[p] = r, cont[p] = i;
+        const int32_t t = thickest[p];
+        if (t < 0 || nodes[i].radius > nodes[t].radius ||
+            (nodes[i].radius == nodes[t].radius && r > reachOf(t))) {
+            thickest[p] = i;
+        }
+    }
+    for (int32_t i = 0; i < n; ++i) {
+        if (cont[i] < 0) cont[i] = thickest[i];
+    }
+    return cont;
+}
+
 ReferenceValues referenceValues(const Tree& tree) {
     ReferenceValues out;
     const auto& nodes = tree.nodes;
@@ -51,22 +77,13 @@ ReferenceValues referenceValues(const Tree& tree) {
         }
     }
     // The continuing child: the child of the node's own order reaching furthest, or, where no
-    // child has the node's order (a grammar stem whose rule changes the state), the child
-    // reaching furthest: a branch runs on to a tip, as TreeQSM makes every branch and the stem
-    // "as long as possible" (correct_segments.m, modify_topology), never ending at a fork.
-    std::vector<int32_t> cont(n, -1);
-    for (int32_t i = 0; i < n; ++i) {
-        double best = -1, bestAny = -1;
-        int32_t any = -1;
-        for (int32_t c : kids[i]) {
-            const double r = reach[c] + segLength(c);
-            if (r > bestAny) bestAny = r, any = c;
-            if (nodes[c].order != nodes[i].order) continue;
-            if (r > best) best = r, cont[i] = c;
-        }
-        if (cont[i] < 0) cont[i] = any;
-    }
-
+    // child has the node's order (a grammar stem whose rule changes the state), the thickest
+    // child, the one reaching furthest among equals: a branch runs on to a tip, as TreeQSM
+    // makes every branch and the stem "as long as possible" (correct_segments.m,
+    // modify_topology), never ending at a fork. Thickness, not reach, decides there: under the
+    // pipe model it is the child carrying most of the crown, and the form stage's turns, length
+    // factors and width leave it as it was (the form stage turns branches about the same stem).
+    const std::vector<int32_t> cont = continuingChildren(tree, reach);
     // Branch orders as TreeQSM numbers them: the stem (the chain from the root node) is 0, a
     // branch leaving a branch of order k has order k + 1 (parents precede children).
     std::vector<int32_t> branchOrder(n, 0);

@@ -39,8 +39,9 @@ using ReferenceValues = std::array<std::vector<double>, kReferenceDistributions>
 // Definitions: a *fork* is a shoot node with ≥ 2 shoot children. At every shoot node, the
 // *continuing child* is the shoot child of the node's own order (SkeletonNode::order) with the
 // longest path to a tip below it (ties: the smaller index), or, where no child has the node's
-// order, the shoot child with the longest path (so a branch, and the stem, runs on to a tip, as
-// TreeQSM makes them "as long as possible"); every other shoot child
+// order, the thickest shoot child (ties: the longest path, then the smaller index), so that a
+// branch, and the stem, runs on to a tip, as TreeQSM makes them "as long as possible"; every
+// other shoot child
 // begins a *branch*, the maximal chain that follows continuing children. The *stem* is the
 // chain from the root node, of order 0; a branch leaving a branch of order k has order k + 1
 // (TreeQSM's numbering; a method may keep its order field at a fork where two children go on).
@@ -49,5 +50,10 @@ using ReferenceValues = std::array<std::vector<double>, kReferenceDistributions>
 // not a shoot node; (d) and (e) are empty when the height is not positive. Throws
 // std::invalid_argument when a parent index is not smaller than its child's (as ChildIndex does).
 ReferenceValues referenceValues(const Tree& tree);
+
+// Every node's continuing child as defined above (−1 at a tip and for non-shoot nodes), given
+// each node's longest path down to a tip over shoot segments (`reach`, one per node). The form
+// stage turns branches about the same stem.
+std::vector<int32_t> continuingChildren(const Tree& tree, const std::vector<double>& reach);
 
 }  // namespace sylva
