@@ -2,6 +2,8 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 namespace sylva {
@@ -13,14 +15,29 @@ Progress::Progress(int64_t total, bool enabled)
       start_(std::chrono::steady_clock::now()),
       last_(start_) {}
 
-static std::string duration(double s) {
-    char buf[32];
-    if (s < 60)
-        std::snprintf(buf, sizeof buf, "%.0fs", s);
-    else if (s < 3600)
-        std::snprintf(buf, sizeof buf, "%dm%02ds", int(s) / 60, int(s) % 60);
-    else
-        std::snprintf(buf, sizeof buf, "%dh%02dm", int(s) / 3600, (int(s) / 60) % 60);
+std::string formatDuration(double s) {
+    if (std::isnan(s)) return "?";
+    s = std::max(s, 0.0);
+    // In doubles throughout: an hour count past 2^31 (a count of 10^12 trees at a few per
+    // second) must not wrap into a negative number.
+    constexpr double kMinute = 60, kHour = 3600, kDay = 86400, kYear = 365.25 * kDay;
+    char buf[48];
+    if (s < kMinute) {
+        std::snprintf(buf, sizeof buf, "%.0fs", std::floor(s));
+    } else if (s < kHour) {
+        std::snprintf(buf, sizeof buf, "%.0fm%02.0fs", std::floor(s / kMinute),
+                      std::floor(std::fmod(s, kMinute)));
+    } else if (s < 100 * kHour) {
+        std::snprintf(buf, sizeof buf, "%.0fh%02.0fm", std::floor(s / kHour),
+                      std::floor(std::fmod(s, kHour) / kMinute));
+    } else if (s < kYear) {
+        std::snprintf(buf, sizeof buf, "%.0fd%02.0fh", std::floor(s / kDay),
+                      std::floor(std::fmod(s, kDay) / kHour));
+    } else if (s < 1e6 * kYear) {
+        std::snprintf(buf, sizeof buf, "%.0fy", std::floor(s / kYear));
+    } else {
+        std::snprintf(buf, sizeof buf, "over 1000000y");
+    }
     return buf;
 }
 
@@ -31,7 +48,7 @@ std::string Progress::line(int64_t done, int64_t failed) const {
     char buf[160];
     std::snprintf(buf, sizeof buf, "%lld/%lld trees  %.1f trees/s  elapsed %s  ETA %s%s",
                   static_cast<long long>(done), static_cast<long long>(total_), rate,
-                  duration(t).c_str(), duration(eta).c_str(),
+                  formatDuration(t).c_str(), formatDuration(eta).c_str(),
                   failed ? ("  failed " + std::to_string(failed)).c_str() : "");
     return buf;
 }

@@ -8,6 +8,10 @@
 
 namespace sylva {
 
+// A duration for the progress line: "42s", "3m07s", "5h04m" (below 100 hours), "12d05h"
+// (below a year), "930y", "over 1000000y"; negative as 0, NaN as "?".
+std::string formatDuration(double seconds);
+
 class Progress {
   public:
     Progress(int64_t total, bool enabled);
