@@ -29,6 +29,7 @@
 #include "pipeline/build/build.h"
 #include "pipeline/build/dataset.h"
 #include "pipeline/build/grow_one.h"
+#include "pipeline/build/output_lock.h"
 #include "species/spec/species.h"
 
 namespace fs = std::filesystem;
@@ -128,6 +129,7 @@ int runValidate(const std::string& path) {
 int runVolume(const std::string& speciesPath, const VolumeOutputOptions& options, std::string out) {
     fs::path dir = out;
     if (dir.empty()) dir = fs::path("out") / "volume" / loadSpecies(speciesPath).name;
+    checkOutputDir(dir, "--out");  // one clear line before anything is written
     const VolumeOutputResult r = writeSpeciesVolumes(speciesPath, dir, options);
     std::printf("%s seed %llu: %zu volume(s), species parsed in %.1f ms -> %s\n", r.species.c_str(),
                 static_cast<unsigned long long>(options.seed), r.volumes.size(), r.parseMs,

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <nlohmann/json.hpp>
 
+#include "pipeline/build/output_lock.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/skeleton_writers.h"
 #include "pipeline/formats/stats_json.h"
@@ -19,6 +20,7 @@ GrowOneResult growOne(const std::string& speciesPath, uint64_t seed, const fs::p
     GrowOneResult r;
     r.species = species.name;
     r.dir = dir.empty() ? fs::path("out") / "grow" / species.name : dir;
+    checkOutputDir(r.dir, "--out");  // one clear line before anything is grown or written
     const auto t0 = std::chrono::steady_clock::now();
     GrownTree g;
     try {

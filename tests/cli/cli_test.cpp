@@ -621,6 +621,30 @@ TEST(CliGrow, WritesFilesAndIsDeterministicPerSeed) {
     EXPECT_TRUE(tempFilesUnder(t.path()).empty());
 }
 
+// `grow` and `volume` check --out as `build` does: a path that is a file, or lies under one,
+// is bad input (exit 2, one line naming --out), found before anything is grown or written.
+TEST(CliGrow, AnOutThatIsAFileExitsTwoWithOneLineAndWritesNothing) {
+    TempDir t;
+    const fs::path file = t / "file";
+    std::ofstream(file) << "keep";
+    const std::string spec = kTiny.string();
+    const std::vector<std::vector<std::string>> runs = {
+        {"grow", spec, "--out", file.string()},
+        {"grow", spec, "--out", (file / "sub").string()},
+        {"volume", spec, "--out", file.string()},
+        {"volume", spec, "--out", (file / "sub").string()}};
+    const std::vector<RunResult> r = runAll(runs, t.path());
+    for (size_t i = 0; i < r.size(); ++i) {
+        SCOPED_TRACE(runs[i][0] + " --out " + runs[i][3]);
+        EXPECT_EQ(r[i].code, 2) << describeRun(r[i]);
+        EXPECT_EQ(std::count(r[i].err.begin(), r[i].err.end(), '\n'), 1) << r[i].err;
+        EXPECT_NE(r[i].err.find("--out " + runs[i][3]), std::string::npos) << r[i].err;
+        EXPECT_EQ(r[i].err.find("filesystem error"), std::string::npos) << r[i].err;
+    }
+    EXPECT_EQ(slurp(file), "keep");
+    EXPECT_TRUE(tempFilesUnder(t.path()).empty());
+}
+
 // `sylva gates DIR`: the realism gates table of a built dataset on stdout; no dataset: exit 2.
 TEST(CliGates, PrintsOneRowPerSpeciesAndRejectsADirectoryWithoutManifest) {
     TempDir t;
