@@ -193,6 +193,7 @@ std::string Params::documentAs(std::string docPath) {
 Params Params::child(const toml::table& table, std::string path, std::string docPath) const {
     Params c(table, file_, std::move(path), draw_, overrides_);
     c.docPath_ = std::move(docPath);
+    c.plainNumbers_ = plainNumbers_;
     return c;
 }
 
@@ -242,6 +243,11 @@ double Params::readNumber(const toml::node& node, const SourcePos& where, const 
     }
     if (auto t = node.as_table()) {
         // A distribution: {uniform = [a, b]} or {normal = [mu, sigma]}.
+        if (plainNumbers_ && !allowDistribution_) {
+            throw SpecError(where, path,
+                            "expected a number, got a distribution (here only the keys whose "
+                            "documentation says so may be drawn)");
+        }
         if (t->size() != 1) {
             throw SpecError(where, path,
                             "expected a number or a distribution {uniform = [a, b]} or "
@@ -341,6 +347,19 @@ double Params::number(std::string_view key, double fallback, const Range& range)
     const toml::node* n = lookup(key, &w);
     if (!n) return fallback;
     return readNumber(*n, w, path(key), range, false);
+}
+
+double Params::numberOrDistribution(std::string_view key, const Range& range) {
+    const bool was = allowDistribution_;
+    allowDistribution_ = true;
+    try {
+        const double v = number(key, range);
+        allowDistribution_ = was;
+        return v;
+    } catch (...) {
+        allowDistribution_ = was;
+        throw;
+    }
 }
 
 int64_t Params::readInteger(const toml::node& node, const SourcePos& where, const std::string& path,

@@ -151,6 +151,11 @@ class Params {
     // This table's keys are names the user chooses (grammar states, L-system letters): they
     // are recorded as "*".
     void keysAreUserNames() { userNames_ = true; }
+    // From here on, in this table and the tables read from it, a number must be a plain
+    // number: a distribution is an error at its key, except through numberOrDistribution().
+    void plainNumbersOnly() { plainNumbers_ = true; }
+    // A number that may be a distribution also where plainNumbersOnly() is set (as number()).
+    double numberOrDistribution(std::string_view key, const Range& range);
 
   private:
     const toml::node* lookup(std::string_view key, SourcePos* where) const;
@@ -171,6 +176,8 @@ class Params {
     std::set<std::string> asked_;
     std::string docPath_;
     bool userNames_ = false;
+    bool plainNumbers_ = false;   // distributions refused (plainNumbersOnly)
+    bool allowDistribution_ = false;  // set during numberOrDistribution
 };
 
 template <class E, class>

@@ -199,12 +199,12 @@ PlotSpecies readSpecies(Params& e, bool understory, const BudgetTable& budget, b
         ps.density = e.number("density", Range::closed(0, 1e6));
     }
     if (const toml::node* h = e.raw("height")) {
-        e.number("height", Range::leftOpen(0, 200));  // checks it (a distribution's bounds too)
+        e.numberOrDistribution("height", Range::leftOpen(0, 200));  // checks it and its bounds
         ps.height = holderOf(*h);
         ps.hasHeight = true;
     }
     if (const toml::node* h = e.raw("slenderness")) {
-        e.number("slenderness", Range::closed(10, 300));
+        e.numberOrDistribution("slenderness", Range::closed(10, 300));
         ps.slenderness = holderOf(*h);
         ps.hasSlenderness = true;
     }
@@ -220,6 +220,8 @@ PlotSpecies readSpecies(Params& e, bool understory, const BudgetTable& budget, b
 PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed,
                   std::string& fingerprintBytes) {
     DocumentAs doc(p, "plot");
+    // A plot's numbers are plain but for its species' height and slenderness (docs/plots.md).
+    p.plainNumbersOnly();
     PlotSpec s;
     s.keyPath = p.prefix();
     s.where = p.whereTable();
