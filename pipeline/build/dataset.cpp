@@ -53,6 +53,10 @@ SweepAxis parseSweep(Params& p) {
         p.fail("plots", "expected either species or plots for one axis, not both");
     }
     if (p.has("plots") && a.plots.empty()) p.fail("plots", "expected at least one plot name");
+    if (p.has("species") && a.species.empty()) {
+        p.fail("species",
+               "expected at least one species name (leave the key out to sweep every species)");
+    }
     // same_seed: every point of this axis grows from the same instance seeds, so only the
     // swept parameter differs (e.g. grammar.max_depth → growth stages of one tree).
     a.sameSeed = p.boolean("same_seed", false);

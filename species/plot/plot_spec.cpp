@@ -242,10 +242,11 @@ PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed,
     onlyFor(p, "depth", !circle, "shape = \"rectangle\"", shape);
     onlyFor(p, "radius", circle, "shape = \"circle\"", shape);
     if (circle) {
-        s.area.radius = p.number("radius", 25.0, Range::leftOpen(0, kMaxPlotSide / 2));
+        s.area.radius =
+            p.number("radius", 25.0, Range::closed(kMinPlotSide / 2, kMaxPlotSide / 2));
     } else {
-        s.area.width = p.number("width", s.area.width, Range::leftOpen(0, kMaxPlotSide));
-        s.area.depth = p.number("depth", s.area.depth, Range::leftOpen(0, kMaxPlotSide));
+        s.area.width = p.number("width", s.area.width, Range::closed(kMinPlotSide, kMaxPlotSide));
+        s.area.depth = p.number("depth", s.area.depth, Range::closed(kMinPlotSide, kMaxPlotSide));
     }
     const char* sizeKey = circle ? "radius" : "width";
     s.margin = p.number("margin", s.margin, Range::closed(0, 1000));

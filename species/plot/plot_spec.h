@@ -18,6 +18,8 @@ namespace sylva {
 constexpr int64_t kMaxPlotCount = 1000000;  // plot instances per [[plot]]
 constexpr int64_t kMaxPlotStems = 100000;   // expected stems per plot instance, all species
 constexpr double kMaxPlotSide = 10000;      // metres: width, depth, 2 × radius
+constexpr double kMinPlotSide = 1;          // metres: a plot smaller than a tree's footprint
+                                            // reports nonsense densities (3 × 10^16 stems/ha)
 constexpr double kMaxPlotLai = 15;          // m²/m²
 constexpr double kMaxGroundCards = 1e7;     // ground-cover cards per plot instance
 
