@@ -350,16 +350,14 @@ double Params::number(std::string_view key, double fallback, const Range& range)
 }
 
 double Params::numberOrDistribution(std::string_view key, const Range& range) {
-    const bool was = allowDistribution_;
+    // Restores the table's own rule however number() leaves (a value or a SpecError).
+    struct Restore {
+        bool& flag;
+        bool was;
+        ~Restore() { flag = was; }
+    } restore{allowDistribution_, allowDistribution_};
     allowDistribution_ = true;
-    try {
-        const double v = number(key, range);
-        allowDistribution_ = was;
-        return v;
-    } catch (...) {
-        allowDistribution_ = was;
-        throw;
-    }
+    return number(key, range);
 }
 
 int64_t Params::readInteger(const toml::node& node, const SourcePos& where, const std::string& path,

@@ -176,7 +176,7 @@ class Params {
     std::set<std::string> asked_;
     std::string docPath_;
     bool userNames_ = false;
-    bool plainNumbers_ = false;   // distributions refused (plainNumbersOnly)
+    bool plainNumbers_ = false;       // distributions refused (plainNumbersOnly)
     bool allowDistribution_ = false;  // set during numberOrDistribution
 };
 

@@ -254,35 +254,14 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
     const double freeReach = o.spreadReach * (top - was[0].y);
     // Three draws per branch (a node whose order field rises above its parent's), keyed by the
     // node and always taken in this order, so that each option's draw does not depend on the
-    // others being set; and the length factor they give it (its vigour).
-    struct Draws {
-        double angle, bend, length;
-    };
-    auto drawsOf = [&](int32_t i) {
-        Rng draw = branches.derive(static_cast<uint64_t>(i));
-        Draws z;
-        z.angle = draw.normal(), z.bend = draw.normal(), z.length = draw.normal();
-        return z;
-    };
-    auto weightOf = [&](int32_t i) {  // 1 for a small branch, less for one reaching far
-        const double size = reach[i] + distance(was[i], was[nodes[i].parent]);
-        return size > freeReach ? freeReach / size : 1.0;
-    };
-    auto stretchOf = [&](int32_t i, const Draws& z) {
-        return std::max(kMinStretch, std::exp(weightOf(i) * o.lengthSd *
-                                              (kMedianAbsNormal - std::abs(z.length))));
-    };
+    // others being set.
     // Each node's continuing child, as the reference distributions define it (the child of the
     // node's own order reaching furthest, or, where none has it — a grammar stem whose rule
     // changes the state, scaffold limbs from the top of a trunk — the thickest, which the turns
     // and length factors below leave the thickest), and each node's branch order counted along
     // them (TreeQSM's: the stem 0, a branch leaving a branch of order k, k + 1).
     const std::vector<int32_t> cont = continuingChildren(tree, reach);
-    std::vector<int32_t> branchOrder(n, 0);
-    for (int32_t i = 1; i < n; ++i) {
-        const int32_t p = nodes[i].parent;
-        branchOrder[i] = branchOrder[p] + (i == cont[p] ? 0 : 1);
-    }
+    const std::vector<int32_t> branchOrder = branchOrders(tree, cont);
     for (int32_t i = 1; i < n; ++i) {
         SkeletonNode& node = nodes[i];
         const int32_t p = node.parent;
@@ -290,12 +269,18 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
         Vec3 d = turn[p].toWorld(was[i] - was[p]);  // the segment as its parent left it
         Frame t = turn[p];
         if (node.order > nodes[p].order && isShoot(nodes[p])) {  // a branch begins
-            const Draws z = drawsOf(i);
-            bend[i] = o.bendRadPerM + o.bendSdRadPerM * z.bend;
-            stretch[i] = stretchOf(i, z);
+            Rng draw = branches.derive(static_cast<uint64_t>(i));
+            const double zAngle = draw.normal(), zBend = draw.normal(), zLength = draw.normal();
+            // 1 for a small branch, less for one reaching far: its vigour (length factor) and
+            // its turn.
+            const double size = reach[i] + distance(was[i], was[p]);
+            const double weight = size > freeReach ? freeReach / size : 1.0;
+            bend[i] = o.bendRadPerM + o.bendSdRadPerM * zBend;
+            stretch[i] = std::max(kMinStretch, std::exp(weight * o.lengthSd *
+                                                        (kMedianAbsNormal - std::abs(zLength))));
             // Turned at its insertion only when it leaves the stem (not the one continuing it).
             const double dAngle = branchOrder[i] == 1 && i != cont[p]
-                                      ? weightOf(i) * (o.angleShiftRad + o.angleSdRad * z.angle)
+                                      ? weight * (o.angleShiftRad + o.angleSdRad * zAngle)
                                       : 0.0;
             const int32_t pp = nodes[p].parent;
             const Vec3 stem = pp >= 0 ? nodes[p].position - nodes[pp].position : up;

@@ -113,13 +113,13 @@ void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
 // so a grammar stem whose rule changes the state goes on as the stem) draws its insertion
 // change, length factor and bend rate, the first two weighted by min(1, spreadReach · height /
 // the branch's reach); a branch leaving the stem (of branch order 1, counted along continuing
-// children as TreeQSM counts) is turned about its fork by its insertion change, insertion angles held within
-// [5°, 150°] (unless the method's are outside); every segment of a branch is scaled by the
-// branch's length factor and then turned toward (or away from) the ground by the branch's
-// rate × its length, elevations held within ±80°. Whole subtrees move with their segment; leaves go
-// with their node, at their own size and offset (free leaves with the shoot node nearest them,
-// within 1 m); roots stay where they are (applyForm then moves a hanging root with the node it
-// hangs from, so that a root standing on the ground stays on it).
+// children as TreeQSM counts) is turned about its fork by its insertion change, insertion angles
+// held within [5°, 150°] (unless the method's are outside); every segment of a branch is scaled by
+// the branch's length factor and then turned toward (or away from) the ground by the branch's rate
+// × its length, elevations held within ±80°. Whole subtrees move with their segment; leaves go with
+// their node, at their own size and offset (free leaves with the shoot node nearest them, within 1
+// m); roots stay where they are (applyForm then moves a hanging root with the node it hangs from,
+// so that a root standing on the ground stays on it).
 void turnBranches(Tree& tree, const FormOptions& options, const Rng& rng);
 
 }  // namespace sylva

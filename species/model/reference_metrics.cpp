@@ -52,6 +52,19 @@ std::vector<int32_t> continuingChildren(const Tree& tree, const std::vector<doub
     return cont;
 }
 
+std::vector<int32_t> branchOrders(const Tree& tree, const std::vector<int32_t>& cont) {
+    // TreeQSM's numbering; parents precede children, so one pass suffices.
+    const auto& nodes = tree.nodes;
+    const int32_t n = static_cast<int32_t>(nodes.size());
+    std::vector<int32_t> order(n, 0);
+    for (int32_t i = 1; i < n; ++i) {
+        const int32_t p = nodes[i].parent;
+        if (nodes[i].part != kShootPart || nodes[p].part != kShootPart) continue;
+        order[i] = order[p] + (i == cont[p] ? 0 : 1);
+    }
+    return order;
+}
+
 ReferenceValues referenceValues(const Tree& tree) {
     ReferenceValues out;
     const auto& nodes = tree.nodes;
@@ -84,14 +97,7 @@ ReferenceValues referenceValues(const Tree& tree) {
     // pipe model it is the child carrying most of the crown, and the form stage's turns, length
     // factors and width leave it as it was (the form stage turns branches about the same stem).
     const std::vector<int32_t> cont = continuingChildren(tree, reach);
-    // Branch orders as TreeQSM numbers them: the stem (the chain from the root node) is 0, a
-    // branch leaving a branch of order k has order k + 1 (parents precede children).
-    std::vector<int32_t> branchOrder(n, 0);
-    for (int32_t c = 1; c < n; ++c) {
-        if (!isSegment(c)) continue;
-        const int32_t p = nodes[c].parent;
-        branchOrder[c] = branchOrder[p] + (c == cont[p] ? 0 : 1);
-    }
+    const std::vector<int32_t> branchOrder = branchOrders(tree, cont);
 
     // (a), (b): forks. TreeQSM's cap on a branch's radius (0.95 × its parent cylinder's) makes
     // the ratio of a capped lateral meaningless, so a fork with a lateral at the cap is left out.

@@ -56,4 +56,9 @@ ReferenceValues referenceValues(const Tree& tree);
 // stage turns branches about the same stem.
 std::vector<int32_t> continuingChildren(const Tree& tree, const std::vector<double>& reach);
 
+// Every node's branch order counted along `cont` (continuingChildren's answer): the stem 0, a
+// branch leaving a branch of order k, k + 1; 0 for non-shoot nodes and the shoot nodes hanging
+// from them.
+std::vector<int32_t> branchOrders(const Tree& tree, const std::vector<int32_t>& cont);
+
 }  // namespace sylva

@@ -505,10 +505,10 @@ TEST(Form, AStemThatChangesOrderGoesOnUnturnedAndItsBranchesTurn) {
     EXPECT_EQ(t.nodes[mid].position, before.nodes[mid].position);
     EXPECT_EQ(t.nodes[tip].position, before.nodes[tip].position);
     const Vec3 up{0, 1, 0};
-    EXPECT_NEAR(angleBetween(t.nodes[limb].position - t.nodes[top].position, up) * 180 / kPi,
-                65.0, 1e-9);
-    EXPECT_NEAR(angleBetween(t.nodes[twig].position - t.nodes[mid].position, up) * 180 / kPi,
-                65.0, 1e-9);
+    EXPECT_NEAR(angleBetween(t.nodes[limb].position - t.nodes[top].position, up) * 180 / kPi, 65.0,
+                1e-9);
+    EXPECT_NEAR(angleBetween(t.nodes[twig].position - t.nodes[mid].position, up) * 180 / kPi, 65.0,
+                1e-9);
 }
 
 TEST(Form, WhereScaffoldsChangeOrderTheThickestContinuesTheStem) {
