@@ -2,6 +2,7 @@
 
 #include <OpenImageIO/imageio.h>
 #include <png.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <cctype>
@@ -219,6 +220,9 @@ ImageFile readWithOiio(const std::string& path) {
 }  // namespace
 
 ImageFile readImageFile(const std::string& path) {
+    // A FIFO would block fopen, a device never end: only regular files are images.
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) fail(path, "not a regular file");
     std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
     if (!file) fail(path, std::strerror(errno));
     unsigned char header[33] = {0};

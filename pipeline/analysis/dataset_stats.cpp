@@ -12,6 +12,8 @@
 #include <sstream>
 #include <unordered_set>
 
+#include "core/input_file.h"
+#include "pipeline/analysis/dataset_reader.h"
 #include "pipeline/build/output_lock.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/skeleton_reader.h"
@@ -184,12 +186,13 @@ double ksDistance(const QuantileTable& a, const QuantileTable& b) {
 Reference readReference(const fs::path& file) {
     const std::string name = file.string();
     auto fail = [&](const std::string& what) { throw DatasetStatsInputError(name + ": " + what); };
-    std::ifstream in(file, std::ios::binary);
-    std::error_code ec;
-    if (!in || fs::is_directory(file, ec)) fail("cannot read the reference file");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    nlohmann::json j = nlohmann::json::parse(ss.str(), nullptr, false);
+    std::string text;
+    try {
+        text = readInputFile(file, kMaxReferenceBytes, "a reference file");
+    } catch (const InputError& e) {
+        throw DatasetStatsInputError(e.what());
+    }
+    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
     if (j.is_discarded()) fail("not JSON");
     if (!j.is_object() || !j.contains("distributions") || !j["distributions"].is_object()) {
         fail("expected a JSON object with an object \"distributions\"");
@@ -248,15 +251,15 @@ Reference readReference(const fs::path& file) {
 }
 
 ReferenceValues readSkeletonReferenceValues(const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) {
-        throw DatasetStatsInputError(path.string() +
-                                     ": cannot read (the manifest lists it as skeleton_ply)");
-    }
-    std::stringstream ss;
-    ss << in.rdbuf();
+    std::string bytes;
     try {
-        return referenceValues(readSkeletonPly(ss.str(), path.string()));
+        bytes = readInputFile(path, kMaxSkeletonBytes, "a skeleton");
+    } catch (const InputError& e) {
+        throw DatasetStatsInputError(std::string(e.what()) +
+                                     "; the manifest lists it as skeleton_ply");
+    }
+    try {
+        return referenceValues(readSkeletonPly(bytes, path.string()));
     } catch (const DatasetStatsInputError&) {
         throw;
     } catch (const InputError& e) {  // readSkeletonPly's message names the file
@@ -321,60 +324,24 @@ std::string sweepText(const nlohmann::json& v) {
     return v.is_string() ? v.get<std::string>() : v.dump();
 }
 
-// Reads complete lines of one manifest without touching the file (a builder may be appending).
-// A last line without '\n' is a torn write: ignored and counted. Any other line that is not a
-// JSON object with id, index and species is bad input.
-void readManifest(const fs::path& path, const std::string& name, std::vector<Record>& records,
-                  std::unordered_set<std::string>& seen, const DatasetStatsOptions& options,
-                  size_t& partial) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw std::runtime_error(path.string() + ": cannot open");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    const std::string text = ss.str();
-    size_t pos = 0, lineNo = 0;
-    while (pos < text.size()) {
-        size_t nl = text.find('\n', pos);
-        ++lineNo;
-        if (nl == std::string::npos) {
-            ++partial;
-            break;
-        }
-        std::string line = text.substr(pos, nl - pos);
-        pos = nl + 1;
-        if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-        nlohmann::json j = nlohmann::json::parse(line, nullptr, false);
-        // A plot's record names its plot instead of a species: its statistics are grouped
-        // under the plot's name, as a species' are under the species'.
-        const char* group =
-            j.is_object() && j.contains("plot") && !j.contains("species") ? "plot" : "species";
-        if (j.is_discarded() || !j.is_object() || !j.contains("id") || !j["id"].is_string() ||
-            !j.contains(group) || !j[group].is_string() || !j.contains("index") ||
-            !j["index"].is_number_integer()) {
-            throw DatasetStatsInputError(name + ":" + std::to_string(lineNo) +
-                                         ": not a manifest record (a JSON object with id, index "
-                                         "and species or plot)");
-        }
-        Record r;
-        r.id = j["id"].get<std::string>();
-        if (!seen.insert(r.id).second) continue;  // the same instance in two files
-        r.index = j["index"].get<int64_t>();
-        r.species = j[group].get<std::string>();
-        if (j.contains("habit") && j["habit"].is_string()) r.habit = j["habit"].get<std::string>();
-        if (std::string(group) == "plot") r.habit = "plot";
-        if (j.contains("files") && j["files"].is_object() && j["files"].contains("skeleton_ply") &&
-            j["files"]["skeleton_ply"].is_string()) {
-            r.skeleton = j["files"]["skeleton_ply"].get<std::string>();
-        }
-        if (j.contains("stats")) flatten(j["stats"], "", r.metrics);
-        if (options.timing && j.contains("timing") && j["timing"].is_object()) {
-            flatten(j["timing"], "timing", r.metrics);
-        }
-        if (j.contains("sweep") && j["sweep"].is_object()) {
-            for (const auto& [k, v] : j["sweep"].items()) r.sweep.emplace_back(k, sweepText(v));
-        }
-        records.push_back(std::move(r));
+// A checked manifest record (dataset_reader.h) as stats uses it. A plot's record names its plot
+// instead of a species: its statistics are grouped under the plot's name, as a species' are.
+Record statsRecord(const ManifestRecord& m, const DatasetStatsOptions& options) {
+    const nlohmann::json& j = m.json;
+    Record r;
+    r.id = m.id;
+    r.index = m.index;
+    r.species = m.group;
+    r.habit = m.plot ? "plot" : j.value("habit", std::string());
+    if (j.contains("files") && j["files"].contains("skeleton_ply")) {
+        r.skeleton = j["files"]["skeleton_ply"].get<std::string>();
     }
+    if (j.contains("stats")) flatten(j["stats"], "", r.metrics);
+    if (options.timing && j.contains("timing")) flatten(j["timing"], "timing", r.metrics);
+    if (j.contains("sweep")) {
+        for (const auto& [k, v] : j["sweep"].items()) r.sweep.emplace_back(k, sweepText(v));
+    }
+    return r;
 }
 
 // Numeric order when every value parses as a number, else text order.
@@ -501,34 +468,24 @@ DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOp
     OutputLock lock(dir, "sylva stats");
     std::optional<Reference> reference;
     if (!options.reference.empty()) reference = readReference(options.reference);
-    // manifest.jsonl first, then the shards in index order.
-    std::vector<std::pair<std::pair<int, int>, fs::path>> shards;
-    static const std::regex shardName(R"(manifest\.shard-(\d+)-of-(\d+)\.jsonl)");
-    for (const auto& e : fs::directory_iterator(dir)) {
-        std::smatch m;
-        std::string name = e.path().filename().string();
-        if (e.is_regular_file() && std::regex_match(name, m, shardName)) {
-            shards.push_back({{std::stoi(m[2]), std::stoi(m[1])}, e.path()});
-        }
+    // The manifests (manifest.jsonl, then the shards' in index order) and the description the
+    // build wrote first, both checked (dataset_reader.h) before anything is summarised.
+    ManifestRead read;
+    try {
+        read = readManifests(dir);
+        (void)readDatasetDescription(dir);
+    } catch (const DatasetStatsInputError&) {
+        throw;
+    } catch (const InputError& e) {
+        throw DatasetStatsInputError(e.what());
     }
-    std::sort(shards.begin(), shards.end());
-    std::vector<fs::path> files;
-    if (fs::is_regular_file(dir / "manifest.jsonl")) files.push_back(dir / "manifest.jsonl");
-    for (const auto& s : shards) files.push_back(s.second);
-    if (files.empty()) {
-        throw DatasetStatsInputError(dir.string() +
-                                     ": no manifest.jsonl or manifest.shard-*.jsonl (not a "
-                                     "dataset directory)");
-    }
-
     DatasetStatsResult res;
     res.outDir = dir / "stats";
+    res.manifests = read.files;
+    res.ignoredPartialLines = read.tornLines;
     std::vector<Record> records;
-    std::unordered_set<std::string> seen;
-    for (const auto& f : files) {
-        res.manifests.push_back(f.filename().string());
-        readManifest(f, f.filename().string(), records, seen, options, res.ignoredPartialLines);
-    }
+    records.reserve(read.records.size());
+    for (const ManifestRecord& m : read.records) records.push_back(statsRecord(m, options));
     if (records.empty()) {
         throw DatasetStatsInputError(dir.string() + ": the manifest has no complete record yet");
     }

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -20,6 +21,11 @@
 #include "species/model/reference_metrics.h"
 
 namespace sylva {
+
+// The largest reference file (a quantile table is a few kB) and skeleton (a few MB for the
+// largest library trees) stats reads.
+inline constexpr uint64_t kMaxReferenceBytes = uint64_t(64) << 20;
+inline constexpr uint64_t kMaxSkeletonBytes = uint64_t(1) << 30;
 
 // Bad input for `sylva stats` (missing directory, no manifest, no complete record, a malformed
 // line that is not the last): the CLI prints the message and exits 2.
@@ -86,7 +92,8 @@ struct Reference {
 
 // Reads a reference JSON file: {"name": …, "distributions": {NAME: {"p": [...], "q": [...],
 // "n": …, "trees": …}, …}} with NAME among kReferenceDistributionNames (docs/metrics.md).
-// Throws DatasetStatsInputError "FILE: what is wrong" when the file is missing, not JSON, names an
+// Throws DatasetStatsInputError "FILE: what is wrong" when the file is missing, not a regular file,
+// larger than kMaxReferenceBytes, not JSON, names an
 // unknown distribution or holds a table that is not one (p from 0 to 1 strictly increasing, q
 // non-decreasing, as many of each, at least two, every number finite).
 Reference readReference(const std::filesystem::path& file);
@@ -149,12 +156,14 @@ struct DatasetStatsResult {
     std::map<std::string, std::map<std::string, ReferenceComparison>> reference;
 };
 
-// Reads DIR/manifest.jsonl and every DIR/manifest.shard-*.jsonl (records deduplicated by id,
-// first file wins, ordered by instance index), writes DIR/stats/species.csv, species.json,
-// compare.csv and sweep.csv atomically, and with options.reference reference.csv and
-// reference.json from the instances' skeleton.ply files. Throws DatasetStatsInputError on bad
-// input (before writing anything: also a bad reference file, a listed skeleton that is missing
-// or malformed, or no skeleton.ply in the manifest) and std::runtime_error on I/O failure.
+// Reads DIR/manifest.jsonl and every DIR/manifest.shard-*.jsonl (records checked and deduplicated
+// by id as readManifests does, first file wins, ordered by instance index) after checking the
+// dataset's description (readDatasetDescription: dataset.json or the shards'), writes
+// DIR/stats/species.csv, species.json, compare.csv and sweep.csv atomically, and with
+// options.reference reference.csv and reference.json from the instances' skeleton.ply files. Throws
+// DatasetStatsInputError on bad input (before writing anything: also a bad reference file, a listed
+// skeleton that is missing or malformed, or no skeleton.ply in the manifest) and std::runtime_error
+// on I/O failure.
 DatasetStatsResult computeDatasetStats(const std::filesystem::path& dir,
                                        const DatasetStatsOptions& options = {});
 

@@ -11,6 +11,8 @@
 #include <regex>
 #include <set>
 
+#include "core/input_file.h"
+#include "pipeline/analysis/dataset_reader.h"
 #include "pipeline/build/build.h"
 #include "pipeline/build/output_lock.h"
 #include "pipeline/build/run_log.h"
@@ -39,11 +41,15 @@ struct Record {
 
 [[noreturn]] void fail(const std::string& what) { throw MergeError(what); }
 
+// A shard's description, checked as every command checks one (dataset_reader.h).
 nlohmann::json readJson(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    auto j = nlohmann::json::parse(in, nullptr, false);
-    if (j.is_discarded() || !j.is_object()) fail(p.string() + ": not a JSON object");
-    return j;
+    try {
+        return readDatasetJsonFile(p);
+    } catch (const MergeError&) {
+        throw;
+    } catch (const InputError& e) {
+        fail(e.what());
+    }
 }
 
 // The shards a directory holds: every dataset.shard-I-of-N.json in it (several shards may share
@@ -158,31 +164,36 @@ MergeSummary mergeShards(const MergeOptions& o) {
         const fs::path mpath = s->dir / manifestName(s->index, s->count);
         if (!fs::exists(mpath)) fail(mpath.string() + ": missing");
         auto [lo, hi] = shardRange(static_cast<size_t>(total), s->index, s->count);
-        std::ifstream in(mpath, std::ios::binary);
         size_t lineNo = 0;
-        for (std::string line; std::getline(in, line);) {
-            ++lineNo;
-            const std::string where = mpath.string() + ":" + std::to_string(lineNo);
-            if (in.eof()) fail(where + ": torn last line (rerun the shard's build)");
-            auto j = nlohmann::json::parse(line, nullptr, false);
-            const bool plot = j.is_object() && j.contains("plot") && j["plot"].is_string();
-            if (j.is_discarded() || !j.is_object() || !j.contains("id") || !j["id"].is_string() ||
-                !(plot || (j.contains("species") && j["species"].is_string()))) {
-                fail(where + ": not a manifest record");
+        try {
+            InputFile in(mpath);
+            for (std::string line;;) {
+                const InputFile::Line got = in.next(line, kMaxManifestLineBytes);
+                if (got == InputFile::Line::end) break;
+                lineNo = in.lineNumber();
+                const std::string where = mpath.string() + ":" + std::to_string(lineNo);
+                if (got == InputFile::Line::torn) {
+                    fail(where + ": torn last line (rerun the shard's build)");
+                }
+                const ManifestRecord m = parseManifestRecord(line, where);
+                Record r;
+                r.id = m.id;
+                r.species = m.group;
+                r.dir = fs::path(m.plot ? "plots" : "trees") / r.species / r.id;
+                r.shard = s;
+                if (auto [it, fresh] = seen.emplace(r.id, where); !fresh) {
+                    fail(where + ": instance " + r.id + " already recorded at " + it->second);
+                }
+                if (!fs::is_directory(s->dir / r.dir)) {
+                    fail(where + ": " + (s->dir / r.dir).string() + " missing");
+                }
+                r.line = std::move(line);
+                records.push_back(std::move(r));
             }
-            Record r;
-            r.id = j["id"].get<std::string>();
-            r.species = j[plot ? "plot" : "species"].get<std::string>();
-            r.dir = fs::path(plot ? "plots" : "trees") / r.species / r.id;
-            r.shard = s;
-            if (auto [it, fresh] = seen.emplace(r.id, where); !fresh) {
-                fail(where + ": instance " + r.id + " already recorded at " + it->second);
-            }
-            if (!fs::is_directory(s->dir / r.dir)) {
-                fail(where + ": " + (s->dir / r.dir).string() + " missing");
-            }
-            r.line = std::move(line);
-            records.push_back(std::move(r));
+        } catch (const MergeError&) {
+            throw;
+        } catch (const InputError& e) {
+            fail(e.what());
         }
         if (lineNo != hi - lo) {
             fail(mpath.string() + ": " + std::to_string(lineNo) + " of the shard's " +

@@ -9,6 +9,8 @@
 #include <stdexcept>
 
 #include "core/errors.h"
+#include "core/input_file.h"
+#include "pipeline/analysis/dataset_reader.h"
 #include "pipeline/analysis/dataset_stats.h"
 #include "species/model/tree_metrics.h"
 #include "volumes/image_file.h"
@@ -27,16 +29,30 @@ const std::array<double, kReferenceDistributions> kSpreadGateIqr = {
 
 namespace {
 
+constexpr uint64_t kMaxTransformsBytes = uint64_t(16) << 20;  // 8 views: a few kB
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// A record's stats object (an empty one where it has none).
+const nlohmann::json& statsOf(const nlohmann::json& record) {
+    static const nlohmann::json none = nlohmann::json::object();
+    const auto it = record.find("stats");
+    return it != record.end() && it->is_object() ? *it : none;
+}
 
 // The stat of every instance that defines it (JSON null and absent keys are left out).
 std::vector<double> values(const std::vector<const nlohmann::json*>& records, const char* key) {
     std::vector<double> v;
     for (const nlohmann::json* r : records) {
-        const nlohmann::json& stats = (*r)["stats"];
+        const nlohmann::json& stats = statsOf(*r);
         if (stats.contains(key) && stats[key].is_number()) v.push_back(stats[key].get<double>());
     }
     return v;
+}
+
+// A record's string field ("" where it has none or another type).
+std::string textOf(const nlohmann::json& record, const char* key) {
+    const auto it = record.find(key);
+    return it != record.end() && it->is_string() ? it->get<std::string>() : std::string();
 }
 
 double mean(const std::vector<double>& v) {
@@ -128,7 +144,7 @@ SpeciesGates evaluateSpecies(const std::string& name,
                              const std::vector<const InstanceShape*>& shapes) {
     SpeciesGates s;
     s.species = name;
-    s.habit = (*records.front()).value("habit", "");
+    s.habit = textOf(*records.front(), "habit");
     s.instances = static_cast<int>(records.size());
     const bool oneStem = s.habit == "tree" || s.habit == "conifer" || s.habit == "palm";
     const bool leafy = maxOf(values(records, "leaves")) > 0;
@@ -161,7 +177,7 @@ SpeciesGates evaluateSpecies(const std::string& name,
     // Crown shape per instance: mean crown diameter (its two principal extents) over height.
     std::vector<double> shape;
     for (const nlohmann::json* r : records) {
-        const nlohmann::json& st = (*r)["stats"];
+        const nlohmann::json& st = statsOf(*r);
         auto number = [&](const char* key) {
             return st.contains(key) && st[key].is_number() ? st[key].get<double>() : kNaN;
         };
@@ -224,7 +240,7 @@ std::vector<SpeciesGates> evaluateGates(const std::vector<nlohmann::json>& recor
     std::map<std::string, std::vector<const nlohmann::json*>> bySpecies;
     std::map<std::string, std::vector<const InstanceShape*>> shapesOf;
     for (size_t i = 0; i < records.size(); ++i) {
-        const std::string name = records[i].value("species", "");
+        const std::string name = textOf(records[i], "species");
         if (!bySpecies.count(name)) order.push_back(name);
         bySpecies[name].push_back(&records[i]);
         if (shapes && i < shapes->size()) shapesOf[name].push_back(&(*shapes)[i]);
@@ -237,22 +253,18 @@ std::vector<SpeciesGates> evaluateGates(const std::vector<nlohmann::json>& recor
 }
 
 std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir) {
-    std::ifstream in(datasetDir / "manifest.jsonl");
-    if (!in) {
-        throw InputError(datasetDir.string() + ": no manifest.jsonl (not a built dataset)");
-    }
+    // The dataset's description and records, checked (dataset_reader.h); plots are not gated.
+    ManifestRead read = readManifests(datasetDir);
+    (void)readDatasetDescription(datasetDir);
     std::vector<nlohmann::json> records;
-    for (std::string line; std::getline(in, line);) {
-        nlohmann::json r = nlohmann::json::parse(line, nullptr, false);
-        if (!r.is_discarded() && r.is_object()) records.push_back(std::move(r));
+    for (ManifestRecord& r : read.records) {
+        if (!r.plot) records.push_back(std::move(r.json));
     }
     std::vector<InstanceShape> shapes(records.size());
     for (size_t i = 0; i < records.size(); ++i) {
         const nlohmann::json& files = records[i].value("files", nlohmann::json::object());
         auto file = [&](const char* key) -> std::string {
-            return files.is_object() && files.contains(key) && files[key].is_string()
-                       ? files[key].get<std::string>()
-                       : "";
+            return files.contains(key) ? files[key].get<std::string>() : "";
         };
         if (const std::string skeleton = file("skeleton_ply"); !skeleton.empty()) {
             shapes[i].reference = readSkeletonReferenceValues(datasetDir / skeleton);
@@ -260,15 +272,17 @@ std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir)
         const std::string transforms = file("transforms");
         if (transforms.empty()) continue;
         const std::filesystem::path tpath = datasetDir / transforms;
-        std::ifstream tin(tpath);
-        const nlohmann::json t = nlohmann::json::parse(tin, nullptr, false);
+        const nlohmann::json t = nlohmann::json::parse(
+            readInputFile(tpath, kMaxTransformsBytes, "a transforms.json"), nullptr, false);
         const bool framed = t.is_object() && t.contains("frames") && t["frames"].is_array() &&
                             !t["frames"].empty() && t["frames"][0].is_object();
         const nlohmann::json frame = framed ? t["frames"][0] : nlohmann::json();
         if (!framed || !frame.contains("mask_path") || !frame["mask_path"].is_string() ||
-            !frame.contains("azimuth_deg") || !frame["azimuth_deg"].is_number()) {
+            !frame.contains("azimuth_deg") || !frame["azimuth_deg"].is_number() ||
+            !isPathInside(frame["mask_path"].get<std::string>())) {
             throw InputError(tpath.string() +
-                             ": expected frames[0] with mask_path and azimuth_deg");
+                             ": expected frames[0] with azimuth_deg and mask_path, a relative "
+                             "path beside it");
         }
         ImageFile mask;
         try {

@@ -62,9 +62,10 @@ extern const std::array<double, kReferenceDistributions> kSpreadGateIqr;
 std::vector<SpeciesGates> evaluateGates(const std::vector<nlohmann::json>& records,
                                         const std::vector<InstanceShape>* shapes = nullptr);
 
-// Reads the complete lines of DIR/manifest.jsonl, each instance's skeleton.ply and first view
-// (as its transforms.json lists it), and evaluates them. Throws InputError when the manifest
-// is missing or a listed file cannot be read.
+// Reads the dataset's description and the records of its manifests (dataset_reader.h; plots are
+// left out), each instance's skeleton.ply and first view (as its transforms.json lists it), and
+// evaluates them. Throws InputError when the dataset is not one, a record is malformed or a listed
+// file cannot be read.
 std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir);
 
 // The results as a Markdown table: one row per species, one column per gate (value, ✗ when it

@@ -16,6 +16,8 @@
 #include <stdexcept>
 
 #include "core/errors.h"
+#include "core/input_file.h"
+#include "pipeline/analysis/dataset_reader.h"
 #include "pipeline/analysis/dataset_stats.h"
 #include "pipeline/build/output_lock.h"
 #include "pipeline/formats/atomic_file.h"
@@ -129,64 +131,33 @@ struct Record {
     std::map<std::string, std::string> sweep;
 };
 
-std::string slurpFile(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    if (!in) throw std::runtime_error("cannot read " + p.string());
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-std::vector<fs::path> manifestFiles(const fs::path& dir) {
-    if (fs::exists(dir / "manifest.jsonl")) return {dir / "manifest.jsonl"};
-    std::vector<std::pair<int, fs::path>> shards;
-    static const std::regex re(R"(manifest\.shard-(\d+)-of-(\d+)\.jsonl)");
-    std::error_code ec;
-    for (const auto& e : fs::directory_iterator(dir, ec)) {
-        std::smatch m;
-        std::string name = e.path().filename().string();
-        if (std::regex_match(name, m, re)) shards.emplace_back(std::stoi(m[1].str()), e.path());
-    }
-    std::sort(shards.begin(), shards.end());
-    std::vector<fs::path> out;
-    for (auto& s : shards) out.push_back(s.second);
-    return out;
-}
-
 std::string sweepValueString(const json& v) {
     if (v.is_string()) return v.get<std::string>();
     return v.dump();
 }
 
-// Reads every complete, parseable manifest line. Numeric `stats` keys become metrics; an array
-// stat of the same length in every record (one value per view) becomes its mean; timing keys
-// become "timing.<key>".
-std::vector<Record> readManifest(const fs::path& dir, size_t& skipped,
+// Reads every complete record of the dataset's manifests (dataset_reader.h: checked, a torn last
+// line counted in `torn`). Numeric `stats` keys become metrics; an array stat of the same length
+// in every record (one value per view) becomes its mean; timing keys become "timing.<key>".
+std::vector<Record> readManifest(const fs::path& dir, size_t& torn,
                                  std::set<std::string>& perView) {
     std::vector<Record> recs;
     std::map<std::string, std::set<size_t>> arrayLengths;
+    ManifestRead read = readManifests(dir);
+    torn = read.tornLines;
     std::vector<json> raw;
-    for (const fs::path& f : manifestFiles(dir)) {
-        std::ifstream in(f);
-        std::string line;
-        while (std::getline(in, line)) {
-            if (line.empty()) continue;
-            json j = json::parse(line, nullptr, false);
-            if (j.is_discarded() || !j.is_object() ||
-                !(j.contains("species") || j.contains("plot"))) {
-                ++skipped;  // a torn last line of a killed build
-                continue;
+    raw.reserve(read.records.size());
+    for (ManifestRecord& m : read.records) {
+        const json& j = m.json;
+        if (j.contains("stats")) {
+            for (const auto& [k, v] : j["stats"].items()) {
+                if (!v.is_array()) continue;
+                bool numeric =
+                    std::all_of(v.begin(), v.end(), [](const json& x) { return x.is_number(); });
+                arrayLengths[k].insert(numeric ? v.size() : 0);
             }
-            if (j.contains("stats") && j["stats"].is_object()) {
-                for (const auto& [k, v] : j["stats"].items()) {
-                    if (!v.is_array()) continue;
-                    bool numeric = std::all_of(v.begin(), v.end(),
-                                               [](const json& x) { return x.is_number(); });
-                    arrayLengths[k].insert(numeric ? v.size() : 0);
-                }
-            }
-            raw.push_back(std::move(j));
         }
+        raw.push_back(std::move(m.json));
     }
     for (const auto& [k, lengths] : arrayLengths) {
         if (lengths.size() == 1 && *lengths.begin() > 0) perView.insert(k);
@@ -194,9 +165,8 @@ std::vector<Record> readManifest(const fs::path& dir, size_t& skipped,
     for (const json& j : raw) {
         Record r;
         // A plot's record is grouped under its plot's name, as sylva stats does.
-        const json& group = j.contains("species") ? j["species"] : j["plot"];
-        r.species = group.is_string() ? group.get<std::string>() : group.dump();
-        r.id = j.value("id", std::string());
+        r.species = (j.contains("species") ? j["species"] : j["plot"]).get<std::string>();
+        r.id = j["id"].get<std::string>();
         if (j.contains("stats") && j["stats"].is_object()) {
             for (const auto& [k, v] : j["stats"].items()) {
                 if (v.is_number()) {
@@ -581,7 +551,7 @@ struct ReportData {
     json info;
     std::string name;
     std::vector<Record> recs;
-    size_t skipped = 0;  // unreadable manifest lines
+    size_t skipped = 0;  // torn last lines of the manifests (a build killed or still writing)
     std::set<std::string> perView;
     std::vector<std::string> species;
     std::map<std::string, size_t> perSpeciesCount;
@@ -598,16 +568,12 @@ struct ReportData {
 // Reads the dataset directory; bad input (not a dataset, no record) throws InputError.
 ReportData readReportData(const fs::path& dir) {
     ReportData d;
-    if (!fs::exists(dir / "dataset.json")) {
-        throw InputError(dir.string() + ": no dataset.json (not a dataset directory)");
-    }
-    d.info = json::parse(slurpFile(dir / "dataset.json"), nullptr, false);
-    if (d.info.is_discarded() || !d.info.is_object()) {
-        throw InputError((dir / "dataset.json").string() + ": not valid JSON");
-    }
-    {
-        std::ifstream runs(dir / "runs.jsonl", std::ios::binary);
-        for (std::string line; std::getline(runs, line);) {
+    d.info = readDatasetDescription(dir);
+    // The run log: lines that are not objects are left out, as are fields of the wrong type.
+    if (std::error_code ec; fs::exists(dir / "runs.jsonl", ec)) {
+        InputFile runs(dir / "runs.jsonl");
+        std::string line;
+        while (runs.next(line, kMaxManifestLineBytes) == InputFile::Line::complete) {
             json r = json::parse(line, nullptr, false);
             if (r.is_object()) d.runs.push_back(std::move(r));
         }
@@ -712,11 +678,17 @@ void writeFacts(std::ostream& h, const ReportData& d) {
         int64_t threads = 0;
         std::map<std::string, int> statuses;
         for (const json& r : d.runs) {
-            ++statuses[r.value("status", "?")];
-            if (r.value("command", "") != "build") continue;
+            // A run line's fields as the build writes them; one of another type counts as absent.
+            auto text = [&](const char* key, const char* absent) {
+                return r.contains(key) && r[key].is_string() ? r[key].get<std::string>()
+                                                             : std::string(absent);
+            };
+            ++statuses[text("status", "?")];
+            if (text("command", "") != "build") continue;
             if (r.contains("wall_seconds") && r["wall_seconds"].is_number())
                 wall += r["wall_seconds"].get<double>();
-            threads = std::max(threads, r.value("threads", int64_t{0}));
+            if (r.contains("threads") && r["threads"].is_number_integer())
+                threads = std::max(threads, r["threads"].get<int64_t>());
         }
         std::string runs = std::to_string(d.runs.size()) + " (";
         for (const auto& [status, n] : statuses)
@@ -733,7 +705,7 @@ void writeFacts(std::ostream& h, const ReportData& d) {
     }
     fact("manifest records read",
          std::to_string(d.recs.size()) +
-             (d.skipped ? " (" + std::to_string(d.skipped) + " unreadable lines skipped)"
+             (d.skipped ? " (" + std::to_string(d.skipped) + " torn last lines left out)"
                         : std::string()));
     if (d.info.contains("versions") && d.info["versions"].is_object()) {
         std::string v;

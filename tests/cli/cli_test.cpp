@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -16,6 +17,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -653,10 +655,13 @@ TEST(CliGates, PrintsOneRowPerSpeciesAndRejectsADirectoryWithoutManifest) {
     EXPECT_EQ(ok.code, 0) << describeRun(ok);
     EXPECT_EQ(ok.out.rfind("| species | habit | n | ground |", 0), 0u) << ok.out;
     EXPECT_NE(ok.out.find("| `tiny` | tree | "), std::string::npos) << ok.out;
-    const RunResult bad = run({"gates", (t / "nothing").string()}, t.path());
+    const RunResult bad = run({"gates", t.path().string()}, t.path());
     EXPECT_EQ(bad.code, 2);
     EXPECT_NE(bad.err.find("sylva: gates: "), std::string::npos) << bad.err;
     EXPECT_NE(bad.err.find("no manifest.jsonl"), std::string::npos) << bad.err;
+    const RunResult none = run({"gates", (t / "nothing").string()}, t.path());
+    EXPECT_EQ(none.code, 2);
+    EXPECT_NE(none.err.find("not a directory"), std::string::npos) << none.err;
 }
 
 // --- 7. validate -----------------------------------------------------------------------------
@@ -702,7 +707,8 @@ TEST(CliStatsReport, BadDirectoriesExitTwoWithOneLine) {
     expectBadInput({"stats", (t / "nope").string()}, "not a directory");
     expectBadInput({"stats", t.path().string()}, "no manifest.jsonl");
     expectBadInput({"report", (t / "nowhere").string()}, "sylva: report: ");
-    expectBadInput({"report", (t / "nowhere").string()}, "no dataset.json");
+    expectBadInput({"report", (t / "nowhere").string()}, "not a directory");
+    expectBadInput({"report", t.path().string()}, "no dataset.json");
 
     buildOk(kDataset, t / "ds", t.path());
     RunResult ok = run({"report", (t / "ds").string()}, t.path());
@@ -712,6 +718,104 @@ TEST(CliStatsReport, BadDirectoriesExitTwoWithOneLine) {
     fs::remove_all(t / "ds" / "report");
     expectBadInput({"report", (t / "ds").string()}, "the manifest has no record");
     EXPECT_FALSE(fs::exists(t / "ds" / "report" / "index.html"));
+}
+
+// stats, gates and report read a dataset through one checked reader: a manifest or description
+// of the wrong shape, a record nested too deep for a recursive walk, a path leading out of the
+// dataset, or a FIFO or device as a reference is one line and exit 2 from each of them, and
+// nothing is written (neither stats/ nor report/). Each of these was accepted, crashed (stats on
+// deep nesting), hung (a FIFO) or exited 1 with a raw library message before.
+TEST(CliDatasetReader, EveryCommandRefusesAMalformedDatasetWithOneLine) {
+    TempDir t;
+    buildOk(kDataset, t / "good", t.path());
+    const std::vector<std::string> lines = readLines(t / "good" / "manifest.jsonl");
+    ASSERT_GE(lines.size(), 3u);
+    auto variant = [&](const std::string& name, const std::function<void(const fs::path&)>& edit) {
+        const fs::path d = t / name;
+        fs::copy(t / "good", d, fs::copy_options::recursive);
+        edit(d);
+        return d;
+    };
+    auto manifestWith = [&](size_t line, const std::function<void(nlohmann::json&)>& edit) {
+        return [&, line, edit](const fs::path& d) {
+            std::string text;
+            for (size_t i = 0; i < lines.size(); ++i) {
+                nlohmann::json j = nlohmann::json::parse(lines[i]);
+                if (i == line) edit(j);
+                text += j.dump() + "\n";
+            }
+            spit(d / "manifest.jsonl", text);
+        };
+    };
+    struct Case {
+        fs::path dir;
+        std::string expect;
+    };
+    std::string noise(4000, '\0');
+    for (size_t i = 0; i < noise.size(); ++i) noise[i] = static_cast<char>((i * 2654435761u) >> 13);
+    const std::vector<Case> cases = {
+        {variant("noise", [&](const fs::path& d) { spit(d / "manifest.jsonl", noise + "\n"); }),
+         "manifest.jsonl:1: not a manifest record"},
+        {variant("species-number", manifestWith(1, [](nlohmann::json& j) { j["species"] = 5; })),
+         "manifest.jsonl:2: species: expected a string"},
+        {variant("stats-array", manifestWith(0,
+                                             [](nlohmann::json& j) {
+                                                 j["stats"] = {1, 2};
+                                             })),
+         "manifest.jsonl:1: stats: expected an object"},
+        {variant("deep",
+                 [&](const fs::path& d) {
+                     std::string line = lines[0];
+                     const size_t at = line.find("\"stats\":{") + 9;
+                     line.insert(at, "\"deep\":" + std::string(200000, '[') +
+                                         std::string(200000, ']') + ",");
+                     spit(d / "manifest.jsonl", line + "\n" + lines[1] + "\n");
+                 }),
+         "manifest.jsonl:1: nested more than 32 deep"},
+        {variant("outside",
+                 manifestWith(
+                     2, [](nlohmann::json& j) { j["files"]["skeleton_ply"] = "/etc/passwd"; })),
+         "manifest.jsonl:3: files.skeleton_ply: expected a relative path inside the dataset"},
+        {variant("dataset-noise", [&](const fs::path& d) { spit(d / "dataset.json", noise); }),
+         "dataset.json: not JSON"},
+        {variant("dataset-array", [&](const fs::path& d) { spit(d / "dataset.json", "[]"); }),
+         "dataset.json: expected a JSON object"},
+        {variant("dataset-none", [&](const fs::path& d) { fs::remove(d / "dataset.json"); }),
+         "no dataset.json (not a dataset directory)"},
+    };
+    // One command over every case at a time (stats and report lock the directory they read).
+    std::vector<std::vector<std::string>> runs;
+    std::vector<RunResult> r;
+    for (const char* command : {"stats", "gates", "report"}) {
+        std::vector<std::vector<std::string>> these;
+        for (const Case& c : cases) these.push_back({command, c.dir.string()});
+        for (RunResult& one : runAll(these, t.path())) r.push_back(std::move(one));
+        runs.insert(runs.end(), these.begin(), these.end());
+    }
+    for (size_t i = 0; i < r.size(); ++i) {
+        const Case& c = cases[i % cases.size()];
+        SCOPED_TRACE(runs[i][0] + " " + runs[i][1]);
+        EXPECT_EQ(r[i].code, 2) << describeRun(r[i]);
+        EXPECT_EQ(std::count(r[i].err.begin(), r[i].err.end(), '\n'), 1) << describeRun(r[i]);
+        EXPECT_NE(r[i].err.find("sylva: " + runs[i][0] + ": "), std::string::npos) << r[i].err;
+        EXPECT_NE(r[i].err.find(c.expect), std::string::npos) << r[i].err;
+        EXPECT_FALSE(fs::exists(c.dir / "stats"));
+        EXPECT_FALSE(fs::exists(c.dir / "report"));
+    }
+
+    // A reference that is a FIFO (it would block forever) or a device (it would never end).
+    const fs::path fifo = t / "fifo";
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    sylva::test::CliOptions bounded;
+    bounded.watchdog = std::chrono::seconds(120);
+    for (const std::string& reference : {fifo.string(), std::string("/dev/zero")}) {
+        const RunResult ref = sylva::test::runSylva(
+            {"stats", (t / "good").string(), "--reference", reference}, t.path(), bounded);
+        EXPECT_FALSE(ref.hung) << reference;
+        EXPECT_EQ(ref.code, 2) << describeRun(ref);
+        EXPECT_NE(ref.err.find(reference + ": not a regular file"), std::string::npos) << ref.err;
+        EXPECT_FALSE(fs::exists(t / "good" / "stats"));
+    }
 }
 
 // `sylva stats DIR --reference FILE`: reference.csv/json with a D for every species and
@@ -747,7 +851,8 @@ TEST(CliStatsReference, TinyDatasetAgainstTheShippedReference) {
     fs::remove_all(t / "ds" / "stats");
     spit(t / "bad.json", R"({"distributions": {"radius_ratio": {"p": [0, 1], "q": [1, 0]}}})");
     for (const auto& [file, message] : std::vector<std::pair<std::string, std::string>>{
-             {(t / "missing.json").string(), "missing.json: cannot read the reference file"},
+             {(t / "missing.json").string(),
+              "missing.json: cannot read (No such file or directory)"},
              {(t / "bad.json").string(),
               "bad.json: distributions.radius_ratio.q: expected non-decreasing quantiles"}}) {
         RunResult bad = run({"stats", (t / "ds").string(), "--reference", file}, t.path());

@@ -160,6 +160,7 @@ TEST(DatasetStats, ShardsGiveTheSameFilesAsTheWholeBuild) {
     fs::create_directories(cat);
     spit(cat / "manifest.jsonl", slurp(sharded / "manifest.shard-0-of-2.jsonl") +
                                      slurp(sharded / "manifest.shard-1-of-2.jsonl"));
+    fs::copy_file(whole / "dataset.json", cat / "dataset.json");
     computeDatasetStats(cat);
     fs::copy_file(cat / "manifest.jsonl", sharded / "manifest.jsonl");
     DatasetStatsResult both = computeDatasetStats(sharded);
@@ -208,6 +209,7 @@ TEST(DatasetStats, SpeciesCsvMatchesHandComputedManifest) {
         "\n"
         R"({"id":"b-3","index":6,"species":"b","stats":{"h":5)";
     spit(t.path() / "manifest.jsonl", m);
+    spit(t.path() / "dataset.json", R"({"name":"hand"})");
     DatasetStatsResult r = computeDatasetStats(t.path());
     EXPECT_EQ(slurp(t.path() / "manifest.jsonl"), m);
     EXPECT_EQ(r.ignoredPartialLines, 1u);
@@ -264,8 +266,12 @@ TEST(DatasetStats, MissingOrEmptyDirectoryIsBadInput) {
     };
     EXPECT_THROW(computeDatasetStats(t.path() / "nope"), DatasetStatsInputError);
     EXPECT_NE(message().find("no manifest.jsonl"), std::string::npos) << message();
-    // A manifest with only a torn line: no complete record yet.
+    // A manifest without the description the build writes first: not a dataset.
     spit(t.path() / "manifest.jsonl", R"({"id":"a-0","ind)");
+    EXPECT_NE(message().find("no dataset.json (not a dataset directory)"), std::string::npos)
+        << message();
+    // A manifest with only a torn line: no complete record yet.
+    spit(t.path() / "dataset.json", R"({"name":"d"})");
     EXPECT_NE(message().find("no complete record"), std::string::npos) << message();
     // A malformed line that is not the last one.
     spit(t.path() / "manifest.jsonl", "{oops\n{\"id\":\"a\",\"index\":0,\"species\":\"a\"}\n");
@@ -424,6 +430,7 @@ TEST(ReferenceStats, SpeciesPooledOverTheirInstancesSkeletons) {
         "\n"
         R"({"id":"b-0","index":2,"species":"b","stats":{"h":1}})"
         "\n");
+    spit(dir / "dataset.json", R"({"name":"ds"})");
     // The reference: radius ratios uniform on [0, 1], branch angles uniform on [0°, 180°].
     const fs::path ref = t.path() / "ref.json";
     spit(ref, R"({"name": "test", "distributions": {
@@ -484,13 +491,14 @@ TEST(ReferenceStats, SpeciesPooledOverTheirInstancesSkeletons) {
         return std::string("no error");
     };
     EXPECT_EQ(message(t.path() / "none.json"),
-              (t.path() / "none.json").string() + ": cannot read the reference file");
+              (t.path() / "none.json").string() + ": cannot read (No such file or directory)");
     spit(dir / "trees" / "a1.ply", "ply\nformat ascii 1.0\nend_header\n");
     EXPECT_EQ(message(ref), (dir / "trees" / "a1.ply").string() +
                                 ": expected format binary_little_endian, got ascii");
     fs::remove(dir / "trees" / "a1.ply");
     EXPECT_EQ(message(ref), (dir / "trees" / "a1.ply").string() +
-                                ": cannot read (the manifest lists it as skeleton_ply)");
+                                ": cannot read (No such file or directory); the manifest "
+                                "lists it as skeleton_ply");
     spit(dir / "manifest.jsonl", R"({"id":"b-0","index":2,"species":"b","stats":{"h":1}})"
                                  "\n");
     EXPECT_NE(message(ref).find("the manifest lists none"), std::string::npos);

@@ -1,0 +1,232 @@
+#include "pipeline/analysis/dataset_reader.h"
+
+#include <algorithm>
+#include <regex>
+#include <system_error>
+#include <unordered_set>
+#include <utility>
+
+#include "core/errors.h"
+#include "core/input_file.h"
+
+namespace sylva {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+[[noreturn]] void fail(const std::string& where, const std::string& what) {
+    throw InputError(where + ": " + what);
+}
+
+// Parses `text` as JSON, refusing nesting deeper than kMaxRecordDepth (a deep array would take a
+// reader that walks it recursively off its stack). Discarded on a syntax error.
+json parseBounded(const std::string& text, bool& tooDeep) {
+    tooDeep = false;
+    json::parser_callback_t depthCheck = [&](int depth, json::parse_event_t, json&) {
+        if (depth > kMaxRecordDepth) tooDeep = true;
+        return !tooDeep;
+    };
+    return json::parse(text, depthCheck, false);
+}
+
+// One directory name: what a record's id and species become under trees/ or plots/.
+bool isDirectoryName(const std::string& s) {
+    if (s.empty() || s == "." || s == ".." || s.size() > 255) return false;
+    return std::none_of(s.begin(), s.end(), [](char c) {
+        return c == '/' || c == '\\' || static_cast<unsigned char>(c) < 0x20 || c == 0x7f;
+    });
+}
+
+}  // namespace
+
+bool isPathInside(const std::string& s) {
+    if (s.empty() || s.find('\0') != std::string::npos || s.find('\\') != std::string::npos)
+        return false;
+    const fs::path p(s);
+    if (p.is_absolute() || p.has_root_name() || p.has_root_directory()) return false;
+    for (const fs::path& part : p) {
+        if (part == "..") return false;
+    }
+    return true;
+}
+
+namespace {
+
+bool isCount(const json& v) { return v.is_number_unsigned() || (v.is_number_integer() && v >= 0); }
+
+void needs(bool ok, const std::string& where, const std::string& key, const char* expected) {
+    if (!ok) fail(where, key + ": expected " + expected);
+}
+
+}  // namespace
+
+ManifestRecord parseManifestRecord(const std::string& line, const std::string& where) {
+    bool tooDeep = false;
+    ManifestRecord r;
+    r.json = parseBounded(line, tooDeep);
+    r.where = where;
+    if (tooDeep) {
+        fail(where, "nested more than " + std::to_string(kMaxRecordDepth) +
+                        " deep (not a manifest record)");
+    }
+    if (r.json.is_discarded() || !r.json.is_object()) {
+        fail(where, "not a manifest record (a JSON object with id, index and species or plot)");
+    }
+    const json& j = r.json;
+    auto has = [&](const char* key) { return j.contains(key); };
+    needs(has("id") && j["id"].is_string(), where, "id", "a string");
+    r.id = j["id"].get<std::string>();
+    needs(isDirectoryName(r.id), where, "id",
+          "one directory name (not empty, \".\" or \"..\", no '/', '\\' or control characters)");
+    needs(has("index") && j["index"].is_number_integer() && isCount(j["index"]), where, "index",
+          "an integer >= 0");
+    r.index = j["index"].get<int64_t>();
+    r.plot = !has("species") && has("plot");
+    const char* group = r.plot ? "plot" : "species";
+    needs(has(group) && j[group].is_string(), where, group,
+          r.plot ? "a string" : "a string (a record names its species, or its plot)");
+    r.group = j[group].get<std::string>();
+    needs(isDirectoryName(r.group), where, group, "one directory name");
+    for (const char* key : {"habit", "method", "kind"}) {
+        if (has(key)) needs(j[key].is_string(), where, key, "a string");
+    }
+    if (has("seed")) {
+        needs(j["seed"].is_string() || isCount(j["seed"]), where, "seed",
+              "a string or an integer >= 0");
+    }
+    for (const char* key : {"sweep", "params", "stats", "timing", "scan"}) {
+        if (has(key)) needs(j[key].is_object(), where, key, "an object");
+    }
+    for (const char* key : {"bytes_written", "trees"}) {
+        if (has(key)) needs(isCount(j[key]), where, key, "an integer >= 0");
+    }
+    if (has("files")) {
+        needs(j["files"].is_object(), where, "files", "an object");
+        for (const auto& [k, v] : j["files"].items()) {
+            needs(v.is_string() && isPathInside(v.get<std::string>()), where, "files." + k,
+                  "a relative path inside the dataset (no \"..\")");
+        }
+    }
+    return r;
+}
+
+std::vector<fs::path> manifestFiles(const fs::path& dir) {
+    std::vector<fs::path> files;
+    std::error_code ec;
+    if (fs::exists(dir / "manifest.jsonl", ec)) files.push_back(dir / "manifest.jsonl");
+    static const std::regex shardName(R"(manifest\.shard-(\d{1,9})-of-(\d{1,9})\.jsonl)");
+    std::vector<std::pair<std::pair<int, int>, fs::path>> shards;
+    for (const auto& e : fs::directory_iterator(dir, ec)) {
+        std::smatch m;
+        const std::string name = e.path().filename().string();
+        if (std::regex_match(name, m, shardName)) {
+            shards.push_back({{std::stoi(m[2]), std::stoi(m[1])}, e.path()});
+        }
+    }
+    std::sort(shards.begin(), shards.end());
+    for (auto& s : shards) files.push_back(std::move(s.second));
+    return files;
+}
+
+ManifestRead readManifests(const fs::path& dir) {
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) throw InputError(dir.string() + ": not a directory");
+    const std::vector<fs::path> files = manifestFiles(dir);
+    if (files.empty()) {
+        throw InputError(dir.string() +
+                         ": no manifest.jsonl or manifest.shard-*.jsonl (not a dataset "
+                         "directory)");
+    }
+    ManifestRead out;
+    std::unordered_set<std::string> seen;
+    for (const fs::path& f : files) {
+        const std::string name = f.filename().string();
+        out.files.push_back(name);
+        InputFile in(f);
+        std::string line;
+        for (InputFile::Line got;
+             (got = in.next(line, kMaxManifestLineBytes)) != InputFile::Line::end;) {
+            if (got == InputFile::Line::torn) {
+                ++out.tornLines;
+                break;
+            }
+            if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+            ManifestRecord r =
+                parseManifestRecord(line, f.string() + ":" + std::to_string(in.lineNumber()));
+            if (!seen.insert(r.id).second) {
+                ++out.duplicates;
+                continue;
+            }
+            out.records.push_back(std::move(r));
+        }
+    }
+    return out;
+}
+
+json readDatasetJsonFile(const fs::path& file) {
+    const std::string where = file.string();
+    bool tooDeep = false;
+    const json j =
+        parseBounded(readInputFile(file, kMaxDatasetJsonBytes, "a dataset description"), tooDeep);
+    if (tooDeep) fail(where, "nested more than " + std::to_string(kMaxRecordDepth) + " deep");
+    if (j.is_discarded()) fail(where, "not JSON");
+    if (!j.is_object()) fail(where, "expected a JSON object (a dataset description)");
+    auto has = [&](const char* key) { return j.contains(key); };
+    needs(has("name") && j["name"].is_string(), where, "name", "a string");
+    for (const char* key : {"description", "status", "fingerprint"}) {
+        if (has(key)) needs(j[key].is_string(), where, key, "a string");
+    }
+    if (has("seed")) {
+        needs(j["seed"].is_string() || j["seed"].is_number_integer(), where, "seed",
+              "an integer or a string");
+    }
+    for (const char* key : {"versions", "spec"}) {
+        if (has(key)) needs(j[key].is_object(), where, key, "an object");
+    }
+    if (has("counts")) {
+        needs(j["counts"].is_object(), where, "counts", "an object");
+        for (const auto& [k, v] : j["counts"].items()) {
+            needs(isCount(v), where, "counts." + k, "an integer >= 0");
+        }
+    }
+    if (has("species")) {
+        needs(j["species"].is_array(), where, "species", "an array");
+        for (size_t i = 0; i < j["species"].size(); ++i) {
+            const json& s = j["species"][i];
+            needs(s.is_object() && s.contains("name") && s["name"].is_string(), where,
+                  "species[" + std::to_string(i) + "]", "an object with a string name");
+        }
+    }
+    if (has("shard")) {
+        const json& s = j["shard"];
+        needs(s.is_object() && s.contains("index") && isCount(s["index"]) && s.contains("count") &&
+                  s["count"].is_number_integer() && s["count"] >= 1 && s["index"] < s["count"],
+              where, "shard", "an object with integers 0 <= index < count");
+    }
+    return j;
+}
+
+json readDatasetDescription(const fs::path& dir) {
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) throw InputError(dir.string() + ": not a directory");
+    if (fs::exists(dir / "dataset.json", ec)) return readDatasetJsonFile(dir / "dataset.json");
+    static const std::regex shardName(R"(dataset\.shard-(\d{1,9})-of-(\d{1,9})\.json)");
+    std::vector<std::pair<std::pair<int, int>, fs::path>> shards;
+    for (const auto& e : fs::directory_iterator(dir, ec)) {
+        std::smatch m;
+        const std::string name = e.path().filename().string();
+        if (std::regex_match(name, m, shardName)) {
+            shards.push_back({{std::stoi(m[2]), std::stoi(m[1])}, e.path()});
+        }
+    }
+    if (shards.empty()) {
+        throw InputError(dir.string() + ": no dataset.json (not a dataset directory)");
+    }
+    std::sort(shards.begin(), shards.end());
+    for (size_t i = 1; i < shards.size(); ++i) readDatasetJsonFile(shards[i].second);
+    return readDatasetJsonFile(shards.front().second);
+}
+
+}  // namespace sylva
