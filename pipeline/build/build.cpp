@@ -18,14 +18,17 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <mutex>
 #include <optional>
+#include <regex>
 #include <set>
 #include <sstream>
 #include <thread>
 #include <tuple>
 #include <unordered_map>
 
+#include "core/input_file.h"
 #include "pipeline/build/instance.h"
 #include "pipeline/build/manifest_repair.h"
 #include "pipeline/build/output_lock.h"
@@ -300,6 +303,36 @@ class SpaceReserve {
     fs::path file_;
 };
 
+// The largest dataset.json a rerun reads back (it is a few kB).
+constexpr uint64_t kMaxOwnDatasetJsonBytes = uint64_t(64) << 20;
+
+// A directory holds builds of one sharding: the unsharded build, or shards of one count. A shard
+// built beside the unsharded build (or a shard of another count) would grow its instances again
+// under other file names, as docs/cluster.md warns; refused before anything is read or written.
+void checkNoOtherSharding(const BuildOptions& o) {
+    static const std::regex shardFile(R"((dataset|manifest)\.shard-(\d+)-of-(\d+)\.jsonl?)");
+    const bool sharded = o.shardCount > 1;
+    std::map<std::string, std::string> others;  // file name → the build it belongs to (sorted)
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(o.out, ec)) {
+        const std::string name = e.path().filename().string();
+        std::smatch m;
+        if (name == "dataset.json" || name == "manifest.jsonl") {
+            if (sharded) others[name] = "the unsharded build";
+        } else if (std::regex_match(name, m, shardFile) &&
+                   (!sharded || m[3].str() != std::to_string(o.shardCount))) {
+            others[name] = "shards of " + m[3].str();
+        }
+    }
+    if (others.empty()) return;
+    const auto& [name, other] = *others.begin();
+    throw InputError(
+        "--out " + o.out.string() + ": holds " + other + " (" + name + "); build " +
+        (sharded ? "shard " + std::to_string(o.shardIndex) + "/" + std::to_string(o.shardCount)
+                 : std::string("the unsharded dataset")) +
+        " into another directory");
+}
+
 // What the steps of a build share, so that a stop anywhere can still be reported.
 struct BuildState {
     BuildSummary summary;
@@ -322,8 +355,11 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
     const fs::path datasetPath = o.out / datasetJsonName(o.shardIndex, o.shardCount);
     const std::string suffix = shardSuffix(o.shardIndex, o.shardCount);
     auto recorded = [&] { return st.recorded(); };
+    checkNoOtherSharding(o);
     if (fs::exists(datasetPath)) {
-        auto old = nlohmann::json::parse(std::ifstream(datasetPath), nullptr, false);
+        auto old = nlohmann::json::parse(
+            readInputFile(datasetPath, kMaxOwnDatasetJsonBytes, "a dataset description"), nullptr,
+            false);
         if (!old.is_discarded() && old.value("fingerprint", "") != spec.fingerprint) {
             throw SpecError(SourcePos{spec.path, 0, 0}, "",
                             "output directory " + o.out.string() +

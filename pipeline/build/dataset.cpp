@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -198,6 +199,36 @@ void readScan(Params& t, ScanOutputs& scan) {
         "las_colour", scan.colour,
         {{"none", LasColour::kNone}, {"class", LasColour::kClass}, {"tree", LasColour::kTree}});
     scan.options = readScanOptions(t);
+}
+
+// Every TLS station within max_range of every plot it scans (the plot's area and the terrain
+// margin around it, horizontally): a station farther off would record nothing of the plot, where
+// the build would run and write an empty scan. `t` is the [scan] table, for the station's place.
+void checkStationsReachPlots(Params& t, const DatasetSpec& d) {
+    const ScanOptions& o = d.outputs.scan.options;
+    if (o.platform != ScanPlatform::kTls) return;
+    std::vector<Params> stations = t.tableArray("stations");
+    for (size_t i = 0; i < stations.size() && i < o.stations.size(); ++i) {
+        const TlsStation& st = o.stations[i];
+        for (const PlotSpec& plot : d.plots) {
+            double dx = 0, dz = 0, gap = 0;
+            if (plot.area.shape == PlotArea::Shape::kCircle) {
+                gap = std::hypot(st.x, st.z) - plot.area.radius - plot.margin;
+                dx = std::abs(st.x), dz = std::abs(st.z);
+            } else {
+                dx = std::abs(st.x) - 0.5 * plot.area.width - plot.margin;
+                dz = std::abs(st.z) - 0.5 * plot.area.depth - plot.margin;
+                gap = std::hypot(std::max(dx, 0.0), std::max(dz, 0.0));
+            }
+            if (gap <= o.maxRange) continue;
+            stations[i].fail(dx >= dz ? "x" : "z",
+                             "expected a station within max_range (" + formatNumber(o.maxRange) +
+                                 " m) of plot \"" + plot.name + "\", got one " +
+                                 formatNumber(gap, 4) + " m from its area and " +
+                                 formatNumber(plot.margin) +
+                                 " m margin: it would record nothing of the plot");
+        }
+    }
 }
 
 // [outputs] (without the [views] table); defaults come from OutputOptions.
@@ -466,8 +497,9 @@ constexpr size_t kMaxPlotSweepPoints = 10000;
 void expandPlotSweeps(DatasetSpec& d, std::vector<Params>& plots, DrawContext& draw, bool meshed,
                       std::string& fingerprintBytes) {
     std::set<std::string> named;
+    PlotFileCache files;  // each species file and DEM read once for every plot and sweep point
     for (size_t k = 0; k < plots.size(); ++k) {
-        PlotSpec base = readPlot(plots[k], d.budget, meshed, fingerprintBytes);
+        PlotSpec base = readPlot(plots[k], d.budget, meshed, &fingerprintBytes, &files);
         named.insert(base.name);
         std::vector<const SweepAxis*> axes;
         for (const SweepAxis& a : d.sweeps) {
@@ -514,8 +546,8 @@ void expandPlotSweeps(DatasetSpec& d, std::vector<Params>& plots, DrawContext& d
             Params again(*d.table, d.path, "", &draw, &ov);
             again.documentAs("dataset");
             std::vector<Params> tables = again.tableArray("plot");
-            std::string scratch;  // the species files are in the fingerprint already
-            PlotSpec s = readPlot(tables[k], d.budget, meshed, scratch);
+            // (The species files and DEM are in the fingerprint already.)
+            PlotSpec s = readPlot(tables[k], d.budget, meshed, nullptr, &files);
             for (const auto& [full, o] : ov) {
                 if (!o.used) {
                     throw SpecError(o.where, "sweep.path",
@@ -571,7 +603,8 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
     readSpeciesEntries(p, d, fingerprintBytes);
     checkSweptSpecies(d);
     if (auto b = p.optionalTable("budget")) d.budget = readBudget(*b, true);
-    if (auto s = p.optionalTable("scan")) readScan(*s, d.outputs.scan);
+    std::optional<Params> scanTable = p.optionalTable("scan");
+    if (scanTable) readScan(*scanTable, d.outputs.scan);
     d.outputs.qsm = d.outputs.scan.enabled;  // [outputs] qsm overrides it
     if (auto o = p.optionalTable("outputs")) readOutputs(*o, d.outputs);
     if (auto v = p.optionalTable("views")) {
@@ -587,6 +620,7 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
         expandSweepPoints(entry, d.sweeps, meshed);
     }
     expandPlotSweeps(d, plots, draw, meshed, fingerprintBytes);
+    if (scanTable) checkStationsReachPlots(*scanTable, d);
     checkInstanceTotal(d);
     checkIdsUnique(d);
     char fingerprint[17];

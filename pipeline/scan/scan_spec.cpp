@@ -163,11 +163,21 @@ ScanOptions readScanOptions(Params& p) {
                             " m) between min_range (" + formatNumber(o.minRange) +
                             " m) and max_range (" + formatNumber(o.maxRange) + " m)");
         }
-    } else if (o.maxPulses == 0) {
+    } else {
+        // A cap (`pulses`) bounds the survey only where it is below the limit itself: a cap of
+        // 1e12 over a 0.001° grid is a survey of 3.6e10 pulses all the same.
         const double columns = std::floor(o.horizontalFov / o.horizontalStep + 1e-9) + 1;
         const double rows = std::floor(o.verticalFov / o.verticalStep + 1e-9) + 1;
         const double total = columns * rows * static_cast<double>(o.stations.size());
-        if (total > kMaxSurveyPulses) {
+        const bool capped = o.maxPulses > 0 && static_cast<double>(o.maxPulses) < total;
+        if (capped && static_cast<double>(o.maxPulses) > kMaxSurveyPulses) {
+            p.fail("pulses", "expected at most 1e9 pulses in the survey, got a cap of " +
+                                 formatNumber(static_cast<double>(o.maxPulses), 3) + " over " +
+                                 formatNumber(total, 3) + " (" + formatNumber(columns, 6) +
+                                 " columns × " + formatNumber(rows, 6) + " rows × " +
+                                 std::to_string(o.stations.size()) + " stations)");
+        }
+        if (!capped && total > kMaxSurveyPulses) {
             p.fail(p.has("horizontal_step_deg") ? "horizontal_step_deg" : "vertical_step_deg",
                    "expected at most 1e9 pulses in the survey, got " + formatNumber(total, 3) +
                        " (" + formatNumber(columns, 6) + " columns × " + formatNumber(rows, 6) +

@@ -135,8 +135,20 @@ std::vector<TreeRecord> treeTable(const GrownPlot& plot) {
     return table;
 }
 
+double canopyCoverCell(const PlotArea& area, double cell) {
+    const bool circle = area.shape == PlotArea::Shape::kCircle;
+    const double w = circle ? 2 * area.radius : area.width;
+    const double d = circle ? 2 * area.radius : area.depth;
+    // ⌈w/c⌉·⌈d/c⌉ ≤ (w/c + 1)(d/c + 1): solve (w/c + 1)(d/c + 1) = N for the smallest c that fits.
+    const double n = kMaxCoverCells;
+    const double a = n - 1, b = -(w + d), c0 = -w * d;  // a·c² + b·c + c0 = 0
+    const double fits = (-b + std::sqrt(b * b - 4 * a * c0)) / (2 * a);
+    return std::max(cell, fits);
+}
+
 double canopyCover(const std::vector<const Tree*>& trees, const PlotArea& area, double cell) {
     if (!(cell > 0)) return kNaN;
+    cell = canopyCoverCell(area, cell);
     const bool circle = area.shape == PlotArea::Shape::kCircle;
     const double hx = circle ? area.radius : 0.5 * area.width;
     const double hz = circle ? area.radius : 0.5 * area.depth;
@@ -243,8 +255,8 @@ PlotStatistics plotStatistics(const GrownPlot& plot, const std::vector<TreeRecor
     s.meanNearestNeighbour = table.size() >= 2 ? nnSum / static_cast<double>(table.size()) : kNaN;
     std::vector<const Tree*> trees;
     for (const PlotTree& t : plot.trees) trees.push_back(&t.grown.tree);
-    s.canopyCellM = cell;
-    s.canopyCover = canopyCover(trees, area, cell);
+    s.canopyCellM = canopyCoverCell(area, cell);
+    s.canopyCover = canopyCover(trees, area, s.canopyCellM);
 
     HeightDistribution& h = s.heights;
     if (heights.empty()) {

@@ -73,11 +73,18 @@ TreeRecord measureTree(const Tree& tree, const Vec3& base);
 
 // Plot statistics from the table; canopy cover rasterised from the plot's leaves (outline
 // triangles) and wood (segments as discs of their radius swept between nodes) seen from
-// above, on cells of `cell` metres whose centres lie inside the plot area.
+// above, on cells of canopyCoverCell(area, `cell`) metres whose centres lie inside the plot area.
 PlotStatistics plotStatistics(const GrownPlot& plot, const std::vector<TreeRecord>& table,
                               double cell = 0.1);
 
-// Fraction of the area's cells (centres inside `area`) covered from above by the trees.
+// The canopy raster's cell: `cell` metres, or coarser where the area would need more than
+// kMaxCoverCells cells at it (a 10 km square at 0.1 m is 10¹⁰ cells: 10 GB), so that the raster's
+// memory is bounded whatever the plot's size (plots up to 40 ha keep 0.1 m).
+inline constexpr double kMaxCoverCells = 4e7;
+double canopyCoverCell(const PlotArea& area, double cell);
+
+// Fraction of the area's cells (centres inside `area`, of canopyCoverCell(area, `cell`) metres)
+// covered from above by the trees.
 double canopyCover(const std::vector<const Tree*>& trees, const PlotArea& area, double cell);
 
 }  // namespace sylva

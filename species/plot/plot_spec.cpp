@@ -89,13 +89,19 @@ void readTerrain(Params& t, PlotSpec& s) {
 }
 
 // The DEM is readable, single-channel and covers the heightfield grid.
-void checkDem(Params& t, const PlotSpec& s, std::string& fingerprintBytes) {
+void checkDem(Params& t, const PlotSpec& s, std::string* fingerprintBytes, PlotFileCache* cache) {
     const TerrainOptions& o = s.terrain;
-    ImageFile img;
-    try {
-        img = readImageFile(o.demPath);
-    } catch (const ImageError& e) {
-        t.fail("file", std::string("expected a single-channel DEM image: ") + e.what());
+    PlotFileCache::Dem img;
+    if (cache && cache->dems.count(o.demPath)) {
+        img = cache->dems.at(o.demPath);
+    } else {
+        try {
+            const ImageFile read = readImageFile(o.demPath);
+            img = {read.width, read.height, read.channels};
+        } catch (const ImageError& e) {
+            t.fail("file", std::string("expected a single-channel DEM image: ") + e.what());
+        }
+        if (cache) cache->dems[o.demPath] = img;
     }
     if (img.channels != 1) {
         t.fail("file", "expected a single-channel DEM (grey heights), got " +
@@ -114,7 +120,7 @@ void checkDem(Params& t, const PlotSpec& s, std::string& fingerprintBytes) {
                            " pixels (" + number((img.width - 1) * o.metresPerPixel) + " × " +
                            number((img.height - 1) * o.metresPerPixel) + " m)");
     }
-    fingerprintBytes += fileBytes(o.demPath);
+    if (fingerprintBytes) *fingerprintBytes += fileBytes(o.demPath);
 }
 
 void readStems(Params& t, PlotSpec& s) {
@@ -168,7 +174,7 @@ void readStems(Params& t, PlotSpec& s) {
 }
 
 PlotSpecies readSpecies(Params& e, bool understory, const BudgetTable& budget, bool meshed,
-                        std::string& fingerprintBytes) {
+                        std::string* fingerprintBytes, PlotFileCache* cache) {
     PlotSpecies ps;
     ps.understory = understory;
     ps.keyPath = e.prefix();
@@ -180,14 +186,20 @@ PlotSpecies readSpecies(Params& e, bool understory, const BudgetTable& budget, b
     if (!fs::is_regular_file(resolved, ec)) {
         e.fail("file", "species file not found: " + resolved.string());
     }
-    try {
-        ps.species = loadSpecies(resolved.lexically_normal().string());
-        validateSpecies(ps.species, nullptr, &budget, meshed);
-    } catch (const SpecError& err) {
-        // One line, at the dataset key that names the file, then the error's own place.
-        throw SpecError(e.where("file"), e.path("file"), std::string("in ") + err.what());
+    const std::string path = resolved.lexically_normal().string();
+    if (cache && cache->species.count(path)) {
+        ps.species = cache->species.at(path);
+    } else {
+        try {
+            ps.species = loadSpecies(path);
+            validateSpecies(ps.species, nullptr, &budget, meshed);
+        } catch (const SpecError& err) {
+            // One line, at the dataset key that names the file, then the error's own place.
+            throw SpecError(e.where("file"), e.path("file"), std::string("in ") + err.what());
+        }
+        if (cache) cache->species[path] = ps.species;
     }
-    fingerprintBytes += fileBytes(ps.species.path);
+    if (fingerprintBytes) *fingerprintBytes += fileBytes(ps.species.path);
     if (e.has("density") == e.has("count")) {
         if (e.has("count"))
             e.fail("count", "expected either density (stems/ha) or count, not both");
@@ -217,8 +229,8 @@ PlotSpecies readSpecies(Params& e, bool understory, const BudgetTable& budget, b
 
 }  // namespace
 
-PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed,
-                  std::string& fingerprintBytes) {
+PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed, std::string* fingerprintBytes,
+                  PlotFileCache* cache) {
     DocumentAs doc(p, "plot");
     // A plot's numbers are plain but for its species' height and slenderness (docs/plots.md).
     p.plainNumbersOnly();
@@ -242,8 +254,7 @@ PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed,
     onlyFor(p, "depth", !circle, "shape = \"rectangle\"", shape);
     onlyFor(p, "radius", circle, "shape = \"circle\"", shape);
     if (circle) {
-        s.area.radius =
-            p.number("radius", 25.0, Range::closed(kMinPlotSide / 2, kMaxPlotSide / 2));
+        s.area.radius = p.number("radius", 25.0, Range::closed(kMinPlotSide / 2, kMaxPlotSide / 2));
     } else {
         s.area.width = p.number("width", s.area.width, Range::closed(kMinPlotSide, kMaxPlotSide));
         s.area.depth = p.number("depth", s.area.depth, Range::closed(kMinPlotSide, kMaxPlotSide));
@@ -266,7 +277,8 @@ PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed,
         p.fail(sizeKey, msg);
     }
     if (terrain) {
-        if (s.terrain.kind == TerrainOptions::Kind::kDem) checkDem(*terrain, s, fingerprintBytes);
+        if (s.terrain.kind == TerrainOptions::Kind::kDem)
+            checkDem(*terrain, s, fingerprintBytes, cache);
         terrain->finish();
     }
 
@@ -280,11 +292,11 @@ PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed,
     std::vector<Params> understory = p.tableArray("understory");
     std::vector<Params*> entries;
     for (Params& e : canopy) {
-        s.species.push_back(readSpecies(e, false, budget, meshed, fingerprintBytes));
+        s.species.push_back(readSpecies(e, false, budget, meshed, fingerprintBytes, cache));
         entries.push_back(&e);
     }
     for (Params& e : understory) {
-        s.species.push_back(readSpecies(e, true, budget, meshed, fingerprintBytes));
+        s.species.push_back(readSpecies(e, true, budget, meshed, fingerprintBytes, cache));
         entries.push_back(&e);
     }
     if (s.species.empty()) {

@@ -302,6 +302,46 @@ TEST(CliLock, TerminatedBuildLeavesNoLockBehind) {
     }
 }
 
+// A directory holds one sharding: a shard built beside the unsharded build (it would grow its
+// trees again under its own files), shards of another count, or the unsharded build beside
+// shards is refused with one line naming the other build's file, and nothing there changes.
+TEST(CliShards, AShardBesideAnotherShardingIsRefusedAndChangesNothing) {
+    TempDir t;
+    const fs::path spec = writeSpec(t.path(), 4);
+    const fs::path whole = t / "whole", shards = t / "shards";
+    ASSERT_EQ(build(spec, whole, t.path()).code, 0);
+    ASSERT_EQ(build(spec, shards, t.path(), {"--shard", "0/2"}).code, 0);
+    auto withoutLocks = [&](const fs::path& dir) {
+        auto files = filesUnder(dir);
+        for (auto it = files.begin(); it != files.end();) {
+            it = it->first.find(".lock") != std::string::npos ? files.erase(it) : std::next(it);
+        }
+        return files;
+    };
+    const auto wholeBefore = withoutLocks(whole), shardsBefore = withoutLocks(shards);
+    struct Case {
+        fs::path out;
+        std::vector<std::string> extra;
+        std::string expect;
+    };
+    for (const Case& c : std::vector<Case>{
+             {whole, {"--shard", "0/2"}, "holds the unsharded build (dataset.json)"},
+             {whole, {"--shard", "1/2"}, "holds the unsharded build (dataset.json)"},
+             {shards, {"--shard", "1/3"}, "holds shards of 2 (dataset.shard-0-of-2.json)"},
+             {shards, {}, "holds shards of 2 (dataset.shard-0-of-2.json)"}}) {
+        const RunResult r = build(spec, c.out, t.path(), c.extra);
+        expectOneLine(r, 2);
+        EXPECT_NE(r.err.find("--out " + c.out.string() + ": " + c.expect), std::string::npos)
+            << r.err;
+        EXPECT_NE(r.err.find("into another directory"), std::string::npos) << r.err;
+    }
+    EXPECT_EQ(withoutLocks(whole), wholeBefore);
+    EXPECT_EQ(withoutLocks(shards), shardsBefore);
+    // The other shard of the same count is welcome.
+    const RunResult other = build(spec, shards, t.path(), {"--shard", "1/2"});
+    EXPECT_EQ(other.code, 0) << describeRun(other);
+}
+
 // Shards of one build may share a directory (each locks its own shard); an unsharded build or
 // shards of another count there at the same time may not.
 TEST(CliLock, ShardsShareADirectoryButNotWithOtherCounts) {

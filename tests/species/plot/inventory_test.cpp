@@ -167,6 +167,34 @@ TEST(Inventory, CanopyCoverOfOneCard) {
     EXPECT_NEAR(canopyCover({&t}, area, 0.1), 2.0 / (kPi * 25), 0.001);
 }
 
+// The raster is bounded: 0.1 m cells up to about 40 ha, coarser beyond so that it never holds
+// more than 4 × 10⁷ cells (a 10 km square at 0.1 m would be 10¹⁰ cells, 10 GB: a plot of two
+// stems ran out of memory in its statistics). The same card on a 10 km square, at the coarser
+// cell, still covers its 2 m² of 10⁸ m² to within a cell's rounding.
+TEST(Inventory, TheCanopyRasterHasAtMostFortyMillionCells) {
+    PlotArea small, large, round;
+    small.width = small.depth = 10;
+    EXPECT_EQ(canopyCoverCell(small, 0.1), 0.1);
+    large.width = large.depth = 10000;
+    const double cell = canopyCoverCell(large, 0.1);
+    EXPECT_NEAR(cell, 1.5814, 1e-4);
+    const double cells = std::ceil(10000 / cell) * std::ceil(10000 / cell);
+    EXPECT_LE(cells, kMaxCoverCells);
+    EXPECT_GT(cells, 0.999 * kMaxCoverCells);  // no coarser than it must be
+    round.shape = PlotArea::Shape::kCircle;
+    round.radius = 5000;
+    EXPECT_EQ(canopyCoverCell(round, 0.1), cell);
+    Tree t;
+    Leaf l;
+    l.position = {0.3, 3, 0.2};
+    l.normal = {0, 1, 0};
+    l.tangent = {1, 0, 0};
+    l.size = 20.0;
+    l.aspect = 0.5;  // 20 m × 10 m
+    t.leaves.push_back(l);
+    EXPECT_NEAR(canopyCover({&t}, large, 0.1), 200.0 / 1e8, 0.25 * 200.0 / 1e8);
+}
+
 TEST(Inventory, HandPlotTableHasEveryTree) {
     PlotSpec spec;
     GrownPlot plot = test::handPlot(spec, {{-5, -5}, {4, -3}, {0, 5}});

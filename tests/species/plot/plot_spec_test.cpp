@@ -4,13 +4,18 @@
 #include "species/plot/plot_spec.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
 #include "pipeline/build/dataset.h"
 
 namespace sylva {
 namespace {
+
+namespace fs = std::filesystem;
 
 const std::string kPlotData = std::string(SYLVA_SOURCE_DIR) + "/tests/data/plot/";
 
@@ -101,6 +106,43 @@ TEST(PlotSpec, DemKeysAndFingerprint) {
     EXPECT_EQ(t.heightOffset, -20);
     EXPECT_EQ(t.cell, 1);
     EXPECT_EQ(d.fingerprint.size(), 16u);
+}
+
+// With a PlotFileCache, a species file is loaded and validated once: read again (a sweep point),
+// the plot takes the cached species even after the file has changed on disk, where a read
+// without the cache loads the file anew (and here fails on it). The fingerprint gets the file's
+// bytes on every read that asks for them.
+TEST(PlotSpec, ACacheLoadsEachSpeciesFileOnce) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("sylva_plot_cache_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    fs::copy_file(kPlotData + "../tiny.toml", dir / "tiny.toml",
+                  fs::copy_options::overwrite_existing);
+    const std::string file = (dir / "plot.toml").string();
+    std::ofstream(file) << "name = \"c\"\n[[plot]]\nname = \"p\"\nwidth = 10\ndepth = 10\n"
+                           "[[plot.species]]\nfile = \"tiny.toml\"\ncount = 2\n";
+    const toml::table t = parseTomlFile(file);
+    auto read = [&](PlotFileCache* cache, std::string* fingerprint) {
+        DrawContext draw;
+        draw.draw = false;
+        Params top(t, file, "", &draw);
+        std::vector<Params> plots = top.tableArray("plot");
+        return readPlot(plots[0], BudgetTable{}, false, fingerprint, cache);
+    };
+    PlotFileCache cache;
+    std::string fingerprint;
+    const PlotSpec first = read(&cache, &fingerprint);
+    EXPECT_EQ(first.species[0].species.name, "tiny");
+    EXPECT_EQ(cache.species.size(), 1u);
+    const size_t bytes = fingerprint.size();
+    EXPECT_EQ(bytes, fs::file_size(dir / "tiny.toml"));
+    std::ofstream(dir / "tiny.toml") << "name = \"tiny\"\nmethod = \"no-such-method\"\n";
+    const PlotSpec again = read(&cache, &fingerprint);
+    EXPECT_EQ(again.species[0].species.name, "tiny");
+    EXPECT_EQ(again.species[0].count, 2);
+    EXPECT_GT(fingerprint.size(), bytes);  // the file's bytes as they are now
+    EXPECT_THROW((void)read(nullptr, nullptr), SpecError);
+    fs::remove_all(dir);
 }
 
 // Sweeps over a plot's own keys: one plot per point, named "<plot>-p<point>", each the plot read
