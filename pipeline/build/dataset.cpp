@@ -10,6 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "pipeline/scan/scan_pattern.h"
 #include "species/plot/plot_spec.h"
 #include "species/spec/budget_spec.h"
 
@@ -228,6 +229,33 @@ void checkStationsReachPlots(Params& t, const DatasetSpec& d) {
                                  formatNumber(plot.margin) +
                                  " m margin: it would record nothing of the plot");
         }
+    }
+}
+
+// An ALS/ULS survey of each plot within 1e9 pulses (after a `pulses` cap), counted before
+// anything is built: the strips cover the plot's area, known from the spec (a tree's crown is
+// known only once grown; the scanner checks those). `t` is the [scan] table, for the place.
+void checkAirborneSurveys(Params& t, const DatasetSpec& d) {
+    const ScanOptions& o = d.outputs.scan.options;
+    if (o.platform == ScanPlatform::kTls) return;
+    for (const PlotSpec& plot : d.plots) {
+        const bool circle = plot.area.shape == PlotArea::Shape::kCircle;
+        const double hx = circle ? plot.area.radius : plot.area.width / 2;
+        const double hz = circle ? plot.area.radius : plot.area.depth / 2;
+        Aabb area;
+        area.extend(Vec3{-hx, 0, -hz});
+        area.extend(Vec3{hx, 0, hz});
+        const double all = static_cast<double>(ScanPattern(area, o).count());
+        const double pulses =
+            o.maxPulses > 0 ? std::min(all, static_cast<double>(o.maxPulses)) : all;
+        if (pulses <= kMaxScanSurveyPulses) continue;
+        const char* key = o.maxPulses > 0       ? "pulses"
+                          : t.has("pulse_rate") ? "pulse_rate"
+                                                : "platform";
+        t.fail(key, "expected at most 1e9 pulses in the survey of plot \"" + plot.name +
+                        "\", got " + formatNumber(pulses, 3) + " over its " +
+                        formatNumber(2 * hx, 4) + " × " + formatNumber(2 * hz, 4) +
+                        " m; cap them with `pulses` (≤ 1e9), fly faster or pulse slower");
     }
 }
 
@@ -620,7 +648,10 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
         expandSweepPoints(entry, d.sweeps, meshed);
     }
     expandPlotSweeps(d, plots, draw, meshed, fingerprintBytes);
-    if (scanTable) checkStationsReachPlots(*scanTable, d);
+    if (scanTable) {
+        checkStationsReachPlots(*scanTable, d);
+        checkAirborneSurveys(*scanTable, d);
+    }
     checkInstanceTotal(d);
     checkIdsUnique(d);
     char fingerprint[17];

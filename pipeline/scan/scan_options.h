@@ -26,6 +26,12 @@ enum class MirrorPattern : uint8_t { kOscillating, kRotating };
 
 // A terrestrial scanner's position: x, z on the ground and the height of its optical centre
 // above the terrain there (metres).
+// The most pulses one survey may emit (after a `pulses` cap): more is a typo (a step of 0.0004°)
+// rather than a scan, 10⁹ pulses being ~10⁹ points, tens of gigabytes. The reader refuses a TLS
+// grid or a plot's ALS/ULS strips over it, the scanner any other survey (a tree's strips follow
+// its crown, known once grown).
+inline constexpr double kMaxScanSurveyPulses = 1e9;
+
 struct TlsStation {
     double x = 0, z = 0;
     double height = 1.5;

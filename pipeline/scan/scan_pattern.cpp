@@ -19,9 +19,17 @@ Vec3 compassDirection(double azimuth, double elevation) {
 }  // namespace
 
 ScanPattern::ScanPattern(const ScanScene& scene, const ScanOptions& options) : o_(options) {
+    plan(scene.area(), [&scene](double x, double z) { return scene.groundHeight(x, z); });
+}
+
+ScanPattern::ScanPattern(const Aabb& area, const ScanOptions& options) : o_(options) {
+    plan(area, [](double, double) { return 0.0; });
+}
+
+void ScanPattern::plan(const Aabb& area, const std::function<double(double, double)>& ground) {
     if (o_.platform == ScanPlatform::kTls) {
         for (const TlsStation& s : o_.stations) {
-            stations_.push_back({s.x, scene.groundHeight(s.x, s.z) + s.height, s.z});
+            stations_.push_back({s.x, ground(s.x, s.z) + s.height, s.z});
         }
         const bool full = o_.horizontalFov >= 2 * kPi - 1e-9;
         columns_ =
@@ -34,7 +42,6 @@ ScanPattern::ScanPattern(const ScanScene& scene, const ScanOptions& options) : o
         count_ = columns_ * rows_ * stations_.size();
         return;
     }
-    const Aabb area = scene.area();
     const double cx = area.empty() ? 0 : (area.lo.x + area.hi.x) / 2;
     const double cz = area.empty() ? 0 : (area.lo.z + area.hi.z) / 2;
     // Along-track (ax, az) and cross-track (to the right of travel) unit vectors.
@@ -56,7 +63,7 @@ ScanPattern::ScanPattern(const ScanScene& scene, const ScanOptions& options) : o
     const double spacing = o_.stripSpacing > 0 ? o_.stripSpacing : swath * (1 - o_.overlap);
     const double width = c1 - c0;
     const int n = 1 + static_cast<int>(std::ceil(std::max(0.0, width - swath) / spacing - 1e-9));
-    const double y = scene.groundHeight(cx, cz) + o_.altitude;
+    const double y = ground(cx, cz) + o_.altitude;
     const double length = a1 - a0;
     linesPerStrip_ = static_cast<uint64_t>(std::floor(length / o_.speed * o_.scanRate + 1e-9)) + 1;
     shotsPerLine_ = static_cast<uint64_t>(std::max(1.0, std::round(o_.pulseRate / o_.scanRate)));

@@ -13,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "core/math.h"
@@ -36,6 +37,9 @@ struct ScanPulse {
 class ScanPattern {
   public:
     ScanPattern(const ScanScene& scene, const ScanOptions& options);
+    // The pattern over `area` (the strips' extent in x and z) on flat ground at y = 0: the same
+    // count as over a scene of that area, known before the scene is built.
+    ScanPattern(const Aabb& area, const ScanOptions& options);
 
     uint64_t count() const { return count_; }  // every pulse of the survey (no cap)
     void pulse(uint64_t k, ScanPulse& out) const;
@@ -44,6 +48,8 @@ class ScanPattern {
     std::vector<ScanPose> trajectory(uint64_t pulses) const;
 
   private:
+    void plan(const Aabb& area, const std::function<double(double, double)>& ground);
+
     ScanOptions o_;
     uint64_t count_ = 0;
     // TLS

@@ -9,10 +9,6 @@ namespace sylva {
 
 namespace {
 
-// More pulses than this in one survey without a `pulses` cap is a typo (a step of 0.0004°)
-// rather than a scan: 10⁹ pulses are ~10⁹ points, tens of gigabytes.
-constexpr double kMaxSurveyPulses = 1e9;
-
 const std::vector<std::string> kTlsKeys = {
     "stations",         "horizontal_step_deg", "vertical_step_deg", "horizontal_fov_deg",
     "vertical_fov_deg", "vertical_centre_deg", "azimuth_deg"};
@@ -170,14 +166,14 @@ ScanOptions readScanOptions(Params& p) {
         const double rows = std::floor(o.verticalFov / o.verticalStep + 1e-9) + 1;
         const double total = columns * rows * static_cast<double>(o.stations.size());
         const bool capped = o.maxPulses > 0 && static_cast<double>(o.maxPulses) < total;
-        if (capped && static_cast<double>(o.maxPulses) > kMaxSurveyPulses) {
+        if (capped && static_cast<double>(o.maxPulses) > kMaxScanSurveyPulses) {
             p.fail("pulses", "expected at most 1e9 pulses in the survey, got a cap of " +
                                  formatNumber(static_cast<double>(o.maxPulses), 3) + " over " +
                                  formatNumber(total, 3) + " (" + formatNumber(columns, 6) +
                                  " columns × " + formatNumber(rows, 6) + " rows × " +
                                  std::to_string(o.stations.size()) + " stations)");
         }
-        if (!capped && total > kMaxSurveyPulses) {
+        if (!capped && total > kMaxScanSurveyPulses) {
             p.fail(p.has("horizontal_step_deg") ? "horizontal_step_deg" : "vertical_step_deg",
                    "expected at most 1e9 pulses in the survey, got " + formatNumber(total, 3) +
                        " (" + formatNumber(columns, 6) + " columns × " + formatNumber(rows, 6) +

@@ -21,8 +21,7 @@ namespace sylva {
 
 namespace {
 
-constexpr double kMaxSurveyPulses = 1e9;  // without a `pulses` cap (as the reader's TLS check)
-constexpr int kMaxHitsPerSubRay = 16;     // surfaces one sub-ray may pass through and echo from
+constexpr int kMaxHitsPerSubRay = 16;  // surfaces one sub-ray may pass through and echo from
 constexpr double kGoldenAngle = 2.39996322972865332;  // π (3 − √5)
 
 // The beam's sub-ray pattern: offsets (in units of the beam's 1/e² radius) and weights.
@@ -181,7 +180,7 @@ class Scanner {
           tuning_(tuning) {
         count_ = pattern_.count();
         if (o.maxPulses > 0) count_ = std::min<uint64_t>(count_, o.maxPulses);
-        if (o.maxPulses == 0 && static_cast<double>(count_) > kMaxSurveyPulses) {
+        if (static_cast<double>(count_) > kMaxScanSurveyPulses) {
             throw InputError("scan: the survey has " + std::to_string(count_) +
                              " pulses, more than 1e9: cap it with [scan] pulses or scan less");
         }

@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "species/plot/inventory.h"
+#include "species/plot/plot_growth.h"
 #include "species/plot/point_process.h"
 #include "species/plot/terrain.h"
 #include "volumes/image_file.h"
@@ -229,6 +231,82 @@ PlotSpecies readSpecies(Params& e, bool understory, const BudgetTable& budget, b
 
 }  // namespace
 
+// An LAI target the grown leaves cannot reach, refused at its key before anything grows (the
+// plot's lai and the species' own exclude each other, above). Growth decides what it reaches
+// (reachLai, plot_growth.cpp), so it is estimated: one tree of each species grown alone (seed 1),
+// scaled to its height's centre as the plot scales it (leaf area with the square), times the
+// stems expected, gives the plot's leaf area; a target that would need more than kLaiMargin
+// times the area growth allows (kMaxLeafScale², leaves scaled 4×) or less than 1/kLaiMargin² of
+// what it keeps (kMinLeavesKept) is refused. The margins cover the estimate's error (trees in a
+// stand grow fewer leaves than alone, so the upper side errs toward letting a spec through);
+// between them growth decides, as before.
+constexpr double kLaiMargin = 4;
+
+void checkLaiReachable(Params& p, const PlotSpec& s, const std::vector<Params*>& entries,
+                       const BudgetTable& budget, PlotFileCache* cache) {
+    bool any = s.lai > 0;
+    for (const PlotSpecies& ps : s.species) any |= ps.lai >= 0;
+    if (!any) return;
+    // Leaf area (m²) each species' expected stems carry, estimated.
+    std::vector<double> leafArea(s.species.size(), 0.0);
+    for (size_t k = 0; k < s.species.size(); ++k) {
+        const PlotSpecies& ps = s.species[k];
+        if (s.lai <= 0 && ps.lai < 0) continue;  // in no target
+        PlotFileCache::Grown alone;
+        if (cache && cache->grown.count(ps.species.path)) {
+            alone = cache->grown.at(ps.species.path);
+        } else {
+            try {
+                const GrownTree g = growSpecies(ps.species, 1, nullptr, false, &budget);
+                alone.leafArea = treeLeafArea(g.tree);
+                alone.height = g.tree.nodes.empty()
+                                   ? 0.0
+                                   : measureTree(g.tree, g.tree.nodes[0].position).height;
+            } catch (const BudgetExceeded&) {
+                return;  // too large to grow here: growth decides (and budgets it)
+            }
+            if (cache) cache->grown[ps.species.path] = alone;
+        }
+        double scale = 1;
+        if (ps.hasHeight && alone.height > 0) {
+            DrawContext centre;
+            centre.draw = false;
+            Params h(ps.height, p.file(), "", &centre);
+            scale = h.numberOrDistribution("v", Range::leftOpen(0, 200)) / alone.height;
+        }
+        leafArea[k] = alone.leafArea * scale * scale * expectedStems(ps, s.area);
+    }
+    const double area = s.area.area();
+    auto check = [&](Params& at, double target, double grown, const std::string& which) {
+        const double r = grown > 0 ? target * area / grown : INFINITY;
+        if (r <= kLaiMargin * kMaxLeafScale * kMaxLeafScale &&
+            r >= kMinLeavesKept / (kLaiMargin * kLaiMargin)) {
+            return;
+        }
+        at.fail("lai", grown > 0
+                           ? "expected a leaf area index the grown leaves can reach: one tree of " +
+                                 which + " grown alone, scaled to its height, gives about " +
+                                 number(grown / area) + " over the stems expected, so " +
+                                 number(target) + " needs ×" + number(r) +
+                                 " of their area (growth keeps at least " + number(kMinLeavesKept) +
+                                 " and scales at most ×" + number(kMaxLeafScale * kMaxLeafScale) +
+                                 "), got " + number(target)
+                           : "expected species with leaves to reach it, got " + number(target) +
+                                 " for " + which + " growing no leaves");
+    };
+    if (s.lai > 0) {
+        double all = 0;
+        for (double a : leafArea) all += a;
+        check(p, s.lai, all, "each species");
+        return;
+    }
+    for (size_t k = 0; k < s.species.size(); ++k) {
+        if (s.species[k].lai >= 0) {
+            check(*entries[k], s.species[k].lai, leafArea[k], s.species[k].keyPath);
+        }
+    }
+}
+
 PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed, std::string* fingerprintBytes,
                   PlotFileCache* cache) {
     DocumentAs doc(p, "plot");
@@ -385,6 +463,7 @@ PlotSpec readPlot(Params& p, const BudgetTable& budget, bool meshed, std::string
                             number(canopyStems));
         }
     }
+    checkLaiReachable(p, s, entries, budget, cache);
     return s;
 }
 

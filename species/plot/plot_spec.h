@@ -34,6 +34,10 @@ struct PlotFileCache {
         int width = 0, height = 0, channels = 0;
     };
     std::map<std::string, Dem> dems;  // by the DEM's path, read without error
+    struct Grown {
+        double leafArea = 0, height = 0;  // m², m: one tree grown alone (the LAI estimate)
+    };
+    std::map<std::string, Grown> grown;  // by the species file's path as loaded
 };
 
 // One [[plot]] table, `p` (its keys are recorded under the documentation context "plot").

@@ -35,7 +35,7 @@ TEST(PlotSpec, ReadsEveryKey) {
     EXPECT_EQ(a.area.width, 40);
     EXPECT_EQ(a.area.depth, 30);
     EXPECT_EQ(a.margin, 4);
-    EXPECT_EQ(a.lai, 4.5);
+    EXPECT_EQ(a.lai, 0.2);
     EXPECT_TRUE(a.neighbours);
     EXPECT_EQ(a.terrain.kind, TerrainOptions::Kind::kSlope);
     EXPECT_NEAR(a.terrain.slopeRad, 15 * kPi / 180, 1e-12);
@@ -66,7 +66,7 @@ TEST(PlotSpec, ReadsEveryKey) {
     EXPECT_EQ(b.count, 1);  // default
     EXPECT_FALSE(b.neighbours);
     EXPECT_EQ(b.lai, -1);
-    EXPECT_EQ(b.species[0].lai, 2);
+    EXPECT_EQ(b.species[0].lai, 0.1);
     EXPECT_EQ(b.terrain.kind, TerrainOptions::Kind::kNoise);
     EXPECT_EQ(b.terrain.amplitude, 3);
     EXPECT_EQ(b.terrain.wavelength, 25);
