@@ -13,6 +13,7 @@ void BudgetTable::applyTo(Budget& b) const {
     if (maxTriangles) b.maxTriangles = *maxTriangles;
     if (maxViewPixels) b.maxViewPixels = *maxViewPixels;
     if (maxGrowthSeconds) b.maxGrowthSeconds = *maxGrowthSeconds;
+    if (maxPlotSeconds) b.maxPlotSeconds = *maxPlotSeconds;
 }
 
 std::string formatSize(double count) {

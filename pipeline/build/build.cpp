@@ -88,6 +88,14 @@ static nlohmann::json tomlToJson(const toml::table& t) {
 
 namespace {
 
+// Seconds between the progress lines of one long instance (a plot's growth or scan), and before
+// the first. Tests only: SYLVA_TEST_PROGRESS_EVERY=<seconds> shortens it, so that a test sees
+// the lines of a small plot.
+double instanceProgressEvery() {
+    const char* e = std::getenv("SYLVA_TEST_PROGRESS_EVERY");
+    return e ? std::max(0.0, std::atof(e)) : 10.0;
+}
+
 // Tests only: SYLVA_TEST_PAUSE_AT="<n>:<file>" holds the build (its lock taken) once it has
 // recorded n instances in this run (0: right after taking the lock) until <file> exists, at
 // most 10 minutes, so that a CLI test can act while a build is certainly running without
@@ -422,6 +430,7 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
         return e ? std::atoll(e) : -1;
     }();
     const TestPause pause;
+    const double progressEvery = instanceProgressEvery();
 
     // Two phases, in job order: the trees of the species, many in flight; then the plots, one
     // at a time — a plot holds hundreds of trees and grows, meshes and renders them in parallel
@@ -453,6 +462,9 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
             m.seq = seq++;
             m.work = std::make_shared<InstanceWork>();
             m.work->job = instances[next++];
+            if (o.progress && m.work->job.plot) {
+                m.work->progress.emplace(m.work->job.id, progressEvery);
+            }
             return m;
         });
         limiter_node<Message> limiter(g, inFlight);

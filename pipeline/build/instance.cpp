@@ -85,8 +85,14 @@ void growStage(InstanceWork& w) {
     auto t0 = Clock::now();
     const InstanceJob& job = w.job;
     if (job.plot) {  // a plot: its layout, then its trees grown together
+        PlotProgress report;
+        if (w.progress) {
+            report = [p = *w.progress](const char* phase, int64_t done, int64_t total) {
+                p(phase, done, total, "trees");
+            };
+        }
         w.plot = std::make_shared<GrownPlot>(
-            growPlot(*job.plot, layoutPlot(*job.plot, job.seed), job.datasetBudget, true));
+            growPlot(*job.plot, layoutPlot(*job.plot, job.seed), job.datasetBudget, true, report));
         w.growMs = msSince(t0);
         return;
     }
@@ -158,7 +164,13 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     auto t0 = Clock::now();
     const InstanceJob& job = w.job;
     if (job.plot) {
-        w.record = writePlot(*w.plot, o, out, job.id);
+        ScanProgress scanned;
+        if (w.progress) {
+            scanned = [p = *w.progress](uint64_t done, uint64_t total) {
+                p("scanning", static_cast<int64_t>(done), static_cast<int64_t>(total), "pulses");
+            };
+        }
+        w.record = writePlot(*w.plot, o, out, job.id, scanned);
         w.record["id"] = job.id;
         w.record["kind"] = "plot";
         w.record["plot"] = job.plot->name;

@@ -6,10 +6,12 @@
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "pipeline/build/dataset.h"
+#include "pipeline/build/progress.h"
 #include "pipeline/build/scan_instance.h"
 #include "pipeline/render/render.h"
 #include "species/geometry/mesh.h"
@@ -29,6 +31,8 @@ struct InstanceWork {
     std::shared_ptr<GrownPlot> plot;     // a plot instance's trees (job.plot), instead of grown
     std::shared_ptr<InstanceScan> scan;  // [scan]: the scan of a tree (a plot's: writePlot)
     double scanMs = 0;
+    // A plot's progress lines (its trees growing, its scan), when the build shows progress.
+    std::optional<InstanceProgress> progress;
     nlohmann::json record;  // the manifest line, made by write()
     std::string error;      // set by the first stage that fails; later stages skip
 };

@@ -48,7 +48,7 @@ fs::path plotInstanceDir(const GrownPlot& plot, const std::string& id) {
 }
 
 nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs::path& out,
-                         const std::string& id) {
+                         const std::string& id, const ScanProgress& scanProgress) {
     const fs::path rel = plotInstanceDir(plot, id);
     nlohmann::json files = nlohmann::json::object();
     uint64_t bytes = 0;
@@ -113,7 +113,7 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     // the plot's seed.
     std::optional<InstanceScan> scan;
     if (scanned) {
-        scan = scanPlot(plot, scene, o.scan, Rng(plot.seed).derive("scan").seed());
+        scan = scanPlot(plot, scene, o.scan, Rng(plot.seed).derive("scan").seed(), scanProgress);
         writeScanFiles(*scan, o.scan, out, rel, files, bytes);
         scan->result = ScanResult{};  // the points are written; the statistics stay
     }

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "pipeline/build/dataset.h"
+#include "pipeline/scan/scanner.h"
 #include "species/plot/plot.h"
 
 namespace sylva {
@@ -26,7 +27,9 @@ std::filesystem::path plotInstanceDir(const GrownPlot& plot, const std::string& 
 //   trees.csv, trees.json, plot.json    always.
 // Returns the manifest record: id, kind "plot", plot, seed (16 hex digits), trees, files
 // (key → path relative to `out`), bytes_written, stats (plot.json's statistics).
+// `scanProgress`: the plot's scan's progress (scanner.h), when set.
 nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& outputs,
-                         const std::filesystem::path& out, const std::string& id);
+                         const std::filesystem::path& out, const std::string& id,
+                         const ScanProgress& scanProgress = {});
 
 }  // namespace sylva

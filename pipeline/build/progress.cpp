@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <mutex>
+#include <string>
+#include <utility>
 
 namespace sylva {
 
@@ -72,6 +75,37 @@ void Progress::finish(int64_t done, int64_t failed) {
         std::fprintf(stderr, "\r\033[K%s\n", line(done, failed).c_str());
     else
         std::fprintf(stderr, "sylva: %s\n", line(done, failed).c_str());
+}
+
+struct InstanceProgress::State {
+    std::string id;
+    double every;
+    std::FILE* out;
+    std::chrono::steady_clock::time_point start;
+    std::mutex mutex;
+    double lastPrinted = 0;  // seconds since start
+};
+
+InstanceProgress::InstanceProgress(std::string id, double every, std::FILE* out)
+    : state_(std::make_shared<State>()) {
+    state_->id = std::move(id);
+    state_->every = every;
+    state_->out = out;
+    state_->start = std::chrono::steady_clock::now();
+}
+
+void InstanceProgress::operator()(const char* phase, int64_t done, int64_t total,
+                                  const char* unit) const {
+    State& s = *state_;
+    const double t =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - s.start).count();
+    std::lock_guard<std::mutex> lock(s.mutex);
+    if (t < s.lastPrinted + s.every) return;
+    s.lastPrinted = t;
+    std::fprintf(s.out, "sylva: %s: %s %lld of %lld %s (elapsed %s)\n", s.id.c_str(), phase,
+                 static_cast<long long>(std::min(done, total)), static_cast<long long>(total), unit,
+                 formatDuration(t).c_str());
+    std::fflush(s.out);
 }
 
 }  // namespace sylva

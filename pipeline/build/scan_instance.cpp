@@ -73,10 +73,10 @@ InstanceScan scanTree(const Tree& tree, const TreeMesh& mesh, const std::vector<
 }
 
 InstanceScan scanPlot(const GrownPlot& plot, const PlotScene& scene, const ScanOutputs& scan,
-                      uint64_t seed) {
+                      uint64_t seed, const ScanProgress& progress) {
     const ScanScene s3 = makeScanScene(plot, scene);
     InstanceScan s;
-    s.result = sylva::scan(s3, scan.options, seed);
+    s.result = sylva::scan(s3, scan.options, seed, {}, progress);
     const double area = plot.spec->area.area();
     ScanStats stats(tlsStations(scan.options), area, scan.options.maxReturns);
     // The density is over the plot area: the margin's terrain and trees are scanned too.

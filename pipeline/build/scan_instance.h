@@ -11,6 +11,7 @@
 
 #include "pipeline/build/dataset.h"
 #include "pipeline/scan/scan_point.h"
+#include "pipeline/scan/scanner.h"
 #include "species/geometry/mesh.h"
 #include "species/model/tree.h"
 
@@ -34,7 +35,7 @@ InstanceScan scanTree(const Tree& tree, const TreeMesh& mesh, const std::vector<
                       const ScanOutputs& scan, bool leafOutlines, uint64_t seed);
 // A plot: its scene (makePlotScene, with leaf meshes) on the plot's terrain.
 InstanceScan scanPlot(const GrownPlot& plot, const PlotScene& scene, const ScanOutputs& scan,
-                      uint64_t seed);
+                      uint64_t seed, const ScanProgress& progress = {});
 
 // Writes the scan's files into out/rel — scan.las, scan_forestformer.ply, scan_treelearn.npy
 // (as [scan] formats asks), scan_trajectory.csv and, for TLS, scan_stations.json — adding each

@@ -414,12 +414,17 @@ ScanResult scanInto(const ScanScene& scene, const ScanOptions& options, uint64_t
 }
 
 ScanResult scan(const ScanScene& scene, const ScanOptions& options, uint64_t seed,
-                const ScanTuning& tuning) {
+                const ScanTuning& tuning, const ScanProgress& progress) {
     std::vector<ScanPoint> all;
+    const uint64_t total = surveyPulses(scene, options);
+    const uint64_t block = static_cast<uint64_t>(std::max(1, tuning.pulsesPerBlock));
+    uint64_t done = 0;
     ScanResult r = scanInto(
         scene, options, seed,
         [&](std::vector<ScanPoint>& points) {
             all.insert(all.end(), points.begin(), points.end());
+            done = std::min(total, done + block);  // the sink runs once per block, in order
+            if (progress) progress(done, total);
         },
         tuning);
     r.points = std::move(all);

@@ -43,9 +43,12 @@ struct ScanTuning {
 
 // The whole survey, points in pulse order (then return order) and the trajectory (one pose per
 // TLS station, one per ALS/ULS scan line). Throws InputError when the survey has more than 10⁹
-// pulses and no `pulses` cap. Runs in the caller's oneTBB arena (its thread count).
+// pulses and no `pulses` cap. Runs in the caller's oneTBB arena (its thread count). `progress`,
+// when set, is called (from one thread at a time) after each block with the pulses done so far
+// and the survey's.
+using ScanProgress = std::function<void(uint64_t done, uint64_t total)>;
 ScanResult scan(const ScanScene& scene, const ScanOptions& options, uint64_t seed,
-                const ScanTuning& tuning = {});
+                const ScanTuning& tuning = {}, const ScanProgress& progress = {});
 
 // The same, handing the points to `sink` in pulse order, a block of pulses at a time (memory
 // stays bounded: a few blocks per thread in flight); the result's points stay empty.

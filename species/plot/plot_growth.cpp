@@ -18,7 +18,10 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <map>
@@ -368,13 +371,38 @@ double plotLai(const GrownPlot& plot) {
 }
 
 GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* datasetBudget,
-                   bool threaded) {
+                   bool threaded, const PlotProgress& progress) {
+    // The plot's own budget, checked before each tree's steps (each tree has its own too).
+    Budget plotBudget;
+    if (datasetBudget) datasetBudget->applyTo(plotBudget);
+    const auto start = std::chrono::steady_clock::now();
+    auto checkTime = [&] {
+        const double s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (s > plotBudget.maxPlotSeconds) {
+            char buf[200];
+            std::snprintf(buf, sizeof buf,
+                          "budget max_plot_seconds = %g exceeded: the plot still growing after "
+                          "%.1f s; raise [budget] max_plot_seconds or grow fewer trees",
+                          plotBudget.maxPlotSeconds, s);
+            throw BudgetExceeded(buf);
+        }
+    };
     GrownPlot plot;
     plot.spec = &spec;
     plot.layout = std::move(layout);
     plot.groundCover = plot.layout.groundCover;
     const std::vector<PlotStem>& stems = plot.layout.stems;
     const size_t n = stems.size();
+    std::atomic<int64_t> grownCount{0}, finishedCount{0};
+    auto grewOne = [&] {
+        const int64_t k = ++grownCount;
+        if (progress) progress("growing", k, static_cast<int64_t>(n));
+    };
+    auto finishedOne = [&] {
+        const int64_t k = ++finishedCount;
+        if (progress) progress("finishing", k, static_cast<int64_t>(n));
+    };
     for (const PlotStem& st : stems) {
         if (st.species < 0 || static_cast<size_t>(st.species) >= spec.species.size()) {
             throw std::invalid_argument("growPlot: stem " + std::to_string(st.id) +
@@ -385,6 +413,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
     // 1. Methods and budgets.
     std::vector<PreparedTree> prepared(n);
     forEach(n, threaded, [&](size_t i) {
+        checkTime();
         prepared[i] = prepareSpecies(spec.species[stems[i].species].species, stems[i].seed, nullptr,
                                      datasetBudget);
         // In a stand the crown is the one the tree grew among its neighbours (their shyness
@@ -415,21 +444,25 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
 
     if (!spec.neighbours) {
         forEach(n, threaded, [&](size_t i) {
+            checkTime();
             const GrowthGuard guard(prepared[i].out.budget);
             Rng rng(prepared[i].seed);
             grown[i] = prepared[i].method->grow(rng, threaded, prepared[i].out.methodStats, guard);
+            grewOne();
         });
     } else {
         // 2. Each crown predicted at its target scale.
         std::vector<Predicted> own(n);
         forEach(n, threaded, [&](size_t i) {
             if (predictFromVolumes(*prepared[i].method, own[i])) return;
+            checkTime();
             // No volumes: grown alone and measured (kept as it is when no neighbour is close).
             const GrowthGuard guard(prepared[i].out.budget);
             Rng rng(prepared[i].seed);
             grown[i] = prepared[i].method->grow(rng, threaded, prepared[i].out.methodStats, guard);
             own[i] = measure(grown[i]);
             done[i] = 1;
+            grewOne();
         });
         std::vector<double> radius(n);  // predicted crown radius in the plot, metres
         std::vector<double> top(n);     // predicted crown top (plot y)
@@ -520,6 +553,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
         std::vector<std::vector<size_t>> members;
         for (auto& [first, m] : groups) members.push_back(std::move(m));
         forEach(members.size(), threaded, [&](size_t g) {
+            checkTime();
             const std::vector<size_t>& m = members[g];
             std::vector<ColonizingTree> together(m.size());
             std::vector<std::unique_ptr<GrowthGuard>> guards;
@@ -567,6 +601,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
                 }
                 for (auto& [key, v] : together[k].stats) prepared[i].out.methodStats[key] = v;
                 done[i] = 1;
+                grewOne();
             }
         });
 
@@ -604,6 +639,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
             if (done[i] && nb.clip.empty() && nb.bounds.empty() && !(length2(nb.away) > 0)) {
                 return;
             }
+            checkTime();
             prepared[i].out.methodStats.clear();
             const GrowthGuard guard(prepared[i].out.budget);
             Rng rng(prepared[i].seed);
@@ -611,6 +647,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
                                                      guard, nb);
             done[i] = 1;
             shy[i] = !nb.bounds.empty();
+            grewOne();
         };
         std::vector<size_t> pending;
         for (size_t i = 0; i < n; ++i) {
@@ -645,6 +682,7 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
     // 4. Form, leaves, placement.
     plot.trees.resize(n);
     forEach(n, threaded, [&](size_t i) {
+        checkTime();
         const GrowthGuard guard(prepared[i].out.budget);
         PlotTree& t = plot.trees[i];
         t.stem = stems[i];
@@ -668,9 +706,11 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
         if (!gbounds[i].empty()) {  // a trunk slid onto a plane lies on it: 1 µm of slack
             pruneTree(t.grown.tree, [&](const Vec3& p) { return keepsAll(gbounds[i], p, 1e-6); });
         }
+        finishedOne();
     });
 
     // 5. Leaf area index.
+    checkTime();
     reachLai(spec, plot);
     return plot;
 }

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "core/budget.h"
@@ -68,9 +69,14 @@ constexpr int kShyRegrowths = 3;
 // GrownPlot::lai are set. Throws SpecError (at the `lai` key) for a target that keeps less
 // than kMinLeavesKept of the grown area, needs leaves scaled outside [kMinLeafScale,
 // kMaxLeafScale], or species that have no leaves; BudgetExceeded from a tree's budgets.
-// Growth runs in parallel (TBB) when `threaded`; the result is identical either way.
+// Growth runs in parallel (TBB) when `threaded`; the result is identical either way. The whole
+// plot has the dataset's max_plot_seconds (core/budget.h), checked before each tree's steps:
+// BudgetExceeded past it. `progress`, when set, is called from any of the growth threads after
+// each tree's step: phase "growing" (its method ran; a tree regrown among its neighbours counts
+// again, so `done` may pass `total`) or "finishing" (form, leaves, placement).
+using PlotProgress = std::function<void(const char* phase, int64_t done, int64_t total)>;
 GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* datasetBudget,
-                   bool threaded);
+                   bool threaded, const PlotProgress& progress = {});
 
 // One side's leaf area of a tree, m² (Σ leafArea over its leaves).
 double treeLeafArea(const Tree& tree);

@@ -26,6 +26,12 @@ BudgetTable readBudget(Params& b, bool dataset) {
     const double s =
         b.number("max_growth_seconds", defaults.maxGrowthSeconds, Range::leftOpen(0, 1e7));
     if (seconds) t.maxGrowthSeconds = s;
+    if (dataset) {
+        const bool given = plain("max_plot_seconds");
+        const double v =
+            b.number("max_plot_seconds", defaults.maxPlotSeconds, Range::leftOpen(0, 1e7));
+        if (given) t.maxPlotSeconds = v;
+    }
     b.finish();
     return t;
 }

@@ -132,6 +132,39 @@ TEST(PlotBuild, AHundredSquareKilometrePlotBuildsInBoundedMemory) {
     EXPECT_EQ(plot["area_m2"].get<double>(), 1e8);
 }
 
+// A long plot shows how far it has come, and has a time budget of its own. Its progress lines
+// (every 10 s of a plot's growth or scan; SYLVA_TEST_PROGRESS_EVERY=0 shows every step of
+// this small plot) name the plot, the phase and the count; [budget] max_plot_seconds stops a
+// plot that outlives it, alone, named in the summary, and a rerun retries it.
+TEST(PlotBuild, ProgressLinesAndAPlotTimeBudget) {
+    TempDir t;
+    sylva::test::CliOptions o;
+    o.logDir = t.path();
+    o.env = {"SYLVA_TEST_PROGRESS_EVERY=0"};
+    const fs::path scanPlot = kSource / "tests" / "data" / "scan" / "uls_plot.toml";
+    const SylvaRun r = sylva::test::runSylva(
+        {"build", scanPlot.string(), "--out", (t / "out").string()}, t.path(), o);
+    ASSERT_EQ(r.code, 0) << sylva::test::describeRun(r);
+    EXPECT_NE(r.err.find("sylva: stand-00000: growing "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("sylva: stand-00000: finishing "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(" trees (elapsed "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("sylva: stand-00000: scanning "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(" pulses (elapsed "), std::string::npos) << r.err;
+
+    const fs::path budgeted = t / "budgeted.toml";
+    std::ofstream(budgeted) << "name = \"budgeted\"\n[budget]\nmax_plot_seconds = 1e-6\n"
+                               "[[plot]]\nname = \"stand\"\nwidth = 10.0\ndepth = 10.0\n"
+                               "[[plot.species]]\nfile = '"
+                            << (kSource / "tests" / "data" / "tiny.toml").string()
+                            << "'\ncount = 3\n";
+    const SylvaRun over = sylva::test::runSylva(
+        {"build", budgeted.string(), "--out", (t / "over").string()}, t.path(), o);
+    EXPECT_NE(over.code, 0) << sylva::test::describeRun(over);
+    EXPECT_NE(over.err.find("budget max_plot_seconds = 1e-06 exceeded"), std::string::npos)
+        << over.err;
+    EXPECT_NE(over.err.find("failed: "), std::string::npos) << over.err;
+}
+
 // The columns of a tree table that leaves do not change (id, name, species, base, DBH,
 // nearest-neighbour distance): heights, crown radii and leaf areas include the leaves, which a
 // same_seed LAI axis scales, and the crown base is the lowest leaf or leaf-carrying branch,

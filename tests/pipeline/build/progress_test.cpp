@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <regex>
+#include <string>
 
 namespace sylva {
 namespace {
@@ -34,3 +37,42 @@ TEST(ProgressDuration, HugeNegativeAndUndefinedTimesStayReadable) {
 
 }  // namespace
 }  // namespace sylva
+
+namespace {
+
+// What an InstanceProgress printed into a temporary file.
+std::string printed(std::FILE* f) {
+    std::fflush(f);
+    std::rewind(f);
+    std::string s;
+    for (int c; (c = std::fgetc(f)) != EOF;) s += static_cast<char>(c);
+    return s;
+}
+
+// Lines name the instance, the phase and the counts (capped at the total: a regrown tree counts
+// again); none before the interval has passed once, so a short instance prints nothing.
+TEST(InstanceProgress, LinesNameTheInstanceAndComeAtMostOncePerInterval) {
+    std::FILE* f = std::tmpfile();
+    ASSERT_NE(f, nullptr);
+    const sylva::InstanceProgress every(std::string("stand-00000"), 0.0, f);
+    every("growing", 3, 5, "trees");
+    const sylva::InstanceProgress copy = every;  // copies share the state
+    copy("growing", 7, 5, "trees");
+    every("scanning", 256, 1000, "pulses");
+    // (The elapsed time is the machine's: compared as a pattern.)
+    const std::string lines =
+        std::regex_replace(printed(f), std::regex(R"(\(elapsed \d+(m\d\ds)?s?\))"), "(elapsed T)");
+    EXPECT_EQ(lines,
+              "sylva: stand-00000: growing 3 of 5 trees (elapsed T)\n"
+              "sylva: stand-00000: growing 5 of 5 trees (elapsed T)\n"
+              "sylva: stand-00000: scanning 256 of 1000 pulses (elapsed T)\n");
+    std::fclose(f);
+    std::FILE* g = std::tmpfile();
+    ASSERT_NE(g, nullptr);
+    const sylva::InstanceProgress hourly(std::string("stand-00001"), 3600.0, g);
+    for (int k = 1; k <= 100; ++k) hourly("growing", k, 100, "trees");
+    EXPECT_EQ(printed(g), "");
+    std::fclose(g);
+}
+
+}  // namespace

@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <map>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -110,6 +112,41 @@ std::string serialize(const GrownPlot& plot) {
     }
     put(&plot.lai, sizeof plot.lai);
     return out;
+}
+
+// The plot's own budget: past the dataset's max_plot_seconds the plot stops with
+// BudgetExceeded naming it (a plot of 10⁵ stems could otherwise run for hours, each tree
+// within its own max_growth_seconds). Progress is reported per tree: every tree's growth, and
+// its finishing once, the counts reaching the plot's trees.
+TEST(PlotGrowth, APlotHasItsOwnTimeBudgetAndReportsItsTrees) {
+    const PlotSpec spec = makeSpec({"small-graph.toml", "small-colonizer.toml"});
+    const PlotLayout layout = row(4, 3.0, -1);
+    BudgetTable none;
+    none.maxPlotSeconds = 1e-9;
+    try {
+        (void)growPlot(spec, layout, &none, false);
+        FAIL() << "a plot grew past max_plot_seconds";
+    } catch (const BudgetExceeded& e) {
+        EXPECT_EQ(std::string(e.what()).rfind("budget max_plot_seconds = 1e-09 exceeded", 0), 0u)
+            << e.what();
+    }
+    std::mutex mutex;
+    std::map<std::string, std::vector<int64_t>> seen;
+    const PlotProgress progress = [&](const char* phase, int64_t done, int64_t total) {
+        std::lock_guard<std::mutex> lock(mutex);
+        EXPECT_EQ(total, 4);
+        seen[phase].push_back(done);
+    };
+    BudgetTable ample;
+    ample.maxPlotSeconds = 1e6;
+    const GrownPlot plot = growPlot(spec, layout, &ample, true, progress);
+    EXPECT_EQ(plot.trees.size(), 4u);
+    ASSERT_EQ(seen["finishing"].size(), 4u);
+    std::sort(seen["finishing"].begin(), seen["finishing"].end());
+    EXPECT_EQ(seen["finishing"], (std::vector<int64_t>{1, 2, 3, 4}));
+    EXPECT_GE(seen["growing"].size(), 4u);  // trees regrown among neighbours count again
+    // The same trees with and without a report.
+    EXPECT_EQ(serialize(plot), serialize(growPlot(spec, layout, nullptr, false)));
 }
 
 TEST(PlotGrowth, LoneColonizerGrowsAsGrowSpecies) {
