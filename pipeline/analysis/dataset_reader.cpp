@@ -112,21 +112,34 @@ ManifestRecord parseManifestRecord(const std::string& line, const std::string& w
     return r;
 }
 
-std::vector<fs::path> manifestFiles(const fs::path& dir) {
-    std::vector<fs::path> files;
-    std::error_code ec;
-    if (fs::exists(dir / "manifest.jsonl", ec)) files.push_back(dir / "manifest.jsonl");
-    static const std::regex shardName(R"(manifest\.shard-(\d{1,9})-of-(\d{1,9})\.jsonl)");
+namespace {
+
+// The files `<stem>.shard-I-of-N.<ext>` of `dir`, ordered by (N, I).
+std::vector<fs::path> shardFiles(const fs::path& dir, const std::string& stem,
+                                 const std::string& ext) {
+    const std::regex name(stem + R"(\.shard-(\d{1,9})-of-(\d{1,9})\.)" + ext);
     std::vector<std::pair<std::pair<int, int>, fs::path>> shards;
+    std::error_code ec;
     for (const auto& e : fs::directory_iterator(dir, ec)) {
         std::smatch m;
-        const std::string name = e.path().filename().string();
-        if (std::regex_match(name, m, shardName)) {
+        const std::string file = e.path().filename().string();
+        if (std::regex_match(file, m, name)) {
             shards.push_back({{std::stoi(m[2]), std::stoi(m[1])}, e.path()});
         }
     }
     std::sort(shards.begin(), shards.end());
+    std::vector<fs::path> files;
     for (auto& s : shards) files.push_back(std::move(s.second));
+    return files;
+}
+
+}  // namespace
+
+std::vector<fs::path> manifestFiles(const fs::path& dir) {
+    std::vector<fs::path> files;
+    std::error_code ec;
+    if (fs::exists(dir / "manifest.jsonl", ec)) files.push_back(dir / "manifest.jsonl");
+    for (fs::path& f : shardFiles(dir, "manifest", "jsonl")) files.push_back(std::move(f));
     return files;
 }
 
@@ -212,21 +225,12 @@ json readDatasetDescription(const fs::path& dir) {
     std::error_code ec;
     if (!fs::is_directory(dir, ec)) throw InputError(dir.string() + ": not a directory");
     if (fs::exists(dir / "dataset.json", ec)) return readDatasetJsonFile(dir / "dataset.json");
-    static const std::regex shardName(R"(dataset\.shard-(\d{1,9})-of-(\d{1,9})\.json)");
-    std::vector<std::pair<std::pair<int, int>, fs::path>> shards;
-    for (const auto& e : fs::directory_iterator(dir, ec)) {
-        std::smatch m;
-        const std::string name = e.path().filename().string();
-        if (std::regex_match(name, m, shardName)) {
-            shards.push_back({{std::stoi(m[2]), std::stoi(m[1])}, e.path()});
-        }
-    }
+    const std::vector<fs::path> shards = shardFiles(dir, "dataset", "json");
     if (shards.empty()) {
         throw InputError(dir.string() + ": no dataset.json (not a dataset directory)");
     }
-    std::sort(shards.begin(), shards.end());
-    for (size_t i = 1; i < shards.size(); ++i) readDatasetJsonFile(shards[i].second);
-    return readDatasetJsonFile(shards.front().second);
+    for (size_t i = 1; i < shards.size(); ++i) readDatasetJsonFile(shards[i]);
+    return readDatasetJsonFile(shards.front());
 }
 
 }  // namespace sylva
