@@ -341,6 +341,21 @@ void checkNoOtherSharding(const BuildOptions& o) {
         " into another directory");
 }
 
+// The shard's own files that a rerun reads back (manifest, description, run log) are regular
+// files where they exist: a FIFO in their place would block the build forever, a directory or
+// device would fail it with a library's message.
+void checkOwnFilesAreRegular(const BuildOptions& o) {
+    for (const std::string& name :
+         {manifestName(o.shardIndex, o.shardCount), datasetJsonName(o.shardIndex, o.shardCount),
+          runLogName(o.shardIndex, o.shardCount)}) {
+        std::error_code ec;
+        const fs::file_status st = fs::status(o.out / name, ec);
+        if (ec || !fs::exists(st) || fs::is_regular_file(st)) continue;
+        throw InputError("--out " + o.out.string() + ": " + name +
+                         " is not a regular file (a build reads it back and appends to it)");
+    }
+}
+
 // What the steps of a build share, so that a stop anywhere can still be reported.
 struct BuildState {
     BuildSummary summary;
@@ -585,6 +600,7 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
                                           : std::string());
     OutputLock lock(o.out, command, o.shardIndex, o.shardCount);
     TestPause().reached(0);
+    checkOwnFilesAreRegular(o);
     const fs::path datasetPath = o.out / datasetJsonName(o.shardIndex, o.shardCount);
     RunLog runs(o.out / runLogName(o.shardIndex, o.shardCount));
     SpaceReserve reserve(o.out / (".sylva" + shardSuffix(o.shardIndex, o.shardCount) + ".reserve"),

@@ -9,6 +9,7 @@
 #include <signal.h>
 #include <sys/file.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -299,6 +300,34 @@ TEST(CliLock, TerminatedBuildLeavesNoLockBehind) {
     EXPECT_EQ(finish(c).code, 128 + SIGTERM);
     for (const auto& e : fs::directory_iterator(out)) {
         EXPECT_NE(e.path().filename().string().rfind(".sylva", 0), 0u) << e.path();
+    }
+}
+
+// The files a rerun reads back and appends to — the manifest, dataset.json, the run log — must be
+// regular files: a FIFO in place of one blocked the build forever (it opened the FIFO to read
+// and waited for a writer). Now one line naming the file, exit 2, nothing written beside it.
+TEST(CliShards, AFifoInPlaceOfABuildsOwnFileIsRefusedNotWaitedOn) {
+    TempDir t;
+    const fs::path spec = writeSpec(t.path(), 1);
+    for (const char* name : {"manifest.jsonl", "dataset.json", "runs.jsonl"}) {
+        SCOPED_TRACE(name);
+        const fs::path out = t / (std::string("out-") + name);
+        fs::create_directories(out);
+        ASSERT_EQ(::mkfifo((out / name).c_str(), 0600), 0);
+        sylva::test::CliOptions o;
+        o.watchdog = std::chrono::seconds(120);
+        const RunResult r =
+            sylva::test::runSylva({"build", spec.string(), "--out", out.string()}, t.path(), o);
+        ASSERT_FALSE(r.hung) << "the build waited on the FIFO";
+        expectOneLine(r, 2);
+        EXPECT_NE(r.err.find("--out " + out.string() + ": " + name + " is not a regular file"),
+                  std::string::npos)
+            << r.err;
+        std::vector<std::string> left;
+        for (const auto& e : fs::directory_iterator(out)) {
+            left.push_back(e.path().filename().string());
+        }
+        EXPECT_EQ(left, std::vector<std::string>{name});
     }
 }
 
