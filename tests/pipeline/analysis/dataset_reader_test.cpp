@@ -104,8 +104,8 @@ TEST(DatasetReader, NamesThatBecomeDirectoriesAndPathsStayInsideTheDataset) {
 }
 
 TEST(DatasetReader, NestingBeyondTheLimitIsRefusedAtAnyPlace) {
-    const std::string closed = std::string(kMaxRecordDepth + 2, '[') +
-                               std::string(kMaxRecordDepth + 2, ']');
+    const std::string closed =
+        std::string(kMaxRecordDepth + 2, '[') + std::string(kMaxRecordDepth + 2, ']');
     EXPECT_EQ(recordError(closed), "m.jsonl:7: nested more than 32 deep (not a manifest record)");
     // Inside an accepted field (stats is flattened recursively by sylva stats).
     EXPECT_EQ(recordError(with(
