@@ -492,7 +492,7 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
                                                stageBody(
                                                    [&](InstanceWork& w) {
                                                        renderStage(w, spec.outputs);
-                                                       scanStage(w, spec.outputs);
+                                                       scanStage(w, spec.outputs, o.out);
                                                    },
                                                    stop));
         function_node<Message, Message> write(g, unlimited, [&](Message m) {

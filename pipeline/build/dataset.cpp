@@ -233,29 +233,36 @@ void checkStationsReachPlots(Params& t, const DatasetSpec& d) {
 }
 
 // An ALS/ULS survey of each plot within 1e9 pulses (after a `pulses` cap), counted before
-// anything is built: the strips cover the plot's area, known from the spec (a tree's crown is
-// known only once grown; the scanner checks those). `t` is the [scan] table, for the place.
+// anything is built: the strips cover the plot's area, known from the spec. A tree's ground
+// square is known only once grown (the scanner checks it then); here its smallest, the margin
+// around a point, so a survey too large for any tree is refused before anything is written. `t`
+// is the [scan] table, for the place.
 void checkAirborneSurveys(Params& t, const DatasetSpec& d) {
     const ScanOptions& o = d.outputs.scan.options;
     if (o.platform == ScanPlatform::kTls) return;
-    for (const PlotSpec& plot : d.plots) {
-        const bool circle = plot.area.shape == PlotArea::Shape::kCircle;
-        const double hx = circle ? plot.area.radius : plot.area.width / 2;
-        const double hz = circle ? plot.area.radius : plot.area.depth / 2;
+    auto check = [&](double hx, double hz, const std::string& what) {
         Aabb area;
         area.extend(Vec3{-hx, 0, -hz});
         area.extend(Vec3{hx, 0, hz});
         const double all = static_cast<double>(ScanPattern(area, o).count());
         const double pulses =
             o.maxPulses > 0 ? std::min(all, static_cast<double>(o.maxPulses)) : all;
-        if (pulses <= kMaxScanSurveyPulses) continue;
+        if (pulses <= kMaxScanSurveyPulses) return;
         const char* key = o.maxPulses > 0       ? "pulses"
                           : t.has("pulse_rate") ? "pulse_rate"
                                                 : "platform";
-        t.fail(key, "expected at most 1e9 pulses in the survey of plot \"" + plot.name +
-                        "\", got " + formatNumber(pulses, 3) + " over its " +
-                        formatNumber(2 * hx, 4) + " × " + formatNumber(2 * hz, 4) +
+        t.fail(key, "expected at most 1e9 pulses in the survey of " + what + ", got " +
+                        formatNumber(pulses, 3) + " over its " + formatNumber(2 * hx, 4) + " × " +
+                        formatNumber(2 * hz, 4) +
                         " m; cap them with `pulses` (≤ 1e9), fly faster or pulse slower");
+    };
+    for (const PlotSpec& plot : d.plots) {
+        const bool circle = plot.area.shape == PlotArea::Shape::kCircle;
+        check(circle ? plot.area.radius : plot.area.width / 2,
+              circle ? plot.area.radius : plot.area.depth / 2, "plot \"" + plot.name + "\"");
+    }
+    if (!d.species.empty()) {
+        check(kTreeGroundMargin, kTreeGroundMargin, "a tree (its smallest ground square)");
     }
 }
 

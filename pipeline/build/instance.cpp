@@ -151,12 +151,12 @@ void renderStage(InstanceWork& w, const OutputOptions& o) {
     w.renderMs = msSince(t0);
 }
 
-void scanStage(InstanceWork& w, const OutputOptions& o) {
+void scanStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     if (!o.scan.enabled || w.job.plot) return;
     auto t0 = Clock::now();
-    w.scan = std::make_shared<InstanceScan>(scanTree(w.grown.tree, w.mesh, w.woodNodes, o.scan,
-                                                     o.leafOutlines,
-                                                     Rng(w.job.seed).derive("scan").seed()));
+    w.scan = std::make_shared<InstanceScan>(
+        scanTree(w.grown.tree, w.mesh, w.woodNodes, o.scan, o.leafOutlines,
+                 Rng(w.job.seed).derive("scan").seed(), out / instanceDir(w.job)));
     w.scanMs = msSince(t0);
 }
 

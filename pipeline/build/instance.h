@@ -41,7 +41,7 @@ void growStage(InstanceWork& w);
 void meshStage(InstanceWork& w, const OutputOptions& outputs, const std::filesystem::path& out);
 void renderStage(InstanceWork& w, const OutputOptions& outputs);
 // [scan]: scans a tree (after its mesh); a plot is scanned by writePlot.
-void scanStage(InstanceWork& w, const OutputOptions& outputs);
+void scanStage(InstanceWork& w, const OutputOptions& outputs, const std::filesystem::path& out);
 void writeStage(InstanceWork& w, const OutputOptions& outputs, const std::filesystem::path& out);
 
 // Relative directory of an instance's files: trees/<species>/<id>, or plots/<plot>/<id>.

@@ -113,9 +113,10 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     // the plot's seed.
     std::optional<InstanceScan> scan;
     if (scanned) {
-        scan = scanPlot(plot, scene, o.scan, Rng(plot.seed).derive("scan").seed(), scanProgress);
+        scan = scanPlot(plot, scene, o.scan, Rng(plot.seed).derive("scan").seed(), out / rel,
+                        scanProgress);
         writeScanFiles(*scan, o.scan, out, rel, files, bytes);
-        scan->result = ScanResult{};  // the points are written; the statistics stay
+        scan->points.reset();  // the points are written; the statistics stay
     }
 
     if (views) {

@@ -39,6 +39,25 @@ uint64_t fileSize(const fs::path& p) {
     return ec ? 0 : static_cast<uint64_t>(size);
 }
 
+// The survey into `spool` and `stats`, a block of pulses at a time in pulse order: memory stays
+// a few blocks per thread and the spool's buffer, whatever the survey's size.
+ScanResult spoolScan(const ScanScene& scene, const ScanOptions& options, uint64_t seed,
+                     ScanPointSpool& spool, ScanStats& stats, const ScanProgress& progress) {
+    const ScanTuning tuning;
+    const uint64_t total = surveyPulses(scene, options);
+    const auto block = static_cast<uint64_t>(std::max(1, tuning.pulsesPerBlock));
+    uint64_t done = 0;
+    return scanInto(
+        scene, options, seed,
+        [&](std::vector<ScanPoint>& points) {
+            spool.append(points);
+            stats.addPoints(points);
+            done = std::min(total, done + block);  // the sink runs once per block, in order
+            if (progress) progress(done, total);
+        },
+        tuning);
+}
+
 }  // namespace
 
 double treeGroundHalfSize(const Tree& tree, const ScanOptions& options) {
@@ -54,18 +73,19 @@ double treeGroundHalfSize(const Tree& tree, const ScanOptions& options) {
             reach = std::max({reach, std::abs(s.x), std::abs(s.z)});
         }
     }
-    return reach + 2.0;
+    return reach + kTreeGroundMargin;
 }
 
 InstanceScan scanTree(const Tree& tree, const TreeMesh& mesh, const std::vector<int32_t>& woodNodes,
-                      const ScanOutputs& scan, bool leafOutlines, uint64_t seed) {
+                      const ScanOutputs& scan, bool leafOutlines, uint64_t seed,
+                      const fs::path& spoolDir) {
     const double half = treeGroundHalfSize(tree, scan.options);
     const ScanScene scene = makeScanScene(tree, mesh, woodNodes, half, leafOutlines);
     InstanceScan s;
-    s.result = sylva::scan(scene, scan.options, seed);
+    s.points = std::make_unique<ScanPointSpool>(spoolDir);
     ScanStats stats(tlsStations(scan.options), 4 * half * half, scan.options.maxReturns);
     stats.addTree(1, tree);
-    stats.addPoints(s.result.points);
+    s.result = spoolScan(scene, scan.options, seed, *s.points, stats, {});
     s.stats = stats.json(s.result.pulses);
     s.stats["platform"] = scanPlatformName(scan.options.platform);
     s.stats["ground_m2"] = 4 * half * half;
@@ -73,17 +93,17 @@ InstanceScan scanTree(const Tree& tree, const TreeMesh& mesh, const std::vector<
 }
 
 InstanceScan scanPlot(const GrownPlot& plot, const PlotScene& scene, const ScanOutputs& scan,
-                      uint64_t seed, const ScanProgress& progress) {
+                      uint64_t seed, const fs::path& spoolDir, const ScanProgress& progress) {
     const ScanScene s3 = makeScanScene(plot, scene);
     InstanceScan s;
-    s.result = sylva::scan(s3, scan.options, seed, {}, progress);
+    s.points = std::make_unique<ScanPointSpool>(spoolDir);
     const double area = plot.spec->area.area();
     ScanStats stats(tlsStations(scan.options), area, scan.options.maxReturns);
     // The density is over the plot area: the margin's terrain and trees are scanned too.
     const PlotArea& outline = plot.spec->area;
     stats.setArea([&outline](double x, double z) { return outline.contains(x, z); });
     for (const PlotTree& t : plot.trees) stats.addTree(t.stem.id, t.grown.tree);
-    stats.addPoints(s.result.points);
+    s.result = spoolScan(s3, scan.options, seed, *s.points, stats, progress);
     s.stats = stats.json(s.result.pulses);
     s.stats["platform"] = scanPlatformName(scan.options.platform);
     s.stats["ground_m2"] = area;
@@ -101,15 +121,15 @@ void writeScanFiles(const InstanceScan& scan, const ScanOutputs& options, const 
         LasOptions lo;
         lo.colour = options.colour;
         lo.systemIdentifier = systemIdentifier(options.options.platform);
-        writeLas(out / rel / "scan.las", scan.result, lo);
+        writeLas(out / rel / "scan.las", *scan.points, lo);
         note("scan_las", "scan.las");
     }
     if (options.forestFormer) {
-        writeForestFormerPly(out / rel / "scan_forestformer.ply", scan.result);
+        writeForestFormerPly(out / rel / "scan_forestformer.ply", *scan.points);
         note("scan_forestformer_ply", "scan_forestformer.ply");
     }
     if (options.treeLearn) {
-        writeTreeLearnNpy(out / rel / "scan_treelearn.npy", scan.result);
+        writeTreeLearnNpy(out / rel / "scan_treelearn.npy", *scan.points);
         note("scan_treelearn_npy", "scan_treelearn.npy");
     }
     writeTrajectory(out / rel / "scan_trajectory.csv", scan.result);

@@ -5,12 +5,14 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "pipeline/build/dataset.h"
 #include "pipeline/scan/scan_point.h"
+#include "pipeline/scan/scan_spool.h"
 #include "pipeline/scan/scanner.h"
 #include "species/geometry/mesh.h"
 #include "species/model/tree.h"
@@ -19,8 +21,11 @@ namespace sylva {
 
 struct PlotScene;
 
-// A scan's points and its statistics block (ScanStats::json).
+// A scan: its points (spooled to disk beyond a few MiB, pipeline/scan/scan_spool.h), its
+// trajectory and pulse count (`result`, whose points stay empty) and its statistics block
+// (ScanStats::json).
 struct InstanceScan {
+    std::unique_ptr<ScanPointSpool> points;
     ScanResult result;
     nlohmann::json stats;
 };
@@ -30,12 +35,16 @@ struct InstanceScan {
 double treeGroundHalfSize(const Tree& tree, const ScanOptions& options);
 
 // A single tree (its mesh as meshStage made it) on its ground square; the scanner's random
-// streams are keyed by `seed` (the instance seed's "scan" stream).
+// streams are keyed by `seed` (the instance seed's "scan" stream). Points beyond the spool's
+// memory go to an unnamed temporary file in `spoolDir` (the instance's directory: the disk the
+// scan files are written to).
 InstanceScan scanTree(const Tree& tree, const TreeMesh& mesh, const std::vector<int32_t>& woodNodes,
-                      const ScanOutputs& scan, bool leafOutlines, uint64_t seed);
+                      const ScanOutputs& scan, bool leafOutlines, uint64_t seed,
+                      const std::filesystem::path& spoolDir);
 // A plot: its scene (makePlotScene, with leaf meshes) on the plot's terrain.
 InstanceScan scanPlot(const GrownPlot& plot, const PlotScene& scene, const ScanOutputs& scan,
-                      uint64_t seed, const ScanProgress& progress = {});
+                      uint64_t seed, const std::filesystem::path& spoolDir,
+                      const ScanProgress& progress = {});
 
 // Writes the scan's files into out/rel — scan.las, scan_forestformer.ply, scan_treelearn.npy
 // (as [scan] formats asks), scan_trajectory.csv and, for TLS, scan_stations.json — adding each

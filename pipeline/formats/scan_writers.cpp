@@ -73,18 +73,21 @@ struct Cursor {
     }
 };
 
-// Encodes n records of `size` bytes each with record(cursor, i), a block at a time into the sink.
+// Encodes one record of `size` bytes per point with record(cursor, point), up to kBlockPoints
+// at a time into the sink, reading the points as `points` hands them out.
 template <typename Record>
-void encodeRecords(size_t n, size_t size, const Sink& sink, Record&& record) {
+void encodeRecords(const ScanPointSource& points, size_t size, const Sink& sink, Record&& record) {
     std::string block;
-    for (size_t first = 0; first < n; first += kBlockPoints) {
-        const size_t count = std::min(kBlockPoints, n - first);
-        block.resize(count * size);
-        Cursor c{block.data()};
-        for (size_t i = first; i < first + count; ++i) record(c, i);
-        if (c.p != block.data() + block.size()) throw std::logic_error("record size mismatch");
-        sink(block);
-    }
+    points.forEachBlock([&](const ScanPoint* p, size_t n) {
+        for (size_t first = 0; first < n; first += kBlockPoints) {
+            const size_t count = std::min(kBlockPoints, n - first);
+            block.resize(count * size);
+            Cursor c{block.data()};
+            for (size_t i = first; i < first + count; ++i) record(c, p[i]);
+            if (c.p != block.data() + block.size()) throw std::logic_error("record size mismatch");
+            sink(block);
+        }
+    });
 }
 
 void checkPoint(const ScanPoint& p, size_t index) {
@@ -132,7 +135,7 @@ int64_t quantize(double v, double offset, double scale) {
     return roundHalfAway((v - offset) / scale);
 }
 
-LasSummary summarize(const ScanResult& scan, const LasOptions& options) {
+LasSummary summarize(const ScanPointSource& points, const LasOptions& options) {
     if (!(options.scale > 0) || !std::isfinite(options.scale)) {
         throw std::invalid_argument("LAS scale must be a positive finite number");
     }
@@ -141,22 +144,25 @@ LasSummary summarize(const ScanResult& scan, const LasOptions& options) {
     Vec3 lo{inf, inf, inf}, hi{-inf, -inf, -inf};
     s.ebMin.fill(std::numeric_limits<int64_t>::max());
     s.ebMax.fill(std::numeric_limits<int64_t>::min());
-    for (size_t i = 0; i < scan.points.size(); ++i) {
-        const ScanPoint& p = scan.points[i];
-        checkPoint(p, i);
-        const Vec3 q = surveyFrame(p.x, p.y, p.z);
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = std::min(lo[a], q[a]);
-            hi[a] = std::max(hi[a], q[a]);
+    uint64_t index = 0;
+    points.forEachBlock([&](const ScanPoint* block, size_t n) {
+        for (size_t i = 0; i < n; ++i, ++index) {
+            const ScanPoint& p = block[i];
+            checkPoint(p, index);
+            const Vec3 q = surveyFrame(p.x, p.y, p.z);
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = std::min(lo[a], q[a]);
+                hi[a] = std::max(hi[a], q[a]);
+            }
+            ++s.byReturn[p.returnNumber - 1];
+            const auto eb = extraValues(p);
+            for (int k = 0; k < 6; ++k) {
+                s.ebMin[k] = std::min(s.ebMin[k], eb[k]);
+                s.ebMax[k] = std::max(s.ebMax[k], eb[k]);
+            }
         }
-        ++s.byReturn[p.returnNumber - 1];
-        const auto eb = extraValues(p);
-        for (int k = 0; k < 6; ++k) {
-            s.ebMin[k] = std::min(s.ebMin[k], eb[k]);
-            s.ebMax[k] = std::max(s.ebMax[k], eb[k]);
-        }
-    }
-    if (scan.points.empty()) return s;  // bounds, offset and extra-byte ranges all 0
+    });
+    if (index == 0) return s;  // bounds, offset and extra-byte ranges all 0
     for (int a = 0; a < 3; ++a) {
         s.offset[a] = std::floor(lo[a]);
         for (double v : {lo[a], hi[a]}) {
@@ -255,12 +261,12 @@ int64_t daysFromCivil(int64_t y, unsigned m, unsigned d) {
     return era * 146097 + static_cast<int64_t>(doe) - 719468;
 }
 
-void encodeLas(const ScanResult& scan, const LasOptions& options, const Sink& sink) {
-    const LasSummary s = summarize(scan, options);
+void encodeLas(const ScanPointSource& points, const LasOptions& options, const Sink& sink) {
+    const LasSummary s = summarize(points, options);
     const bool rgb = options.colour != LasColour::kNone;
     const int baseSize = rgb ? 36 : 30;
     const int recordSize = baseSize + kLasExtraBytesSize;
-    const bool hasPoints = !scan.points.empty();
+    const bool hasPoints = points.size() > 0;
 
     std::string vlrs;
     const std::string wkt = std::string(kLasWkt) + '\0';  // null-terminated, as R15 asks
@@ -296,14 +302,13 @@ void encodeLas(const ScanResult& scan, const LasOptions& options, const Sink& si
     putU64(h, 0);  // waveform data packets
     putU64(h, 0);  // first EVLR
     putU32(h, 0);  // EVLRs
-    putU64(h, scan.points.size());
+    putU64(h, points.size());
     for (uint64_t n : s.byReturn) putU64(h, n);
     if (h.size() != kLasHeaderSize) throw std::logic_error("LAS header is not 375 bytes");
     sink(h);
     sink(vlrs);
 
-    encodeRecords(scan.points.size(), recordSize, sink, [&](Cursor& c, size_t i) {
-        const ScanPoint& p = scan.points[i];
+    encodeRecords(points, recordSize, sink, [&](Cursor& c, const ScanPoint& p) {
         const Vec3 q = surveyFrame(p.x, p.y, p.z);
         for (int a = 0; a < 3; ++a) {
             c.i32(static_cast<int32_t>(quantize(q[a], s.offset[a], options.scale)));
@@ -352,18 +357,19 @@ void toFile(const fs::path& path, const std::function<void(const Sink&)>& encode
     file->commit();
 }
 
-void checkAll(const ScanResult& scan) {
-    for (size_t i = 0; i < scan.points.size(); ++i) checkPoint(scan.points[i], i);
+void checkAll(const ScanPointSource& points) {
+    uint64_t index = 0;
+    points.forEachBlock([&](const ScanPoint* p, size_t n) {
+        for (size_t i = 0; i < n; ++i, ++index) checkPoint(p[i], index);
+    });
 }
 
-void encodePly(const ScanResult& scan, const Sink& sink) {
-    checkAll(scan);
-    sink("ply\nformat binary_little_endian 1.0\nelement vertex " +
-         std::to_string(scan.points.size()) +
+void encodePly(const ScanPointSource& points, const Sink& sink) {
+    checkAll(points);
+    sink("ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(points.size()) +
          "\nproperty double x\nproperty double y\nproperty double z\n"
          "property int semantic_seg\nproperty int treeID\nend_header\n");
-    encodeRecords(scan.points.size(), 32, sink, [&](Cursor& c, size_t i) {
-        const ScanPoint& p = scan.points[i];
+    encodeRecords(points, 32, sink, [&](Cursor& c, const ScanPoint& p) {
         const Vec3 q = surveyFrame(p.x, p.y, p.z);
         for (int a = 0; a < 3; ++a) c.f64(q[a]);
         c.i32(p.semantic);
@@ -373,10 +379,10 @@ void encodePly(const ScanResult& scan, const Sink& sink) {
 
 // NPY format 1.0 (numpy.lib.format): magic, version, header length, then a Python dict literal
 // padded with spaces to a multiple of 64 bytes and ended by '\n'.
-void encodeNpy(const ScanResult& scan, const Sink& sink) {
-    checkAll(scan);
+void encodeNpy(const ScanPointSource& points, const Sink& sink) {
+    checkAll(points);
     std::string dict = "{'descr': '<f8', 'fortran_order': False, 'shape': (" +
-                       std::to_string(scan.points.size()) + ", 4), }";
+                       std::to_string(points.size()) + ", 4), }";
     const size_t unpadded = 10 + dict.size() + 1;
     dict.append((64 - unpadded % 64) % 64, ' ');
     dict.push_back('\n');
@@ -385,8 +391,7 @@ void encodeNpy(const ScanResult& scan, const Sink& sink) {
     putU8(head, 0);
     putU16(head, static_cast<uint16_t>(dict.size()));
     sink(head + dict);
-    encodeRecords(scan.points.size(), 32, sink, [&](Cursor& c, size_t i) {
-        const ScanPoint& p = scan.points[i];
+    encodeRecords(points, 32, sink, [&](Cursor& c, const ScanPoint& p) {
         const Vec3 q = surveyFrame(p.x, p.y, p.z);
         for (int a = 0; a < 3; ++a) c.f64(q[a]);
         c.f64(treeLearnLabel(p));
@@ -460,20 +465,28 @@ std::array<uint8_t, 3> lasTreeColour(int32_t treeId) {
     return {to8(r + m), to8(g + m), to8(b + m)};
 }
 
+void writeLas(const fs::path& path, const ScanPointSource& points, const LasOptions& options) {
+    toFile(path, [&](const Sink& sink) { encodeLas(points, options, sink); });
+}
+
 void writeLas(const fs::path& path, const ScanResult& scan, const LasOptions& options) {
-    toFile(path, [&](const Sink& sink) { encodeLas(scan, options, sink); });
+    writeLas(path, ScanPointView(scan.points), options);
 }
 
 std::string lasBytes(const ScanResult& scan, const LasOptions& options) {
-    return toBytes([&](const Sink& sink) { encodeLas(scan, options, sink); });
+    return toBytes([&](const Sink& sink) { encodeLas(ScanPointView(scan.points), options, sink); });
+}
+
+void writeForestFormerPly(const fs::path& path, const ScanPointSource& points) {
+    toFile(path, [&](const Sink& sink) { encodePly(points, sink); });
 }
 
 void writeForestFormerPly(const fs::path& path, const ScanResult& scan) {
-    toFile(path, [&](const Sink& sink) { encodePly(scan, sink); });
+    writeForestFormerPly(path, ScanPointView(scan.points));
 }
 
 std::string forestFormerPlyBytes(const ScanResult& scan) {
-    return toBytes([&](const Sink& sink) { encodePly(scan, sink); });
+    return toBytes([&](const Sink& sink) { encodePly(ScanPointView(scan.points), sink); });
 }
 
 int32_t treeLearnLabel(const ScanPoint& point) {
@@ -486,12 +499,16 @@ int32_t treeLearnLabel(const ScanPoint& point) {
     return -1;
 }
 
+void writeTreeLearnNpy(const fs::path& path, const ScanPointSource& points) {
+    toFile(path, [&](const Sink& sink) { encodeNpy(points, sink); });
+}
+
 void writeTreeLearnNpy(const fs::path& path, const ScanResult& scan) {
-    toFile(path, [&](const Sink& sink) { encodeNpy(scan, sink); });
+    writeTreeLearnNpy(path, ScanPointView(scan.points));
 }
 
 std::string treeLearnNpyBytes(const ScanResult& scan) {
-    return toBytes([&](const Sink& sink) { encodeNpy(scan, sink); });
+    return toBytes([&](const Sink& sink) { encodeNpy(ScanPointView(scan.points), sink); });
 }
 
 std::string trajectoryCsv(const ScanResult& scan, double gpsStart) {

@@ -21,6 +21,7 @@
 
 #include "core/math.h"
 #include "pipeline/scan/scan_point.h"
+#include "pipeline/scan/scan_spool.h"
 
 namespace sylva {
 
@@ -98,8 +99,12 @@ std::array<uint8_t, 3> lasClassColour(uint8_t forInstanceClass);
 std::array<uint8_t, 3> lasTreeColour(int32_t treeId);
 
 // Writes `scan` as a LAS 1.4 file (streamed: the points are encoded in blocks, never the whole
-// file in memory). Point record fields: docs/scanning.md, "LAS fields".
+// file in memory). Point record fields: docs/scanning.md, "LAS fields". A ScanPointSource (a
+// spool on disk, pipeline/scan/scan_spool.h) is read twice: the header's bounds, offsets and
+// counts, then the records; the bytes are those of the same points in a ScanResult.
 void writeLas(const std::filesystem::path& path, const ScanResult& scan,
+              const LasOptions& options = {});
+void writeLas(const std::filesystem::path& path, const ScanPointSource& points,
               const LasOptions& options = {});
 // The same bytes in memory (tests, small scans).
 std::string lasBytes(const ScanResult& scan, const LasOptions& options = {});
@@ -114,6 +119,7 @@ std::string lasBytes(const ScanResult& scan, const LasOptions& options = {});
 // file holds 1/2/3 and the network's classes are 0/1/2. No comment lines: that loader's header
 // parser takes any line containing "element" or "property" for one.
 void writeForestFormerPly(const std::filesystem::path& path, const ScanResult& scan);
+void writeForestFormerPly(const std::filesystem::path& path, const ScanPointSource& points);
 std::string forestFormerPlyBytes(const ScanResult& scan);
 
 // TreeLearn (ecker-lab/TreeLearn, tree_learn/util/data_preparation.py, load_data): an .npy
@@ -124,6 +130,7 @@ std::string forestFormerPlyBytes(const ScanResult& scan);
 // without a tree and without a ground class).
 int32_t treeLearnLabel(const ScanPoint& point);
 void writeTreeLearnNpy(const std::filesystem::path& path, const ScanResult& scan);
+void writeTreeLearnNpy(const std::filesystem::path& path, const ScanPointSource& points);
 std::string treeLearnNpyBytes(const ScanResult& scan);
 
 // --- the scanner -------------------------------------------------------------------------------

@@ -24,14 +24,20 @@ enum class ScanPlatform : uint8_t { kTls, kAls, kUls };
 // way, and shots farther than the maximum scan angle from nadir are not emitted.
 enum class MirrorPattern : uint8_t { kOscillating, kRotating };
 
-// A terrestrial scanner's position: x, z on the ground and the height of its optical centre
-// above the terrain there (metres).
 // The most pulses one survey may emit (after a `pulses` cap): more is a typo (a step of 0.0004°)
-// rather than a scan, 10⁹ pulses being ~10⁹ points, tens of gigabytes. The reader refuses a TLS
-// grid or a plot's ALS/ULS strips over it, the scanner any other survey (a tree's strips follow
-// its crown, known once grown).
+// rather than a scan, 10⁹ pulses being ~10⁹ points, tens of gigabytes of files (the points are
+// spooled to disk, not held: pipeline/scan/scan_spool.h). The reader refuses a TLS grid or a
+// plot's ALS/ULS strips over it, and a tree's strips when even the smallest ground square would
+// be over it; the scanner any other survey (a tree's ground square follows its crown, known once
+// grown).
 inline constexpr double kMaxScanSurveyPulses = 1e9;
 
+// The ground square under a single tree reaches this far (metres) beyond the tree's horizontal
+// reach and its farthest TLS station.
+inline constexpr double kTreeGroundMargin = 2.0;
+
+// A terrestrial scanner's position: x, z on the ground and the height of its optical centre
+// above the terrain there (metres).
 struct TlsStation {
     double x = 0, z = 0;
     double height = 1.5;

@@ -312,6 +312,44 @@ TEST(LasWriter, FileIsTheBytesAndStreamsAcrossBlocks) {
     }
 }
 
+TEST(LasWriter, ASpoolOnDiskWritesTheBytesOfThePointsInMemory) {
+    // The spool keeps 1,000 points in memory and the rest (69,000) in its unnamed file, handing
+    // them out in blocks that do not line up with the encoder's: LAS, PLY and .npy are the bytes
+    // of the same points in a ScanResult, and nothing named is left in the directory.
+    test::TempDir dir;
+    const ScanResult scan = formulaScan(70000);
+    ScanPointSpool spool(dir.path() / "spool", 1000);
+    for (size_t i = 0; i < scan.points.size(); i += 777) {
+        spool.append(scan.points.data() + i, std::min<size_t>(777, scan.points.size() - i));
+    }
+    ASSERT_EQ(spool.size(), 70000u);
+    EXPECT_EQ(spool.bytesOnDisk(), 70000u * sizeof(ScanPoint));
+    LasOptions options;
+    options.colour = LasColour::kClass;
+    writeLas(dir.path() / "scan.las", spool, options);
+    EXPECT_TRUE(sameBytes(test::slurp(dir.path() / "scan.las"), lasBytes(scan, options)));
+    writeForestFormerPly(dir.path() / "scan.ply", spool);
+    EXPECT_TRUE(sameBytes(test::slurp(dir.path() / "scan.ply"), forestFormerPlyBytes(scan)));
+    writeTreeLearnNpy(dir.path() / "scan.npy", spool);
+    EXPECT_TRUE(sameBytes(test::slurp(dir.path() / "scan.npy"), treeLearnNpyBytes(scan)));
+    EXPECT_TRUE(fs::is_empty(dir.path() / "spool"));
+}
+
+TEST(LasWriter, BadPointInASpoolThrowsAndWritesNothing) {
+    test::TempDir dir;
+    ScanResult scan = formulaScan(5000);
+    scan.points[4321].x = std::numeric_limits<double>::quiet_NaN();
+    ScanPointSpool spool(dir.path(), 1000);
+    spool.append(scan.points);
+    try {
+        writeLas(dir.path() / "scan.las", spool);
+        FAIL() << "a NaN coordinate was written";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("scan point 4321"), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(fs::exists(dir.path() / "scan.las"));
+}
+
 TEST(ForestFormerPly, HeaderAndRecordsAsTheLoaderReadsThem) {
     const ScanResult scan = formulaScan(20);
     const std::string b = forestFormerPlyBytes(scan);
