@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/input_file.h"
 #include "core/rng.h"
 
 namespace sylva {
@@ -26,10 +27,14 @@ bool Range::contains(double v) const {
 }
 
 std::string fileBytes(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
+    // Only what a spec reads is fingerprinted (species files, DEM rasters), each read and checked
+    // by its own reader first; a FIFO or device here gives "" at once instead of blocking.
+    constexpr uint64_t kMaxFingerprintedFileBytes = uint64_t(1) << 30;
+    try {
+        return readInputFile(path, kMaxFingerprintedFileBytes, "spec input");
+    } catch (const InputError&) {
+        return "";
+    }
 }
 
 std::string formatNumber(double v, int significantDigits) {

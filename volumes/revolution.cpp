@@ -23,6 +23,8 @@
 #include <optional>
 #include <sstream>
 
+#include "core/errors.h"
+#include "core/input_file.h"
 #include "volumes/image_file.h"
 #include "volumes/level_set_grid.h"
 
@@ -640,19 +642,27 @@ std::vector<Vec2> scaleToHeight(std::vector<Vec2> pts, double height, const char
 std::vector<Vec2> readSvgStroke(const std::string& path, double axisX, double height) {
     if (!(height > 0) || !std::isfinite(height))
         throw std::invalid_argument("readSvgStroke: height must be finite and > 0");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) fail("cannot read the SVG file " + path);
-    std::error_code ec;
-    const auto bytes = std::filesystem::file_size(path, ec);
-    if (!ec && bytes > kMaxSvgBytes) {
+    // A regular file (a FIFO would block, a device never end) of at most kMaxSvgBytes.
+    std::optional<InputFile> in;
+    try {
+        in.emplace(path);
+    } catch (const InputError& e) {
+        fail("cannot read the SVG file " + path + " (" + e.what() + ")");
+    }
+    const auto tooLarge = [&](uint64_t bytes) {
         fail(
             format("the SVG file %s has %llu bytes; at most %zu (a drawn stroke needs a few "
                    "kilobytes)",
                    path.c_str(), static_cast<unsigned long long>(bytes), kMaxSvgBytes));
+    };
+    if (in->size() > kMaxSvgBytes) tooLarge(in->size());
+    std::string bytes;
+    try {
+        bytes = in->readAll(kMaxSvgBytes, "SVG file");
+    } catch (const InputError&) {
+        tooLarge(kMaxSvgBytes + 1);  // it grew while read
     }
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    const std::string text = withoutComments(ss.str());
+    const std::string text = withoutComments(bytes);
     size_t at = 0;
     std::string tag;
     while ((at = text.find("<path", at)) != std::string::npos) {

@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/build/build.h"
+
 namespace sylva {
 
-// Limits of what a dataset's files may hold (a record is a few kB, a plot's tens of kB).
-inline constexpr uint64_t kMaxManifestLineBytes = uint64_t(64) << 20;
-inline constexpr uint64_t kMaxDatasetJsonBytes = uint64_t(64) << 20;
+// kMaxManifestLineBytes and kMaxDatasetJsonBytes: pipeline/build/build.h.
 inline constexpr int kMaxRecordDepth = 32;  // nesting of arrays and objects in one record
 
 // One manifest line, checked: a JSON object, at most kMaxRecordDepth deep, with

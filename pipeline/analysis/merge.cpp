@@ -201,6 +201,26 @@ MergeSummary mergeShards(const MergeOptions& o) {
                  " instances recorded (failed trees: rerun that shard's build)");
         }
     }
+    // The shards' run logs, in shard order (read before anything is written: they are files a
+    // dataset supplies, each a regular file of bounded lines).
+    std::string runs;
+    for (const Shard* s : byIndex) {
+        const fs::path log = s->dir / runLogName(s->index, s->count);
+        std::error_code missing;
+        if (!fs::exists(log, missing)) continue;
+        try {
+            InputFile in(log);
+            for (std::string line; in.next(line, kMaxRunLogBytes) != InputFile::Line::end;) {
+                if (!line.empty()) runs += line + "\n";
+                if (runs.size() > kMaxRunLogBytes) {
+                    fail(log.string() + ": the shards' run logs hold more than " +
+                         formatBytes(kMaxRunLogBytes));
+                }
+            }
+        } catch (const InputError& e) {
+            fail(e.what());
+        }
+    }
     std::error_code ec;
     if (fs::exists(o.out) && !fs::is_directory(o.out)) {
         fail(o.out.string() + ": exists and is not an empty directory");
@@ -261,14 +281,7 @@ MergeSummary mergeShards(const MergeOptions& o) {
         for (const char* k : {"threads", "wall_seconds", "trees_per_second"}) d.erase(k);
         writeFileAtomic(stage / datasetJsonName(0, 1), d.dump(2) + "\n");
 
-        // runs.jsonl: every shard's runs, in shard order, then this merge's.
-        std::string runs;
-        for (const Shard* s : byIndex) {
-            std::ifstream in(s->dir / runLogName(s->index, s->count), std::ios::binary);
-            for (std::string line; std::getline(in, line);) {
-                if (!line.empty()) runs += line + "\n";
-            }
-        }
+        // runs.jsonl: every shard's runs (read above), in shard order, then this merge's.
         run["status"] = "complete";
         run["shards"] = n;
         run["instances"] = total;

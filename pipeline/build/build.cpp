@@ -312,7 +312,6 @@ class SpaceReserve {
 };
 
 // The largest dataset.json a rerun reads back (it is a few kB).
-constexpr uint64_t kMaxOwnDatasetJsonBytes = uint64_t(64) << 20;
 
 // A directory holds builds of one sharding: the unsharded build, or shards of one count. A shard
 // built beside the unsharded build (or a shard of another count) would grow its instances again
@@ -381,7 +380,7 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
     checkNoOtherSharding(o);
     if (fs::exists(datasetPath)) {
         auto old = nlohmann::json::parse(
-            readInputFile(datasetPath, kMaxOwnDatasetJsonBytes, "a dataset description"), nullptr,
+            readInputFile(datasetPath, kMaxDatasetJsonBytes, "a dataset description"), nullptr,
             false);
         if (!old.is_discarded() && old.value("fingerprint", "") != spec.fingerprint) {
             throw SpecError(SourcePos{spec.path, 0, 0}, "",

@@ -49,6 +49,12 @@ std::string shardSuffix(int index, int count);
 std::string manifestName(int index, int count);
 std::string datasetJsonName(int index, int count);
 
+// Limits of what a dataset's files may hold, for every command that reads them (a record is a
+// few kB, a plot's tens of kB; a run log line a few hundred bytes, a lock file one line).
+inline constexpr uint64_t kMaxManifestLineBytes = uint64_t(64) << 20;
+inline constexpr uint64_t kMaxDatasetJsonBytes = uint64_t(64) << 20;
+inline constexpr uint64_t kMaxRunLogBytes = uint64_t(64) << 20;
+
 // Builds (or resumes) the shard into options.out, holding its lock (output_lock.h) throughout:
 // InputError when --out cannot be used or is in use, nothing written then.
 BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& options);

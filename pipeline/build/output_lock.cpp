@@ -19,6 +19,9 @@
 #include <sstream>
 #include <vector>
 
+#include "core/errors.h"
+#include "core/input_file.h"
+
 namespace sylva {
 
 namespace fs = std::filesystem;
@@ -73,16 +76,38 @@ nlohmann::json toJson(const LockHolder& h) {
             {"started", h.started}, {"command", h.command}};
 }
 
-// The holder recorded in a lock file; false when it is unreadable (or gone).
+// A lock file is one JSON line of a few hundred bytes.
+constexpr uint64_t kMaxLockFileBytes = 64 * 1024;
+
+// The holder recorded in a lock file; false when it is unreadable (gone, not a regular file,
+// over kMaxLockFileBytes, not a JSON object, or a field of the wrong type).
 bool readHolder(const fs::path& file, LockHolder& h) {
-    auto j = nlohmann::json::parse(readSmallFile(file), nullptr, false);
+    nlohmann::json j;
+    try {
+        j = nlohmann::json::parse(readInputFile(file, kMaxLockFileBytes, "lock file"), nullptr,
+                                  false);
+    } catch (const InputError&) {
+        return false;
+    }
     if (j.is_discarded() || !j.is_object()) return false;
-    h.pid = j.value("pid", int64_t{0});
-    h.host = j.value("host", "");
-    h.bootId = j.value("boot_id", "");
-    h.pidStart = j.value("pid_start", int64_t{0});
-    h.started = j.value("started", "");
-    h.command = j.value("command", "");
+    auto integer = [&](const char* key, int64_t& v) {
+        const auto it = j.find(key);
+        if (it == j.end()) return true;
+        if (!it->is_number_integer()) return false;
+        v = it->get<int64_t>();
+        return true;
+    };
+    auto text = [&](const char* key, std::string& v) {
+        const auto it = j.find(key);
+        if (it == j.end()) return true;
+        if (!it->is_string()) return false;
+        v = it->get<std::string>();
+        return true;
+    };
+    if (!integer("pid", h.pid) || !integer("pid_start", h.pidStart) || !text("host", h.host) ||
+        !text("boot_id", h.bootId) || !text("started", h.started) || !text("command", h.command)) {
+        return false;
+    }
     return h.pid > 0;
 }
 

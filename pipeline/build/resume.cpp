@@ -4,12 +4,14 @@
 
 #include <cerrno>
 #include <cstring>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "core/input_file.h"
+#include "pipeline/build/build.h"
 
 namespace sylva {
 
@@ -88,20 +90,16 @@ InstanceSet recordedInstances(const fs::path& manifest, const DatasetInstances& 
     InstanceSet recorded;
     std::error_code ec;
     if (!fs::exists(manifest, ec)) return recorded;
-    std::ifstream in(manifest, std::ios::binary);
-    if (!in) fail("cannot read", manifest, errno);
+    InputFile in(manifest);
     std::string line;
-    std::streamoff complete = 0;  // bytes up to the end of the last complete line
-    while (std::getline(in, line)) {
-        if (in.eof()) break;  // no '\n': a torn last line
-        complete += static_cast<std::streamoff>(line.size()) + 1;
+    uint64_t complete = 0;  // bytes up to the end of the last complete line
+    while (in.next(line, kMaxManifestLineBytes) == InputFile::Line::complete) {
+        complete += line.size() + 1;
         IdReader reader;
         if (!nlohmann::json::sax_parse(line, &reader) || !reader.recordId()) continue;
         if (auto position = instances.find(reader.id)) recorded.insert(*position);
     }
-    if (in.bad()) fail("cannot read", manifest, errno);
-    in.close();
-    if (static_cast<std::streamoff>(fs::file_size(manifest)) > complete) {
+    if (fs::file_size(manifest) > complete) {
         // Torn last line from a killed run: drop it so the next append starts a fresh line.
         if (::truncate(manifest.c_str(), static_cast<off_t>(complete)) != 0) {
             fail("cannot truncate partial line of", manifest, errno);
@@ -115,11 +113,10 @@ ManifestOrder scanManifestOrder(const fs::path& manifest, const DatasetInstances
     ManifestOrder order;
     std::error_code ec;
     if (!fs::exists(manifest, ec)) return order;
-    std::ifstream in(manifest, std::ios::binary);
-    if (!in) fail("cannot read", manifest, errno);
+    InputFile in(manifest);
     std::string line;
-    while (std::getline(in, line)) {
-        if (in.eof()) break;  // a torn last line: recordedInstances cuts it off
+    // A torn last line ends the loop: recordedInstances cuts it off.
+    while (in.next(line, kMaxManifestLineBytes) == InputFile::Line::complete) {
         IdReader reader;
         std::optional<int64_t> position;
         if (nlohmann::json::sax_parse(line, &reader) && reader.recordId()) {
@@ -131,7 +128,6 @@ ManifestOrder scanManifestOrder(const fs::path& manifest, const DatasetInstances
         }
         order.last = *position;
     }
-    if (in.bad()) fail("cannot read", manifest, errno);
     return order;
 }
 

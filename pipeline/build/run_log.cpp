@@ -2,10 +2,9 @@
 
 #include <unistd.h>
 
-#include <fstream>
-#include <iterator>
 #include <vector>
 
+#include "core/input_file.h"
 #include "pipeline/build/build.h"
 #include "pipeline/build/output_lock.h"
 #include "pipeline/formats/atomic_file.h"
@@ -18,8 +17,9 @@ namespace {
 
 std::vector<std::string> readLines(const fs::path& file) {
     std::vector<std::string> lines;
-    std::ifstream in(file, std::ios::binary);
-    std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::error_code ec;
+    if (!fs::exists(file, ec)) return lines;
+    const std::string data = readInputFile(file, kMaxRunLogBytes, "run log");
     size_t start = 0;
     for (size_t nl; (nl = data.find('\n', start)) != std::string::npos; start = nl + 1) {
         if (nl > start) lines.emplace_back(data, start, nl - start);

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "core/errors.h"
+#include "core/input_file.h"
 
 namespace sylva {
 
@@ -192,11 +193,7 @@ std::vector<std::string> AppendLog::readCompleteLines(const fs::path& path) {
     std::vector<std::string> lines;
     std::error_code ec;
     if (!fs::exists(path, ec)) return lines;
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throwErrno("cannot read", path, errno);
-    std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) throwErrno("cannot read", path, errno);
-    in.close();
+    const std::string data = readInputFile(path, kMaxLogBytes, "log");
 
     size_t start = 0;
     for (size_t nl; (nl = data.find('\n', start)) != std::string::npos; start = nl + 1) {

@@ -81,6 +81,9 @@ class AppendLog {
 
     // Complete ('\n'-terminated) lines of the file, without the '\n', empty lines included.
     // A trailing partial line is truncated off the file itself. A missing file gives {}.
+    // Logs are read whole: at most kMaxLogBytes (else InputError naming the file; a file that is
+    // not regular is one too).
+    static constexpr uint64_t kMaxLogBytes = uint64_t(256) << 20;
     static std::vector<std::string> readCompleteLines(const std::filesystem::path& path);
 
   private:

@@ -3,6 +3,7 @@
 // twice, another spec's, an incomplete manifest) exits 2 and writes nothing. Runs the real
 // binary (SYLVA_EXE) on tests/data/merge_dataset.toml (12 tiny trees).
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -208,6 +209,21 @@ TEST_F(MergeTest, ShardWithAnUnrecordedInstanceIsRefused) {
     std::ofstream(m, std::ios::binary) << bytes;
     expectRefused({shard(0).string(), partial.string(), shard(2).string()},
                   "3 of the shard's 4 instances recorded");
+}
+
+// A shard's run log that is not a regular file (a FIFO blocked the merge forever) or holds a
+// line over 64 MiB: one line naming it, nothing written.
+TEST_F(MergeTest, ShardRunLogThatIsNotARegularFileIsRefused) {
+    fs::path odd = copyOfShard(1, "odd");
+    const fs::path log = odd / "runs.shard-1-of-3.jsonl";
+    fs::remove(log);
+    ASSERT_EQ(::mkfifo(log.c_str(), 0600), 0);
+    expectRefused({shard(0).string(), odd.string(), shard(2).string()},
+                  log.string() + ": not a regular file");
+    fs::remove(log);
+    std::ofstream(log, std::ios::binary) << std::string((size_t(64) << 20) + 1, 'x') << "\n";
+    expectRefused({shard(0).string(), odd.string(), shard(2).string()},
+                  log.string() + ":1: a line of more than");
 }
 
 // OUT in use by another process (here this test, holding OUT's lock as a live process on this

@@ -12,6 +12,7 @@
 #include <CGAL/boost/graph/helpers.h>
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <tbb/parallel_for.h>
 
 #include <atomic>
@@ -368,6 +369,18 @@ TEST(Revolution, SvgErrors) {
         ADD_FAILURE() << "no error";
     } catch (const StrokeError& e) {
         EXPECT_NE(std::string(e.what()).find("cannot read the SVG file"), std::string::npos);
+    }
+    // A FIFO (which would block the reader) and a directory are not files to read.
+    ASSERT_EQ(::mkfifo((t / "fifo.svg").c_str(), 0600), 0);
+    fs::create_directory(t / "dir.svg");
+    for (const char* name : {"fifo.svg", "dir.svg"}) {
+        try {
+            readSvgStroke((t / name).string(), 0, 1);
+            ADD_FAILURE() << name << ": no error";
+        } catch (const StrokeError& e) {
+            EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos)
+                << e.what();
+        }
     }
     spit(t / "nopath.svg", "<svg><pathway d=\"M0 0 L1 1\"/></svg>");
     EXPECT_THROW(readSvgStroke((t / "nopath.svg").string(), 0, 1), StrokeError);

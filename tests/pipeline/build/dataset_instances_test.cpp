@@ -4,6 +4,7 @@
 // uniqueness are spec errors at their key; the set of recorded positions and the manifest scan
 // of a resume.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <filesystem>
 #include <fstream>
@@ -367,6 +368,33 @@ TEST(Resume, RecordedInstancesFromAManifest) {
     EXPECT_EQ(r.runs(), 2u);
     EXPECT_EQ(test::slurp(t / "manifest.jsonl"), complete);
     EXPECT_EQ(recordedInstances(t / "missing.jsonl", d).size(), 0);
+}
+
+// A manifest line over 64 MiB is refused with the file and line (the reader held it whole
+// before), without reading it all; a FIFO in place of the manifest is refused at once.
+TEST(Resume, AManifestLineOverTheLimitIsOneErrorAtItsLine) {
+    test::TempDir t;
+    writeSpecies(t.path(), "a");
+    spit(t / "d.toml", "name = \"d\"\n" + entry("a.toml", "10"));
+    const DatasetSpec spec = loadDataset((t / "d.toml").string());
+    const DatasetInstances d(spec);
+    spit(t / "manifest.jsonl", "{\"id\":\"a-00000\"}\n{\"id\":\"" +
+                                   std::string(kMaxManifestLineBytes + 10, 'x') + "\"}\n");
+    for (auto read :
+         {+[](const fs::path&m, const DatasetInstances&d) { recordedInstances(m, d); },
+          +[](const fs::path&m, const DatasetInstances&d) { scanManifestOrder(m, d, 0, 10); }}) {
+        try {
+            read(t / "manifest.jsonl", d);
+            ADD_FAILURE() << "a 64 MiB line was read";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("manifest.jsonl:2: a line of more than"),
+                      std::string::npos)
+                << e.what();
+        }
+    }
+    fs::remove(t / "manifest.jsonl");
+    ASSERT_EQ(::mkfifo((t / "manifest.jsonl").c_str(), 0600), 0);
+    EXPECT_THROW(recordedInstances(t / "manifest.jsonl", d), InputError);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include "pipeline/build/output_lock.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -112,6 +113,26 @@ TEST(OutputLock, TakesOverADeadProcessesLockButNotAnotherHosts) {
 
     // Unreadable: not guessed at.
     spit(t / ".sylva.lock", "");
+    EXPECT_NE(lockError(t.path()).find("holder unreadable"), std::string::npos);
+}
+
+TEST(OutputLock, AHolderOfTheWrongShapeIsUnreadableNotACrash) {
+    // Fields of the wrong JSON type, a lock file over 64 KiB, a FIFO (which blocked the reader
+    // forever) and a directory in its place: each the one-line "holder unreadable" LockError.
+    TempDir t;
+    const fs::path lock = t / ".sylva.lock";
+    for (const char* bad : {R"({"pid": "12", "host": "h"})", R"({"pid": 12, "host": 7})",
+                            R"({"pid": 12.5})", R"({"pid": 12, "command": ["sylva"]})"}) {
+        spit(lock, bad);
+        EXPECT_NE(lockError(t.path()).find("holder unreadable"), std::string::npos) << bad;
+    }
+    spit(lock, R"({"pid": 12, "host": ")" + std::string(70000, 'x') + R"("})");
+    EXPECT_NE(lockError(t.path()).find("holder unreadable"), std::string::npos);
+    fs::remove(lock);
+    ASSERT_EQ(::mkfifo(lock.c_str(), 0600), 0);
+    EXPECT_NE(lockError(t.path()).find("holder unreadable"), std::string::npos);
+    fs::remove(lock);
+    fs::create_directory(lock);
     EXPECT_NE(lockError(t.path()).find("holder unreadable"), std::string::npos);
 }
 
