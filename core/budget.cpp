@@ -130,17 +130,20 @@ double GrowthGuard::seconds() const {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
 }
 
+void checkSeconds(const char* key, double limit, double seconds, const char* doing,
+                  const char* remedy) {
+    if (!(seconds > limit)) return;
+    char buf[300];
+    std::snprintf(buf, sizeof buf,
+                  "budget %s = %g exceeded: %s after %.1f s; raise [budget] %s or %s", key, limit,
+                  doing, seconds, key, remedy);
+    throw BudgetExceeded(buf);
+}
+
 void GrowthGuard::time() const {
     if (!timed_) return;
-    const double s = seconds();
-    if (s > budget_.maxGrowthSeconds) {
-        char buf[200];
-        std::snprintf(buf, sizeof buf,
-                      "budget max_growth_seconds = %g exceeded: still growing after %.1f s; raise "
-                      "[budget] max_growth_seconds or lower the sizes",
-                      budget_.maxGrowthSeconds, s);
-        throw BudgetExceeded(buf);
-    }
+    checkSeconds("max_growth_seconds", budget_.maxGrowthSeconds, seconds(), "still growing",
+                 "lower the sizes");
 }
 
 }  // namespace sylva

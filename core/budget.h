@@ -60,6 +60,11 @@ class BudgetExceeded : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
+// A time budget: throws BudgetExceeded "budget KEY = LIMIT exceeded: DOING after S s; raise
+// [budget] KEY or REMEDY" when `seconds` is over `limit`.
+void checkSeconds(const char* key, double limit, double seconds, const char* doing,
+                  const char* remedy);
+
 // The budget of one tree with its deadline, handed to the growth loops. Checks are const and
 // only read the clock, so parallel workers of one tree share a guard.
 class GrowthGuard {

@@ -1,7 +1,6 @@
 #include "pipeline/analysis/dataset_reader.h"
 
 #include <algorithm>
-#include <regex>
 #include <system_error>
 #include <unordered_set>
 #include <utility>
@@ -117,14 +116,12 @@ namespace {
 // The files `<stem>.shard-I-of-N.<ext>` of `dir`, ordered by (N, I).
 std::vector<fs::path> shardFiles(const fs::path& dir, const std::string& stem,
                                  const std::string& ext) {
-    const std::regex name(stem + R"(\.shard-(\d{1,9})-of-(\d{1,9})\.)" + ext);
     std::vector<std::pair<std::pair<int, int>, fs::path>> shards;
     std::error_code ec;
     for (const auto& e : fs::directory_iterator(dir, ec)) {
-        std::smatch m;
         const std::string file = e.path().filename().string();
-        if (std::regex_match(file, m, name)) {
-            shards.push_back({{std::stoi(m[2]), std::stoi(m[1])}, e.path()});
+        if (const auto s = parseShardFileName(file, stem, "." + ext)) {
+            shards.push_back({{s->count, s->index}, e.path()});
         }
     }
     std::sort(shards.begin(), shards.end());

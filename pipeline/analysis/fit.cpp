@@ -45,7 +45,8 @@ int distributionIndex(const std::string& name) {
 }
 
 // The override that sets the fitted values x on the species: a number for a plain key, the
-// whole distribution table (the other element kept) for a distribution element.
+// whole distribution table (the other element kept) for a distribution element, the whole array
+// (the other elements kept) for an element of an array of numbers.
 Overrides makeOverrides(const FitSpec& spec, const toml::table& table,
                         const std::vector<double>& x) {
     Overrides ov;
@@ -59,6 +60,14 @@ Overrides makeOverrides(const FitSpec& spec, const toml::table& table,
             } else {
                 o.holder.insert_or_assign("v", x[i]);
             }
+            continue;
+        }
+        if (p.arrayElement) {
+            if (!o.holder.contains("v")) {
+                o.holder.insert_or_assign("v", *table.at_path(p.overrideKey).as_array());
+            }
+            toml::array& array = *o.holder.get_as<toml::array>("v");
+            array.replace(array.cbegin() + p.element, x[i]);
             continue;
         }
         if (!o.holder.contains("v")) {
@@ -184,6 +193,7 @@ FitSpec readFitSpec(const std::string& speciesPath, KeyLog* keyLog,
         f.fail("parameter", "expected at least one [[fit.parameter]] with a path and bounds");
     }
     static const std::regex kElement(R"(^(.+)\.(normal|uniform)\[([01])\]$)");
+    static const std::regex kArrayElement(R"(^(.+)\[([0-9]{1,3})\]$)");
     std::set<std::string> paths;
     for (Params& e : entries) {
         FitParameter p;
@@ -210,6 +220,17 @@ FitSpec readFitSpec(const std::string& speciesPath, KeyLog* keyLog,
             }
             p.overrideKey = m[1].str();
             p.element = std::stoi(m[3].str());
+        } else if (std::regex_match(p.path, m, kArrayElement)) {
+            // An element of an array of numbers (a grammar's `tilt_deg = [40, 55]`).
+            const toml::array* array = species.table->at_path(m[1].str()).as_array();
+            if (!array || array->empty() ||
+                !std::all_of(array->begin(), array->end(),
+                             [](const toml::node& n) { return n.is_number(); })) {
+                e.fail("path", "\"" + m[1].str() + "\" is not an array of numbers");
+            }
+            p.overrideKey = m[1].str();
+            p.element = std::stoi(m[2].str());
+            p.arrayElement = true;
         } else {
             p.overrideKey = p.path;
         }

@@ -23,16 +23,20 @@
 
 namespace sylva {
 
-// One fitted parameter: a number of the species file, or an element of a distribution.
+// One fitted parameter: a number of the species file, an element of a distribution, or an
+// element of an array of numbers.
 struct FitParameter {
-    std::string path;         // as written in [fit]: "form.pipe_exponent", "x.normal[0]"
-    double lo = 0, hi = 0;    // bounds = [lo, hi], lo < hi, in the key's own unit
-    double initial = 0;       // the file's own value (inside the bounds)
-    bool integer = false;     // an integer key (the species refuses a float): values rounded
-    std::string overrideKey;  // the species parameter it overrides: path without ".normal[i]"
-    int element = -1;         // the distribution element (0 or 1), or -1 for a plain number
-    SourcePos value;          // where the file's value starts (the number replaced in place)
-    SourcePos where;          // the [[fit.parameter]] entry's `path`, for errors
+    std::string path;           // as written in [fit]: "form.pipe_exponent", "x.normal[0]",
+                                // "geometry.a->m.tilt_deg[1]"
+    double lo = 0, hi = 0;      // bounds = [lo, hi], lo < hi, in the key's own unit
+    double initial = 0;         // the file's own value (inside the bounds)
+    bool integer = false;       // an integer key (the species refuses a float): values rounded
+    std::string overrideKey;    // the species parameter it overrides: path without ".normal[i]"
+                                // or "[i]"
+    int element = -1;           // the distribution or array element, or -1 for a plain number
+    bool arrayElement = false;  // an element of an array of numbers (not of a distribution)
+    SourcePos value;            // where the file's value starts (the number replaced in place)
+    SourcePos where;            // the [[fit.parameter]] entry's `path`, for errors
 };
 
 // The [fit] table of a species file, with the species file's path.

@@ -8,7 +8,6 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <set>
 
 #include "core/input_file.h"
@@ -56,15 +55,13 @@ nlohmann::json readJson(const fs::path& p) {
 // one --out), or its dataset.json as shard 0 of 1.
 std::vector<Shard> findShards(const fs::path& dir) {
     if (!fs::is_directory(dir)) fail(dir.string() + ": not a directory");
-    static const std::regex name(R"(dataset\.shard-(\d+)-of-(\d+)\.json)");
     std::vector<Shard> found;
     for (const auto& e : fs::directory_iterator(dir)) {
-        std::smatch m;
         const std::string f = e.path().filename().string();
         if (f == "dataset.json") {
             found.push_back({dir, 0, 1, readJson(e.path())});
-        } else if (std::regex_match(f, m, name)) {
-            found.push_back({dir, std::stoi(m[1]), std::stoi(m[2]), readJson(e.path())});
+        } else if (const auto s = parseShardFileName(f, "dataset", ".json")) {
+            found.push_back({dir, s->index, s->count, readJson(e.path())});
         }
     }
     if (found.empty()) {

@@ -18,10 +18,10 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <optional>
-#include <regex>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -59,6 +59,35 @@ std::string shardSuffix(int index, int count) {
     char buf[64];
     std::snprintf(buf, sizeof buf, ".shard-%0*d-of-%d", width, index, count);
     return buf;
+}
+
+std::optional<ShardOf> parseShardFileName(std::string_view name, std::string_view stem,
+                                          std::string_view ext) {
+    const std::string_view mark = ".shard-", of = "-of-";
+    if (name.size() < stem.size() + mark.size() + ext.size() ||
+        name.substr(0, stem.size()) != stem || name.substr(stem.size(), mark.size()) != mark ||
+        name.substr(name.size() - ext.size()) != ext) {
+        return std::nullopt;
+    }
+    std::string_view rest = name.substr(stem.size() + mark.size());
+    rest.remove_suffix(ext.size());
+    // A decimal number of at most 10 digits (2³¹ − 1 has 10) at the front of `rest`, consumed.
+    auto number = [&rest](int64_t& v) {
+        size_t n = 0;
+        v = 0;
+        while (n < rest.size() && rest[n] >= '0' && rest[n] <= '9') {
+            if (++n > 10) return false;
+            v = v * 10 + (rest[n - 1] - '0');
+        }
+        rest.remove_prefix(n);
+        return n > 0;
+    };
+    int64_t index = 0, count = 0;
+    if (!number(index) || rest.substr(0, of.size()) != of) return std::nullopt;
+    rest.remove_prefix(of.size());
+    if (!number(count) || !rest.empty()) return std::nullopt;
+    if (index >= count || count > std::numeric_limits<int>::max()) return std::nullopt;
+    return ShardOf{static_cast<int>(index), static_cast<int>(count)};
 }
 
 std::string manifestName(int index, int count) {
@@ -317,18 +346,19 @@ class SpaceReserve {
 // built beside the unsharded build (or a shard of another count) would grow its instances again
 // under other file names, as docs/cluster.md warns; refused before anything is read or written.
 void checkNoOtherSharding(const BuildOptions& o) {
-    static const std::regex shardFile(R"((dataset|manifest)\.shard-(\d+)-of-(\d+)\.jsonl?)");
     const bool sharded = o.shardCount > 1;
     std::map<std::string, std::string> others;  // file name → the build it belongs to (sorted)
     std::error_code ec;
     for (const auto& e : fs::directory_iterator(o.out, ec)) {
         const std::string name = e.path().filename().string();
-        std::smatch m;
         if (name == "dataset.json" || name == "manifest.jsonl") {
             if (sharded) others[name] = "the unsharded build";
-        } else if (std::regex_match(name, m, shardFile) &&
-                   (!sharded || m[3].str() != std::to_string(o.shardCount))) {
-            others[name] = "shards of " + m[3].str();
+            continue;
+        }
+        std::optional<ShardOf> shard = parseShardFileName(name, "dataset", ".json");
+        if (!shard) shard = parseShardFileName(name, "manifest", ".jsonl");
+        if (shard && (!sharded || shard->count != o.shardCount)) {
+            others[name] = "shards of " + std::to_string(shard->count);
         }
     }
     if (others.empty()) return;

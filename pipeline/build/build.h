@@ -8,7 +8,9 @@
 #include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "pipeline/build/dataset.h"
@@ -48,6 +50,15 @@ std::string shardSuffix(int index, int count);
 // Manifest and dataset file names for a shard ("manifest.jsonl" when unsharded).
 std::string manifestName(int index, int count);
 std::string datasetJsonName(int index, int count);
+
+// The shard a file name belongs to: "<stem>.shard-I-of-N<ext>" (ext with its dot, ".jsonl")
+// with decimal I and N (leading zeros allowed, as shardSuffix pads I) and 0 ≤ I < N ≤ 2³¹ − 1;
+// nullopt for every other name (a name a user or another tool put there is not a shard).
+struct ShardOf {
+    int index = 0, count = 1;
+};
+std::optional<ShardOf> parseShardFileName(std::string_view name, std::string_view stem,
+                                          std::string_view ext);
 
 // Limits of what a dataset's files may hold, for every command that reads them (a record is a
 // few kB, a plot's tens of kB; a run log line a few hundred bytes, a lock file one line).

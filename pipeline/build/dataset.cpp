@@ -217,8 +217,8 @@ void checkStationsReachPlots(Params& t, const DatasetSpec& d) {
                 gap = std::hypot(st.x, st.z) - plot.area.radius - plot.margin;
                 dx = std::abs(st.x), dz = std::abs(st.z);
             } else {
-                dx = std::abs(st.x) - 0.5 * plot.area.width - plot.margin;
-                dz = std::abs(st.z) - 0.5 * plot.area.depth - plot.margin;
+                dx = std::abs(st.x) - plot.area.halfX() - plot.margin;
+                dz = std::abs(st.z) - plot.area.halfZ() - plot.margin;
                 gap = std::hypot(std::max(dx, 0.0), std::max(dz, 0.0));
             }
             if (gap <= o.maxRange) continue;
@@ -257,9 +257,7 @@ void checkAirborneSurveys(Params& t, const DatasetSpec& d) {
                         " m; cap them with `pulses` (≤ 1e9), fly faster or pulse slower");
     };
     for (const PlotSpec& plot : d.plots) {
-        const bool circle = plot.area.shape == PlotArea::Shape::kCircle;
-        check(circle ? plot.area.radius : plot.area.width / 2,
-              circle ? plot.area.radius : plot.area.depth / 2, "plot \"" + plot.name + "\"");
+        check(plot.area.halfX(), plot.area.halfZ(), "plot \"" + plot.name + "\"");
     }
     if (!d.species.empty()) {
         check(kTreeGroundMargin, kTreeGroundMargin, "a tree (its smallest ground square)");

@@ -21,6 +21,7 @@
 
 #include "core/errors.h"
 #include "core/input_file.h"
+#include "pipeline/build/build.h"
 
 namespace sylva {
 
@@ -136,16 +137,15 @@ struct Scope {
     int index = 0, count = 1;
 };
 bool parseLockName(const std::string& name, Scope& s) {
-    static const std::regex shard(R"(\.sylva\.shard-(\d+)-of-(\d+)\.lock)");
     if (name == ".sylva.lock") {
         s = Scope{};
         return true;
     }
-    std::smatch m;
-    if (!std::regex_match(name, m, shard)) return false;
+    const std::optional<ShardOf> shard = parseShardFileName(name, ".sylva", ".lock");
+    if (!shard) return false;
     s.whole = false;
-    s.index = std::stoi(m[1]);
-    s.count = std::stoi(m[2]);
+    s.index = shard->index;
+    s.count = shard->count;
     return true;
 }
 
@@ -296,7 +296,8 @@ OutputLock::OutputLock(const fs::path& dir, const std::string& command, int shar
     clearConflicts(true);
     // Temp files of a lock creation on this host whose process died between two system calls.
     {
-        static const std::regex newFile(R"(\.sylva.*\.lock\.new\.(.*)\.(\d+))");
+        // (a pid has at most 7 digits on Linux: 9 keep std::stoll in range whatever the name)
+        static const std::regex newFile(R"(\.sylva.*\.lock\.new\.(.*)\.(\d{1,9}))");
         std::error_code ec;
         std::vector<fs::path> stale;
         for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {

@@ -25,9 +25,7 @@ void setColumn(Camera& c, int j, const Vec3& v) {
 Aabb plotBox(const GrownPlot& plot) {
     Aabb box;
     const PlotArea area = plot.spec ? plot.spec->area : PlotArea{};
-    const bool circle = area.shape == PlotArea::Shape::kCircle;
-    const double hx = circle ? area.radius : 0.5 * area.width;
-    const double hz = circle ? area.radius : 0.5 * area.depth;
+    const double hx = area.halfX(), hz = area.halfZ();
     const Terrain& t = plot.layout.terrain;
     for (double x : {-hx, 0.0, hx}) {
         for (double z : {-hz, 0.0, hz}) box.extend({x, t.height(x, z), z});

@@ -420,8 +420,7 @@ ScanScene makeScanScene(const GrownPlot& plot, const PlotScene& scene) {
     if (!plot.spec) return s;  // the strips cover the scene's bounds
     Aabb area;
     const PlotArea& a = plot.spec->area;
-    const double hx = a.shape == PlotArea::Shape::kCircle ? a.radius : a.width / 2;
-    const double hz = a.shape == PlotArea::Shape::kCircle ? a.radius : a.depth / 2;
+    const double hx = a.halfX(), hz = a.halfZ();
     area.extend(Vec3{-hx, 0, -hz});
     area.extend(Vec3{hx, 0, hz});
     s.setArea(area);

@@ -136,9 +136,7 @@ std::vector<TreeRecord> treeTable(const GrownPlot& plot) {
 }
 
 double canopyCoverCell(const PlotArea& area, double cell) {
-    const bool circle = area.shape == PlotArea::Shape::kCircle;
-    const double w = circle ? 2 * area.radius : area.width;
-    const double d = circle ? 2 * area.radius : area.depth;
+    const double w = 2 * area.halfX(), d = 2 * area.halfZ();
     // ⌈w/c⌉·⌈d/c⌉ ≤ (w/c + 1)(d/c + 1): solve (w/c + 1)(d/c + 1) = N for the smallest c that fits.
     const double n = kMaxCoverCells;
     const double a = n - 1, b = -(w + d), c0 = -w * d;  // a·c² + b·c + c0 = 0
@@ -149,9 +147,7 @@ double canopyCoverCell(const PlotArea& area, double cell) {
 double canopyCover(const std::vector<const Tree*>& trees, const PlotArea& area, double cell) {
     if (!(cell > 0)) return kNaN;
     cell = canopyCoverCell(area, cell);
-    const bool circle = area.shape == PlotArea::Shape::kCircle;
-    const double hx = circle ? area.radius : 0.5 * area.width;
-    const double hz = circle ? area.radius : 0.5 * area.depth;
+    const double hx = area.halfX(), hz = area.halfZ();
     const int nx = std::max(1, static_cast<int>(std::ceil(2 * hx / cell)));
     const int nz = std::max(1, static_cast<int>(std::ceil(2 * hz / cell)));
     const double x0 = -hx, z0 = -hz;  // cell (i, j) centre: x0 + (i + ½)·cell

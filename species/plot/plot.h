@@ -29,6 +29,9 @@ struct PlotArea {
     double radius = 0.0;                // metres (circle)
     double area() const;                // m²
     bool contains(double x, double z) const;
+    // Half the extent of its bounding box along x and along z (metres; the centre is x = z = 0).
+    double halfX() const { return shape == Shape::kCircle ? radius : 0.5 * width; }
+    double halfZ() const { return shape == Shape::kCircle ? radius : 0.5 * depth; }
 };
 
 // The ground: a heightfield over the plot (with a margin, so crowns at the edge stand on it).

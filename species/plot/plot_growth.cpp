@@ -377,16 +377,10 @@ GrownPlot growPlot(const PlotSpec& spec, PlotLayout layout, const BudgetTable* d
     if (datasetBudget) datasetBudget->applyTo(plotBudget);
     const auto start = std::chrono::steady_clock::now();
     auto checkTime = [&] {
-        const double s =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        if (s > plotBudget.maxPlotSeconds) {
-            char buf[200];
-            std::snprintf(buf, sizeof buf,
-                          "budget max_plot_seconds = %g exceeded: the plot still growing after "
-                          "%.1f s; raise [budget] max_plot_seconds or grow fewer trees",
-                          plotBudget.maxPlotSeconds, s);
-            throw BudgetExceeded(buf);
-        }
+        checkSeconds(
+            "max_plot_seconds", plotBudget.maxPlotSeconds,
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+            "the plot still growing", "grow fewer trees");
     };
     GrownPlot plot;
     plot.spec = &spec;

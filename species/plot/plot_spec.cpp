@@ -156,9 +156,8 @@ void readStems(Params& t, PlotSpec& s) {
         o.clusterSigma = t.number("cluster_sigma", 3.0, Range::leftOpen(0, 1000));
         // Parents are drawn over the area grown by 4σ: at most kMaxPlotStems of them (more
         // clusters than stems make no clusters).
-        const bool circle = s.area.shape == PlotArea::Shape::kCircle;
-        const double w = (circle ? 2 * s.area.radius : s.area.width) + 8 * o.clusterSigma;
-        const double d = (circle ? 2 * s.area.radius : s.area.depth) + 8 * o.clusterSigma;
+        const double w = 2 * s.area.halfX() + 8 * o.clusterSigma;
+        const double d = 2 * s.area.halfZ() + 8 * o.clusterSigma;
         const double parents = o.parentDensity * 1e-4 * w * d;
         if (parents > static_cast<double>(kMaxPlotStems)) {
             t.fail("parent_density",

@@ -16,10 +16,7 @@ struct Box {
     double minX, minZ, maxX, maxZ;
 };
 
-Box boundingBox(const PlotArea& a) {
-    if (a.shape == PlotArea::Shape::kCircle) return {-a.radius, -a.radius, a.radius, a.radius};
-    return {-0.5 * a.width, -0.5 * a.depth, 0.5 * a.width, 0.5 * a.depth};
-}
+Box boundingBox(const PlotArea& a) { return {-a.halfX(), -a.halfZ(), a.halfX(), a.halfZ()}; }
 
 // Points in square cells over a box, for "who is within r" queries with r ≤ cell (the 3 × 3
 // cells around a point). Cells hold point indices; a point can move (remove, insert).

@@ -15,7 +15,7 @@ double PlotArea::area() const {
 
 bool PlotArea::contains(double x, double z) const {
     if (shape == Shape::kCircle) return x * x + z * z <= radius * radius;
-    return std::abs(x) <= width * 0.5 && std::abs(z) <= depth * 0.5;
+    return std::abs(x) <= halfX() && std::abs(z) <= halfZ();
 }
 
 Terrain::Terrain(double x0, double z0, double cell, int nx, int nz, std::vector<float> heights)
@@ -82,9 +82,8 @@ Mesh terrainMesh(const Terrain& terrain) {
 namespace sylva {
 
 TerrainGrid terrainGrid(const PlotArea& area, double margin, double cell) {
-    const bool circle = area.shape == PlotArea::Shape::kCircle;
-    const double w = (circle ? 2 * area.radius : area.width) + 2 * margin;
-    const double d = (circle ? 2 * area.radius : area.depth) + 2 * margin;
+    const double w = 2 * (area.halfX() + margin);
+    const double d = 2 * (area.halfZ() + margin);
     TerrainGrid g;
     // Samples (n − 1)·cell ≥ the extent; the tolerance keeps an exact multiple exact.
     g.nx = static_cast<int64_t>(std::ceil(w / cell - 1e-9)) + 1;

@@ -226,6 +226,18 @@ TEST_F(MergeTest, ShardRunLogThatIsNotARegularFileIsRefused) {
                   log.string() + ":1: a line of more than");
 }
 
+// A file named like a shard's description with a shard number too long for an int (merge exited 1
+// with "stoi") is not a shard: the three real shards merge.
+TEST_F(MergeTest, AFileNamedLikeAnImpossibleShardIsNotAShard) {
+    fs::path odd = copyOfShard(1, "odd");
+    std::ofstream(odd / "dataset.shard-99999999999-of-3.json") << "{}";
+    const fs::path out = scratch_ / "merged";
+    CliRun r = sylva({"merge", out.string(), shard(0).string(), odd.string(), shard(2).string()},
+                     root_->path());
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(fs::exists(out / "manifest.jsonl"));
+}
+
 // OUT in use by another process (here this test, holding OUT's lock as a live process on this
 // host), or with --move a shard directory in use: one line naming the holder, nothing written.
 TEST_F(MergeTest, LockedOutputOrShardIsRefused) {

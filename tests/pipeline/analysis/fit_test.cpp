@@ -356,4 +356,53 @@ TEST(FitRun, AFailingTreeMakesTheObjectiveOne) {
     }
 }
 
+// Elements of an array of numbers (a grammar's `tilt_deg = [40, 55]`) are fitted one by one:
+// read with their place, written back in place, and the override reaches the grammar's reader —
+// an evaluation with the interval's ends crossed is the reader's "lo ≤ hi" error, one with them
+// apart grows other trees than the file's values.
+TEST(FitSpec, ElementsOfAGrammarArrayAreFitted) {
+    TempDir t;
+    std::string text = slurp(fs::path(SYLVA_SOURCE_DIR) / "species/presets/neem.toml");
+    text.erase(text.find("\n[fit]") + 1);
+    text +=
+        "[fit]\ntrees = 4\nevaluations = 20\ndistributions = [\"branch_angle_deg\"]\n\n"
+        "[[fit.parameter]]\npath = \"geometry.a->m.tilt_deg[0]\"\nbounds = [30, 70]\n\n"
+        "[[fit.parameter]]\npath = \"geometry.a->m.tilt_deg[1]\"\nbounds = [45, 80]\n";
+    spit(t / "neem.toml", text);
+    const fs::path reference =
+        fs::path(SYLVA_SOURCE_DIR) / "species/reference/treeqsm-broadleaf-fit.json";
+    const FitSpec spec = readFitSpec((t / "neem.toml").string(), nullptr, reference);
+    ASSERT_EQ(spec.parameters.size(), 2u);
+    for (int k = 0; k < 2; ++k) {
+        const FitParameter& p = spec.parameters[k];
+        EXPECT_TRUE(p.arrayElement);
+        EXPECT_EQ(p.element, k);
+        EXPECT_EQ(p.overrideKey, "geometry.a->m.tilt_deg");
+        EXPECT_EQ(p.initial, k == 0 ? 40 : 55);
+    }
+    const std::string out = replaceFittedValues(text, spec.parameters, {42.5, 61.25});
+    EXPECT_NE(out.find("tilt_deg = [42.5, 61.25]\n"), std::string::npos);
+    EXPECT_EQ(out.size(), text.size() + 5);  // "40" → "42.5", "55" → "61.25": nothing else
+
+    const FitObjective objective(spec);
+    const FitEvaluation crossed = objective.evaluate({65, 50});
+    EXPECT_EQ(crossed.objective, 1.0);
+    EXPECT_NE(crossed.error.find("expected lo ≤ hi"), std::string::npos) << crossed.error;
+    const FitEvaluation own = objective.evaluate({40, 55});
+    const FitEvaluation wide = objective.evaluate({30, 80});
+    ASSERT_TRUE(own.error.empty()) << own.error;
+    ASSERT_TRUE(wide.error.empty()) << wide.error;
+    ASSERT_TRUE(own.d[0] && wide.d[0]);
+    EXPECT_NE(*own.d[0], *wide.d[0]);
+    EXPECT_EQ(*objective.evaluate({40, 55}).d[0], *own.d[0]);
+
+    // Not an array of numbers, or an element past its end: an error at the path.
+    for (const char* bad : {"geometry.a->m.phyllotaxis[0]", "geometry.a->m.tilt_deg[2]"}) {
+        std::string b = text;
+        b.replace(b.find("geometry.a->m.tilt_deg[1]"), 25, bad);
+        spit(t / "bad.toml", b);
+        EXPECT_THROW(readFitSpec((t / "bad.toml").string(), nullptr, reference), SpecError) << bad;
+    }
+}
+
 }  // namespace

@@ -397,4 +397,42 @@ TEST(Resume, AManifestLineOverTheLimitIsOneErrorAtItsLine) {
     EXPECT_THROW(recordedInstances(t / "manifest.jsonl", d), InputError);
 }
 
+// A shard's file names parse back to their shard; every other name — numbers out of range or
+// too long for an int (std::stoi threw on them: build and merge exited 1 with "stoi"), I ≥ N,
+// other stems, extensions or separators — is not a shard.
+TEST(ShardNames, ParseBackAndOtherNamesAreNotShards) {
+    for (auto [i, n] : {std::pair{0, 2},
+                        {1, 2},
+                        {7, 12},
+                        {999'999'999, 1'000'000'000},
+                        {1'999'999'999, 2'000'000'000}}) {
+        const auto m = parseShardFileName(manifestName(i, n), "manifest", ".jsonl");
+        ASSERT_TRUE(m) << manifestName(i, n);
+        EXPECT_EQ(m->index, i);
+        EXPECT_EQ(m->count, n);
+        const auto d = parseShardFileName(datasetJsonName(i, n), "dataset", ".json");
+        ASSERT_TRUE(d) << datasetJsonName(i, n);
+        EXPECT_EQ(d->index, i);
+        EXPECT_EQ(d->count, n);
+    }
+    const auto lock = parseShardFileName(".sylva.shard-3-of-4.lock", ".sylva", ".lock");
+    ASSERT_TRUE(lock);
+    EXPECT_EQ(lock->index, 3);
+    EXPECT_EQ(lock->count, 4);
+    const auto top =
+        parseShardFileName("manifest.shard-2147483646-of-2147483647.jsonl", "manifest", ".jsonl");
+    ASSERT_TRUE(top);
+    EXPECT_EQ(top->count, 2147483647);
+    for (const char* name :
+         {"manifest.shard-99999999999-of-2.jsonl", "manifest.shard-1-of-99999999999.jsonl",
+          "manifest.shard-0-of-2147483648.jsonl", "manifest.shard-3-of-2.jsonl",
+          "manifest.shard-2-of-2.jsonl", "manifest.shard--1-of-2.jsonl",
+          "manifest.shard-1-of-2.jsonl.tmp", "manifest.shard-1-of-.jsonl",
+          "manifest.shard--of-2.jsonl", "manifest.shard-1-of-2x.jsonl",
+          "manifest.shard-1of-2.jsonl", "manifest.shard-1-of-2.json", "manifest.jsonl",
+          "dataset.shard-0-of-2.jsonl", "xmanifest.shard-0-of-2.jsonl", "manifest.shard-", ""}) {
+        EXPECT_FALSE(parseShardFileName(name, "manifest", ".jsonl")) << name;
+    }
+}
+
 }  // namespace

@@ -136,6 +136,18 @@ TEST(OutputLock, AHolderOfTheWrongShapeIsUnreadableNotACrash) {
     EXPECT_NE(lockError(t.path()).find("holder unreadable"), std::string::npos);
 }
 
+TEST(OutputLock, NamesThatAreNoLocksOfOursAreLeftAlone) {
+    // A shard number too long for an int and a dead creator's pid of 20 digits (std::stoi and
+    // std::stoll threw on them: the build exited 1 with "stoi"): neither is a lock.
+    TempDir t;
+    spit(t / ".sylva.shard-99999999999-of-2.lock", "{}");
+    const std::string host = currentHolder("").host;
+    spit(t / (".sylva.lock.new." + host + ".99999999999999999999"), "{");
+    EXPECT_EQ(lockError(t.path()), "");
+    EXPECT_EQ(lockError(t.path(), 1, 2), "");
+    EXPECT_TRUE(fs::exists(t / ".sylva.shard-99999999999-of-2.lock"));
+}
+
 TEST(OutputLock, FollowsItsDirectoryWhenRenamed) {
     TempDir t;
     fs::create_directories(t / "a");
