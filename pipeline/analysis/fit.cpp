@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <chrono>
 #include <cmath>
@@ -19,10 +20,12 @@
 #include <stdexcept>
 
 #include "core/budget.h"
+#include "core/input_file.h"
 #include "core/rng.h"
 #include "pipeline/analysis/dataset_stats.h"
 #include "pipeline/formats/atomic_file.h"
 #include "species/model/reference_metrics.h"
+#include "species/model/tree_stats.h"
 #include "species/spec/species.h"
 
 namespace fs = std::filesystem;
@@ -108,6 +111,43 @@ std::string optNum4(const std::optional<double>& v) { return v ? num4(*v) : "-";
 
 }  // namespace
 
+QuantileTable allometryTable(const fs::path& file, const std::string& species,
+                             const std::string& distribution) {
+    constexpr uint64_t kMaxAllometryBytes = uint64_t(16) << 20;
+    const nlohmann::json j = nlohmann::json::parse(
+        readInputFile(file, kMaxAllometryBytes, "allometry file"), nullptr, false);
+    auto fail = [&](const std::string& what) { throw InputError(file.string() + ": " + what); };
+    if (j.is_discarded() || !j.is_object()) fail("not a JSON object");
+    const auto all = j.find("species");
+    if (all == j.end() || !all->is_object()) fail("no \"species\" object");
+    const auto entry = all->find(species);
+    if (entry == all->end() || !entry->is_object())
+        fail("no entry for species \"" + species + "\"");
+    for (const char* level : {"species", "genus"}) {
+        const auto block = entry->find(level);
+        if (block == entry->end() || !block->is_object()) continue;
+        const auto d = block->find(distribution);
+        if (d == block->end()) continue;
+        QuantileTable t;
+        t.p = {0, 0.05, 0.25, 0.5, 0.75, 0.95, 1};
+        for (const char* k : {"min", "p5", "p25", "p50", "p75", "p95", "max"}) {
+            const auto v = d->is_object() ? d->find(k) : d->end();
+            if (v == d->end() || !v->is_number() || !std::isfinite(v->get<double>())) {
+                fail("\"" + species + "\" " + level + " " + distribution +
+                     ": expected a number \"" + k + "\"");
+            }
+            t.q.push_back(v->get<double>());
+            if (t.q.size() > 1 && t.q.back() < t.q[t.q.size() - 2]) {
+                fail("\"" + species + "\" " + level + " " + distribution +
+                     ": quantiles decrease at \"" + k + "\"");
+            }
+        }
+        return t;
+    }
+    throw InputError(file.string() + ": \"" + species + "\" has no " + distribution +
+                     " (neither its species nor its genus)");
+}
+
 int cmaesPopulation(size_t dimension) {
     const int lambda =
         4 + static_cast<int>(std::floor(3.0 * std::log(static_cast<double>(dimension))));
@@ -151,6 +191,7 @@ FitSpec readFitSpec(const std::string& speciesPath, KeyLog* keyLog,
         }
         std::set<std::string> known, seen;
         for (const char* k : kReferenceDistributionNames) known.insert(k);
+        for (const std::string& k : kAllometryDistributions) known.insert(k);
         for (const std::string& d : spec.distributions) {
             if (!known.count(d)) {
                 std::string hint;
@@ -159,6 +200,7 @@ FitSpec readFitSpec(const std::string& speciesPath, KeyLog* keyLog,
                 for (const char* k : kReferenceDistributionNames) {
                     list += (list.empty() ? "" : ", ") + std::string(k);
                 }
+                for (const std::string& k : kAllometryDistributions) list += ", " + k;
                 f.fail("distributions",
                        "unknown distribution \"" + d + "\"" + hint + " (known: " + list + ")");
             }
@@ -168,6 +210,23 @@ FitSpec readFitSpec(const std::string& speciesPath, KeyLog* keyLog,
         }
     } else {
         spec.distributions = kDefaultDistributions;
+    }
+    if (f.has("allometry")) spec.allometry = f.filePath("allometry");
+    for (const std::string& d : spec.distributions) {
+        const bool allometric =
+            std::find(kAllometryDistributions.begin(), kAllometryDistributions.end(), d) !=
+            kAllometryDistributions.end();
+        if (!allometric) continue;
+        if (spec.allometry.empty()) {
+            f.fail("distributions", "\"" + d +
+                                        "\" comes from an allometry file: set `allometry` (e.g. "
+                                        "\"../reference/baad-allometry.json\")");
+        }
+        try {
+            allometryTable(spec.allometry, spec.speciesName, d);
+        } catch (const InputError& e) {
+            f.fail("allometry", e.what());
+        }
     }
     spec.weights.assign(spec.distributions.size(), 1.0);
     if (const toml::node* w = f.raw("weights")) {
@@ -388,17 +447,37 @@ struct FitObjective::Impl {
     FitSpec spec;
     SpeciesFile species;
     Reference reference;
+    std::vector<QuantileTable> allometry;      // the allometry distributions' tables
     std::vector<const QuantileTable*> tables;  // per listed distribution
-    std::vector<int> kinds;                    // their ReferenceDistribution
-    std::vector<uint64_t> seeds;               // the trees' seeds (common random numbers)
+    std::vector<int> kinds;                    // their ReferenceDistribution, or −1 − (index in
+                             // kAllometryDistributions) for an allometry distribution
+    std::vector<uint64_t> seeds;  // the trees' seeds (common random numbers)
 };
+
+// One tree's value of an allometry distribution (kAllometryDistributions[index]); none when the
+// tree has no crown or no height.
+static std::optional<double> allometryValue(const Tree& tree, size_t index) {
+    const TreeStats s = computeStats(tree);
+    const double v =
+        index == 0 ? s.crownHeight / s.height : 0.5 * (s.crownWidthMajor + s.crownDepth) / s.height;
+    if (!std::isfinite(v)) return std::nullopt;
+    return v;
+}
 
 FitObjective::FitObjective(const FitSpec& spec) : impl_(std::make_unique<Impl>()) {
     Impl& m = *impl_;
     m.spec = spec;
     m.species = loadSpecies(spec.speciesPath);
     m.reference = readReference(spec.reference);
+    m.allometry.reserve(spec.distributions.size());  // (pointers into it are kept)
     for (const std::string& d : spec.distributions) {
+        const auto a = std::find(kAllometryDistributions.begin(), kAllometryDistributions.end(), d);
+        if (a != kAllometryDistributions.end()) {
+            m.allometry.push_back(allometryTable(spec.allometry, spec.speciesName, d));
+            m.tables.push_back(&m.allometry.back());
+            m.kinds.push_back(-1 - static_cast<int>(a - kAllometryDistributions.begin()));
+            continue;
+        }
         auto it = m.reference.distributions.find(d);
         if (it == m.reference.distributions.end()) {
             throw SpecError(
@@ -439,11 +518,18 @@ FitEvaluation FitObjective::evaluate(const std::vector<double>& x) const {
     const SpeciesFile species = withOwnCache(m.species);
     const size_t n = m.seeds.size();
     std::vector<ReferenceValues> values(n);
+    std::vector<std::array<std::optional<double>, 2>> allometric(n);
+    const bool anyAllometry = !m.allometry.empty();
     std::vector<std::string> errors(n);
     tbb::parallel_for(size_t(0), n, [&](size_t i) {
         try {
             const GrownTree g = growSpecies(species, m.seeds[i], &ov, false);
             values[i] = skeletonReferenceValues(g.tree);
+            if (anyAllometry) {
+                for (size_t a = 0; a < kAllometryDistributions.size(); ++a) {
+                    allometric[i][a] = allometryValue(g.tree, a);
+                }
+            }
         } catch (const BudgetExceeded& err) {
             errors[i] = err.what();
         } catch (const SpecError& err) {
@@ -461,7 +547,16 @@ FitEvaluation FitObjective::evaluate(const std::vector<double>& x) const {
     for (const ReferenceValues& v : values) poolReferenceValues(pool, v);
     double sum = 0, weights = 0;
     for (size_t k = 0; k < m.tables.size(); ++k) {
-        e.d[k] = referenceDistance(pool[m.kinds[k]], *m.tables[k]);
+        if (m.kinds[k] < 0) {  // an allometry distribution: one value per tree
+            const auto a = static_cast<size_t>(-1 - m.kinds[k]);
+            std::vector<double> v;
+            for (const auto& tree : allometric) {
+                if (tree[a]) v.push_back(*tree[a]);
+            }
+            e.d[k] = referenceDistance(std::move(v), *m.tables[k]);
+        } else {
+            e.d[k] = referenceDistance(pool[m.kinds[k]], *m.tables[k]);
+        }
         sum += m.spec.weights[k] * e.d[k].value_or(1.0);
         weights += m.spec.weights[k];
     }
@@ -594,6 +689,7 @@ std::optional<FitEvaluation> parseEvaluation(const FitSpec& spec, const std::str
 std::string logHeader(const FitSpec& spec, const FitObjective& objective) {
     uint64_t h = hashString(fileBytes(spec.speciesPath));
     h = hashCombine(h, hashString(fileBytes(spec.reference.string())));
+    if (!spec.allometry.empty()) h = hashCombine(h, hashString(fileBytes(spec.allometry.string())));
     char hex[20];
     std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
     nlohmann::ordered_json j;
@@ -642,6 +738,10 @@ std::string provenance(const FitSpec& spec, const FitObjective& objective, const
       << r.generations << " generations" << (r.converged ? " (converged)" : "") << ".\n";
     o << "# Reference: " << spec.reference.filename().string() << " (\""
       << objective.referenceName() << "\", " << objective.referenceTrees() << " measured trees).\n";
+    if (!spec.allometry.empty()) {
+        o << "# Allometry: " << spec.allometry.filename().string() << " (species \""
+          << spec.speciesName << "\"; crown ratios, one value per tree).\n";
+    }
     o << "# Objective: weighted mean of the KS distance D (as sylva stats --reference) of the "
          "trees'\n#   pooled values to the reference, over "
       << objectiveWords(spec)
@@ -727,9 +827,11 @@ std::string reportMarkdown(const FitSpec& spec, const FitObjective& objective, c
     o << "# sylva fit: " << spec.speciesName << "\n\n";
     o << "Species file `" << fs::path(spec.speciesPath).filename().string() << "`, reference `"
       << spec.reference.filename().string() << "` (\"" << objective.referenceName() << "\", "
-      << objective.referenceTrees() << " measured trees), " << spec.trees
-      << " trees per evaluation, seed " << spec.seed << ", " << r.evaluations << " evaluations in "
-      << r.generations << " generations"
+      << objective.referenceTrees() << " measured trees)"
+      << (spec.allometry.empty() ? std::string()
+                                 : ", allometry `" + spec.allometry.filename().string() + "`")
+      << ", " << spec.trees << " trees per evaluation, seed " << spec.seed << ", " << r.evaluations
+      << " evaluations in " << r.generations << " generations"
       << (r.converged ? " (CMA-ES converged before the budget)" : "") << ".\n\n";
     o << "Objective: the weighted mean of KS D over " << objectiveWords(spec)
       << "; a distribution without values counts 1, a tree that fails makes it 1.\n\n";

@@ -20,6 +20,7 @@
 
 #include "core/errors.h"
 #include "core/params.h"
+#include "pipeline/analysis/dataset_stats.h"
 
 namespace sylva {
 
@@ -41,9 +42,12 @@ struct FitParameter {
 
 // The [fit] table of a species file, with the species file's path.
 struct FitSpec {
-    std::string speciesPath;                 // as given
-    std::string speciesName;                 // the species' `name`
-    std::filesystem::path reference;         // `reference`, resolved against the species file
+    std::string speciesPath;          // as given
+    std::string speciesName;          // the species' `name`
+    std::filesystem::path reference;  // `reference`, resolved against the species file
+    // `allometry`: per-species allometry (species/reference/baad-allometry.json), resolved
+    // against the species file; needed when `distributions` lists kAllometryDistributions.
+    std::filesystem::path allometry;
     int trees = 16;                          // `trees`: trees per evaluation, ≥ 4
     int64_t evaluations = 600;               // `evaluations`: the budget of objective evaluations
     uint64_t seed = 1;                       // `seed`: tree seeds and CMA-ES
@@ -52,6 +56,19 @@ struct FitSpec {
     std::vector<double> weights;             // `weights`: one per distribution (default 1)
     std::vector<FitParameter> parameters;    // [[fit.parameter]]
 };
+
+// Distributions a fit may take from an allometry file rather than the reference: one value per
+// tree, crown depth ÷ height (TreeStats crownHeight / height) and crown diameter ÷ height (the
+// mean of the crown's two horizontal extents / height), as baad-allometry.json defines them.
+inline const std::vector<std::string> kAllometryDistributions = {"crown_depth_ratio",
+                                                                 "crown_diameter_ratio"};
+
+// The quantile table of an allometry distribution of a species: the species block of its entry
+// in the allometry file, else its genus block; p 0, 0.05, 0.25, 0.5, 0.75, 0.95, 1 through the
+// block's min, p5, p25, p50, p75, p95, max. Throws InputError "FILE: …" when the file or the
+// entry is missing or malformed, or neither block measured that distribution.
+QuantileTable allometryTable(const std::filesystem::path& file, const std::string& species,
+                             const std::string& distribution);
 
 // Reads and checks the [fit] table of a species file (and the species file itself: every
 // fitted path must be a number or a distribution element in the file that the species reads,

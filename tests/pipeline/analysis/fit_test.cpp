@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +16,7 @@
 
 #include "pipeline/analysis/dataset_stats.h"
 #include "species/model/reference_metrics.h"
+#include "species/model/tree_stats.h"
 #include "species/spec/species.h"
 #include "tests/test_support.h"
 
@@ -402,6 +404,98 @@ TEST(FitSpec, ElementsOfAGrammarArrayAreFitted) {
         b.replace(b.find("geometry.a->m.tilt_deg[1]"), 25, bad);
         spit(t / "bad.toml", b);
         EXPECT_THROW(readFitSpec((t / "bad.toml").string(), nullptr, reference), SpecError) << bad;
+    }
+}
+
+// Crown depth ÷ height from an allometry file: the file's quantiles of the species make a
+// piecewise-linear CDF (min, p5, p25, p50, p75, p95, max at 0 … 1) and D is the KS distance of
+// the trees' values (one per tree, crownHeight / height) to it — here recomputed by hand at
+// every knot of both CDFs; quantiles above every tree give D = 1; the key without `allometry`,
+// and a species the file does not hold, are errors at their keys.
+TEST(FitSpec, AllometryDistributionsComeFromTheAllometryFile) {
+    TempDir t;
+    auto allometry = [&](const std::string& species, const std::vector<double>& q) {
+        nlohmann::json block;
+        const char* keys[] = {"min", "p5", "p25", "p50", "p75", "p95", "max"};
+        for (size_t k = 0; k < 7; ++k) block[keys[k]] = q[k];
+        nlohmann::json j;
+        j["species"][species]["species"]["crown_depth_ratio"] = block;
+        spit(t / "allometry.json", j.dump());
+    };
+    std::string text = slurp(kTinyPipe);
+    text.replace(text.find("distributions = "),
+                 text.find("[[fit.parameter]]") - text.find("distributions = "),
+                 "distributions = [\"radius_ratio\", \"crown_depth_ratio\"]\n"
+                 "allometry = \"allometry.json\"\n\n");
+    text.replace(
+        text.find("reference = \""), text.find("trees = 8") - text.find("reference = \""),
+        "reference = \"" +
+            (fs::path(SYLVA_SOURCE_DIR) / "species/reference/treeqsm-broadleaf.json").string() +
+            "\"\n");
+    spit(t / "s.toml", text);
+    const std::vector<double> q = {0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.95};
+    allometry("tiny-pipe", q);
+    const FitSpec spec = readFitSpec((t / "s.toml").string());
+    EXPECT_EQ(spec.allometry, t / "allometry.json");
+    ASSERT_EQ(spec.distributions.size(), 2u);
+
+    // The trees the objective grows at the file's own value, measured here.
+    const SpeciesFile species = loadSpecies((t / "s.toml").string());
+    std::vector<double> v;
+    for (uint64_t seed : fitTreeSeeds(spec.seed, spec.trees)) {
+        const TreeStats st = computeStats(growSpecies(species, seed, nullptr, false).tree);
+        v.push_back(st.crownHeight / st.height);
+    }
+    std::sort(v.begin(), v.end());
+    const std::vector<double> p = {0, 0.05, 0.25, 0.5, 0.75, 0.95, 1};
+    // Piecewise-linear CDFs through (xs[i], ps[i]), right-continuous at repeated xs.
+    auto cdf = [](const std::vector<double>& xs, const std::vector<double>& ps, double x) {
+        if (x < xs.front()) return 0.0;
+        if (x >= xs.back()) return 1.0;
+        size_t i = 0;
+        while (i + 1 < xs.size() && xs[i + 1] <= x) ++i;
+        return ps[i] + (ps[i + 1] - ps[i]) * (x - xs[i]) / (xs[i + 1] - xs[i]);
+    };
+    std::vector<double> pv;
+    for (size_t i = 0; i < v.size(); ++i) pv.push_back(double(i) / double(v.size() - 1));
+    double want = 0;
+    std::vector<double> knots = v;
+    knots.insert(knots.end(), q.begin(), q.end());
+    for (double x : knots) {
+        for (double y : {x, std::nextafter(x, -1.0)}) {
+            want = std::max(want, std::abs(cdf(v, pv, y) - cdf(q, p, y)));
+        }
+    }
+    const FitObjective objective(spec);
+    const FitEvaluation e = objective.evaluate({spec.parameters[0].initial});
+    ASSERT_TRUE(e.error.empty()) << e.error;
+    ASSERT_TRUE(e.d[1].has_value());
+    EXPECT_NEAR(*e.d[1], want, 1e-9);
+    EXPECT_GT(want, 0.0);
+    EXPECT_LT(want, 1.0);
+
+    allometry("tiny-pipe", {5, 5, 5, 5, 5, 5, 5});  // above every tree: D = 1
+    EXPECT_EQ(*FitObjective(readFitSpec((t / "s.toml").string())).evaluate({2.2}).d[1], 1.0);
+
+    allometry("another", q);
+    try {
+        readFitSpec((t / "s.toml").string());
+        ADD_FAILURE() << "a species the file does not hold";
+    } catch (const SpecError& err) {
+        EXPECT_NE(std::string(err.what()).find("fit.allometry"), std::string::npos) << err.what();
+        EXPECT_NE(std::string(err.what()).find("no entry for species \"tiny-pipe\""),
+                  std::string::npos)
+            << err.what();
+    }
+    std::string without = text;
+    without.erase(without.find("allometry = "), without.find("\n", without.find("allometry = ")) -
+                                                    without.find("allometry = ") + 1);
+    spit(t / "without.toml", without);
+    try {
+        readFitSpec((t / "without.toml").string());
+        ADD_FAILURE() << "crown_depth_ratio without an allometry file";
+    } catch (const SpecError& err) {
+        EXPECT_NE(std::string(err.what()).find("set `allometry`"), std::string::npos) << err.what();
     }
 }
 
