@@ -43,19 +43,13 @@ uint64_t fileSize(const fs::path& p) {
 // a few blocks per thread and the spool's buffer, whatever the survey's size.
 ScanResult spoolScan(const ScanScene& scene, const ScanOptions& options, uint64_t seed,
                      ScanPointSpool& spool, ScanStats& stats, const ScanProgress& progress) {
-    const ScanTuning tuning;
-    const uint64_t total = surveyPulses(scene, options);
-    const auto block = static_cast<uint64_t>(std::max(1, tuning.pulsesPerBlock));
-    uint64_t done = 0;
     return scanInto(
         scene, options, seed,
         [&](std::vector<ScanPoint>& points) {
             spool.append(points);
             stats.addPoints(points);
-            done = std::min(total, done + block);  // the sink runs once per block, in order
-            if (progress) progress(done, total);
         },
-        tuning);
+        {}, progress);
 }
 
 }  // namespace

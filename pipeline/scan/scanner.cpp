@@ -379,7 +379,7 @@ class Scanner {
 
 ScanResult scanInto(const ScanScene& scene, const ScanOptions& options, uint64_t seed,
                     const std::function<void(std::vector<ScanPoint>&)>& sink,
-                    const ScanTuning& tuning) {
+                    const ScanTuning& tuning, const ScanProgress& progress) {
     const Scanner scanner(scene, options, seed, tuning);
     ScanResult result;
     result.pulses = scanner.count();
@@ -387,46 +387,44 @@ ScanResult scanInto(const ScanScene& scene, const ScanOptions& options, uint64_t
     const uint64_t B = static_cast<uint64_t>(std::max(1, tuning.pulsesPerBlock));
     const uint64_t blocks = (result.pulses + B - 1) / B;
     tbb::enumerable_thread_specific<Work> work;
-    uint64_t nextBlock = 0;
+    uint64_t nextBlock = 0, done = 0;  // blocks handed out; pulses through the sink
     const size_t tokens = static_cast<size_t>(4 * tbb::this_task_arena::max_concurrency());
-    tbb::parallel_pipeline(tokens,
-                           tbb::make_filter<void, uint64_t>(tbb::filter_mode::serial_in_order,
-                                                            [&](tbb::flow_control& fc) -> uint64_t {
-                                                                if (nextBlock >= blocks) {
-                                                                    fc.stop();
-                                                                    return 0;
-                                                                }
-                                                                return nextBlock++;
-                                                            }) &
-                               tbb::make_filter<uint64_t, std::vector<ScanPoint>>(
-                                   tbb::filter_mode::parallel,
-                                   [&](uint64_t b) {
-                                       std::vector<ScanPoint> points;
-                                       const uint64_t k0 = b * B;
-                                       scanner.block(k0, std::min(B, result.pulses - k0),
-                                                     work.local(), points);
-                                       return points;
-                                   }) &
-                               tbb::make_filter<std::vector<ScanPoint>, void>(
-                                   tbb::filter_mode::serial_in_order,
-                                   [&](std::vector<ScanPoint> points) { sink(points); }));
+    tbb::parallel_pipeline(
+        tokens, tbb::make_filter<void, uint64_t>(tbb::filter_mode::serial_in_order,
+                                                 [&](tbb::flow_control& fc) -> uint64_t {
+                                                     if (nextBlock >= blocks) {
+                                                         fc.stop();
+                                                         return 0;
+                                                     }
+                                                     return nextBlock++;
+                                                 }) &
+                    tbb::make_filter<uint64_t, std::vector<ScanPoint>>(
+                        tbb::filter_mode::parallel,
+                        [&](uint64_t b) {
+                            std::vector<ScanPoint> points;
+                            const uint64_t k0 = b * B;
+                            scanner.block(k0, std::min(B, result.pulses - k0), work.local(),
+                                          points);
+                            return points;
+                        }) &
+                    tbb::make_filter<std::vector<ScanPoint>, void>(
+                        tbb::filter_mode::serial_in_order, [&](std::vector<ScanPoint> points) {
+                            sink(points);
+                            done = std::min(result.pulses, done + B);
+                            if (progress) progress(done, result.pulses);
+                        }));
     return result;
 }
 
 ScanResult scan(const ScanScene& scene, const ScanOptions& options, uint64_t seed,
                 const ScanTuning& tuning, const ScanProgress& progress) {
     std::vector<ScanPoint> all;
-    const uint64_t total = surveyPulses(scene, options);
-    const uint64_t block = static_cast<uint64_t>(std::max(1, tuning.pulsesPerBlock));
-    uint64_t done = 0;
     ScanResult r = scanInto(
         scene, options, seed,
         [&](std::vector<ScanPoint>& points) {
             all.insert(all.end(), points.begin(), points.end());
-            done = std::min(total, done + block);  // the sink runs once per block, in order
-            if (progress) progress(done, total);
         },
-        tuning);
+        tuning, progress);
     r.points = std::move(all);
     return r;
 }

@@ -51,10 +51,11 @@ ScanResult scan(const ScanScene& scene, const ScanOptions& options, uint64_t see
                 const ScanTuning& tuning = {}, const ScanProgress& progress = {});
 
 // The same, handing the points to `sink` in pulse order, a block of pulses at a time (memory
-// stays bounded: a few blocks per thread in flight); the result's points stay empty.
+// stays bounded: a few blocks per thread in flight), and `progress` after each; the result's
+// points stay empty.
 ScanResult scanInto(const ScanScene& scene, const ScanOptions& options, uint64_t seed,
                     const std::function<void(std::vector<ScanPoint>&)>& sink,
-                    const ScanTuning& tuning = {});
+                    const ScanTuning& tuning = {}, const ScanProgress& progress = {});
 
 // The survey's pulse count (under the `pulses` cap).
 uint64_t surveyPulses(const ScanScene& scene, const ScanOptions& options);
