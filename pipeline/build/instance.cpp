@@ -178,7 +178,9 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
         w.record["index"] = job.index;
         w.record["seed"] = hex64(job.seed);
         w.writeMs = msSince(t0);
-        w.record["timing"] = {{"grow_ms", w.growMs}, {"write_ms", w.writeMs}};
+        // writePlot's timing (the scan's, within write_ms) first, then the stages'.
+        w.record["timing"]["grow_ms"] = w.growMs;
+        w.record["timing"]["write_ms"] = w.writeMs;
         return;
     }
     const SpeciesFile& species = job.entry->species;
@@ -316,7 +318,10 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
                      {"mesh_ms", w.meshMs},
                      {"render_ms", w.renderMs},
                      {"write_ms", w.writeMs}};
-    if (w.scan) rec["timing"]["scan_ms"] = w.scanMs;
+    if (w.scan) {
+        rec["timing"]["scan_ms"] = w.scanMs;
+        rec["timing"]["scan_scene_ms"] = w.scan->sceneMs;
+    }
 }
 
 }  // namespace sylva

@@ -214,7 +214,10 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     rec["files"] = files;
     rec["bytes_written"] = bytes;
     rec["stats"] = statsJson;
-    if (scan) rec["scan"] = scan->stats;
+    if (scan) {
+        rec["scan"] = scan->stats;
+        rec["timing"] = {{"scan_ms", scan->totalMs}, {"scan_scene_ms", scan->sceneMs}};
+    }
     return rec;
 }
 

@@ -1,6 +1,7 @@
 #include "pipeline/build/scan_instance.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "core/rng.h"
@@ -31,6 +32,10 @@ const char* systemIdentifier(ScanPlatform p) {
             return "sylva ULS simulation";
     }
     return "sylva simulation";
+}
+
+double msSince(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
 uint64_t fileSize(const fs::path& p) {
@@ -73,9 +78,11 @@ double treeGroundHalfSize(const Tree& tree, const ScanOptions& options) {
 InstanceScan scanTree(const Tree& tree, const TreeMesh& mesh, const std::vector<int32_t>& woodNodes,
                       const ScanOutputs& scan, bool leafOutlines, uint64_t seed,
                       const fs::path& spoolDir) {
+    const auto t0 = std::chrono::steady_clock::now();
     const double half = treeGroundHalfSize(tree, scan.options);
     const ScanScene scene = makeScanScene(tree, mesh, woodNodes, half, leafOutlines);
     InstanceScan s;
+    s.sceneMs = msSince(t0);
     s.points = std::make_unique<ScanPointSpool>(spoolDir);
     ScanStats stats(tlsStations(scan.options), 4 * half * half, scan.options.maxReturns);
     stats.addTree(1, tree);
@@ -83,13 +90,16 @@ InstanceScan scanTree(const Tree& tree, const TreeMesh& mesh, const std::vector<
     s.stats = stats.json(s.result.pulses);
     s.stats["platform"] = scanPlatformName(scan.options.platform);
     s.stats["ground_m2"] = 4 * half * half;
+    s.totalMs = msSince(t0);
     return s;
 }
 
 InstanceScan scanPlot(const GrownPlot& plot, const PlotScene& scene, const ScanOutputs& scan,
                       uint64_t seed, const fs::path& spoolDir, const ScanProgress& progress) {
+    const auto t0 = std::chrono::steady_clock::now();
     const ScanScene s3 = makeScanScene(plot, scene);
     InstanceScan s;
+    s.sceneMs = msSince(t0);
     s.points = std::make_unique<ScanPointSpool>(spoolDir);
     const double area = plot.spec->area.area();
     ScanStats stats(tlsStations(scan.options), area, scan.options.maxReturns);
@@ -101,6 +111,7 @@ InstanceScan scanPlot(const GrownPlot& plot, const PlotScene& scene, const ScanO
     s.stats = stats.json(s.result.pulses);
     s.stats["platform"] = scanPlatformName(scan.options.platform);
     s.stats["ground_m2"] = area;
+    s.totalMs = msSince(t0);
     return s;
 }
 

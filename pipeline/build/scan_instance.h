@@ -28,6 +28,8 @@ struct InstanceScan {
     std::unique_ptr<ScanPointSpool> points;
     ScanResult result;
     nlohmann::json stats;
+    double sceneMs = 0;  // the scene and its BVH
+    double totalMs = 0;  // the scene and the survey traced into the spool
 };
 
 // The ground square under a single tree: half its side in metres — the tree's horizontal reach

@@ -99,6 +99,8 @@ void checkPoint(const ScanPoint& p, size_t index) {
     }
     if (!std::isfinite(p.gpsTime)) fail("non-finite GPS time");
     if (!std::isfinite(p.scanAngleDeg)) fail("non-finite scan angle");
+    if (!std::isfinite(p.elevationDeg)) fail("non-finite elevation");
+    if (!std::isfinite(p.labelPurity)) fail("non-finite label purity");
     if (p.numberOfReturns < 1 || p.numberOfReturns > 15) {
         fail("number of returns " + std::to_string(p.numberOfReturns) + " outside 1 … 15");
     }
@@ -109,10 +111,23 @@ void checkPoint(const ScanPoint& p, size_t index) {
     if (p.channel > 3) fail("scanner channel " + std::to_string(p.channel) + " > 3");
 }
 
+// Rounds half away from zero, as std::llround, inline: the libm calls for the coordinates and
+// the scan angle were a fifth of the LAS encoding time (bench ScanWrite: 100 → 79 ms per
+// million points). Finite |x| < 2⁶³ only; the callers check.
+int64_t roundHalfAway(double x) {
+    return x >= 0 ? static_cast<int64_t>(x + 0.5) : -static_cast<int64_t>(0.5 - x);
+}
+
 // The extra-byte values of a point, in kLasExtraBytes order.
-std::array<int64_t, 6> extraValues(const ScanPoint& p) {
-    return {p.label.treeId,   p.label.species,     p.semantic,
-            p.label.objectId, p.label.branchOrder, p.label.nodeId};
+std::array<int64_t, kLasExtraBytes.size()> extraValues(const ScanPoint& p) {
+    return {p.label.treeId,
+            p.label.species,
+            p.semantic,
+            p.label.objectId,
+            p.label.branchOrder,
+            p.label.nodeId,
+            roundHalfAway(std::clamp(static_cast<double>(p.elevationDeg), -90.0, 90.0) / 0.01),
+            roundHalfAway(std::clamp(static_cast<double>(p.labelPurity), 0.0, 1.0) / 0.01)};
 }
 
 // Everything the header needs, from one pass over the points (which it also checks).
@@ -120,15 +135,8 @@ struct LasSummary {
     Vec3 rawMin{0, 0, 0}, rawMax{0, 0, 0};  // survey frame, metres
     Vec3 offset{0, 0, 0};
     std::array<uint64_t, 15> byReturn{};
-    std::array<int64_t, 6> ebMin{}, ebMax{};
+    std::array<int64_t, kLasExtraBytes.size()> ebMin{}, ebMax{};
 };
-
-// Rounds half away from zero, as std::llround, inline: the libm calls for the coordinates and
-// the scan angle were a fifth of the LAS encoding time (bench ScanWrite: 100 → 79 ms per
-// million points). Finite |x| < 2⁶³ only; the callers check.
-int64_t roundHalfAway(double x) {
-    return x >= 0 ? static_cast<int64_t>(x + 0.5) : -static_cast<int64_t>(0.5 - x);
-}
 
 // The stored integer of coordinate v on an axis.
 int64_t quantize(double v, double offset, double scale) {
@@ -156,7 +164,7 @@ LasSummary summarize(const ScanPointSource& points, const LasOptions& options) {
             }
             ++s.byReturn[p.returnNumber - 1];
             const auto eb = extraValues(p);
-            for (int k = 0; k < 6; ++k) {
+            for (size_t k = 0; k < eb.size(); ++k) {
                 s.ebMin[k] = std::min(s.ebMin[k], eb[k]);
                 s.ebMax[k] = std::max(s.ebMax[k], eb[k]);
             }
@@ -197,8 +205,9 @@ void putVlr(std::string& o, std::string_view userId, uint16_t recordId,
 }
 
 // The Extra Bytes VLR payload: one 192-byte descriptor per field (LAS 1.4 R15, "Extra Bytes").
-// Options: min and max (bits 1, 2) when the file has points, the no_data value −1 (bit 0) for
-// node_id; integers upcast to 8 bytes (signed as int64, unsigned as uint64); no scale or offset.
+// Options: for the unscaled fields min and max (bits 1, 2) when the file has points, the no_data
+// value −1 (bit 0) for node_id, integers upcast to 8 bytes (signed as int64, unsigned as
+// uint64); for the scaled ones the scale (bit 3) alone.
 std::string extraBytesPayload(const LasSummary& s, bool hasPoints) {
     std::string o;
     for (size_t k = 0; k < kLasExtraBytes.size(); ++k) {
@@ -208,22 +217,23 @@ std::string extraBytesPayload(const LasSummary& s, bool hasPoints) {
         auto put8 = [&](int64_t v) {
             isSigned ? putI64(o, v) : putU64(o, static_cast<uint64_t>(v));
         };
+        const bool scaled = eb.scale > 0, range = hasPoints && !scaled;
         const size_t start = o.size();
         putU16(o, 0);  // reserved
         putU8(o, eb.dataType);
-        putU8(o, static_cast<uint8_t>((noData ? 1 : 0) | (hasPoints ? 2 | 4 : 0)));
+        putU8(o, static_cast<uint8_t>((noData ? 1 : 0) | (range ? 2 | 4 : 0) | (scaled ? 8 : 0)));
         putText(o, eb.name, 32);
         o.append(4, '\0');  // unused
         put8(noData ? -1 : 0);
         o.append(16, '\0');  // deprecated1
-        put8(hasPoints ? s.ebMin[k] : 0);
+        put8(range ? s.ebMin[k] : 0);
         o.append(16, '\0');  // deprecated2
-        put8(hasPoints ? s.ebMax[k] : 0);
-        o.append(16, '\0');  // deprecated3
-        putF64(o, 0);        // scale (unused)
-        o.append(16, '\0');  // deprecated4
-        putF64(o, 0);        // offset (unused)
-        o.append(16, '\0');  // deprecated5
+        put8(range ? s.ebMax[k] : 0);
+        o.append(16, '\0');   // deprecated3
+        putF64(o, eb.scale);  // scale (0 when unused)
+        o.append(16, '\0');   // deprecated4
+        putF64(o, 0);         // offset (unused)
+        o.append(16, '\0');   // deprecated5
         putText(o, eb.description, 32);
         if (o.size() - start != kExtraBytesDescriptorSize) {
             throw std::logic_error("extra bytes descriptor is not 192 bytes");
@@ -322,7 +332,7 @@ void encodeLas(const ScanPointSource& points, const LasOptions& options, const S
         c.u8(p.label.part);  // user data: the ScanPart hit
         const double angle = std::clamp(p.scanAngleDeg / 0.006, -30000.0, 30000.0);
         c.i16(static_cast<int16_t>(roundHalfAway(angle)));
-        c.u16(p.sourceId);  // point source ID: the TLS station or flight strip index
+        c.u16(p.sourceId);  // point source ID: the TLS station or flight strip index + 1
         c.f64(options.gpsStart + p.gpsTime);
         if (rgb) {
             const auto col = options.colour == LasColour::kClass ? lasClassColour(p.classification)
@@ -335,6 +345,9 @@ void encodeLas(const ScanPointSource& points, const LasOptions& options, const S
         c.i32(p.label.objectId);
         c.u8(p.label.branchOrder);
         c.i32(p.label.nodeId);
+        const auto eb = extraValues(p);
+        c.i16(static_cast<int16_t>(eb[6]));
+        c.u8(static_cast<uint8_t>(eb[7]));
     });
 }
 

@@ -46,25 +46,30 @@ inline Vec3 surveyFrame(double x, double y, double z) { return {x, -z, y}; }
 // (LasOptions::gpsStart), not the clock, so reruns write identical bytes.
 // VLRs: (1) LASF_Projection 2112, the OGC WKT of a local engineering CRS in metres (kLasWkt);
 // (2) LASF_Spec 4, the Extra Bytes descriptors of kLasExtraBytes.
-// Records: point format 6 (30 bytes) or 7 (36, with RGB), then 16 extra bytes.
+// Records: point format 6 (30 bytes) or 7 (36, with RGB), then 19 extra bytes.
 
-// The label fields after each base record, in this order (names as ForestFormer3D's and
-// FOR-instance's LAS files spell them; unscaled integers).
+// The fields after each base record, in this order: the labels (names as ForestFormer3D's and
+// FOR-instance's LAS files spell them; unscaled integers, with their min and max), then the
+// beam's elevation and the label's purity (scaled: stored integer × scale; no min or max, whose
+// encoding for scaled fields readers disagree on).
 struct LasExtraByte {
     const char* name;         // ≤ 32 characters
-    uint8_t dataType;         // LAS 1.4 R15 Table "Values for data_type": 1 u8, 3 u16, 6 i32
+    uint8_t dataType;         // LAS 1.4 R15 Table "Values for data_type": 1 u8, 3 u16, 4 i16, 6 i32
     uint8_t size;             // bytes
     const char* description;  // ≤ 32 characters
+    double scale;             // 0: an unscaled integer
 };
-inline constexpr std::array<LasExtraByte, 6> kLasExtraBytes{{
-    {"treeID", 6, 4, "tree id, 0 = no tree"},
-    {"treeSP", 3, 2, "species index"},
-    {"semantic_seg", 1, 1, "1 ground, 2 wood, 3 leaf"},
-    {"hitObjectId", 6, 4, "scene object hit"},
-    {"branch_order", 1, 1, "branch order, 0 = stem"},
-    {"node_id", 6, 4, "skeleton node hit, -1 = none"},
+inline constexpr std::array<LasExtraByte, 8> kLasExtraBytes{{
+    {"treeID", 6, 4, "tree id, 0 = no tree", 0},
+    {"treeSP", 3, 2, "species index", 0},
+    {"semantic_seg", 1, 1, "1 ground, 2 wood, 3 leaf", 0},
+    {"hitObjectId", 6, 4, "scene object hit", 0},
+    {"branch_order", 1, 1, "branch order, 0 = stem", 0},
+    {"node_id", 6, 4, "skeleton node hit, -1 = none", 0},
+    {"elevation", 4, 2, "beam above the horizon, deg", 0.01},
+    {"label_purity", 1, 1, "label's share of the echo", 0.01},
 }};
-constexpr int kLasExtraBytesSize = 16;  // sum of the sizes above
+constexpr int kLasExtraBytesSize = 19;  // sum of the sizes above
 
 // OGC WKT (CT 1.0, section 7) of the scene's local engineering CRS: metres, x east, y north, its
 // origin the scene origin (a tree's base, or the plot centre at x = z = 0, height 0); z is up in

@@ -54,6 +54,11 @@ struct ScanOptions {
     double verticalFov = 100 * kScanDeg;      // radians, (0, π]
     double verticalCentre = 10 * kScanDeg;    // elevation of the vertical field's centre
     double azimuth = 0;                       // compass azimuth of the horizontal field's centre
+    // The angle the mirror sweeps the beam through per column, of which the vertical field is
+    // shot and the rest is dead time (the laser fires at pulseRate throughout). The VZ-400's
+    // polygon mirror: 240° (HELIOS++ data/scanners_tls.xml, riegl_vz400: scanAngleMax 120°,
+    // effective 50°, i.e. 100° of a ±120° line).
+    double lineSweep = 240 * kScanDeg;  // radians, [verticalFov, 2π]
 
     // --- ALS / ULS (defaults per platform: defaultScanOptions)
     double altitude = 500;             // metres above the terrain at the scene's centre

@@ -37,6 +37,8 @@ void ScanPattern::plan(const Aabb& area, const std::function<double(double, doub
                  : static_cast<uint64_t>(std::floor(o_.horizontalFov / o_.horizontalStep + 1e-9)) +
                        1;
         rows_ = static_cast<uint64_t>(std::floor(o_.verticalFov / o_.verticalStep + 1e-9)) + 1;
+        shotsPerColumn_ =
+            std::max(rows_, static_cast<uint64_t>(std::llround(o_.lineSweep / o_.verticalStep)));
         azimuth0_ = o_.azimuth - (full ? kPi : o_.horizontalFov / 2);
         elevation0_ = o_.verticalCentre - o_.verticalFov / 2;
         count_ = columns_ * rows_ * stations_.size();
@@ -106,8 +108,11 @@ void ScanPattern::pulse(uint64_t k, ScanPulse& p) const {
         const double el = elevation0_ + static_cast<double>(row) * o_.verticalStep;
         p.origin = stations_[s];
         p.direction = compassDirection(az, el);
-        p.time = static_cast<double>(k) / o_.pulseRate;
-        p.scanAngleDeg = static_cast<float>(el / kScanDeg);
+        p.time = static_cast<double>((s * columns_ + col) * shotsPerColumn_ + row) / o_.pulseRate;
+        // The head turns clockwise (seen from above), so the beam lies to the left of its
+        // travel: seen from behind, facing along it, the beam turns clockwise from the
+        // downward vertical (LAS 1.4: negative) through 90° + the elevation.
+        p.scanAngleDeg = static_cast<float>(-(90 + el / kScanDeg));
         p.source = static_cast<uint16_t>(s);
         p.scanDirection = true;
         p.edge = row == 0 || row + 1 == rows_;
@@ -148,10 +153,10 @@ std::vector<ScanPose> ScanPattern::trajectory(uint64_t pulses) const {
         const uint64_t perStation = columns_ * rows_;
         for (size_t s = 0; s < stations_.size() && s * perStation < pulses; ++s) {
             ScanPose pose;
-            pose.gpsTime = static_cast<double>(s * perStation) / o_.pulseRate;
+            pose.gpsTime = static_cast<double>(s * columns_ * shotsPerColumn_) / o_.pulseRate;
             pose.x = stations_[s].x, pose.y = stations_[s].y, pose.z = stations_[s].z;
             pose.channel = static_cast<uint8_t>(s % 4);
-            pose.sourceId = static_cast<uint16_t>(s);
+            pose.sourceId = static_cast<uint16_t>(s + 1);
             out.push_back(pose);
         }
         return out;
@@ -171,7 +176,7 @@ std::vector<ScanPose> ScanPattern::trajectory(uint64_t pulses) const {
         if (heading < 0) heading += 360;
         pose.headingDeg = heading;
         pose.channel = static_cast<uint8_t>(i % 4);
-        pose.sourceId = static_cast<uint16_t>(i);
+        pose.sourceId = static_cast<uint16_t>(i + 1);
         out.push_back(pose);
     }
     return out;

@@ -3,8 +3,11 @@
 //
 // TLS: per station (in order) a grid of columns (azimuth, clockwise from the start of the
 // horizontal field) × rows (elevation, bottom to top within a column, as a rotating mirror
-// sweeps); pulse k of a station is column k / rows, row k % rows, at k / pulse_rate seconds
-// after the station's first pulse; stations follow each other without a pause.
+// sweeps); pulse k of a station is column k / rows, row k % rows. The laser fires at pulse_rate
+// while the mirror sweeps `line_sweep` per column, of which only the vertical field is shot: a
+// column takes round(line_sweep / vertical_step) shot times, so row r of column c leaves at
+// (c · that + r) / pulse_rate seconds after the station's first pulse (the rest is the mirror's
+// dead time); stations follow each other without a pause.
 // ALS/ULS: parallel strips over the scene's area (serpentine: every other strip flown back),
 // `L = round(pulse_rate / scan_rate)` shots per scan line; an oscillating mirror sweeps −max →
 // +max and back (every shot emitted), a rotating one turns a full circle per line (shots within
@@ -28,7 +31,8 @@ struct ScanPulse {
     Vec3 origin;
     Vec3 direction;              // unit
     double time = 0;             // seconds since the survey began
-    float scanAngleDeg = 0;      // from nadir, + to the right of travel (ALS/ULS); elevation (TLS)
+    float scanAngleDeg = 0;      // LAS 1.4: from the downward vertical, + counter-clockwise
+                                 // seen from behind facing along the travel (ScanPoint)
     uint16_t source = 0;         // station or strip index
     bool scanDirection = false;  // mirror moving left → right (+)
     bool edge = false;           // first or last shot of a scan line
@@ -42,6 +46,7 @@ class ScanPattern {
     ScanPattern(const Aabb& area, const ScanOptions& options);
 
     uint64_t count() const { return count_; }  // every pulse of the survey (no cap)
+    size_t sources() const { return stations_.size() + strips_.size(); }  // stations or strips
     void pulse(uint64_t k, ScanPulse& out) const;
     // Stations (TLS) or the platform at the start of every scan line (ALS/ULS), for the pulses
     // [0, pulses).
@@ -54,7 +59,7 @@ class ScanPattern {
     uint64_t count_ = 0;
     // TLS
     std::vector<Vec3> stations_;
-    uint64_t columns_ = 0, rows_ = 0;
+    uint64_t columns_ = 0, rows_ = 0, shotsPerColumn_ = 0;
     double azimuth0_ = 0, elevation0_ = 0;
     // ALS/ULS
     struct Strip {

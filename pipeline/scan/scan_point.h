@@ -61,13 +61,20 @@ struct ScanPoint {
     uint16_t intensity = 0;       // 0 … 65535, from incidence angle and part reflectance
     uint8_t returnNumber = 1;     // 1 … numberOfReturns
     uint8_t numberOfReturns = 1;  // returns of this pulse, ≤ the scanner's maximum (≤ 15)
-    uint8_t channel = 0;    // scanner channel: the TLS station or ALS/ULS strip index (0 … 3)
-    uint16_t sourceId = 0;  // LAS point source ID: the station or strip index (0 … 65535)
+    uint8_t channel = 0;          // scanner channel: the TLS station or ALS/ULS strip index mod 4
+    uint16_t sourceId = 0;  // LAS point source ID: the station or strip index + 1 (1 … 65535)
     bool scanDirection = false;  // LAS scan direction flag (mirror moving +)
     bool edgeOfFlightLine = false;
-    float scanAngleDeg = 0;  // from nadir (ALS/ULS) or the station's horizon (TLS)
-    uint64_t pulse = 0;      // the pulse's index in the survey
-    ScanLabel label;         // of the triangle hit
+    // LAS 1.4: from the downward vertical, + counter-clockwise seen from behind the sensor facing
+    // along its travel: ALS/ULS from nadir, + to the right of the flight; TLS −(90° + elevation),
+    // the beam lying to the left of the head's clockwise turn.
+    float scanAngleDeg = 0;
+    float elevationDeg = 0;  // the beam above the horizon (−90 … 90)
+    // The share of the return's echo energy from the surfaces of its label (tree and semantic
+    // class, which the point carries): 1 when every sub-ray of the return hit one class.
+    float labelPurity = 1;
+    uint64_t pulse = 0;                         // the pulse's index in the survey
+    ScanLabel label;                            // of the triangle hit
     uint8_t classification = kForUnclassified;  // ForInstanceClass
     uint8_t semantic = kSemNone;                // SemanticClass
 };
@@ -78,7 +85,7 @@ struct ScanPose {
     double x = 0, y = 0, z = 0;  // scene frame, metres
     double headingDeg = 0;       // direction of travel (ALS/ULS) or 0 (TLS)
     uint8_t channel = 0;
-    uint16_t sourceId = 0;  // the station or strip index (ScanPoint::sourceId)
+    uint16_t sourceId = 0;  // the station or strip index + 1 (ScanPoint::sourceId)
 };
 
 struct ScanResult {

@@ -11,7 +11,7 @@ namespace {
 
 const std::vector<std::string> kTlsKeys = {
     "stations",         "horizontal_step_deg", "vertical_step_deg", "horizontal_fov_deg",
-    "vertical_fov_deg", "vertical_centre_deg", "azimuth_deg"};
+    "vertical_fov_deg", "vertical_centre_deg", "azimuth_deg",       "line_sweep_deg"};
 const std::vector<std::string> kAirborneKeys = {"altitude",       "speed",       "strip_spacing",
                                                 "overlap",        "heading_deg", "scan_rate",
                                                 "scan_angle_deg", "mirror"};
@@ -97,6 +97,8 @@ ScanOptions readScanOptions(Params& p) {
         o.verticalCentre =
             p.degrees("vertical_centre_deg", o.verticalCentre, Range::closed(-90, 90));
         o.azimuth = p.degrees("azimuth_deg", o.azimuth, Range::closed(-360, 360));
+        o.lineSweep = p.degrees("line_sweep_deg", std::max(o.lineSweep, o.verticalFov),
+                                Range::closed(o.verticalFov / kScanDeg, 360));
         if (std::abs(o.verticalCentre) + o.verticalFov / 2 > kPi / 2 + 1e-9) {
             p.fail(p.has("vertical_centre_deg") ? "vertical_centre_deg" : "vertical_fov_deg",
                    "expected the vertical field within ±90° of the horizon, got " +

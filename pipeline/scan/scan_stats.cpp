@@ -86,7 +86,8 @@ void ScanStats::addPoints(const std::vector<ScanPoint>& points) {
         ++points_;
         if (!inside_ || inside_(p.x, p.z)) ++areaPoints_;
         ++classCount_[p.classification & 15];
-        if (p.sourceId < perStation_.size()) ++perStation_[p.sourceId];
+        // Point source IDs count stations from 1.
+        if (p.sourceId >= 1 && p.sourceId <= perStation_.size()) ++perStation_[p.sourceId - 1];
         if (p.returnNumber == 1) ++returnsHistogram_[std::min<int>(p.numberOfReturns, 15)];
         if (p.label.treeId > 0 && p.label.nodeId >= 0) {
             if (TreeWood* w = find(p.label.treeId)) {

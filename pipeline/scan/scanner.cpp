@@ -167,6 +167,18 @@ struct Work {
     std::vector<RTCRayHit> scratch;
     std::vector<HitRec> hits, sorted;
     std::vector<uint32_t> offset;
+    // returns(): per sub-ray, its strongest echo in the return being made (−1: none yet) and
+    // that hit; per (tree, semantic class) group, its echo energy and strongest hit.
+    std::vector<double> subEcho;
+    std::vector<const HitRec*> subHit;
+    struct Group {
+        int32_t tree;
+        uint8_t semantic;
+        double energy, weight;        // summed over the group's sub-rays
+        double bestEcho, bestWeight;  // its strongest hit (by echo, then beam weight) …
+        ResolvedHit resolved;         // … and what it hit
+    };
+    std::vector<Group> groups;
 };
 
 class Scanner {
@@ -180,6 +192,11 @@ class Scanner {
           tuning_(tuning) {
         count_ = pattern_.count();
         if (o.maxPulses > 0) count_ = std::min<uint64_t>(count_, o.maxPulses);
+        if (pattern_.sources() > 65535) {
+            throw InputError("scan: the survey has " + std::to_string(pattern_.sources()) +
+                             " stations or strips, more than the 65,535 point source IDs of LAS:"
+                             " widen strip_spacing or use fewer stations");
+        }
         if (static_cast<double>(count_) > kMaxScanSurveyPulses) {
             throw InputError("scan: the survey has " + std::to_string(count_) +
                              " pulses, more than 1e9: cap it with [scan] pulses or scan less");
@@ -299,14 +316,16 @@ class Scanner {
                 for (; b > first && before(x, *(b - 1)); --b) *b = *(b - 1);
                 *b = x;
             }
-            if (first != last) returns(k0 + i, w.pulses[i], w.pulseSeed[i], first, last, points);
+            if (first != last) {
+                returns(k0 + i, w.pulses[i], w.pulseSeed[i], first, last, w, points);
+            }
         }
     }
 
   private:
     // The returns of one pulse from its hits sorted by range.
     void returns(uint64_t k, const ScanPulse& p, uint64_t pulseSeed, const HitRec* first,
-                 const HitRec* last, std::vector<ScanPoint>& points) const {
+                 const HitRec* last, Work& w, std::vector<ScanPoint>& points) const {
         // Cluster boundaries.
         const HitRec* bounds[16];
         int clusters = 0;
@@ -320,19 +339,61 @@ class Scanner {
         // The ray origin as Embree had it (float).
         const Vec3 o{static_cast<float>(p.origin.x), static_cast<float>(p.origin.y),
                      static_cast<float>(p.origin.z)};
+        const double elevation = std::asin(std::clamp(p.direction.y, -1.0, 1.0)) / kScanDeg;
+        w.subEcho.assign(beam_.weight.size(), -1.0);
+        w.subHit.assign(beam_.weight.size(), nullptr);
         for (int c = 0; c < clusters; ++c) {
-            double wsum = 0, energy = 0;
+            // Position: the beam-weighted mean of every hit. Energy: every sub-ray counts once,
+            // at its strongest echo w ρ |cos| in the return. A sub-ray that went on through a
+            // leaf (leaf_transmission) and met another surface within the same return would
+            // otherwise add its whole weight again, making a few returns in dense foliage
+            // brighter than any bark; across returns the draw stands (in expectation the
+            // transmitted share of its energy).
+            double wsum = 0;
             Vec3 pos{0, 0, 0};
-            const HitRec* strongest = bounds[c];
             for (const HitRec* h = bounds[c]; h < bounds[c + 1]; ++h) {
-                const double w = beam_.weight[h->sub];
+                const double wt = beam_.weight[h->sub];
                 const Vec3 d{h->d[0], h->d[1], h->d[2]};  // the ray Embree traced
-                pos += (o + d * static_cast<double>(h->t)) * w;
-                wsum += w;
+                pos += (o + d * static_cast<double>(h->t)) * wt;
+                wsum += wt;
                 const SurfaceKind kind = s_.geometry(h->geomID, h->instID).kind;
-                energy += w * reflectance(o_, kind) * h->cosine;
-                if (w > beam_.weight[strongest->sub]) strongest = h;
+                const double echo = wt * reflectance(o_, kind) * h->cosine;
+                if (echo > w.subEcho[h->sub]) w.subEcho[h->sub] = echo, w.subHit[h->sub] = h;
             }
+            // The label: the (tree, semantic class) whose surfaces echo most of the energy (by
+            // beam weight where nothing echoes), named by its strongest hit; its share of the
+            // energy is the point's label purity. The position mixes every surface of the
+            // return, the label the one that dominates it.
+            w.groups.clear();
+            double energy = 0;
+            for (const HitRec* h = bounds[c]; h < bounds[c + 1]; ++h) {
+                if (w.subHit[h->sub] != h) continue;
+                const double echo = w.subEcho[h->sub], wt = beam_.weight[h->sub];
+                w.subEcho[h->sub] = -1.0, w.subHit[h->sub] = nullptr;  // ready for the next
+                energy += echo;
+                const ResolvedHit res = s_.resolve(h->geomID, h->primID, h->instID);
+                Work::Group* g = nullptr;
+                for (Work::Group& x : w.groups) {
+                    if (x.tree == res.label.treeId && x.semantic == res.semantic) g = &x;
+                }
+                if (!g) {
+                    w.groups.push_back({res.label.treeId, res.semantic, 0, 0, -1, -1, res});
+                    g = &w.groups.back();
+                }
+                g->energy += echo, g->weight += wt;
+                if (echo > g->bestEcho || (echo == g->bestEcho && wt > g->bestWeight)) {
+                    g->bestEcho = echo, g->bestWeight = wt, g->resolved = res;
+                }
+            }
+            const bool byEnergy = energy > 0;
+            double total = 0;
+            const Work::Group* top = &w.groups.front();
+            for (const Work::Group& g : w.groups) {
+                const double v = byEnergy ? g.energy : g.weight;
+                total += v;
+                if (v > (byEnergy ? top->energy : top->weight)) top = &g;
+            }
+            const double purity = total > 0 ? (byEnergy ? top->energy : top->weight) / total : 1;
             pos = pos / wsum;
             pos += p.direction * rng.normal(0.0, o_.rangeNoise);
             double intensity = energy / beam_.totalWeight;
@@ -342,8 +403,7 @@ class Scanner {
                     intensity *= (o_.referenceRange / range) * (o_.referenceRange / range);
                 }
             }
-            const ResolvedHit res =
-                s_.resolve(strongest->geomID, strongest->primID, strongest->instID);
+            const ResolvedHit& res = top->resolved;
             ScanPoint pt;
             pt.x = pos.x, pt.y = pos.y, pt.z = pos.z;
             pt.gpsTime = p.time;
@@ -351,10 +411,12 @@ class Scanner {
                 static_cast<uint16_t>(std::lround(65535.0 * std::clamp(intensity, 0.0, 1.0)));
             pt.returnNumber = static_cast<uint8_t>(c + 1);
             pt.channel = static_cast<uint8_t>(p.source % 4);
-            pt.sourceId = p.source;
+            pt.sourceId = static_cast<uint16_t>(p.source + 1);  // LAS: 0 is "no source"
             pt.scanDirection = p.scanDirection;
             pt.edgeOfFlightLine = p.edge;
             pt.scanAngleDeg = p.scanAngleDeg;
+            pt.elevationDeg = static_cast<float>(elevation);
+            pt.labelPurity = static_cast<float>(purity);
             pt.pulse = k;
             pt.label = res.label;
             pt.classification = res.classification;

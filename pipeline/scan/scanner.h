@@ -14,9 +14,10 @@
 // probability leaf_transmission (and still returns an echo). The sub-rays' hits sorted by range
 // fall into returns wherever two consecutive hits are at least min_separation apart ("full
 // waveform lite"); the first max_returns are recorded, each at the weighted mean of its hits plus
-// Gaussian noise along the beam, labelled by its strongest hit (the sub-ray nearest the axis),
-// with intensity Σ w ρ |cos incidence| / Σ w over the whole beam (× (reference_range / range)²
-// when reference_range > 0), scaled to 0 … 65535.
+// Gaussian noise along the beam, with intensity Σ w ρ |cos incidence| / Σ w over the whole beam
+// — every sub-ray counted once, at its strongest echo in the return — (× (reference_range /
+// range)² when reference_range > 0), scaled to 0 … 65535, and labelled by the (tree, semantic
+// class) whose echoes carry most of that energy, their share being the point's label purity.
 //
 // Determinism: pulse k's draws (φ, transmission, noise) come from Rng(seed) keyed by k, and the
 // points are gathered in pulse order, so the points are the same, bit for bit, on any number of

@@ -6,8 +6,9 @@
 //   - the header: version 1.4, 375 bytes, global encoding 17, point format 6 (formula.las) or 7
 //     (formula_rgb.las), record length, 2 VLRs, point count, points by return, scale, offset,
 //     bounds;
-//   - the VLRs: the WKT (LASF_Projection 2112) and the Extra Bytes (LASF_Spec 4): the six
-//     fields' names, types, sizes, minima and maxima, node_id's no-data value;
+//   - the VLRs: the WKT (LASF_Projection 2112) and the Extra Bytes (LASF_Spec 4): the eight
+//     fields' names, types, sizes, minima and maxima (the six labels), node_id's no-data value,
+//     the scale of elevation and label_purity;
 //   - every point, through the field readers copc builds from the header and the extra-bytes
 //     list: X, Y, Z within half the scale, intensity, return number and number of returns,
 //     scanner channel, scan direction, edge of flight line, classification, user data, scan
@@ -49,6 +50,9 @@ function scenePoint(i) {
         scanDirection: i % 2,
         edge: i % 11 === 0 ? 1 : 0,
         scanAngle: -45 + 0.3 * i,
+        // Stored as integers of 0.01 (float32 in the writer, rounded half away from zero).
+        elevation: Math.round(Math.fround(-40 + 0.37 * i) / 0.01),
+        label_purity: Math.round(Math.fround(0.2 + 0.1 * (i % 9)) / 0.01),
         treeID: i % 6,
         node_id: (i % 9) - 1,
         hitObjectId: (i * 13) % 1000,
@@ -66,14 +70,17 @@ const classColour = [
     [128, 128, 128], [154, 205, 50], [139, 115, 85], [255, 0, 255], [139, 69, 19],
     [34, 139, 34], [210, 180, 140],
 ];
-const extraBytes = [  // name, copc type, size, min, max over the formula
+const extraBytes = [  // name, copc type, size, min, max over the formula (none: scaled)
     ['treeID', 'signed', 4, 0, 5],
     ['treeSP', 'unsigned', 2, 0, 999],
     ['semantic_seg', 'unsigned', 1, 0, 3],
     ['hitObjectId', 'signed', 4, 0, 990],
     ['branch_order', 'unsigned', 1, 0, 3],
     ['node_id', 'signed', 4, -1, 7],
+    ['elevation', 'signed', 2, undefined, undefined],
+    ['label_purity', 'unsigned', 1, undefined, undefined],
 ];
+const scaled = new Set(['elevation', 'label_purity']);
 
 async function check(file, format) {
     const filename = path.join(dir, file);
@@ -84,7 +91,7 @@ async function check(file, format) {
     expectEq(w('header size'), header.headerLength, 375);
     expectEq(w('global encoding'), header.globalEncoding, 17);
     expectEq(w('point format'), header.pointDataRecordFormat, format);
-    expectEq(w('record length'), header.pointDataRecordLength, (format === 7 ? 36 : 30) + 16);
+    expectEq(w('record length'), header.pointDataRecordLength, (format === 7 ? 36 : 30) + 19);
     expectEq(w('VLR count'), header.vlrCount, 2);
     expectEq(w('point count'), header.pointCount, N);
     expectEq(w('generating software'), header.generatingSoftware.startsWith('sylva '), true);
@@ -117,7 +124,8 @@ async function check(file, format) {
         fail(w('no Extra Bytes VLR (LASF_Spec 4)'));
         return;
     }
-    const eb = Las.ExtraBytes.parse(await Las.Vlr.fetch(filename, ebVlr));
+    const ebPayload = await Las.Vlr.fetch(filename, ebVlr);
+    const eb = Las.ExtraBytes.parse(ebPayload);
     expectEq(w('extra-bytes fields'), eb.map((e) => e.name).join(','),
         extraBytes.map((e) => e[0]).join(','));
     for (const [name, type, size, min, max] of extraBytes) {
@@ -128,6 +136,11 @@ async function check(file, format) {
         expectEq(w(`${name} min`), e.min, min);
         expectEq(w(`${name} max`), e.max, max);
         expectEq(w(`${name} no-data`), e.nodata, name === 'node_id' ? -1 : undefined);
+        // copc sees whether a scale is set, but reads its double big-endian: read it here.
+        expectEq(w(`${name} has a scale`), e.scale !== undefined, scaled.has(name));
+        const k = eb.indexOf(e);
+        const dv = new DataView(ebPayload.buffer, ebPayload.byteOffset + 192 * k, 192);
+        expectEq(w(`${name} scale`), dv.getFloat64(112, true), scaled.has(name) ? 0.01 : 0);
     }
 
     // The points, through copc's field readers: Las.View builds one per dimension of the point
@@ -173,7 +186,15 @@ async function check(file, format) {
             expectEq(at('Blue'), get.Blue(i), c[2] * 257);
         }
         for (const [name] of extraBytes) {
-            if (get[name]) expectEq(at(name), get[name](i), p[name]);
+            if (!get[name]) continue;
+            if (!scaled.has(name)) {
+                expectEq(at(name), get[name](i), p[name]);
+                continue;
+            }
+            // copc's view multiplies by the scale it read (big-endian, as above): divided by
+            // that again, the stored integer.
+            const e = eb.find((v) => v.name === name);
+            expectNear(at(name), get[name](i) / e.scale, p[name], 1e-6);
         }
     }
 }
@@ -187,4 +208,4 @@ if (failures.length) {
     process.exit(1);
 }
 console.log(`check_scan: formula.las (format 6) and formula_rgb.las (format 7): ${N} points, ` +
-    'header, WKT, 6 extra-bytes fields and every field of every point as copc reads them');
+    'header, WKT, 8 extra-bytes fields and every field of every point as copc reads them');

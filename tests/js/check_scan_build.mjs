@@ -218,8 +218,10 @@ async function checkRecord(dir, spec, record) {
     });
     if (platform === 'tls') {
         const perStation = scan.points_per_station ?? [];
-        perStation.forEach((n, k) => expectEq(w(`scan.points_per_station[${k}] = points of source ${k}`), bySource.get(k) ?? 0, n));
+        // Station k's points carry point source ID k + 1 (LAS reads 0 as "no source").
+        perStation.forEach((n, k) => expectEq(w(`scan.points_per_station[${k}] = points of source ${k + 1}`), bySource.get(k + 1) ?? 0, n));
         expectEq(w('point source ids'), bySource.size <= perStation.length, true);
+        expectEq(w('no point of source 0'), bySource.has(0), false);
     }
     const listed = new Set();
     for (const t of scan.trees ?? []) {

@@ -45,6 +45,8 @@ def formula():
         "dir": i % 2,
         "edge": (i % 11 == 0).astype(int),
         "angle": -45 + 0.3 * i,
+        "elevation": (-40 + 0.37 * i).astype(np.float32).astype(np.float64),
+        "purity": (0.2 + 0.1 * (i % 9)).astype(np.float32).astype(np.float64),
         "tree": i % 6,
         "node": i % 9 - 1,
         "object": (i * 13) % 1000,
@@ -115,7 +117,8 @@ def read_las(path):
     if h["format"] == 7:
         fields += [("red", "<u2"), ("green", "<u2"), ("blue", "<u2")]
     fields += [("treeID", "<i4"), ("treeSP", "<u2"), ("semantic_seg", "u1"),
-               ("hitObjectId", "<i4"), ("branch_order", "u1"), ("node_id", "<i4")]
+               ("hitObjectId", "<i4"), ("branch_order", "u1"), ("node_id", "<i4"),
+               ("elevation", "<i2"), ("label_purity", "u1")]
     dtype = np.dtype(fields)
     assert dtype.itemsize == h["record_length"], (dtype.itemsize, h["record_length"])
     points = np.frombuffer(b, dtype, h["count"], h["point_offset"])
@@ -174,6 +177,9 @@ def main():
                            ("hitObjectId", "object"), ("branch_order", "order"),
                            ("node_id", "node")):
             assert np.array_equal(p[field], f[key]), field
+        # Scaled by 0.01, as their descriptors say.
+        assert np.abs(p["elevation"] * 0.01 - f["elevation"]).max() <= 0.005 + 1e-6
+        assert np.abs(p["label_purity"] * 0.01 - f["purity"]).max() <= 0.005 + 1e-6
         assert np.array_equal(treelearn_label(p["treeID"], p["classification"]), npy[:, 3])
 
     # The Python package's reader (sylva_dataset.read_las, Instance.scan) on the same files.
@@ -184,7 +190,8 @@ def main():
         assert las.header["point_format"] == fmt and las.header["point_count"] == N
         assert np.abs(las.positions - xyz).max() <= SCALE / 2 + 1e-9
         assert [d["name"] for d in las.extra] == ["treeID", "treeSP", "semantic_seg",
-                                                  "hitObjectId", "branch_order", "node_id"]
+                                                  "hitObjectId", "branch_order", "node_id",
+                                                  "elevation", "label_purity"]
         for field, key in (("treeID", "tree"), ("treeSP", "species"), ("semantic_seg", "sem"),
                            ("hitObjectId", "object"), ("branch_order", "order"),
                            ("node_id", "node"), ("classification", "cls"),
@@ -193,6 +200,8 @@ def main():
                            ("point_source_id", "source")):
             assert np.array_equal(las[field], f[key]), field
         assert np.allclose(las["gps_time"], GPS_START + f["gps"], rtol=0, atol=1e-9)
+        assert np.abs(las["elevation"] - f["elevation"]).max() <= 0.005 + 1e-6
+        assert np.abs(las["label_purity"] - f["purity"]).max() <= 0.005 + 1e-6
         assert ("red" in las.fields) == (fmt == 7)
 
     # Trajectory and stations (3 poses: scene (1.5k, 60 + k, −20 + 2.25k), heading 90).

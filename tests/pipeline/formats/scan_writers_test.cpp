@@ -43,6 +43,8 @@ ScanResult formulaScan(int n) {
         p.scanDirection = i % 2 == 1;
         p.edgeOfFlightLine = i % 11 == 0;
         p.scanAngleDeg = static_cast<float>(-45 + 0.3 * i);
+        p.elevationDeg = static_cast<float>(-40 + 0.37 * i);
+        p.labelPurity = static_cast<float>(0.2 + 0.1 * (i % 9));
         p.pulse = static_cast<uint64_t>(i);
         p.label.treeId = i % 6;
         p.label.nodeId = i % 9 - 1;
@@ -92,12 +94,12 @@ std::string text(const std::string& b, size_t offset, size_t n) {
 }
 
 constexpr size_t kWktVlrSize = 54;  // + the WKT and its NUL
-size_t pointOffset() { return 375 + kWktVlrSize + std::strlen(kLasWkt) + 1 + 54 + 6 * 192; }
+size_t pointOffset() { return 375 + kWktVlrSize + std::strlen(kLasWkt) + 1 + 54 + 8 * 192; }
 
 TEST(LasWriter, HeaderFieldsSitAtTheSpecificationsOffsets) {
     const ScanResult scan = formulaScan(300);
     const std::string b = lasBytes(scan);
-    ASSERT_EQ(b.size(), pointOffset() + 300 * 46);
+    ASSERT_EQ(b.size(), pointOffset() + 300 * 49);
     EXPECT_EQ(b.substr(0, 4), "LASF");
     EXPECT_EQ(at<uint16_t>(b, 4), 0);   // file source ID
     EXPECT_EQ(at<uint16_t>(b, 6), 17);  // adjusted standard GPS time | WKT
@@ -111,7 +113,7 @@ TEST(LasWriter, HeaderFieldsSitAtTheSpecificationsOffsets) {
     EXPECT_EQ(at<uint32_t>(b, 96), pointOffset());
     EXPECT_EQ(at<uint32_t>(b, 100), 2u);  // VLRs
     EXPECT_EQ(at<uint8_t>(b, 104), 6);    // point format
-    EXPECT_EQ(at<uint16_t>(b, 105), 46);  // 30 + 16 extra bytes
+    EXPECT_EQ(at<uint16_t>(b, 105), 49);  // 30 + 19 extra bytes
     EXPECT_EQ(at<uint32_t>(b, 107), 0u);  // legacy count: 0 for formats ≥ 6
     for (int k = 0; k < 5; ++k) EXPECT_EQ(at<uint32_t>(b, 111 + 4 * k), 0u);
     for (int a = 0; a < 3; ++a) EXPECT_EQ(at<double>(b, 131 + 8 * a), 0.001);
@@ -154,26 +156,27 @@ TEST(LasWriter, VlrsHoldTheWktAndTheExtraBytesDescriptors) {
     o += 54 + wktSize;
     EXPECT_EQ(text(b, o + 2, 16), "LASF_Spec");
     EXPECT_EQ(at<uint16_t>(b, o + 18), 4);
-    EXPECT_EQ(at<uint16_t>(b, o + 20), 6 * 192);
+    EXPECT_EQ(at<uint16_t>(b, o + 20), 8 * 192);
     o += 54;
-    const char* names[6] = {"treeID",      "treeSP",       "semantic_seg",
-                            "hitObjectId", "branch_order", "node_id"};
-    const uint8_t types[6] = {6, 3, 1, 6, 1, 6};  // i32, u16, u8, i32, u8, i32
-    // Known minima and maxima of the formula over i = 0 … 299.
+    const char* names[8] = {"treeID",       "treeSP",  "semantic_seg", "hitObjectId",
+                            "branch_order", "node_id", "elevation",    "label_purity"};
+    const uint8_t types[8] = {6, 3, 1, 6, 1, 6, 4, 1};  // i32, u16, u8, i32, u8, i32, i16, u8
+    // Known minima and maxima of the formula over i = 0 … 299 (the unscaled fields).
     const int64_t mins[6] = {0, 0, 0, 0, 0, -1}, maxs[6] = {5, 999, 3, 990, 3, 7};
     int total = 0;
-    for (int k = 0; k < 6; ++k, o += 192) {
+    for (int k = 0; k < 8; ++k, o += 192) {
         EXPECT_EQ(at<uint16_t>(b, o), 0);
         EXPECT_EQ(at<uint8_t>(b, o + 2), types[k]) << names[k];
         EXPECT_EQ(text(b, o + 4, 32), names[k]);
-        EXPECT_EQ(at<uint8_t>(b, o + 3), k == 5 ? 7 : 6) << names[k];  // (no_data) min max
+        // (no_data) min max for the labels; scale alone for elevation and purity.
+        EXPECT_EQ(at<uint8_t>(b, o + 3), k == 5 ? 7 : k < 6 ? 6 : 8) << names[k];
         if (k == 5) {
             EXPECT_EQ(at<int64_t>(b, o + 40), -1);
         }
-        EXPECT_EQ(at<int64_t>(b, o + 64), mins[k]) << names[k];
-        EXPECT_EQ(at<int64_t>(b, o + 88), maxs[k]) << names[k];
-        EXPECT_EQ(at<double>(b, o + 112), 0.0);  // no scale
-        EXPECT_EQ(at<double>(b, o + 136), 0.0);  // no offset
+        EXPECT_EQ(at<int64_t>(b, o + 64), k < 6 ? mins[k] : 0) << names[k];
+        EXPECT_EQ(at<int64_t>(b, o + 88), k < 6 ? maxs[k] : 0) << names[k];
+        EXPECT_EQ(at<double>(b, o + 112), k < 6 ? 0.0 : 0.01) << names[k];  // scale
+        EXPECT_EQ(at<double>(b, o + 136), 0.0);                             // no offset
         EXPECT_FALSE(text(b, o + 160, 32).empty());
         total += kLasExtraBytes[k].size;
     }
@@ -189,7 +192,7 @@ TEST(LasWriter, RecordsDecodeToThePoints) {
     const double off[3] = {-13, -8, -1};
     for (int i = 0; i < 300; ++i) {
         const ScanPoint& p = scan.points[i];
-        const size_t o = pointOffset() + 46 * size_t(i);
+        const size_t o = pointOffset() + 49 * size_t(i);
         const Vec3 q = surveyFrame(p.x, p.y, p.z);
         for (int a = 0; a < 3; ++a) {
             EXPECT_NEAR(at<int32_t>(b, o + 4 * a) * 0.001 + off[a], q[a], 0.0005 + 1e-12);
@@ -213,6 +216,8 @@ TEST(LasWriter, RecordsDecodeToThePoints) {
         EXPECT_EQ(at<int32_t>(b, o + 37), p.label.objectId);
         EXPECT_EQ(at<uint8_t>(b, o + 41), p.label.branchOrder);
         EXPECT_EQ(at<int32_t>(b, o + 42), p.label.nodeId);
+        EXPECT_NEAR(at<int16_t>(b, o + 46) * 0.01, p.elevationDeg, 0.005 + 1e-6);
+        EXPECT_NEAR(at<uint8_t>(b, o + 48) * 0.01, p.labelPurity, 0.005 + 1e-6);
     }
 }
 
@@ -222,10 +227,10 @@ TEST(LasWriter, Format7ColoursPointsByClassOrTree) {
     options.colour = LasColour::kClass;
     const std::string b = lasBytes(scan, options);
     EXPECT_EQ(at<uint8_t>(b, 104), 7);
-    EXPECT_EQ(at<uint16_t>(b, 105), 52);
-    ASSERT_EQ(b.size(), pointOffset() + 50 * 52);
+    EXPECT_EQ(at<uint16_t>(b, 105), 55);
+    ASSERT_EQ(b.size(), pointOffset() + 50 * 55);
     for (int i = 0; i < 50; ++i) {
-        const size_t o = pointOffset() + 52 * size_t(i);
+        const size_t o = pointOffset() + 55 * size_t(i);
         const auto c = lasClassColour(scan.points[i].classification);
         for (int k = 0; k < 3; ++k) EXPECT_EQ(at<uint16_t>(b, o + 30 + 2 * k), c[k] * 257);
         EXPECT_EQ(at<int32_t>(b, o + 36), scan.points[i].label.treeId);  // extras after RGB
@@ -237,7 +242,7 @@ TEST(LasWriter, Format7ColoursPointsByClassOrTree) {
     }
     options.colour = LasColour::kTree;
     const std::string t = lasBytes(scan, options);
-    const size_t o = pointOffset() + 52 * 3;  // tree 3
+    const size_t o = pointOffset() + 55 * 3;  // tree 3
     EXPECT_EQ(at<uint16_t>(t, o + 30), lasTreeColour(3)[0] * 257);
 }
 
@@ -300,7 +305,7 @@ TEST(LasWriter, FileIsTheBytesAndStreamsAcrossBlocks) {
     writeLas(dir.path() / "scan.las", scan, options);
     const std::string b = lasBytes(scan, options);
     EXPECT_TRUE(sameBytes(test::slurp(dir.path() / "scan.las"), b));
-    EXPECT_EQ(at<int32_t>(b, pointOffset() + 52 * size_t(69999) + 36), 69999 % 6);
+    EXPECT_EQ(at<int32_t>(b, pointOffset() + 55 * size_t(69999) + 36), 69999 % 6);
     writeLas(dir.path() / "again.las", scan, options);
     EXPECT_TRUE(sameBytes(test::slurp(dir.path() / "again.las"), b));
     writeForestFormerPly(dir.path() / "scan.ply", scan);

@@ -1,6 +1,8 @@
 // The scanner against known answers: ranges to a plane, a sphere and a cylinder; the beam's
 // footprint; range noise; returns per pulse; labels of the triangles hit; the occlusion of a
-// trunk seen from one station; the same points on 1 and 2 threads; ALS/ULS strips and angles.
+// trunk seen from one station; the same points on 1 and 2 threads; ALS/ULS strips and angles;
+// TLS times with the mirror's dead time and LAS 1.4 scan angles; a sub-ray's energy counted once
+// per return; labels and their purity from the energy of the surfaces in a return.
 #include "pipeline/scan/scanner.h"
 
 #include <gtest/gtest.h>
@@ -13,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "core/errors.h"
 #include "pipeline/render/plot_render.h"
 #include "pipeline/scan/scan_pattern.h"
 #include "species/geometry/leaf_mesh.h"
@@ -103,7 +106,8 @@ std::string bytesOf(const std::vector<ScanPoint>& pts) {
         put(p.numberOfReturns), put(p.channel), put(p.sourceId), put(p.scanDirection);
         put(p.edgeOfFlightLine), put(p.scanAngleDeg), put(p.pulse), put(p.label.treeId);
         put(p.label.nodeId), put(p.label.objectId), put(p.label.species), put(p.label.part);
-        put(p.label.branchOrder), put(p.classification), put(p.semantic);
+        put(p.label.branchOrder), put(p.classification), put(p.semantic), put(p.elevationDeg);
+        put(p.labelPurity);
     }
     return s;
 }
@@ -216,6 +220,109 @@ TEST(Scanner, BeamDivergenceSpreadsReturnsOverTheFootprint) {
     }
     EXPECT_LE(farthest, footprint * 1.02);
     EXPECT_GE(farthest, footprint * 0.85);  // the outer sub-rays reach the footprint's rim
+}
+
+TEST(Scanner, TlsTimesCountTheMirrorsDeadTimeAndAnglesAreLas14s) {
+    // Two stations, 21 columns × 21 rows (±10° at 1°): the mirror sweeps 240° per column at the
+    // pulse rate, so a column takes 240 shot times of which the first 21 are shot.
+    ScanScene s;
+    s.addMesh(quad({0, 1.5, -10}, {5, 0, 0}, {0, 5, 0}), kScanTerrain);
+    s.commit();
+    ScanOptions o = window(10, 1);
+    o.stations = {{0, 0, 1.5}, {0, 0, 1.5}};
+    ASSERT_NEAR(o.lineSweep, 240 * kScanDeg, 1e-12);  // the VZ-400's
+    const ScanResult r = scan(s, o, 1);
+    ASSERT_EQ(r.points.size(), 2u * 21 * 21);
+    for (const ScanPoint& p : r.points) {
+        const uint64_t station = p.pulse / 441, col = p.pulse % 441 / 21, row = p.pulse % 21;
+        EXPECT_EQ(p.gpsTime, static_cast<double>((station * 21 + col) * 240 + row) / 300000);
+        EXPECT_EQ(p.sourceId, station + 1);  // LAS reads 0 as "no source"
+        EXPECT_EQ(p.channel, station % 4);
+        // The beam's elevation, and LAS 1.4's scan angle: from the downward vertical, clockwise
+        // (negative) seen from behind the clockwise-turning head.
+        const double elevation = -10.0 + static_cast<double>(row);
+        EXPECT_NEAR(p.elevationDeg, elevation, 1e-4);
+        EXPECT_NEAR(p.scanAngleDeg, -(90 + elevation), 1e-4);
+    }
+    ASSERT_EQ(r.trajectory.size(), 2u);
+    EXPECT_EQ(r.trajectory[0].gpsTime, 0.0);
+    EXPECT_EQ(r.trajectory[1].gpsTime, 21.0 * 240 / 300000);
+    EXPECT_EQ(r.trajectory[0].sourceId, 1);
+    EXPECT_EQ(r.trajectory[1].sourceId, 2);
+    // A sweep no wider than the field: no dead time, pulses back to back.
+    o.lineSweep = o.verticalFov;
+    const ScanResult tight = scan(s, o, 1);
+    for (const ScanPoint& p : tight.points) {
+        EXPECT_EQ(p.gpsTime, static_cast<double>(p.pulse) / 300000);
+    }
+}
+
+TEST(Scanner, ASubRayThroughStackedLeavesCountsItsEnergyOnceInTheReturn) {
+    // Three parallel leaves 10 cm apart, every sub-ray passing every leaf (transmission 1): one
+    // return per pulse, whose intensity is that of the first leaf alone (each sub-ray's echoes
+    // are equal), not three times it.
+    auto leaves = [](int n) {
+        ScanScene s;
+        for (int k = 0; k < n; ++k) {
+            s.addMesh(quad({0, 1.5, -5.0 - 0.1 * k}, {2, 0, 0}, {0, 2, 0}), kScanLeaf);
+        }
+        s.commit();
+        return s;
+    };
+    ScanOptions o = window(2, 1);
+    o.leafTransmission = 1;
+    o.subRays = 7;
+    o.beamDivergence = 3e-3;
+    const ScanScene one = leaves(1), three = leaves(3);
+    const ScanResult a = scan(one, o, 4), b = scan(three, o, 4);
+    ASSERT_EQ(a.points.size(), a.pulses);
+    ASSERT_EQ(b.points.size(), b.pulses);
+    for (size_t i = 0; i < a.points.size(); ++i) {
+        EXPECT_EQ(b.points[i].numberOfReturns, 1);
+        EXPECT_EQ(b.points[i].intensity, a.points[i].intensity) << "pulse " << i;
+        EXPECT_NEAR(a.points[i].intensity, 65535 * 0.3, 65535 * 0.3 * 0.01);  // ρ_leaf, head-on
+        EXPECT_EQ(b.points[i].labelPurity, 1.0f);
+    }
+}
+
+TEST(Scanner, AReturnIsLabelledByTheSurfaceEchoingMostWithItsShareAsPurity) {
+    // A leaf (ρ 0.3) left of x ≈ 0 and a bark quad (ρ 0.5) right of it, 5 m north, every beam
+    // straddling the edge (a 0.25 m footprint, pulses within 4 cm of it). The leaf's and the
+    // bark's energy in each return are what each scans alone (the same seed turns the sub-ray
+    // pattern alike): the point takes the larger one's label, and its share as purity.
+    // (The edge at x = 1.3 cm, off every pulse's axis: an axis on the edge hits the leaf
+    // alone and the bark alone, and only one of them when both are there.)
+    const Mesh leafHalf = quad({-0.987, 1.5, -5}, {1, 0, 0}, {0, 2, 0});
+    const Mesh barkHalf = quad({1.013, 1.5, -5}, {1, 0, 0}, {0, 2, 0});
+    auto sceneOf = [&](bool leaf, bool bark) {
+        ScanScene s;
+        if (leaf) s.addMesh(leafHalf, kScanLeaf);
+        if (bark) s.addMesh(barkHalf, kScanStem);
+        s.commit();
+        return s;
+    };
+    ScanOptions o = window(0.5, 0.5);
+    o.subRays = 19;
+    o.beamDivergence = 0.05;
+    const ScanScene both = sceneOf(true, true), leaf = sceneOf(true, false),
+                    bark = sceneOf(false, true);
+    const ScanResult r = scan(both, o, 9), rl = scan(leaf, o, 9), rb = scan(bark, o, 9);
+    ASSERT_EQ(r.points.size(), r.pulses);
+    ASSERT_EQ(rl.points.size(), r.pulses);
+    ASSERT_EQ(rb.points.size(), r.pulses);
+    int wood = 0, leafy = 0;
+    for (size_t i = 0; i < r.points.size(); ++i) {
+        const ScanPoint& p = r.points[i];
+        const double el = rl.points[i].intensity, eb = rb.points[i].intensity;
+        ASSERT_GT(el, 0);
+        ASSERT_GT(eb, 0);
+        EXPECT_NEAR(p.intensity, el + eb, 1.0);
+        EXPECT_NEAR(p.labelPurity, std::max(el, eb) / (el + eb), 2.0 / (el + eb));
+        EXPECT_LT(p.labelPurity, 1.0f);
+        EXPECT_EQ(p.semantic, eb > el ? kSemWood : kSemLeaf) << "pulse " << i;
+        (p.semantic == kSemWood ? wood : leafy) += 1;
+    }
+    EXPECT_GT(wood, 0);  // bark's higher reflectance wins where the footprint is shared evenly
 }
 
 TEST(Scanner, RangeNoiseHasTheRequestedStandardDeviation) {
@@ -402,6 +509,33 @@ TEST(Scanner, OneAndTwoThreadsGiveTheSamePoints) {
     EXPECT_FALSE(seed9 == one);
 }
 
+TEST(Scanner, MoreStripsThanLasHasPointSourceIdsIsAnInputError) {
+    // 40 m of strips 0.5 mm apart: 79,931 strips, each a point source ID of its own, where LAS
+    // has 65,535 (a cap keeps the pulses few: it is the IDs that run out).
+    ScanScene s;
+    s.addMesh(quad({0, 0, 0}, {100, 0, 0}, {0, 0, 100}), kScanTerrain);
+    s.commit();
+    Aabb area;
+    area.extend(Vec3{-30, 0, -20});
+    area.extend(Vec3{30, 0, 20});
+    s.setArea(area);
+    ScanOptions o = defaultScanOptions(ScanPlatform::kUls);
+    o.heading = 90 * kScanDeg;
+    o.altitude = 1;  // a swath of 2 · tan(1°) = 3.5 cm
+    o.scanAngle = 1 * kScanDeg;
+    o.stripSpacing = 0.0005;
+    o.maxPulses = 1000;
+    try {
+        scan(s, o, 1);
+        ADD_FAILURE() << "accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("65,535 point source IDs"), std::string::npos)
+            << e.what();
+    }
+    o.stripSpacing = 0.01;  // 3,998 strips
+    EXPECT_EQ(scan(s, o, 1).pulses, 1000u);
+}
+
 TEST(Scanner, AirborneStripsCoverTheAreaWithinTheScanAngle) {
     // A 60 × 40 m ground plane scanned by ULS (rotating mirror) and ALS (oscillating).
     ScanScene s;
@@ -435,7 +569,8 @@ TEST(Scanner, AirborneStripsCoverTheAreaWithinTheScanAngle) {
             EXPECT_LE(std::abs(p.scanAngleDeg), o.scanAngle / kScanDeg + 1e-3);
             EXPECT_GE(p.gpsTime, lastTime);
             lastTime = p.gpsTime;
-            seen = std::max(seen, p.sourceId + 1);
+            EXPECT_GE(p.sourceId, 1);  // LAS reads 0 as "no source": strips count from 1
+            seen = std::max(seen, static_cast<int>(p.sourceId));
             EXPECT_GE(p.x, -30 - 1e-6);  // strips run over the area's length
             EXPECT_LE(p.x, 30 + 1e-6 + o.speed / o.scanRate);
         }
