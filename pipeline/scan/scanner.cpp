@@ -175,8 +175,8 @@ struct Work {
         int32_t tree;
         uint8_t semantic;
         double energy, weight;        // summed over the group's sub-rays
-        double bestEcho, bestWeight;  // its strongest hit (by echo, then beam weight) …
-        ResolvedHit resolved;         // … and what it hit
+        double bestEcho, bestWeight;  // its strongest hit (by echo, then beam weight)
+        const HitRec* hit;
     };
     std::vector<Group> groups;
 };
@@ -340,8 +340,11 @@ class Scanner {
         const Vec3 o{static_cast<float>(p.origin.x), static_cast<float>(p.origin.y),
                      static_cast<float>(p.origin.z)};
         const double elevation = std::asin(std::clamp(p.direction.y, -1.0, 1.0)) / kScanDeg;
-        w.subEcho.assign(beam_.weight.size(), -1.0);
-        w.subHit.assign(beam_.weight.size(), nullptr);
+        // Every entry is back at (−1, none) after each return (below), so sized once per thread.
+        if (w.subEcho.size() != beam_.weight.size()) {
+            w.subEcho.assign(beam_.weight.size(), -1.0);
+            w.subHit.assign(beam_.weight.size(), nullptr);
+        }
         for (int c = 0; c < clusters; ++c) {
             // Position: the beam-weighted mean of every hit. Energy: every sub-ray counts once,
             // at its strongest echo w ρ |cos| in the return. A sub-ray that went on through a
@@ -371,18 +374,23 @@ class Scanner {
                 const double echo = w.subEcho[h->sub], wt = beam_.weight[h->sub];
                 w.subEcho[h->sub] = -1.0, w.subHit[h->sub] = nullptr;  // ready for the next
                 energy += echo;
-                const ResolvedHit res = s_.resolve(h->geomID, h->primID, h->instID);
+                // The tree and class of a hit are its geometry's (a wood triangle's node only
+                // names which wood): the full label is resolved for the winner alone.
+                const ScanGeometry& geo = s_.geometry(h->geomID, h->instID);
+                const int32_t tree = h->instID == RTC_INVALID_GEOMETRY_ID
+                                         ? geo.base.treeId
+                                         : s_.instances[s_.instanceOf[h->instID]].treeId;
                 Work::Group* g = nullptr;
                 for (Work::Group& x : w.groups) {
-                    if (x.tree == res.label.treeId && x.semantic == res.semantic) g = &x;
+                    if (x.tree == tree && x.semantic == geo.semantic) g = &x;
                 }
                 if (!g) {
-                    w.groups.push_back({res.label.treeId, res.semantic, 0, 0, -1, -1, res});
+                    w.groups.push_back({tree, geo.semantic, 0, 0, -1, -1, nullptr});
                     g = &w.groups.back();
                 }
                 g->energy += echo, g->weight += wt;
                 if (echo > g->bestEcho || (echo == g->bestEcho && wt > g->bestWeight)) {
-                    g->bestEcho = echo, g->bestWeight = wt, g->resolved = res;
+                    g->bestEcho = echo, g->bestWeight = wt, g->hit = h;
                 }
             }
             const bool byEnergy = energy > 0;
@@ -403,7 +411,8 @@ class Scanner {
                     intensity *= (o_.referenceRange / range) * (o_.referenceRange / range);
                 }
             }
-            const ResolvedHit& res = top->resolved;
+            const ResolvedHit res =
+                s_.resolve(top->hit->geomID, top->hit->primID, top->hit->instID);
             ScanPoint pt;
             pt.x = pos.x, pt.y = pos.y, pt.z = pos.z;
             pt.gpsTime = p.time;
