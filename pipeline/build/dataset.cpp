@@ -199,6 +199,9 @@ void readScan(Params& t, ScanOutputs& scan) {
     scan.colour = t.choice(
         "las_colour", scan.colour,
         {{"none", LasColour::kNone}, {"class", LasColour::kClass}, {"tree", LasColour::kTree}});
+    scan.classes =
+        t.choice("las_classes", scan.classes,
+                 {{"for-instance", LasClasses::kForInstance}, {"asprs", LasClasses::kAsprs}});
     scan.options = readScanOptions(t);
 }
 

@@ -66,6 +66,7 @@ struct ScanOutputs {
     bool forestFormer = false;            // scan_forestformer.ply (ForestFormer3D / ForAINetV2)
     bool treeLearn = false;               // scan_treelearn.npy (TreeLearn)
     LasColour colour = LasColour::kNone;  // LAS point format 6, or 7 coloured by class / tree
+    LasClasses classes = LasClasses::kForInstance;  // LAS classification: FOR-instance or ASPRS
 };
 
 struct OutputOptions {

@@ -125,6 +125,7 @@ void writeScanFiles(const InstanceScan& scan, const ScanOutputs& options, const 
     if (options.las) {
         LasOptions lo;
         lo.colour = options.colour;
+        lo.classes = options.classes;
         lo.systemIdentifier = systemIdentifier(options.options.platform);
         writeLas(out / rel / "scan.las", *scan.points, lo);
         note("scan_las", "scan.las");

@@ -274,6 +274,7 @@ int64_t daysFromCivil(int64_t y, unsigned m, unsigned d) {
 void encodeLas(const ScanPointSource& points, const LasOptions& options, const Sink& sink) {
     const LasSummary s = summarize(points, options);
     const bool rgb = options.colour != LasColour::kNone;
+    const bool asprs = options.classes == LasClasses::kAsprs;
     const int baseSize = rgb ? 36 : 30;
     const int recordSize = baseSize + kLasExtraBytesSize;
     const bool hasPoints = points.size() > 0;
@@ -328,7 +329,7 @@ void encodeLas(const ScanPointSource& points, const LasOptions& options, const S
         // Classification flags (bits 0–3) 0: the points are the simulated instrument's returns.
         c.u8(static_cast<uint8_t>((p.channel << 4) | (p.scanDirection ? 64 : 0) |
                                   (p.edgeOfFlightLine ? 128 : 0)));
-        c.u8(p.classification);
+        c.u8(asprs ? asprsClass(p.classification) : p.classification);
         c.u8(p.label.part);  // user data: the ScanPart hit
         const double angle = std::clamp(p.scanAngleDeg / 0.006, -30000.0, 30000.0);
         c.i16(static_cast<int16_t>(roundHalfAway(angle)));
@@ -427,6 +428,21 @@ std::array<uint16_t, 2> lasCreationDate(double gpsStart) {
     civilFromDays(days, y, m, d);
     const int64_t jan1 = daysFromCivil(y, 1, 1);
     return {static_cast<uint16_t>(days - jan1 + 1), static_cast<uint16_t>(y)};
+}
+
+uint8_t asprsClass(uint8_t forInstanceClass) {
+    switch (forInstanceClass) {
+        case kForTerrain:
+            return 2;  // ground
+        case kForLowVegetation:
+            return 3;  // low vegetation
+        case kForStem:
+        case kForLiveBranches:
+        case kForWoodyBranches:
+            return 5;  // high vegetation
+        default:
+            return 1;  // unclassified
+    }
 }
 
 std::array<uint8_t, 3> lasClassColour(uint8_t forInstanceClass) {

@@ -80,6 +80,15 @@ constexpr int kLasExtraBytesSize = 19;  // sum of the sizes above
 extern const char* const kLasWkt;
 
 // How format-7 points are coloured (16 bits a channel, an 8-bit colour × 257).
+// What the LAS classification byte holds: the FOR-instance codes (ScanPoint::classification,
+// what FOR-instance, ForestFormer3D and TreeLearn read), or ASPRS's standard classes (LAS 1.4
+// R15, Table 17), which LAS tools name: ground 2, low vegetation 3 (the ground cover), high
+// vegetation 5 (every tree point: stem, branches and leaves), unclassified 1 otherwise. LAS
+// tools show the FOR-instance codes under ASPRS names (a stem as "medium vegetation", woody
+// branches as "building"); the extra bytes keep wood and leaf (`semantic_seg`) either way.
+enum class LasClasses : uint8_t { kForInstance, kAsprs };
+uint8_t asprsClass(uint8_t forInstanceClass);
+
 enum class LasColour : uint8_t {
     kNone,   // point format 6: no colour
     kClass,  // format 7, by FOR-instance class (lasClassColour)
@@ -87,8 +96,9 @@ enum class LasColour : uint8_t {
 };
 
 struct LasOptions {
-    LasColour colour = LasColour::kNone;  // kNone writes format 6, the others format 7
-    double scale = 0.001;                 // metres per stored integer unit, every axis (> 0)
+    LasColour colour = LasColour::kNone;            // kNone writes format 6, the others format 7
+    LasClasses classes = LasClasses::kForInstance;  // the classification byte
+    double scale = 0.001;  // metres per stored integer unit, every axis (> 0)
     // The survey start as adjusted standard GPS time (GPS seconds − 10⁹): written GPS time =
     // gpsStart + ScanPoint::gpsTime. Its UTC date (leap seconds ignored) is the header's file
     // creation day and year. The default 0 is 2011-09-14 01:46:40 GPS (day 257 of 2011).

@@ -180,6 +180,34 @@ TEST(CliScan, PlotDensityCountsThePointsAboveTheArea) {
     EXPECT_LE(density, (inside + nearEdge) / 400.0 + 1e-9);
 }
 
+// [scan] las_classes = "asprs": the classification byte holds ASPRS's classes — the tree's points
+// (wood and leaves, semantic_seg 2 and 3) high vegetation 5, the terrain (semantic 1) ground 2.
+TEST(CliScan, AsprsClassesNameTheTreeHighVegetation) {
+    TempDir t;
+    const fs::path spec = kScanData.parent_path() / "keys" / "scan-las-classes.toml";
+    const CliResult r = runSylva({"build", spec.string(), "--out", (t / "out").string()}, t.path());
+    ASSERT_EQ(r.code, 0) << describeRun(r);
+    const std::vector<nlohmann::json> recs = manifest(t / "out" / "manifest.jsonl");
+    ASSERT_EQ(recs.size(), 1u);
+    const std::string las = slurp(t / "out" / recs[0]["files"]["scan_las"].get<std::string>());
+    ASSERT_GE(las.size(), 375u);
+    uint32_t first = 0;
+    uint16_t length = 0;
+    std::memcpy(&first, las.data() + 96, 4);
+    std::memcpy(&length, las.data() + 105, 2);
+    ASSERT_EQ(length, 49);
+    const uint64_t n = lasPointCount(las);
+    std::map<int, int> byClass;
+    for (uint64_t i = 0; i < n; ++i) {
+        const uint8_t cls = static_cast<uint8_t>(las[first + i * length + 16]);
+        const uint8_t semantic = static_cast<uint8_t>(las[first + i * length + 36]);
+        EXPECT_EQ(cls, semantic == 1 ? 2 : 5) << "point " << i << " semantic " << int(semantic);
+        ++byClass[cls];
+    }
+    EXPECT_GT(byClass[2], 100);
+    EXPECT_GT(byClass[5], 100);
+}
+
 // A scan's points go to the writers through a spool on disk: a TLS scan of 1.8 million points
 // (the station looking down at the ground square, every pulse a return; 144 MB as ScanPoints,
 // 83 MB of LAS) builds within 64 MiB of `sylva --help`'s peak resident size, under a 4 GiB

@@ -221,6 +221,28 @@ TEST(LasWriter, RecordsDecodeToThePoints) {
     }
 }
 
+TEST(LasWriter, AsprsClassesReplaceTheForInstanceCodesOnRequest) {
+    // FOR-instance 0 … 6 → ASPRS unclassified 1, low vegetation 3, ground 2, unclassified 1,
+    // and high vegetation 5 for stem, live and woody branches; nothing else changes.
+    const uint8_t asprs[7] = {1, 3, 2, 1, 5, 5, 5};
+    const ScanResult scan = formulaScan(70);
+    LasOptions options;
+    const std::string plain = lasBytes(scan, options);
+    options.classes = LasClasses::kAsprs;
+    const std::string b = lasBytes(scan, options);
+    ASSERT_EQ(b.size(), plain.size());
+    for (int i = 0; i < 70; ++i) {
+        const size_t o = pointOffset() + 49 * size_t(i);
+        EXPECT_EQ(at<uint8_t>(b, o + 16), asprs[scan.points[i].classification]) << i;
+        EXPECT_EQ(at<uint8_t>(plain, o + 16), scan.points[i].classification) << i;
+        EXPECT_EQ(at<uint8_t>(b, o + 36), scan.points[i].semantic);  // wood / leaf kept
+    }
+    std::string a = b, p = plain;
+    for (int i = 0; i < 70; ++i)
+        a[pointOffset() + 49 * size_t(i) + 16] = p[pointOffset() + 49 * size_t(i) + 16] = 0;
+    EXPECT_EQ(a, p);
+}
+
 TEST(LasWriter, Format7ColoursPointsByClassOrTree) {
     const ScanResult scan = formulaScan(50);
     LasOptions options;
