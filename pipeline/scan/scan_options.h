@@ -85,7 +85,12 @@ struct ScanOptions {
     double reflectanceLowVegetation = 0.3;  // of the ground cover
     double leafTransmission = 0.2;          // probability a sub-ray goes on through a leaf it hits
     double referenceRange = 0;              // metres; > 0: intensity × min(1, (ref / range)²)
-    uint64_t maxPulses = 0;  // 0: every pulse of the survey; else the first this many
+    // A return is recorded when its intensity (the echo as a fraction of a whole beam's, head-on,
+    // off a surface of reflectance 1; × (ref / range)² beyond referenceRange) reaches this: the
+    // detector's threshold over the summed sub-ray echoes, which weak partial hits (an outer
+    // sub-ray grazing a twig) fall below. 0: every echo is a return.
+    double detectionThreshold = 0;  // fraction, [0, 1)
+    uint64_t maxPulses = 0;         // 0: every pulse of the survey; else the first this many
 };
 
 // The defaults of a platform (the struct's own are TLS):

@@ -152,6 +152,8 @@ ScanOptions readScanOptions(Params& p) {
     }
     o.leafTransmission = p.number("leaf_transmission", o.leafTransmission, Range::closed(0, 1));
     o.referenceRange = p.number("reference_range", o.referenceRange, Range::closed(0, 1e5));
+    o.detectionThreshold =
+        p.number("detection_threshold", o.detectionThreshold, Range{0, 1, false, true});
     o.maxPulses = static_cast<uint64_t>(p.integer("pulses", 0, Range::closed(0, 1e12)));
 
     if (!tls) {

@@ -323,16 +323,11 @@ class Scanner {
     }
 
   private:
-    // The returns of one pulse from its hits sorted by range.
+    // The returns of one pulse from its hits sorted by range: clusters of hits closer than
+    // min_separation, nearest first, each recorded when its intensity reaches the detection
+    // threshold, until max_returns are.
     void returns(uint64_t k, const ScanPulse& p, uint64_t pulseSeed, const HitRec* first,
                  const HitRec* last, Work& w, std::vector<ScanPoint>& points) const {
-        // Cluster boundaries.
-        const HitRec* bounds[16];
-        int clusters = 0;
-        bounds[0] = first;
-        for (const HitRec* h = first + 1; h <= last && clusters < o_.maxReturns; ++h) {
-            if (h == last || h->t - (h - 1)->t >= o_.minSeparation) bounds[++clusters] = h;
-        }
         Rng rng(pulseSeed);
         rng.uniform();  // φ, drawn by makeRays
         const size_t firstPoint = points.size();
@@ -345,7 +340,11 @@ class Scanner {
             w.subEcho.assign(beam_.weight.size(), -1.0);
             w.subHit.assign(beam_.weight.size(), nullptr);
         }
-        for (int c = 0; c < clusters; ++c) {
+        int recorded = 0;
+        for (const HitRec *start = first, *end = first; start < last && recorded < o_.maxReturns;
+             start = end) {
+            end = start + 1;
+            while (end < last && end->t - (end - 1)->t < o_.minSeparation) ++end;
             // Position: the beam-weighted mean of every hit. Energy: every sub-ray counts once,
             // at its strongest echo w ρ |cos| in the return. A sub-ray that went on through a
             // leaf (leaf_transmission) and met another surface within the same return would
@@ -354,7 +353,7 @@ class Scanner {
             // transmitted share of its energy).
             double wsum = 0;
             Vec3 pos{0, 0, 0};
-            for (const HitRec* h = bounds[c]; h < bounds[c + 1]; ++h) {
+            for (const HitRec* h = start; h < end; ++h) {
                 const double wt = beam_.weight[h->sub];
                 const Vec3 d{h->d[0], h->d[1], h->d[2]};  // the ray Embree traced
                 pos += (o + d * static_cast<double>(h->t)) * wt;
@@ -369,7 +368,7 @@ class Scanner {
             // return, the label the one that dominates it.
             w.groups.clear();
             double energy = 0;
-            for (const HitRec* h = bounds[c]; h < bounds[c + 1]; ++h) {
+            for (const HitRec* h = start; h < end; ++h) {
                 if (w.subHit[h->sub] != h) continue;
                 const double echo = w.subEcho[h->sub], wt = beam_.weight[h->sub];
                 w.subEcho[h->sub] = -1.0, w.subHit[h->sub] = nullptr;  // ready for the next
@@ -411,6 +410,7 @@ class Scanner {
                     intensity *= (o_.referenceRange / range) * (o_.referenceRange / range);
                 }
             }
+            if (intensity < o_.detectionThreshold) continue;  // too weak to detect
             const ResolvedHit res =
                 s_.resolve(top->hit->geomID, top->hit->primID, top->hit->instID);
             ScanPoint pt;
@@ -418,7 +418,7 @@ class Scanner {
             pt.gpsTime = p.time;
             pt.intensity =
                 static_cast<uint16_t>(std::lround(65535.0 * std::clamp(intensity, 0.0, 1.0)));
-            pt.returnNumber = static_cast<uint8_t>(c + 1);
+            pt.returnNumber = static_cast<uint8_t>(++recorded);
             pt.channel = static_cast<uint8_t>(p.source % 4);
             pt.sourceId = static_cast<uint16_t>(p.source + 1);  // LAS: 0 is "no source"
             pt.scanDirection = p.scanDirection;
@@ -433,7 +433,7 @@ class Scanner {
             points.push_back(pt);
         }
         for (size_t i = firstPoint; i < points.size(); ++i) {
-            points[i].numberOfReturns = static_cast<uint8_t>(clusters);
+            points[i].numberOfReturns = static_cast<uint8_t>(recorded);
         }
     }
 

@@ -325,6 +325,51 @@ TEST(Scanner, AReturnIsLabelledByTheSurfaceEchoingMostWithItsShareAsPurity) {
     EXPECT_GT(wood, 0);  // bark's higher reflectance wins where the footprint is shared evenly
 }
 
+TEST(Scanner, EchoesBelowTheDetectionThresholdAreNoReturns) {
+    // Bark covering the left of the beams 10 m off (each pulse hits it with a different share
+    // of its sub-rays) before a wall at 20 m: with a threshold, a pulse keeps exactly those of
+    // its returns at threshold 0 whose intensity reaches it, the same points renumbered.
+    ScanScene s;
+    s.addMesh(quad({-1.0, 1.5, -10}, {1, 0, 0}, {0, 2, 0}), kScanStem);  // x from −2 to 0
+    s.addMesh(quad({0, 1.5, -20}, {5, 0, 0}, {0, 5, 0}), kScanTerrain);
+    s.commit();
+    ScanOptions o = window(0.3, 0.1);
+    o.subRays = 19;
+    o.beamDivergence = 0.02;  // 10 cm footprint radius at 10 m
+    const ScanResult all = scan(s, o, 2);
+    std::vector<int> levels;
+    for (const ScanPoint& p : all.points) levels.push_back(p.intensity);
+    std::sort(levels.begin(), levels.end());
+    levels.erase(std::unique(levels.begin(), levels.end()), levels.end());
+    ASSERT_GT(levels.size(), 10u);
+    // Halfway between two stored levels, so rounding decides nothing.
+    const size_t m = levels.size() / 2;
+    const double cut = 0.5 * (levels[m - 1] + levels[m]);
+    o.detectionThreshold = cut / 65535.0;
+    const ScanResult kept = scan(s, o, 2);
+    std::map<uint64_t, std::vector<const ScanPoint*>> want;
+    for (const ScanPoint& p : all.points) {
+        if (p.intensity > cut) want[p.pulse].push_back(&p);
+    }
+    size_t n = 0;
+    for (const auto& [pulse, pts] : want) n += pts.size();
+    ASSERT_EQ(kept.points.size(), n);
+    ASSERT_LT(n, all.points.size());
+    ASSERT_GT(n, 0u);
+    size_t i = 0;
+    for (const auto& [pulse, pts] : want) {
+        for (size_t r = 0; r < pts.size(); ++r, ++i) {
+            const ScanPoint& p = kept.points[i];
+            EXPECT_EQ(p.pulse, pulse);
+            EXPECT_EQ(p.x, pts[r]->x);
+            EXPECT_EQ(p.z, pts[r]->z);
+            EXPECT_EQ(p.intensity, pts[r]->intensity);
+            EXPECT_EQ(p.returnNumber, r + 1);
+            EXPECT_EQ(p.numberOfReturns, pts.size());
+        }
+    }
+}
+
 TEST(Scanner, RangeNoiseHasTheRequestedStandardDeviation) {
     ScanScene s;
     s.addMesh(quad({0, 1.5, -10}, {5, 0, 0}, {0, 5, 0}), kScanTerrain);
