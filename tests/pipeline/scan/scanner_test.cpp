@@ -554,16 +554,21 @@ TEST(Scanner, OneAndTwoThreadsGiveTheSamePoints) {
     EXPECT_FALSE(seed9 == one);
 }
 
-TEST(Scanner, MoreStripsThanLasHasPointSourceIdsIsAnInputError) {
-    // 40 m of strips 0.5 mm apart: 79,931 strips, each a point source ID of its own, where LAS
-    // has 65,535 (a cap keeps the pulses few: it is the IDs that run out).
-    ScanScene s;
+// Flat ground under a 60 × 40 m survey area (x −30 … 30, z −20 … 20), committed.
+static void flatGround60By40(ScanScene& s) {
     s.addMesh(quad({0, 0, 0}, {100, 0, 0}, {0, 0, 100}), kScanTerrain);
     s.commit();
     Aabb area;
     area.extend(Vec3{-30, 0, -20});
     area.extend(Vec3{30, 0, 20});
     s.setArea(area);
+}
+
+TEST(Scanner, MoreStripsThanLasHasPointSourceIdsIsAnInputError) {
+    // 40 m of strips 0.5 mm apart: 79,931 strips, each a point source ID of its own, where LAS
+    // has 65,535 (a cap keeps the pulses few: it is the IDs that run out).
+    ScanScene s;
+    flatGround60By40(s);
     ScanOptions o = defaultScanOptions(ScanPlatform::kUls);
     o.heading = 90 * kScanDeg;
     o.altitude = 1;  // a swath of 2 · tan(1°) = 3.5 cm
@@ -584,12 +589,7 @@ TEST(Scanner, MoreStripsThanLasHasPointSourceIdsIsAnInputError) {
 TEST(Scanner, AirborneStripsCoverTheAreaWithinTheScanAngle) {
     // A 60 × 40 m ground plane scanned by ULS (rotating mirror) and ALS (oscillating).
     ScanScene s;
-    s.addMesh(quad({0, 0, 0}, {100, 0, 0}, {0, 0, 100}), kScanTerrain);
-    s.commit();
-    Aabb area;
-    area.extend(Vec3{-30, 0, -20});
-    area.extend(Vec3{30, 0, 20});
-    s.setArea(area);
+    flatGround60By40(s);
     for (ScanPlatform platform : {ScanPlatform::kUls, ScanPlatform::kAls}) {
         ScanOptions o = defaultScanOptions(platform);
         o.rangeNoise = 0;
