@@ -59,14 +59,23 @@ void placeLeaves(Tree& tree, const LeafOptions& o, Rng& rng, const GrowthGuard& 
             if (length(side) < 1e-6) side = anyPerpendicular(twigDir);
             side = normalize(side);
             leaf.tangent = normalize(side + twigDir * 0.5);
-            leaf.position = onTwig + leaf.tangent * (0.5 * leaf.size);
-            Vec3 n = rng.unitVector();
-            if (o.orientation == LeafOrientation::kSun) {
-                n = sun * o.sunWeight + n * (1.0 - o.sunWeight);
+            if (isInclinationDistribution(o.orientation)) {
+                // The normal drawn first, so the card's inclination is the distribution's;
+                // the blade then points as near away from the twig as that plane lets it.
+                leaf.normal = inclinedLeafNormal(o.orientation, rng);
+                Vec3 t = leaf.tangent - leaf.normal * dot(leaf.tangent, leaf.normal);
+                leaf.tangent = length(t) > 1e-6 ? normalize(t) : anyPerpendicular(leaf.normal);
+                leaf.position = onTwig + leaf.tangent * (0.5 * leaf.size);
+            } else {
+                leaf.position = onTwig + leaf.tangent * (0.5 * leaf.size);
+                Vec3 n = rng.unitVector();
+                if (o.orientation == LeafOrientation::kSun) {
+                    n = sun * o.sunWeight + n * (1.0 - o.sunWeight);
+                }
+                n = n - leaf.tangent * dot(n, leaf.tangent);
+                if (length(n) < 1e-6) n = anyPerpendicular(leaf.tangent);
+                leaf.normal = normalize(n);
             }
-            n = n - leaf.tangent * dot(n, leaf.tangent);
-            if (length(n) < 1e-6) n = anyPerpendicular(leaf.tangent);
-            leaf.normal = normalize(n);
             double frac = (leaf.position.y - yLo) / ySpan + o.colourJitter * rng.uniform(-1, 1);
             leaf.colour = static_cast<uint8_t>(
                 std::clamp(static_cast<int>(frac * o.colourClasses), 0, o.colourClasses - 1));
@@ -74,6 +83,43 @@ void placeLeaves(Tree& tree, const LeafOptions& o, Rng& rng, const GrowthGuard& 
             tree.leaves.push_back(leaf);
         }
     }
+}
+
+bool isInclinationDistribution(LeafOrientation o) {
+    return o != LeafOrientation::kRandom && o != LeafOrientation::kSun;
+}
+
+Vec3 inclinedLeafNormal(LeafOrientation o, Rng& rng) {
+    constexpr double kHalfPi = 1.57079632679489661923;
+    // θ by rejection under each density's maximum (g = f / max f); two tries on average, and
+    // the 64th is taken whatever it is (a bias below 2⁻⁶⁴).
+    double theta = 0;
+    for (int tries = 0; tries < 64; ++tries) {
+        theta = kHalfPi * rng.uniform();
+        double g = 1;
+        switch (o) {
+            case LeafOrientation::kPlanophile:
+                g = 0.5 * (1 + std::cos(2 * theta));
+                break;
+            case LeafOrientation::kErectophile:
+                g = 0.5 * (1 - std::cos(2 * theta));
+                break;
+            case LeafOrientation::kPlagiophile:
+                g = 0.5 * (1 - std::cos(4 * theta));
+                break;
+            case LeafOrientation::kExtremophile:
+                g = 0.5 * (1 + std::cos(4 * theta));
+                break;
+            case LeafOrientation::kSpherical:
+                g = std::sin(theta);
+                break;
+            default:  // kUniform (kRandom and kSun have no inclination distribution)
+                break;
+        }
+        if (rng.uniform() < g) break;
+    }
+    const double phi = 4 * kHalfPi * rng.uniform();
+    return {std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi)};
 }
 
 }  // namespace sylva

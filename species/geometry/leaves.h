@@ -9,7 +9,31 @@
 
 namespace sylva {
 
-enum class LeafOrientation { kRandom, kSun };
+// How a leaf's card faces. kRandom: a uniformly random normal (the spherical distribution of
+// inclinations); kSun: turned toward a sun direction. The rest are de Wit's (1965) leaf
+// inclination distributions, the leaf normal's angle θ from the vertical having the density
+// f(θ) on [0, π/2], azimuth uniform — planophile (2/π)(1 + cos 2θ), mostly horizontal leaves,
+// mean 26.8°; erectophile (2/π)(1 − cos 2θ), mostly vertical, 63.2°; plagiophile
+// (2/π)(1 − cos 4θ), mostly oblique, 45°; extremophile (2/π)(1 + cos 4θ), horizontal or
+// vertical, 45°; uniform 2/π, 45°; spherical sin θ, 57.3°. Pisek et al. 2013 (Agric. For.
+// Meteorol. 169: 186–194) measured 58 temperate and boreal broadleaf trees and found most
+// planophile or plagiophile, few spherical.
+enum class LeafOrientation {
+    kRandom,
+    kSun,
+    kPlanophile,
+    kErectophile,
+    kPlagiophile,
+    kExtremophile,
+    kUniform,
+    kSpherical
+};
+
+// A de Wit orientation (kPlanophile … kSpherical).
+bool isInclinationDistribution(LeafOrientation o);
+// A unit leaf normal (+y up) whose angle from the vertical follows the de Wit distribution
+// `o`, azimuth uniform.
+Vec3 inclinedLeafNormal(LeafOrientation o, Rng& rng);
 
 // The leaf cards themselves, shared by every [leaves] table (these leaves and the canopy
 // method's): their size, shape and orientation.

@@ -550,6 +550,7 @@ Vec3 randomPerpendicular(const Vec3& n, Rng& rng) {
 }
 
 Vec3 leafNormal(const CanopyLeafOptions& o, const Vec3& sun, Rng& rng) {
+    if (isInclinationDistribution(o.orientation)) return inclinedLeafNormal(o.orientation, rng);
     Vec3 n = rng.unitVector();
     // §3.2: "specify the position of the sun to modulate this random assignment".
     if (o.orientation == LeafOrientation::kSun) n = sun * o.sunWeight + n * (1.0 - o.sunWeight);

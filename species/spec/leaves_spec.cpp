@@ -10,9 +10,15 @@ void readLeafCards(Params& l, LeafCardOptions& o) {
     std::tie(o.sizeMin, o.sizeMax) = l.interval("size", {o.sizeMin, o.sizeMax}, Range::positive());
     o.aspect = l.number("aspect", o.aspect, Range::leftOpen(0, 10));
     o.shape = readLeafShape(l, o.shape);
-    o.orientation =
-        l.choice("orientation", o.orientation,
-                 {{"random", LeafOrientation::kRandom}, {"sun", LeafOrientation::kSun}});
+    o.orientation = l.choice("orientation", o.orientation,
+                             {{"random", LeafOrientation::kRandom},
+                              {"sun", LeafOrientation::kSun},
+                              {"planophile", LeafOrientation::kPlanophile},
+                              {"erectophile", LeafOrientation::kErectophile},
+                              {"plagiophile", LeafOrientation::kPlagiophile},
+                              {"extremophile", LeafOrientation::kExtremophile},
+                              {"uniform", LeafOrientation::kUniform},
+                              {"spherical", LeafOrientation::kSpherical}});
     o.sun = l.vec3("sun_direction", o.sun);
     if (length(o.sun) < 1e-12) l.fail("sun_direction", "expected a non-zero direction");
     o.sunWeight = l.number("sun_weight", o.sunWeight, Range::closed(0, 1));
