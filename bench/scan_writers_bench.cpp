@@ -1,7 +1,8 @@
 // Scan writers (issue 17): what writing a scan costs next to making it.
 //  - ScanWrite/<format>: encoding 1,000,000 scan points (random-ish labels, a 100 m plot) as
-//    LAS 1.4 format 6, format 7 (RGB by class), the ForestFormer3D PLY and TreeLearn's .npy, in
-//    memory (lasBytes, …: the files are these bytes), one thread; points per second.
+//    LAS 1.4 format 6, format 7 (RGB by class), the ForestFormer3D PLY, TreeLearn's .npy, and
+//    LAZ format 6 and 7, in memory (lasBytes, …: the files are these bytes), one thread; points
+//    per second, and the bytes written (counter `bytes`: LAZ's against LAS's).
 //  - QsmCylinders: the cylinder table of a pedunculate oak (seed 1, ~25k segments) and its CSV.
 #include <benchmark/benchmark.h>
 
@@ -51,18 +52,22 @@ void ScanWriteBench(benchmark::State& state) {
         std::string b = format == 0   ? lasBytes(scan)
                         : format == 1 ? lasBytes(scan, rgb)
                         : format == 2 ? forestFormerPlyBytes(scan)
-                                      : treeLearnNpyBytes(scan);
+                        : format == 3 ? treeLearnNpyBytes(scan)
+                        : format == 4 ? lazBytes(scan)
+                                      : lazBytes(scan, rgb);
         bytes = b.size();
         benchmark::DoNotOptimize(b.data());
     }
     state.SetItemsProcessed(state.iterations() * static_cast<int64_t>(scan.points.size()));
     state.SetBytesProcessed(state.iterations() * static_cast<int64_t>(bytes));
+    state.counters["bytes"] = static_cast<double>(bytes);
 }
-// 0 LAS format 6, 1 LAS format 7, 2 ForestFormer3D PLY, 3 TreeLearn .npy.
+// 0 LAS format 6, 1 LAS format 7, 2 ForestFormer3D PLY, 3 TreeLearn .npy, 4 LAZ format 6,
+// 5 LAZ format 7.
 BENCHMARK(ScanWriteBench)
     ->Name("ScanWrite")
     ->ArgName("format")
-    ->DenseRange(0, 3)
+    ->DenseRange(0, 5)
     ->Unit(benchmark::kMillisecond);
 
 void QsmCylindersBench(benchmark::State& state) {

@@ -180,20 +180,24 @@ void checkSweptSpecies(const DatasetSpec& d) {
 void readScan(Params& t, ScanOutputs& scan) {
     scan.enabled = true;
     if (t.has("formats")) {
-        scan.las = scan.forestFormer = scan.treeLearn = false;
+        scan.las = scan.laz = scan.forestFormer = scan.treeLearn = false;
         const std::vector<std::string> formats = t.stringArray("formats");
         if (formats.empty())
-            t.fail("formats", "expected at least one of \"las\", \"forestformer\", \"treelearn\"");
+            t.fail("formats",
+                   "expected at least one of \"las\", \"laz\", \"forestformer\", \"treelearn\"");
         for (const std::string& f : formats) {
             if (f == "las")
                 scan.las = true;
+            else if (f == "laz")
+                scan.laz = true;
             else if (f == "forestformer")
                 scan.forestFormer = true;
             else if (f == "treelearn")
                 scan.treeLearn = true;
             else
                 t.fail("formats",
-                       "expected \"las\", \"forestformer\" or \"treelearn\", got \"" + f + "\"");
+                       "expected \"las\", \"laz\", \"forestformer\" or \"treelearn\", got \"" + f +
+                           "\"");
         }
     }
     scan.colour = t.choice(

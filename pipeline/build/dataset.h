@@ -63,6 +63,7 @@ struct ScanOutputs {
     bool enabled = false;  // the dataset has a [scan] table
     ScanOptions options;
     bool las = true;                      // scan.las (LAS 1.4)
+    bool laz = false;                     // scan.laz (the same, LAZ-compressed)
     bool forestFormer = false;            // scan_forestformer.ply (ForestFormer3D / ForAINetV2)
     bool treeLearn = false;               // scan_treelearn.npy (TreeLearn)
     LasColour colour = LasColour::kNone;  // LAS point format 6, or 7 coloured by class / tree

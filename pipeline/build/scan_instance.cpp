@@ -122,13 +122,17 @@ void writeScanFiles(const InstanceScan& scan, const ScanOutputs& options, const 
         bytes += fileSize(out / rel / name);
     };
     fs::create_directories(out / rel);
+    LasOptions lo;
+    lo.colour = options.colour;
+    lo.classes = options.classes;
+    lo.systemIdentifier = systemIdentifier(options.options.platform);
     if (options.las) {
-        LasOptions lo;
-        lo.colour = options.colour;
-        lo.classes = options.classes;
-        lo.systemIdentifier = systemIdentifier(options.options.platform);
         writeLas(out / rel / "scan.las", *scan.points, lo);
         note("scan_las", "scan.las");
+    }
+    if (options.laz) {
+        writeLaz(out / rel / "scan.laz", *scan.points, lo);
+        note("scan_laz", "scan.laz");
     }
     if (options.forestFormer) {
         writeForestFormerPly(out / rel / "scan_forestformer.ply", *scan.points);

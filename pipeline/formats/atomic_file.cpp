@@ -130,6 +130,25 @@ void AtomicFileWriter::write(std::string_view bytes) {
     buffer_.append(bytes);
 }
 
+void AtomicFileWriter::overwrite(uint64_t offset, std::string_view bytes) {
+    if (offset + bytes.size() > bytesWritten()) {
+        throw std::logic_error("AtomicFileWriter: overwrite past the end");
+    }
+    flush();
+    const char* p = bytes.data();
+    size_t left = bytes.size();
+    while (left > 0) {
+        const ssize_t w = ::pwrite(fd_, p, left, static_cast<off_t>(offset));
+        if (w < 0) {
+            if (errno == EINTR) continue;
+            throwErrno("cannot write", path_, errno);
+        }
+        p += w;
+        offset += static_cast<uint64_t>(w);
+        left -= static_cast<size_t>(w);
+    }
+}
+
 char* AtomicFileWriter::reserve(size_t n) {
     if (buffer_.size() + n > capacity_) flush();
     if (n > capacity_) {

@@ -43,6 +43,10 @@ class AtomicFileWriter {
     // the caller: writers that store numbers in place (little_endian.h) use it.
     char* reserve(size_t n);
     uint64_t bytesWritten() const { return written_ + buffer_.size(); }
+    // Replaces bytes already written, from byte `offset` of the file (offset + size ≤
+    // bytesWritten(), else std::logic_error): values known only at the end, such as the offset
+    // of a LAZ file's chunk table. Throws as write() does.
+    void overwrite(uint64_t offset, std::string_view bytes);
     // Flushes, closes and renames the temp file over the target. Throws as write() does.
     void commit();
 

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <lazperf/lazperf.hpp>
+#include <lazperf/vlr.hpp>
 #include <limits>
 #include <optional>
 #include <stdexcept>
@@ -26,6 +28,9 @@ const char* const kLasWkt =
 namespace {
 
 using Sink = std::function<void(std::string_view)>;
+// Stores `bytes` over bytes already sunk, at byte `offset` of the output: the one value a LAZ
+// file needs that is known only after its points (the chunk table's offset).
+using Patch = std::function<void(uint64_t offset, std::string_view bytes)>;
 
 // Points encoded per block before they go to the sink: bounded memory whatever the scan size.
 constexpr size_t kBlockPoints = 1 << 16;
@@ -271,10 +276,89 @@ int64_t daysFromCivil(int64_t y, unsigned m, unsigned d) {
     return era * 146097 + static_cast<int64_t>(doe) - 719468;
 }
 
-void encodeLas(const ScanPointSource& points, const LasOptions& options, const Sink& sink) {
+// LAZ point data (LASzip's chunked compression, layered for formats 6–10 as LAZ 1.4 asks; the
+// coder is laz-perf's, third_party/laz-perf): the records in chunks of `chunkPoints`, each
+// compressed on its own, then the chunk table: version 0, the number of chunks and, arithmetic
+// coded, each chunk's size in bytes (as LASzip's LASwritePoint::write_chunk_table; no point
+// counts, the chunks being of fixed size). A chunk's compressed layers are held until it ends:
+// memory is bounded by the chunk, not the file.
+class LazChunks {
+  public:
+    // `at`: the byte offset in the file where the first chunk starts.
+    LazChunks(int format, size_t recordSize, uint32_t chunkPoints, const Sink& sink, uint64_t at)
+        : format_(format),
+          recordSize_(recordSize),
+          chunkPoints_(chunkPoints),
+          sink_(sink),
+          at_(at),
+          out_([this](const unsigned char* b, size_t n) {
+              sink_(std::string_view(reinterpret_cast<const char*>(b), n));
+              at_ += n;
+          }) {}
+    LazChunks(const LazChunks&) = delete;  // out_ points at this object
+    LazChunks& operator=(const LazChunks&) = delete;
+
+    // Whole records, `recordSize` bytes each.
+    void add(std::string_view records) {
+        for (size_t k = 0; k < records.size(); k += recordSize_) {
+            if (!compressor_) {
+                compressor_ = lazperf::build_las_compressor(out_, format_, kLasExtraBytesSize);
+                chunkStart_ = at_;
+            }
+            compressor_->compress(records.data() + k);
+            if (++inChunk_ == chunkPoints_) endChunk();
+        }
+    }
+
+    // Ends the last chunk and writes the table; returns the table's byte offset.
+    uint64_t finish() {
+        if (compressor_) endChunk();
+        const uint64_t table = at_;
+        std::string head;
+        putU32(head, 0);  // version
+        putU32(head, static_cast<uint32_t>(sizes_.size()));
+        out_(reinterpret_cast<const unsigned char*>(head.data()), head.size());
+        if (!sizes_.empty()) lazperf::compress_chunk_table(out_, sizes_);
+        return table;
+    }
+
+  private:
+    void endChunk() {
+        compressor_->done();
+        compressor_.reset();
+        const uint64_t size = at_ - chunkStart_;
+        if (size > std::numeric_limits<uint32_t>::max()) {
+            throw std::logic_error("LAZ chunk over 4 GiB");
+        }
+        sizes_.push_back(static_cast<uint32_t>(size));
+        inChunk_ = 0;
+    }
+
+    int format_;
+    size_t recordSize_;
+    uint32_t chunkPoints_;
+    const Sink& sink_;
+    uint64_t at_, chunkStart_ = 0;
+    lazperf::OutputCb out_;
+    lazperf::las_compressor::ptr compressor_;
+    uint32_t inChunk_ = 0;
+    std::vector<uint32_t> sizes_;
+};
+
+// LAS, or with `patch` LAZ: the same header, VLRs and records, the LAZ with the point format's
+// bit 7 set (compressed), the LASzip VLR (user id "laszip encoded", record 22204) after the two
+// others, and in place of the records the chunk table's offset (8 bytes, patched in at the end)
+// followed by the compressed chunks and the chunk table (LASzip's layout, laszip.org).
+void encodeLas(const ScanPointSource& points, const LasOptions& options, const Sink& sink,
+               const Patch* patch = nullptr) {
     const LasSummary s = summarize(points, options);
     const bool rgb = options.colour != LasColour::kNone;
     const bool asprs = options.classes == LasClasses::kAsprs;
+    const bool laz = patch != nullptr;
+    if (laz && options.lazChunkPoints == 0) {
+        throw std::invalid_argument("LAZ chunk size must be at least 1 point");
+    }
+    const uint8_t format = rgb ? 7 : 6;
     const int baseSize = rgb ? 36 : 30;
     const int recordSize = baseSize + kLasExtraBytesSize;
     const bool hasPoints = points.size() > 0;
@@ -283,6 +367,16 @@ void encodeLas(const ScanPointSource& points, const LasOptions& options, const S
     const std::string wkt = std::string(kLasWkt) + '\0';  // null-terminated, as R15 asks
     putVlr(vlrs, "LASF_Projection", 2112, "OGC coordinate system WKT", wkt);
     putVlr(vlrs, "LASF_Spec", 4, "sylva labels", extraBytesPayload(s, hasPoints));
+    if (laz) {
+        // compressor 3 (layered chunked), coder 0 (arithmetic), the LASzip version the coder
+        // matches, options 0, the chunk size, two −1 (no special EVLRs), then the items:
+        // POINT14, RGB14 (format 7) and BYTE14 (the extra bytes), version 3 each.
+        const std::vector<char> v =
+            lazperf::laz_vlr(format, kLasExtraBytesSize, options.lazChunkPoints).data();
+        putVlr(vlrs, "laszip encoded", 22204, "laz-perf 3.4.0 (sylva)",
+               std::string_view(v.data(), v.size()));
+    }
+    const uint32_t pointOffset = static_cast<uint32_t>(kLasHeaderSize + vlrs.size());
 
     const std::array<uint16_t, 2> date = lasCreationDate(options.gpsStart);
     std::string h;
@@ -298,9 +392,9 @@ void encodeLas(const ScanPointSource& points, const LasOptions& options, const S
     putU16(h, date[0]);
     putU16(h, date[1]);
     putU16(h, kLasHeaderSize);
-    putU32(h, static_cast<uint32_t>(kLasHeaderSize + vlrs.size()));
-    putU32(h, 2);  // VLRs
-    putU8(h, rgb ? 7 : 6);
+    putU32(h, pointOffset);
+    putU32(h, laz ? 3 : 2);                                    // VLRs
+    putU8(h, static_cast<uint8_t>(format | (laz ? 128 : 0)));  // bit 7: LAZ-compressed
     putU16(h, static_cast<uint16_t>(recordSize));
     putU32(h, 0);        // legacy point count: 0 for formats ≥ 6
     h.append(20, '\0');  // legacy points by return
@@ -319,7 +413,7 @@ void encodeLas(const ScanPointSource& points, const LasOptions& options, const S
     sink(h);
     sink(vlrs);
 
-    encodeRecords(points, recordSize, sink, [&](Cursor& c, const ScanPoint& p) {
+    auto record = [&](Cursor& c, const ScanPoint& p) {
         const Vec3 q = surveyFrame(p.x, p.y, p.z);
         for (int a = 0; a < 3; ++a) {
             c.i32(static_cast<int32_t>(quantize(q[a], s.offset[a], options.scale)));
@@ -349,24 +443,40 @@ void encodeLas(const ScanPointSource& points, const LasOptions& options, const S
         const auto eb = extraValues(p);
         c.i16(static_cast<int16_t>(eb[6]));
         c.u8(static_cast<uint8_t>(eb[7]));
-    });
+    };
+    if (!laz) {
+        encodeRecords(points, recordSize, sink, record);
+        return;
+    }
+    sink(std::string(8, '\0'));  // the chunk table's offset, patched below
+    LazChunks chunks(format, recordSize, options.lazChunkPoints, sink, pointOffset + 8);
+    encodeRecords(
+        points, recordSize, [&](std::string_view records) { chunks.add(records); }, record);
+    std::string tableOffset;
+    putU64(tableOffset, chunks.finish());
+    (*patch)(pointOffset, tableOffset);
 }
 
-std::string toBytes(const std::function<void(const Sink&)>& encode) {
+using Encoder = std::function<void(const Sink&, const Patch&)>;
+
+std::string toBytes(const Encoder& encode) {
     std::string out;
-    encode([&](std::string_view b) { out.append(b.data(), b.size()); });
+    encode([&](std::string_view b) { out.append(b.data(), b.size()); },
+           [&](uint64_t offset, std::string_view b) { out.replace(offset, b.size(), b); });
     return out;
 }
 
 // Straight into the atomic file, a block at a time. The file is created at the first bytes, so
 // an encoder that throws while checking its points (before any output) leaves nothing behind,
 // not even a directory.
-void toFile(const fs::path& path, const std::function<void(const Sink&)>& encode) {
+void toFile(const fs::path& path, const Encoder& encode) {
     std::optional<AtomicFileWriter> file;
-    encode([&](std::string_view b) {
-        if (!file) file.emplace(path);
-        file->write(b);
-    });
+    encode(
+        [&](std::string_view b) {
+            if (!file) file.emplace(path);
+            file->write(b);
+        },
+        [&](uint64_t offset, std::string_view b) { file->overwrite(offset, b); });
     if (!file) file.emplace(path);
     file->commit();
 }
@@ -495,7 +605,7 @@ std::array<uint8_t, 3> lasTreeColour(int32_t treeId) {
 }
 
 void writeLas(const fs::path& path, const ScanPointSource& points, const LasOptions& options) {
-    toFile(path, [&](const Sink& sink) { encodeLas(points, options, sink); });
+    toFile(path, [&](const Sink& sink, const Patch&) { encodeLas(points, options, sink); });
 }
 
 void writeLas(const fs::path& path, const ScanResult& scan, const LasOptions& options) {
@@ -503,11 +613,28 @@ void writeLas(const fs::path& path, const ScanResult& scan, const LasOptions& op
 }
 
 std::string lasBytes(const ScanResult& scan, const LasOptions& options) {
-    return toBytes([&](const Sink& sink) { encodeLas(ScanPointView(scan.points), options, sink); });
+    return toBytes([&](const Sink& sink, const Patch&) {
+        encodeLas(ScanPointView(scan.points), options, sink);
+    });
+}
+
+void writeLaz(const fs::path& path, const ScanPointSource& points, const LasOptions& options) {
+    toFile(path,
+           [&](const Sink& sink, const Patch& patch) { encodeLas(points, options, sink, &patch); });
+}
+
+void writeLaz(const fs::path& path, const ScanResult& scan, const LasOptions& options) {
+    writeLaz(path, ScanPointView(scan.points), options);
+}
+
+std::string lazBytes(const ScanResult& scan, const LasOptions& options) {
+    return toBytes([&](const Sink& sink, const Patch& patch) {
+        encodeLas(ScanPointView(scan.points), options, sink, &patch);
+    });
 }
 
 void writeForestFormerPly(const fs::path& path, const ScanPointSource& points) {
-    toFile(path, [&](const Sink& sink) { encodePly(points, sink); });
+    toFile(path, [&](const Sink& sink, const Patch&) { encodePly(points, sink); });
 }
 
 void writeForestFormerPly(const fs::path& path, const ScanResult& scan) {
@@ -515,7 +642,8 @@ void writeForestFormerPly(const fs::path& path, const ScanResult& scan) {
 }
 
 std::string forestFormerPlyBytes(const ScanResult& scan) {
-    return toBytes([&](const Sink& sink) { encodePly(ScanPointView(scan.points), sink); });
+    return toBytes(
+        [&](const Sink& sink, const Patch&) { encodePly(ScanPointView(scan.points), sink); });
 }
 
 int32_t treeLearnLabel(const ScanPoint& point) {
@@ -529,7 +657,7 @@ int32_t treeLearnLabel(const ScanPoint& point) {
 }
 
 void writeTreeLearnNpy(const fs::path& path, const ScanPointSource& points) {
-    toFile(path, [&](const Sink& sink) { encodeNpy(points, sink); });
+    toFile(path, [&](const Sink& sink, const Patch&) { encodeNpy(points, sink); });
 }
 
 void writeTreeLearnNpy(const fs::path& path, const ScanResult& scan) {
@@ -537,7 +665,8 @@ void writeTreeLearnNpy(const fs::path& path, const ScanResult& scan) {
 }
 
 std::string treeLearnNpyBytes(const ScanResult& scan) {
-    return toBytes([&](const Sink& sink) { encodeNpy(ScanPointView(scan.points), sink); });
+    return toBytes(
+        [&](const Sink& sink, const Patch&) { encodeNpy(ScanPointView(scan.points), sink); });
 }
 
 std::string trajectoryCsv(const ScanResult& scan, double gpsStart) {

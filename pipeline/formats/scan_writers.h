@@ -32,9 +32,9 @@ inline Vec3 surveyFrame(double x, double y, double z) { return {x, -z, y}; }
 //
 // Hand-written to the ASPRS LAS 1.4 R15 specification: Debian 12 packages no LAS library
 // (`apt-cache search` finds no liblas, PDAL or LASzip; GDAL has no LAS driver), and the writer is
-// a header, two VLRs and fixed-size records (some 250 lines of scan_writers.cpp). No LAZ for the
-// same reason. Measured: 12 M points/s per core for format 6 (bench ScanWrite), far above the
-// scanner's pulse rate.
+// a header, two VLRs and fixed-size records (some 250 lines of scan_writers.cpp). LAZ (below)
+// compresses them with the vendored laz-perf. Measured: 12 M points/s per core for format 6 (bench
+// ScanWrite), far above the scanner's pulse rate.
 //
 // Header: version 1.4, 375 bytes; global encoding 17 = bit 0 (GPS time is adjusted standard
 // GPS time, GPS seconds − 10⁹) | bit 4 (the CRS is WKT, required for point formats 6–10);
@@ -105,6 +105,7 @@ struct LasOptions {
     double gpsStart = 0;
     std::string systemIdentifier = "SIMULATION";  // ASCII, cut to 32 bytes (e.g. "sylva TLS")
     uint16_t fileSourceId = 0;                    // 0 = not assigned
+    uint32_t lazChunkPoints = 50000;  // points per LAZ chunk (writeLaz; ≥ 1), LASzip's default
 };
 
 // The header's creation date for an adjusted standard GPS time: {day of year (1 …), year}.
@@ -123,6 +124,22 @@ void writeLas(const std::filesystem::path& path, const ScanPointSource& points,
               const LasOptions& options = {});
 // The same bytes in memory (tests, small scans).
 std::string lasBytes(const ScanResult& scan, const LasOptions& options = {});
+
+// --- LAZ ---------------------------------------------------------------------------------------
+//
+// The LAS file above compressed as LASzip compresses it (LAZ 1.4, laszip.org): the same header,
+// VLRs and point records, with the header's point format bit 7 set (so 134 or 135), the LASzip
+// VLR ("laszip encoded" 22204) as a third VLR, and the records in chunks of
+// LasOptions::lazChunkPoints points, each compressed on its own with the layered compression of
+// point formats 6–10 (LASzip's compressor 3; the extra bytes as BYTE14), then the chunk table,
+// whose offset the 8 bytes at the start of the point data hold. The coder is laz-perf's
+// (third_party/laz-perf/README.md: Debian 12 packages no LAZ library). Streamed and read twice
+// as writeLas; decompressed, the records are writeLas's byte for byte.
+void writeLaz(const std::filesystem::path& path, const ScanResult& scan,
+              const LasOptions& options = {});
+void writeLaz(const std::filesystem::path& path, const ScanPointSource& points,
+              const LasOptions& options = {});
+std::string lazBytes(const ScanResult& scan, const LasOptions& options = {});
 
 // --- the layouts models load directly ----------------------------------------------------------
 

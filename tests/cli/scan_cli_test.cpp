@@ -87,6 +87,21 @@ uint64_t lasPointCount(const std::string& bytes) {
     return n;
 }
 
+// Where a LAS file's records start, their length, and the coordinates' scale and offset.
+struct LasLayout {
+    uint32_t first = 0;
+    uint16_t length = 0;
+    double scale[3] = {}, offset[3] = {};
+};
+LasLayout lasLayout(const std::string& las) {
+    LasLayout l;
+    std::memcpy(&l.first, las.data() + 96, 4);
+    std::memcpy(&l.length, las.data() + 105, 2);
+    std::memcpy(l.scale, las.data() + 131, 24);
+    std::memcpy(l.offset, las.data() + 155, 24);
+    return l;
+}
+
 void expectSameScans(const fs::path& spec) {
     TempDir t;
     const fs::path one = t / "one", two = t / "two", shards = t / "shards";
@@ -124,6 +139,11 @@ void expectSameScans(const fs::path& spec) {
         const std::string las = slurp(one / rec["files"]["scan_las"].get<std::string>());
         EXPECT_EQ(las.compare(0, 4, "LASF"), 0);
         EXPECT_EQ(lasPointCount(las), points) << rec["id"];
+        if (rec["files"].contains("scan_laz")) {  // tls_trees.toml: as checked by test-scan-readers
+            const std::string laz = slurp(one / rec["files"]["scan_laz"].get<std::string>());
+            EXPECT_EQ(laz.compare(0, 4, "LASF"), 0);
+            EXPECT_EQ(lasPointCount(laz), points) << rec["id"];
+        }
         const std::string ply =
             slurp(one / rec["files"]["scan_forestformer_ply"].get<std::string>());
         EXPECT_NE(ply.find("element vertex " + std::to_string(points) + "\n"), std::string::npos);
@@ -154,13 +174,10 @@ TEST(CliScan, PlotDensityCountsThePointsAboveTheArea) {
     ASSERT_EQ(recs.size(), 1u);
     const std::string las = slurp(t / "out" / recs[0]["files"]["scan_las"].get<std::string>());
     ASSERT_GE(las.size(), 375u);
-    uint32_t first = 0;
-    uint16_t length = 0;
-    double scale[3], offset[3];
-    std::memcpy(&first, las.data() + 96, 4);
-    std::memcpy(&length, las.data() + 105, 2);
-    std::memcpy(scale, las.data() + 131, 24);
-    std::memcpy(offset, las.data() + 155, 24);
+    const LasLayout L = lasLayout(las);
+    const uint32_t first = L.first;
+    const uint16_t length = L.length;
+    const double *scale = L.scale, *offset = L.offset;
     const uint64_t n = lasPointCount(las);
     ASSERT_EQ(las.size(), first + n * length);
     uint64_t inside = 0, nearEdge = 0;  // within 1 mm of the edge: either side after rounding
@@ -191,10 +208,9 @@ TEST(CliScan, AsprsClassesNameTheTreeHighVegetation) {
     ASSERT_EQ(recs.size(), 1u);
     const std::string las = slurp(t / "out" / recs[0]["files"]["scan_las"].get<std::string>());
     ASSERT_GE(las.size(), 375u);
-    uint32_t first = 0;
-    uint16_t length = 0;
-    std::memcpy(&first, las.data() + 96, 4);
-    std::memcpy(&length, las.data() + 105, 2);
+    const LasLayout L = lasLayout(las);
+    const uint32_t first = L.first;
+    const uint16_t length = L.length;
     ASSERT_EQ(length, 49);
     const uint64_t n = lasPointCount(las);
     std::map<int, int> byClass;

@@ -13,6 +13,11 @@
 //     list: X, Y, Z within half the scale, intensity, return number and number of returns,
 //     scanner channel, scan direction, edge of flight line, classification, user data, scan
 //     angle, GPS time, RGB (format 7), and each extra-bytes field.
+// Then the same checks on formula.laz and formula_rgb.laz (the same points, LAZ-compressed in
+// chunks of 64 points), whose records copc decompresses with the npm package `laz-perf` (the
+// WebAssembly build of the LAZ library, Las.PointData.decompressFile): the header with the
+// compression bit, a third VLR (the LASzip VLR, "laszip encoded" 22204), and the decompressed
+// records equal to the LAS file's byte for byte.
 //
 // Usage: node tests/js/check_scan.mjs DIR   (the directory ScanOutputs.WritesFilesForReaders
 // wrote)
@@ -82,17 +87,20 @@ const extraBytes = [  // name, copc type, size, min, max over the formula (none:
 ];
 const scaled = new Set(['elevation', 'label_purity']);
 
-async function check(file, format) {
+// `las`: for a LAZ file, the LAS file of the same points (its records are compared).
+async function check(file, format, las) {
     const filename = path.join(dir, file);
     const buffer = new Uint8Array(fs.readFileSync(filename));
     const header = Las.Header.parse(buffer);
     const w = (what) => `${file}: ${what}`;
+    // copc masks the format byte; the compression bit (7) is in the file.
+    expectEq(w('point format byte'), buffer[104], las ? format | 128 : format);
     expectEq(w('version'), `${header.majorVersion}.${header.minorVersion}`, '1.4');
     expectEq(w('header size'), header.headerLength, 375);
     expectEq(w('global encoding'), header.globalEncoding, 17);
     expectEq(w('point format'), header.pointDataRecordFormat, format);
     expectEq(w('record length'), header.pointDataRecordLength, (format === 7 ? 36 : 30) + 19);
-    expectEq(w('VLR count'), header.vlrCount, 2);
+    expectEq(w('VLR count'), header.vlrCount, las ? 3 : 2);
     expectEq(w('point count'), header.pointCount, N);
     expectEq(w('generating software'), header.generatingSoftware.startsWith('sylva '), true);
     const byReturn = new Array(15).fill(0);
@@ -118,6 +126,9 @@ async function check(file, format) {
     else {
         const wkt = Buffer.from(await Las.Vlr.fetch(filename, wktVlr)).toString('latin1');
         if (!wkt.startsWith('LOCAL_CS[') || !wkt.endsWith('\0')) fail(w(`WKT ${wkt}`));
+    }
+    if (las && !Las.Vlr.find(vlrs, 'laszip encoded', 22204)) {
+        fail(w('no LASzip VLR (laszip encoded 22204)'));
     }
     const ebVlr = Las.Vlr.find(vlrs, 'LASF_Spec', 4);
     if (!ebVlr) {
@@ -145,8 +156,15 @@ async function check(file, format) {
 
     // The points, through copc's field readers: Las.View builds one per dimension of the point
     // format plus one per extra-bytes field (it is handed the list parsed above).
-    const data = buffer.subarray(header.pointDataOffset,
-        header.pointDataOffset + N * header.pointDataRecordLength);
+    const data = las ? await Las.PointData.decompressFile(buffer)
+        : buffer.subarray(header.pointDataOffset,
+            header.pointDataOffset + N * header.pointDataRecordLength);
+    if (las) {
+        const lasBuffer = new Uint8Array(fs.readFileSync(path.join(dir, las)));
+        const lasHeader = Las.Header.parse(lasBuffer);
+        const records = lasBuffer.subarray(lasHeader.pointDataOffset);
+        expectEq(w(`decompressed records equal ${las}'s`), Buffer.compare(data, records), 0);
+    }
     const view = Las.View.create(data, header, eb);
     expectEq(w('view point count'), view.pointCount, N);
     for (const [name, type, size] of extraBytes) {
@@ -201,11 +219,14 @@ async function check(file, format) {
 
 await check('formula.las', 6);
 await check('formula_rgb.las', 7);
+await check('formula.laz', 6, 'formula.las');
+await check('formula_rgb.laz', 7, 'formula_rgb.las');
 
 if (failures.length) {
     for (const f of failures.slice(0, 40)) console.error(`check_scan: ${f}`);
     if (failures.length > 40) console.error(`check_scan: … ${failures.length - 40} more`);
     process.exit(1);
 }
-console.log(`check_scan: formula.las (format 6) and formula_rgb.las (format 7): ${N} points, ` +
-    'header, WKT, 8 extra-bytes fields and every field of every point as copc reads them');
+console.log(`check_scan: formula.las (format 6) and formula_rgb.las (format 7), and both as LAZ ` +
+    `(decompressed by laz-perf): ${N} points, header, WKT, 8 extra-bytes fields and every ` +
+    'field of every point as copc reads them');

@@ -20,7 +20,11 @@
 //     station's side of its base than on the far side, and at least 99 % of its stem points lie
 //     on the face of their cylinder (qsm.csv, the row of the point's node_id) that looks at the
 //     station (less than 120° round the axis from the station's direction): the back of the
-//     trunk is not seen.
+//     trunk is not seen;
+//   - scan.laz (when the spec's formats have "laz"): copc decompresses it (Las.PointData, the
+//     npm package `laz-perf`) to scan.las's records byte for byte, and its header is scan.las's
+//     but for the point format's compression bit (7), the VLR count (3: the LASzip VLR) and the
+//     offset to the points.
 // It also writes what copc read, per record, to OUT/copc/<id>.f64 (float64, one row per point:
 // x y z classification treeID treeSP semantic_seg return number, number of returns, intensity,
 // gps_time, branch_order, node_id) for tests/python/test_scan_build.py to compare with numpy and
@@ -60,6 +64,26 @@ const COLUMNS = ['X', 'Y', 'Z', 'Classification', 'treeID', 'treeSP', 'semantic_
     'ReturnNumber', 'NumberOfReturns', 'Intensity', 'GpsTime', 'branch_order', 'node_id'];
 fs.mkdirSync(path.join(out, 'copc'), { recursive: true });
 
+async function checkLaz(dir, record, las) {
+    const w = (what) => `${record.id}: scan.laz: ${what}`;
+    const laz = new Uint8Array(fs.readFileSync(path.join(dir, record.files.scan_laz)));
+    const lasHeader = Las.Header.parse(las);
+    const lazHeader = Las.Header.parse(laz);
+    expectEq(w('point format byte'), laz[104], las[104] | 128);
+    expectEq(w('VLR count'), lazHeader.vlrCount, 3);
+    for (let k = 0; k < 375; ++k) {
+        if (k >= 96 && k <= 104) continue;  // offset to points, VLR count, point format
+        if (laz[k] !== las[k]) {
+            fail(w(`header byte ${k}: ${laz[k]}, scan.las has ${las[k]}`));
+            break;
+        }
+    }
+    const records = await Las.PointData.decompressFile(laz);
+    expectEq(w('decompressed records = scan.las records'),
+        Buffer.compare(records, las.subarray(lasHeader.pointDataOffset)), 0);
+    return laz.length;
+}
+
 function treeIds(dir, record) {
     if (record.kind !== 'plot') return [1];
     const csv = fs.readFileSync(path.join(dir, record.files.trees_csv), 'utf8').trim().split('\n');
@@ -78,6 +102,7 @@ async function checkRecord(dir, spec, record) {
     expectEq(w('point format'), header.pointDataRecordFormat, colour ? 7 : 6);
     expectEq(w('point count = manifest scan.points'), header.pointCount, scan.points);
     const N = header.pointCount;
+    const lazBytes = record.files.scan_laz ? await checkLaz(dir, record, buffer) : 0;
     const vlrs = await Las.Vlr.walk(filename, header);
     const ebVlr = Las.Vlr.find(vlrs, 'LASF_Spec', 4);
     if (!ebVlr) {
@@ -249,7 +274,8 @@ async function checkRecord(dir, spec, record) {
         }
     }
     fs.writeFileSync(path.join(out, 'copc', `${record.id}.f64`), Buffer.from(rows.buffer));
-    return { id: record.id, points: N, trees: pointsOfTree.size - (pointsOfTree.has(0) ? 1 : 0), side };
+    return { id: record.id, points: N, trees: pointsOfTree.size - (pointsOfTree.has(0) ? 1 : 0), side,
+        lazBytes };
 }
 
 const summary = [];
@@ -273,4 +299,5 @@ if (failures.length) {
     process.exit(1);
 }
 console.log(`check_scan_build: ${summary.map((s) => `${s.id} ${s.points} points, ${s.trees} trees` +
-    (s.side.near + s.side.far ? ` (near/far of trunk ${s.side.near}/${s.side.far}, stem ${s.side.stemNear}/${s.side.stemFar})` : '')).join('; ')}`);
+    (s.side.near + s.side.far ? ` (near/far of trunk ${s.side.near}/${s.side.far}, stem ${s.side.stemNear}/${s.side.stemFar})` : '') +
+    (s.lazBytes ? `, scan.laz ${s.lazBytes} bytes = scan.las decompressed` : '')).join('; ')}`);

@@ -16,59 +16,14 @@
 
 #include "pipeline/formats/qsm_writer.h"
 #include "species/spec/species.h"
+#include "tests/pipeline/formats/formula_scan.h"
 #include "tests/test_support.h"
 
 namespace sylva {
 namespace {
 
 namespace fs = std::filesystem;
-
-// The hand-made scan every reader test shares: point i from closed-form expressions, so the
-// readers (tests/js/check_scan.mjs, tests/python/test_scan_outputs.py) compute the same known
-// answers on their own. Varied on purpose: negative and positive coordinates on every axis,
-// every return number 1 … 15, channels 0 … 3, every FOR-instance class, node_id −1.
-ScanResult formulaScan(int n) {
-    ScanResult scan;
-    for (int i = 0; i < n; ++i) {
-        ScanPoint p;
-        p.x = -12.5 + 0.0731 * i;
-        p.y = -1.0 + 0.043 * i;
-        p.z = 7.25 - 0.0517 * i;
-        p.gpsTime = 0.001 * i + 0.000001 * (i % 7);
-        p.intensity = static_cast<uint16_t>((int64_t{i} * 40503) % 65536);
-        p.numberOfReturns = static_cast<uint8_t>(1 + (i / 4) % 15);
-        p.returnNumber = static_cast<uint8_t>(1 + i % p.numberOfReturns);
-        p.channel = static_cast<uint8_t>(i % 4);
-        p.sourceId = static_cast<uint16_t>(i % 8);  // a station index; channel = it mod 4
-        p.scanDirection = i % 2 == 1;
-        p.edgeOfFlightLine = i % 11 == 0;
-        p.scanAngleDeg = static_cast<float>(-45 + 0.3 * i);
-        p.elevationDeg = static_cast<float>(-40 + 0.37 * i);
-        p.labelPurity = static_cast<float>(0.2 + 0.1 * (i % 9));
-        p.pulse = static_cast<uint64_t>(i);
-        p.label.treeId = i % 6;
-        p.label.nodeId = i % 9 - 1;
-        p.label.objectId = (i * 13) % 1000;
-        p.label.species = static_cast<uint16_t>((i * 37) % 1000);
-        p.label.part = static_cast<uint8_t>(i % 6);
-        p.label.branchOrder = static_cast<uint8_t>(i % 4);
-        p.classification = static_cast<uint8_t>(i % 7);
-        p.semantic = static_cast<uint8_t>(i % 4);
-        scan.points.push_back(p);
-    }
-    for (int k = 0; k < 3; ++k) {
-        ScanPose pose;
-        pose.gpsTime = 0.1 * k;
-        pose.x = 1.5 * k;
-        pose.y = 60 + k;
-        pose.z = -20 + 2.25 * k;
-        pose.headingDeg = 90;
-        pose.channel = static_cast<uint8_t>(k);
-        scan.trajectory.push_back(pose);
-    }
-    scan.pulses = static_cast<uint64_t>(n);
-    return scan;
-}
+using test::formulaScan;
 
 // Whether two byte strings are equal, naming the first difference (gtest's EXPECT_EQ would diff
 // megabytes of binary line by line, quadratic in memory).
@@ -448,7 +403,8 @@ TEST(ScanTrajectory, CsvAndStationsInTheSurveyFrame) {
 }
 
 // The files the independent readers check, into $SYLVA_SCAN_OUT (or a scratch directory):
-// formula.las (format 6, gpsStart 123456.5), formula_rgb.las (format 7 by class),
+// formula.las (format 6, gpsStart 123456.5), formula_rgb.las (format 7 by class), both as LAZ
+// too (formula.laz, formula_rgb.laz, in chunks of 64 points),
 // formula.ply, formula.npy, trajectory.csv, stations.json (300 points of formulaScan), and
 // the QSM tables of a small hand-built tree (qsm.csv, qsm.txt).
 TEST(ScanOutputs, WritesFilesForReaders) {
@@ -459,8 +415,11 @@ TEST(ScanOutputs, WritesFilesForReaders) {
     LasOptions options;
     options.gpsStart = 123456.5;
     writeLas(out / "formula.las", scan, options);
+    options.lazChunkPoints = 64;  // several chunks, the last one partial
+    writeLaz(out / "formula.laz", scan, options);
     options.colour = LasColour::kClass;
     writeLas(out / "formula_rgb.las", scan, options);
+    writeLaz(out / "formula_rgb.laz", scan, options);
     writeForestFormerPly(out / "formula.ply", scan);
     writeTreeLearnNpy(out / "formula.npy", scan);
     writeTrajectory(out / "trajectory.csv", scan, 123456.5);
@@ -483,8 +442,9 @@ TEST(ScanOutputs, WritesFilesForReaders) {
         writeQsmCylinders(out / "species_qsm.csv",
                           growSpecies(loadSpecies(species), 1, nullptr, true).tree);
     }
-    for (const char* f : {"formula.las", "formula_rgb.las", "formula.ply", "formula.npy",
-                          "trajectory.csv", "stations.json", "qsm.csv", "qsm.txt"}) {
+    for (const char* f :
+         {"formula.las", "formula_rgb.las", "formula.laz", "formula_rgb.laz", "formula.ply",
+          "formula.npy", "trajectory.csv", "stations.json", "qsm.csv", "qsm.txt"}) {
         EXPECT_TRUE(fs::is_regular_file(out / f)) << f;
     }
 }
