@@ -102,6 +102,17 @@ LasLayout lasLayout(const std::string& las) {
     return l;
 }
 
+// Builds `spec` (one instance) into t/out: its manifest records and its scan.las.
+void buildOneScan(const fs::path& spec, const TempDir& t, std::vector<nlohmann::json>& recs,
+                  std::string& las) {
+    const CliResult r = runSylva({"build", spec.string(), "--out", (t / "out").string()}, t.path());
+    ASSERT_EQ(r.code, 0) << describeRun(r);
+    recs = manifest(t / "out" / "manifest.jsonl");
+    ASSERT_EQ(recs.size(), 1u);
+    las = slurp(t / "out" / recs[0]["files"]["scan_las"].get<std::string>());
+    ASSERT_GE(las.size(), 375u);
+}
+
 void expectSameScans(const fs::path& spec) {
     TempDir t;
     const fs::path one = t / "one", two = t / "two", shards = t / "shards";
@@ -167,13 +178,9 @@ TEST(CliScan, PlotScansTheSameOnOneAndTwoThreadsAndAsShards) {
 // frame x east, y north = scene −z), not those of the 2 m margin, over 400 m².
 TEST(CliScan, PlotDensityCountsThePointsAboveTheArea) {
     TempDir t;
-    const CliResult r = runSylva(
-        {"build", (kScanData / "uls_plot.toml").string(), "--out", (t / "out").string()}, t.path());
-    ASSERT_EQ(r.code, 0) << describeRun(r);
-    const std::vector<nlohmann::json> recs = manifest(t / "out" / "manifest.jsonl");
-    ASSERT_EQ(recs.size(), 1u);
-    const std::string las = slurp(t / "out" / recs[0]["files"]["scan_las"].get<std::string>());
-    ASSERT_GE(las.size(), 375u);
+    std::vector<nlohmann::json> recs;
+    std::string las;
+    ASSERT_NO_FATAL_FAILURE(buildOneScan(kScanData / "uls_plot.toml", t, recs, las));
     const LasLayout L = lasLayout(las);
     const uint32_t first = L.first;
     const uint16_t length = L.length;
@@ -201,13 +208,10 @@ TEST(CliScan, PlotDensityCountsThePointsAboveTheArea) {
 // (wood and leaves, semantic_seg 2 and 3) high vegetation 5, the terrain (semantic 1) ground 2.
 TEST(CliScan, AsprsClassesNameTheTreeHighVegetation) {
     TempDir t;
-    const fs::path spec = kScanData.parent_path() / "keys" / "scan-las-classes.toml";
-    const CliResult r = runSylva({"build", spec.string(), "--out", (t / "out").string()}, t.path());
-    ASSERT_EQ(r.code, 0) << describeRun(r);
-    const std::vector<nlohmann::json> recs = manifest(t / "out" / "manifest.jsonl");
-    ASSERT_EQ(recs.size(), 1u);
-    const std::string las = slurp(t / "out" / recs[0]["files"]["scan_las"].get<std::string>());
-    ASSERT_GE(las.size(), 375u);
+    std::vector<nlohmann::json> recs;
+    std::string las;
+    ASSERT_NO_FATAL_FAILURE(
+        buildOneScan(kScanData.parent_path() / "keys" / "scan-las-classes.toml", t, recs, las));
     const LasLayout L = lasLayout(las);
     const uint32_t first = L.first;
     const uint16_t length = L.length;
