@@ -71,13 +71,16 @@ def _native(a, dtype):
 
 
 class Instance:
-    """One tree of a dataset: its manifest record and readers for its files."""
+    """One instance of a dataset — a tree, or a plot (kind "plot") — its manifest record and
+    readers for its files."""
 
     def __init__(self, dataset_dir, record):
         self.root = dataset_dir
         self.record = record
         self.id = record.get("id")
-        self.species = record.get("species")
+        self.kind = record.get("kind", "tree")  # "tree" or "plot"
+        self.species = record.get("species")   # a tree's species; None for a plot
+        self.plot = record.get("plot")         # a plot's name; None for a tree
         self.index = record.get("index")
         self.seed = record.get("seed")
         self.stats = record.get("stats", {})
@@ -86,6 +89,8 @@ class Instance:
         self.files = record.get("files", {})
 
     def __repr__(self):
+        if self.kind == "plot":
+            return "Instance(%r, plot=%r)" % (self.id, self.plot)
         return "Instance(%r, species=%r)" % (self.id, self.species)
 
     def path(self, key):
@@ -97,7 +102,9 @@ class Instance:
 
     @property
     def dir(self):
-        """The instance directory, trees/<species>/<id>."""
+        """The instance directory: trees/<species>/<id>, or plots/<plot>/<id> for a plot."""
+        if self.kind == "plot":
+            return os.path.join(self.root, "plots", self.plot, self.id)
         return os.path.join(self.root, "trees", self.species, self.id)
 
     def skeleton(self):
@@ -247,11 +254,21 @@ class Dataset:
 
     @property
     def species(self):
-        """Species names in first-seen manifest order."""
+        """The species of the tree instances, in first-seen manifest order (a plot's trees are
+        in its plot.json, not the manifest: a plot-only dataset has none here)."""
+        return self._first_seen("species")
+
+    @property
+    def plots(self):
+        """The names of the plots of the plot instances, in first-seen manifest order."""
+        return self._first_seen("plot")
+
+    def _first_seen(self, key):
         seen = []
         for r in self.records:
-            if r.get("species") not in seen:
-                seen.append(r.get("species"))
+            v = r.get(key)
+            if v is not None and v not in seen:
+                seen.append(v)
         return seen
 
     def by_species(self, name):

@@ -443,6 +443,24 @@ def test_dataset(np, sd, oiio, cv2, out):
         check("mesh_obj" in str(e) and "mesh_ply" in str(e), "KeyError names the key and those present: %s" % e)
 
 
+def test_plot_dataset(np, sd, exe, src, tmp):
+    """A plot dataset (tests/data/scan/uls_plot.toml, one plot scanned): its instance is a plot
+    in plots/<plot>/<id>, and it has no tree species of its own in the manifest."""
+    data = os.path.join(tmp, "plot_ds")
+    run([exe, "build", os.path.join(src, "tests/data/scan/uls_plot.toml"), "--out", data])
+    ds = sd.Dataset(data)
+    check(len(ds) == 1, "one plot instance: %d" % len(ds))
+    check(ds.species == [], "a plot dataset lists no tree species: %r" % (ds.species,))
+    check(ds.plots == ["stand"], "its plot: %r" % (ds.plots,))
+    inst = ds[0]
+    check(inst.kind == "plot" and inst.plot == "stand" and inst.species is None,
+          "the instance is the plot: %r" % (inst,))
+    check(inst.dir == os.path.join(ds.root, "plots", "stand", inst.id)
+          and os.path.isfile(os.path.join(inst.dir, "plot.json")),
+          "the plot's directory holds plot.json: %s" % inst.dir)
+    check(os.path.dirname(inst.path("scan_las")) == inst.dir, "scan.las in the plot's directory")
+
+
 def test_torch(np, sd, out):
     import torch
     from sylva_dataset.pytorch import TreeDataset, ViewDataset
@@ -507,6 +525,7 @@ def checks(exe, src, out, tmp, torch):
     test_obj_general(np, sd, tmp)
     test_glb_transform(np, sd, tmp)
     test_dataset(np, sd, oiio, cv2, out)
+    test_plot_dataset(np, sd, exe, src, tmp)
     if torch == "torch":
         test_torch(np, sd, out)
     else:
