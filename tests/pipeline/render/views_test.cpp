@@ -731,6 +731,10 @@ TEST(ViewPointCloud, PointsLieOnTheSkeleton) {
     EXPECT_NE(header.find("property float x\nproperty float y\nproperty float z\n"
                           "property uchar label\nproperty uchar view\n"),
               std::string::npos);
+    // The header names every label the points can carry, as the label images have them.
+    EXPECT_NE(header.find("comment label: 1 + branch order for shoot wood, 254 for root wood, "
+                          "255 for leaves; view: camera index\n"),
+              std::string::npos);
     const char* p = ply.data() + body + endHeader.size();
     ASSERT_EQ(ply.size() - (body + endHeader.size()), expected * 14);
     int lastView = -1;
