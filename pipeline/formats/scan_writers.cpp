@@ -434,15 +434,12 @@ void encodeLas(const ScanPointSource& points, const LasOptions& options, const S
                                                                  : lasTreeColour(p.label.treeId);
             for (uint8_t v : col) c.u16(static_cast<uint16_t>(v * 257));
         }
-        c.i32(p.label.treeId);
-        c.u16(p.label.species);
-        c.u8(p.semantic);
-        c.i32(p.label.objectId);
-        c.u8(p.label.branchOrder);
-        c.i32(p.label.nodeId);
+        // The extra bytes, as their descriptors say: each value's low `size` bytes, little-endian
+        // (two's complement for the signed ones).
         const auto eb = extraValues(p);
-        c.i16(static_cast<int16_t>(eb[6]));
-        c.u8(static_cast<uint8_t>(eb[7]));
+        for (size_t k = 0; k < eb.size(); ++k) {
+            c.le(static_cast<uint64_t>(eb[k]), kLasExtraBytes[k].size);
+        }
     };
     if (!laz) {
         encodeRecords(points, recordSize, sink, record);

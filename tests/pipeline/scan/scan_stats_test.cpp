@@ -23,7 +23,7 @@ ScanPoint point(uint64_t pulse, uint8_t ret, uint8_t of, uint8_t cls, int32_t tr
     p.returnNumber = ret;
     p.numberOfReturns = of;
     p.classification = cls;
-    p.channel = static_cast<uint8_t>(channel % 4);  // as the scanner: the station modulo 4
+    p.channel = static_cast<uint8_t>(channel % 4);    // as the scanner: the station modulo 4
     p.sourceId = static_cast<uint16_t>(channel + 1);  // the station, counted from 1
     p.label.treeId = tree;
     p.label.nodeId = node;
