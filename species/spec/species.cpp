@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "species/geometry/leaves.h"
+#include "species/spec/look_spec.h"
 #include "species/model/form.h"
 #include "species/spec/budget_spec.h"
 #include "species/spec/form_spec.h"
@@ -77,6 +78,8 @@ SpeciesFile loadSpecies(const std::string& path) {
     s.method = p.string("method");
     s.description = p.string("description", "");
     s.habit = readHabit(p);
+    auto look = p.optionalTable("look");
+    s.look = std::make_shared<const Look>(look ? readLook(*look) : Look{});
     return s;
 }
 
@@ -106,6 +109,7 @@ std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, Dra
     BudgetTable b;
     if (auto t = p.optionalTable("budget")) b = readBudget(*t, false);
     if (budget) *budget = b;
+    if (auto look = p.optionalTable("look")) readLook(*look);  // checked here; loadSpecies keeps it
     // [fit]: `sylva fit`'s settings (pipeline/analysis/fit.h reads and checks them); a tree
     // never depends on them.
     if (const toml::node* fit = p.raw("fit"); fit && !fit->is_table()) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/params.h"
+#include "species/model/look.h"
 #include "species/model/tree.h"
 #include "species/spec/growth_method.h"
 
@@ -24,6 +25,8 @@ struct SpeciesFile {
     std::string description;  // `description`
     std::string habit;        // `habit`: "tree", "conifer", "shrub", "clump", "palm" or ""
     std::shared_ptr<const toml::table> table;
+    // `[look]`: how its trees look in colour (the defaults when the file has none).
+    std::shared_ptr<const Look> look;
     // Parsed methods of species without distributions, per sweep point: the same for every
     // instance, so a crown level set or a CSG measure is built once, not once per tree.
     std::shared_ptr<SpeciesCache> cache;
