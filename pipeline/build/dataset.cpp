@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 
 #include "pipeline/scan/scan_pattern.h"
 #include "species/plot/plot_spec.h"
@@ -321,6 +322,14 @@ void readOutputs(Params& o, OutputOptions& out) {
     if (out.watertight && out.meshFormats.empty()) {
         o.fail("watertight", "needs a mesh format: set mesh = [\"ply\"] (or glb, obj)");
     }
+    out.textures = o.boolean("textures", out.textures);
+    auto has = [&](const char* f) {
+        return std::find(out.meshFormats.begin(), out.meshFormats.end(), f) !=
+               out.meshFormats.end();
+    };
+    if (out.textures && !has("glb") && !has("obj")) {
+        o.fail("textures", "needs a textured mesh format: set mesh = [\"glb\"] (or obj)");
+    }
     out.speciesSheet =
         static_cast<int>(o.integer("species_sheet", out.speciesSheet, Range::closed(0, 10000)));
     o.finish();
@@ -329,7 +338,39 @@ void readOutputs(Params& o, OutputOptions& out) {
 // [views]; defaults come from ViewOptions, except `count`: a [views] table without it asks
 // for kDefaultViewCount views (no table: none).
 constexpr int kDefaultViewCount = 8;
-void readViews(Params& v, ViewOptions& vo, RenderOptions& ro) {
+// The [views] colour keys (pipeline/render/colour_render.h ColourOptions).
+void readColour(Params& v, ColourOptions& co) {
+    co.enabled = v.boolean("colour", co.enabled);
+    co.samples = static_cast<int>(v.integer("colour_samples", co.samples, Range::closed(1, 256)));
+    co.aoRays = static_cast<int>(v.integer("colour_ao_rays", co.aoRays, Range::closed(0, 64)));
+    co.background = v.choice("colour_background", co.background,
+                             {{"transparent", ColourBackground::kTransparent},
+                              {"colour", ColourBackground::kColour},
+                              {"sky", ColourBackground::kSky}});
+    if (v.has("colour_background_colour")) {
+        const std::string text = v.string("colour_background_colour");
+        if (!parseHexColour(text, co.backgroundColour)) {
+            v.fail("colour_background_colour",
+                   "expected an sRGB colour \"#rrggbb\" (six hex digits), got \"" + text + "\"");
+        }
+    } else {
+        v.raw("colour_background_colour");
+    }
+    std::tie(co.sunElevationDeg[0], co.sunElevationDeg[1]) =
+        v.interval("colour_sun_elevation_deg", {co.sunElevationDeg[0], co.sunElevationDeg[1]},
+                   Range::closed(1, 90));
+    std::tie(co.exposureEv[0], co.exposureEv[1]) = v.interval(
+        "colour_exposure_ev", {co.exposureEv[0], co.exposureEv[1]}, Range::closed(-8, 8));
+    co.jpeg = v.choice("colour_format", std::string("png"), {"png", "jpg"}) == "jpg";
+    co.jpegQuality =
+        static_cast<int>(v.integer("colour_jpeg_quality", co.jpegQuality, Range::closed(1, 100)));
+    if (co.jpeg && co.background == ColourBackground::kTransparent) {
+        v.fail("colour_format",
+               "\"jpg\" has no alpha: give colour_background = \"colour\" or \"sky\" with it");
+    }
+}
+
+void readViews(Params& v, ViewOptions& vo, RenderOptions& ro, ColourOptions& co) {
     vo.count = static_cast<int>(v.integer("count", kDefaultViewCount, Range::closed(0, 1000)));
     if (v.has("elevations_deg") && v.has("elevation_range_deg")) {
         v.fail("elevation_range_deg", "give either elevations_deg or elevation_range_deg");
@@ -380,6 +421,7 @@ void readViews(Params& v, ViewOptions& vo, RenderOptions& ro) {
     if (vo.pointCloud && !vo.depth) v.fail("point_cloud", "needs depth = true");
     vo.contactSheet = v.boolean("contact_sheet", vo.contactSheet);
     ro.minWidthPx = v.number("min_width_px", ro.minWidthPx, Range::closed(0, 64));
+    readColour(v, co);
     v.finish();
 }
 
@@ -648,7 +690,7 @@ DatasetSpec loadDataset(const std::string& path, KeyLog* keyLog) {
     d.outputs.qsm = d.outputs.scan.enabled;  // [outputs] qsm overrides it
     if (auto o = p.optionalTable("outputs")) readOutputs(*o, d.outputs);
     if (auto v = p.optionalTable("views")) {
-        readViews(*v, d.outputs.views, d.outputs.render);
+        readViews(*v, d.outputs.views, d.outputs.render, d.outputs.colour);
         checkViewPixels(*v, d.outputs.views, d.budget);
     }
     std::vector<Params> plots = p.tableArray("plot");  // [[plot]]: species/plot/plot_spec.h

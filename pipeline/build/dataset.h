@@ -15,6 +15,7 @@
 
 #include "pipeline/formats/scan_writers.h"
 #include "pipeline/render/camera.h"
+#include "pipeline/render/colour_render.h"
 #include "pipeline/render/render.h"
 #include "pipeline/scan/scan_options.h"
 #include "species/geometry/tube_mesh.h"
@@ -76,6 +77,7 @@ struct OutputOptions {
     bool preview = false;  // preview.png per instance
     int previewSize = 512;
     std::vector<std::string> meshFormats;  // of "ply", "glb", "obj"; empty: no mesh
+    bool textures = false;  // mesh.glb / mesh.obj textured with the species' look (needs either)
     // Leaves meshed and drawn as their shapes' outlines (true), or every leaf as its card, one
     // quad (false): a plot's level of detail (a compound leaf's outline is ~100 triangles).
     bool leafOutlines = true;
@@ -85,6 +87,7 @@ struct OutputOptions {
     bool vdb = false;       // watertight.vdb (the level set itself)
     ViewOptions views;      // [views]
     RenderOptions render;   // [views] min_width_px
+    ColourOptions colour;   // [views] colour, colour_*
     int speciesSheet = 16;  // first K instances per species in a sheet
     ScanOutputs scan;       // [scan]
     bool qsm = false;       // qsm.csv + qsm_treeqsm.txt per tree (default: with [scan])

@@ -36,8 +36,8 @@ std::string hex64(uint64_t v) {
     return buf;
 }
 
-std::string meshBytes(const TreeMesh& m, const std::string& format) {
-    if (format == "glb") return meshGlb(m);
+std::string meshBytes(const TreeMesh& m, const std::string& format, const MeshLook* look) {
+    if (format == "glb") return meshGlb(m, look);
     return meshPly(m);
 }
 
@@ -148,6 +148,18 @@ void renderStage(InstanceWork& w, const OutputOptions& o) {
                                      o.views.depth || o.views.depthPng || o.views.pointCloud,
                                      o.views.labels || o.views.pointCloud, o.render));
     }
+    if (o.colour.enabled) {  // the same triangles through Embree, one BVH for every view
+        Mesh ownLeaves;
+        if (!meshed) ownLeaves = leafMesh(w.grown.tree);
+        const ColourScene scene(w.grown.tree, wood, meshed ? w.mesh.leaves : ownLeaves,
+                                *w.job.entry->species.look, w.job.seed);
+        const Rng colourRng = Rng(w.job.seed).derive("colour");
+        w.colours.reserve(w.cameras.size());
+        for (size_t k = 0; k < w.cameras.size(); ++k) {
+            w.colours.push_back(
+                scene.render(w.cameras[k], w.views[k], o.colour, colourRng.derive(k)));
+        }
+    }
     w.renderMs = msSince(t0);
 }
 
@@ -204,20 +216,28 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
 
     if (o.ply) put("skeleton_ply", "skeleton.ply", skeletonPly(w.grown.tree));
     if (o.swc) put("skeleton_swc", "skeleton.swc", skeletonSwc(w.grown.tree));
-    // A mesh in each format; an OBJ with its materials beside it (<stem>_mtl, <stem>.mtl).
-    auto putMesh = [&](const std::string& stem, const TreeMesh& m, const std::string& f) {
+    // A mesh in each format; an OBJ with its materials beside it (<stem>_mtl, <stem>.mtl) and,
+    // textured, its bark tile (<stem>_bark_png, <stem>_bark.png). [outputs] textures: the
+    // species' look on mesh.* (not on the watertight mesh, which has no UVs).
+    const MeshLook look{species.look.get(), job.seed};
+    auto putMesh = [&](const std::string& stem, const TreeMesh& m, const std::string& f,
+                       const MeshLook* ml) {
         if (f == "obj") {
-            put(stem + "_mtl", stem + ".mtl", meshMtl(m));
-            put(stem + "_obj", stem + ".obj", meshObj(m, stem + ".mtl"));
+            const bool bark = ml && !m.wood.empty();
+            if (bark) put(stem + "_bark_png", stem + "_bark.png", objBarkPng(*ml));
+            put(stem + "_mtl", stem + ".mtl", meshMtl(m, ml, bark ? stem + "_bark.png" : ""));
+            put(stem + "_obj", stem + ".obj", meshObj(m, stem + ".mtl", ml));
         } else {
-            put(stem + "_" + f, stem + "." + f, meshBytes(m, f));
+            put(stem + "_" + f, stem + "." + f, meshBytes(m, f, ml));
         }
     };
-    for (const std::string& f : o.meshFormats) putMesh("mesh", w.mesh, f);
+    for (const std::string& f : o.meshFormats) {
+        putMesh("mesh", w.mesh, f, o.textures && species.look ? &look : nullptr);
+    }
     if (o.watertight) {
         TreeMesh wt;
         wt.wood = w.watertight;
-        for (const std::string& f : o.meshFormats) putMesh("watertight", wt, f);
+        for (const std::string& f : o.meshFormats) putMesh("watertight", wt, f, nullptr);
         if (o.vdb) noteFile("watertight_vdb", rel / "watertight.vdb");
     }
     if (w.scan) writeScanFiles(*w.scan, o.scan, out, rel, files, bytes);
@@ -249,6 +269,13 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
                               vf.integerDepthScale);
                 count(rel / vf.depthPng.back());
             }
+            if (!w.colours.empty()) {
+                vf.colour.push_back(std::string(stem) + (o.colour.jpeg ? "_rgb.jpg" : "_rgb.png"));
+                vf.lights.push_back(w.colours[k].light);
+                writeColourImage(out / rel / vf.colour.back(), w.colours[k], o.colour.jpeg,
+                                 o.colour.jpegQuality);
+                count(rel / vf.colour.back());
+            }
             if (o.views.labels) {
                 vf.labels.push_back(std::string(stem) + "_label.png");
                 writeGreyPng(out / rel / vf.labels.back(), v.width, v.height, v.labels);
@@ -263,7 +290,11 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
         if (o.views.pointCloud) put("points_ply", "points.ply", pointCloudPly(w.cameras, w.views));
         if (o.views.contactSheet) {
             int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(w.views.size()))));
-            writeContactSheet(out / rel / "contact.png", w.views, cols);
+            if (w.colours.empty()) {
+                writeContactSheet(out / rel / "contact.png", w.views, cols);
+            } else {
+                writeColourContactSheet(out / rel / "contact.png", w.colours, cols);
+            }
             noteFile("contact_png", rel / "contact.png");
         }
     }

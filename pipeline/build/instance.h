@@ -13,6 +13,7 @@
 #include "pipeline/build/dataset.h"
 #include "pipeline/build/progress.h"
 #include "pipeline/build/scan_instance.h"
+#include "pipeline/render/colour_render.h"
 #include "pipeline/render/render.h"
 #include "species/geometry/mesh.h"
 #include "species/spec/species.h"
@@ -27,6 +28,7 @@ struct InstanceWork {
     Mesh watertight;                 // when asked for
     std::vector<Camera> cameras;
     std::vector<ViewImage> views;
+    std::vector<ColourImage> colours;  // [views] colour: one per view
     double growMs = 0, meshMs = 0, renderMs = 0, writeMs = 0;
     std::shared_ptr<GrownPlot> plot;     // a plot instance's trees (job.plot), instead of grown
     std::shared_ptr<InstanceScan> scan;  // [scan]: the scan of a tree (a plot's: writePlot)

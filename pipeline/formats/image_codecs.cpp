@@ -35,8 +35,10 @@ void noFlush(png_structp) {}
 
 // libpng reports errors by longjmp; nothing with a destructor lives across setjmp here.
 // pixels: rows of width × channels samples of bitDepth (8, or 16 as native uint16).
+// `photo`: adaptive row filters and zlib's default level and strategy, for colour pictures
+// (smooth gradients, no long runs); otherwise the fast settings of masks below.
 bool pngEncode(int width, int height, int channels, int bitDepth, const uint8_t* pixels,
-               std::string& out, std::string& error) {
+               std::string& out, std::string& error, bool photo = false) {
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
     if (!png) {
         error = "libpng: cannot create a write struct";
@@ -50,14 +52,23 @@ bool pngEncode(int width, int height, int channels, int bitDepth, const uint8_t*
     }
     png_set_write_fn(png, &out, appendToString, noFlush);
     png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height),
-                 bitDepth, channels == 3 ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY,
+                 bitDepth,
+                 channels == 4   ? PNG_COLOR_TYPE_RGB_ALPHA
+                 : channels == 3 ? PNG_COLOR_TYPE_RGB
+                                 : PNG_COLOR_TYPE_GRAY,
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-    png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
-    png_set_compression_level(png, 1);
-    png_set_compression_strategy(png, Z_RLE);
-    // zlib clears its hash table for every image: at libpng's default memLevel 8 that costs
-    // as much as compressing a 256² silhouette (≈ 170 vs 100 µs); Z_RLE never uses the hash.
-    png_set_compression_mem_level(png, 6);
+    if (photo) {
+        png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_ALL_FILTERS);
+        png_set_compression_level(png, 6);
+    } else {
+        png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
+        png_set_compression_level(png, 1);
+        png_set_compression_strategy(png, Z_RLE);
+        // zlib clears its hash table for every image: at libpng's default memLevel 8 that
+        // costs as much as compressing a 256² silhouette (≈ 170 vs 100 µs); Z_RLE never uses
+        // the hash.
+        png_set_compression_mem_level(png, 6);
+    }
     png_write_info(png, info);
     // PNG stores 16-bit samples big-endian: libpng swaps native little-endian ones.
     const uint16_t probe = 1;
@@ -146,6 +157,15 @@ std::string encodeRgbPng(int width, int height, const uint8_t* rgb) {
     out.reserve(static_cast<size_t>(width) * height / 4 + 256);
     std::string error;
     if (!pngEncode(width, height, 3, 8, rgb, out, error)) throw std::runtime_error(error);
+    return out;
+}
+
+std::string encodeRgbaPng(int width, int height, const uint8_t* rgba) {
+    checkSize(width, height, "encodeRgbaPng");
+    std::string out;
+    out.reserve(static_cast<size_t>(width) * height + 256);
+    std::string error;
+    if (!pngEncode(width, height, 4, 8, rgba, out, error, true)) throw std::runtime_error(error);
     return out;
 }
 

@@ -36,6 +36,9 @@ namespace sylva {
 std::string encodeGreyPng(int width, int height, const uint8_t* pixels);
 // The same PNG encoding for 8-bit RGB: 3 bytes per pixel (r, g, b), row-major.
 std::string encodeRgbPng(int width, int height, const uint8_t* rgb);
+// 8-bit RGBA (straight alpha), 4 bytes per pixel: colour pictures, so with adaptive row
+// filters and zlib level 6 (a rendered tree is gradients, not runs).
+std::string encodeRgbaPng(int width, int height, const uint8_t* rgba);
 // 16-bit greyscale: one uint16 per pixel, row-major.
 std::string encodeGrey16Png(int width, int height, const uint16_t* pixels);
 std::string encodeFloatExr(int width, int height, const float* pixels,

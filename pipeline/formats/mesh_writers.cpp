@@ -14,7 +14,9 @@
 #include <vector>
 
 #include "pipeline/formats/atomic_file.h"
+#include "pipeline/formats/image_codecs.h"
 #include "pipeline/formats/little_endian.h"
+#include "species/geometry/leaf_mesh.h"
 
 namespace sylva {
 
@@ -60,7 +62,61 @@ std::vector<Part> parts(const TreeMesh& mesh) {
     return {{&mesh.wood, "wood", &kBark}, {&mesh.leaves, "leaves", &kLeaf}};
 }
 
+// A part's material as written: its own, or under a look white (the texture or the vertex
+// colours carry the colour) with the look's roughness.
+PartMaterial partMaterial(const Part& part, const MeshLook* look) {
+    PartMaterial m = *part.material;
+    if (look) {
+        m.rgb[0] = m.rgb[1] = m.rgb[2] = 1.0;
+        m.roughness =
+            part.material == &kBark ? look->look->barkRoughness : look->look->leafRoughness;
+    }
+    return m;
+}
+
+const Look& requireLook(const MeshLook& look, const char* who) {
+    if (!look.look) throw std::invalid_argument(std::string(who) + ": a MeshLook without a look");
+    return *look.look;
+}
+
+std::string encodeBark(const MeshLook& ml, bool flipRows, const char* who) {
+    const Look& look = requireLook(ml, who);
+    const int size = ml.barkTextureSize;
+    std::vector<uint8_t> rgb = barkTexture(look, size);
+    if (flipRows) {
+        const size_t row = 3 * static_cast<size_t>(size);
+        for (int y = 0; y < size / 2; ++y) {
+            std::swap_ranges(rgb.begin() + y * row, rgb.begin() + (y + 1) * row,
+                             rgb.begin() + (size - 1 - y) * row);
+        }
+    }
+    return encodeRgbPng(size, size, rgb.data());
+}
+
 }  // namespace
+
+std::vector<float> leafVertexColours(const Mesh& leaves, const MeshLook& ml) {
+    const Look& look = requireLook(ml, "leafVertexColours");
+    std::vector<float> rgb(3 * leaves.vertexCount());
+    const std::vector<LeafSpan> spans = leafSpans(leaves);
+    for (size_t k = 0; k < spans.size(); ++k) {
+        const double f = leafLightness(ml.treeSeed, static_cast<uint32_t>(k), look.leafVariation);
+        const LeafSpan& span = spans[k];
+        for (uint32_t i = span.first; i < span.first + 2 * span.count; ++i) {
+            const uint8_t cls = leaves.colour.empty() ? 0 : leaves.colour[i];
+            const LinearRgb c =
+                i < span.first + span.count ? look.leafFront(cls) : look.leafUnderside(cls);
+            rgb[3 * i] = static_cast<float>(std::clamp(c.r * f, 0.0, 1.0));
+            rgb[3 * i + 1] = static_cast<float>(std::clamp(c.g * f, 0.0, 1.0));
+            rgb[3 * i + 2] = static_cast<float>(std::clamp(c.b * f, 0.0, 1.0));
+        }
+    }
+    return rgb;
+}
+
+std::string barkPng(const MeshLook& look) { return encodeBark(look, false, "barkPng"); }
+
+std::string objBarkPng(const MeshLook& look) { return encodeBark(look, true, "objBarkPng"); }
 
 std::string meshPly(const TreeMesh& mesh) {
     const Mesh* parts[2] = {&mesh.wood, &mesh.leaves};
@@ -111,7 +167,7 @@ std::string meshPly(const TreeMesh& mesh) {
     return out;
 }
 
-std::string meshObj(const TreeMesh& mesh, const std::string& mtllib) {
+std::string meshObj(const TreeMesh& mesh, const std::string& mtllib, const MeshLook* look) {
     std::string out;
     out.reserve(64 + (mesh.wood.vertexCount() + mesh.leaves.vertexCount()) * 100 +
                 (mesh.wood.triangleCount() + mesh.leaves.triangleCount()) * 40);
@@ -127,17 +183,28 @@ std::string meshObj(const TreeMesh& mesh, const std::string& mtllib) {
         out += part.material->name;
         out += '\n';
         const size_t n = m.vertexCount();
-        auto lines = [&](const char* tag, const std::vector<float>& a, int width) {
+        // The leaves' colours under a look, sRGB: appended to their "v" lines.
+        std::vector<float> srgb;
+        if (look && part.mesh == &mesh.leaves) {
+            srgb = leafVertexColours(m, *look);
+            for (float& c : srgb) c = static_cast<float>(linearToSrgb(c));
+        }
+        auto lines = [&](const char* tag, const std::vector<float>& a, int width,
+                         const std::vector<float>* extra = nullptr) {
             for (size_t i = 0; i < n; ++i) {
                 out += tag;
                 for (int c = 0; c < width; ++c) {
                     out += ' ';
                     putNumber(out, attr(a, i, width, c));
                 }
+                for (int c = 0; extra && c < 3; ++c) {
+                    out += ' ';
+                    putNumber(out, (*extra)[3 * i + c]);
+                }
                 out += '\n';
             }
         };
-        lines("v", m.positions, 3);
+        lines("v", m.positions, 3, srgb.empty() ? nullptr : &srgb);
         lines("vt", m.uvs, 2);
         lines("vn", m.normals, 3);
         char buf[24];
@@ -160,11 +227,15 @@ std::string meshObj(const TreeMesh& mesh, const std::string& mtllib) {
     return out;
 }
 
-std::string meshMtl(const TreeMesh& mesh) {
+std::string meshMtl(const TreeMesh& mesh, const MeshLook* look, const std::string& barkMap) {
+    if (look) requireLook(*look, "meshMtl");
+    if (look && !mesh.wood.empty() && barkMap.empty()) {
+        throw std::invalid_argument("meshMtl: a textured bark needs its map's file name");
+    }
     std::string out = "# generated by sylva: the materials of the OBJ beside it\n";
     for (const Part& part : parts(mesh)) {
         if (part.mesh->empty()) continue;
-        const PartMaterial& mat = *part.material;
+        const PartMaterial mat = partMaterial(part, look);
         auto line = [&](const char* tag, std::initializer_list<double> values) {
             out += tag;
             for (double v : values) {
@@ -185,6 +256,7 @@ std::string meshMtl(const TreeMesh& mesh) {
         out += "illum 2\n";
         line("Pr", {mat.roughness});
         line("Pm", {0.0});
+        if (look && part.material == &kBark) out += "map_Kd " + barkMap + "\n";
     }
     return out;
 }
@@ -226,7 +298,7 @@ std::vector<float> orZeros(const std::vector<float>& a, size_t n) {
 }
 
 tinygltf::Primitive makePrimitive(tinygltf::Model& model, const Mesh& m, int material,
-                                  bool withColour) {
+                                  bool withColour, const std::vector<float>* rgb = nullptr) {
     const size_t n = m.vertexCount();
     tinygltf::Primitive prim;
     prim.mode = TINYGLTF_MODE_TRIANGLES;
@@ -265,6 +337,11 @@ tinygltf::Primitive makePrimitive(tinygltf::Model& model, const Mesh& m, int mat
             addAccessor(model, addView(model, values, TINYGLTF_TARGET_ARRAY_BUFFER),
                         TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_SCALAR, n);
     }
+    if (rgb) {  // linear vertex colours (glTF 2.0 §3.7.2.1: COLOR_0 multiplies the base colour)
+        prim.attributes["COLOR_0"] =
+            addAccessor(model, addView(model, *rgb, TINYGLTF_TARGET_ARRAY_BUFFER),
+                        TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+    }
     prim.indices =
         addAccessor(model, addView(model, m.indices, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
                     TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR, m.indices.size());
@@ -272,10 +349,10 @@ tinygltf::Primitive makePrimitive(tinygltf::Model& model, const Mesh& m, int mat
 }
 
 void addPart(tinygltf::Model& model, const Mesh& m, const std::string& name, int material,
-             bool withColour) {
+             bool withColour, const std::vector<float>* rgb) {
     tinygltf::Mesh gm;
     gm.name = name;
-    gm.primitives.push_back(makePrimitive(model, m, material, withColour));
+    gm.primitives.push_back(makePrimitive(model, m, material, withColour, rgb));
     model.meshes.push_back(std::move(gm));
     tinygltf::Node node;
     node.name = name;
@@ -294,9 +371,45 @@ tinygltf::Material material(const PartMaterial& m) {
     return mat;
 }
 
+// `bytes` appended to the buffer (after every 4-byte element: nothing follows them) as a new
+// buffer view with no target (an image's).
+int addBytesView(tinygltf::Model& model, const std::string& bytes) {
+    std::vector<unsigned char>& data = model.buffers[0].data;
+    tinygltf::BufferView view;
+    view.buffer = 0;
+    view.byteOffset = data.size();
+    view.byteLength = bytes.size();
+    data.insert(data.end(), bytes.begin(), bytes.end());
+    model.bufferViews.push_back(std::move(view));
+    return static_cast<int>(model.bufferViews.size() - 1);
+}
+
+// The bark tile as material `material`'s base colour texture: image, sampler and texture.
+void addBarkTexture(tinygltf::Model& model, int material, const MeshLook& look) {
+    tinygltf::Image image;
+    image.name = "bark";
+    image.mimeType = "image/png";
+    image.bufferView = addBytesView(model, barkPng(look));
+    model.images.push_back(std::move(image));
+    tinygltf::Sampler sampler;  // the renderer's lookup: bilinear, wrapping (BarkTile::sample)
+    sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+    sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
+    sampler.wrapS = TINYGLTF_TEXTURE_WRAP_REPEAT;
+    sampler.wrapT = TINYGLTF_TEXTURE_WRAP_REPEAT;
+    model.samplers.push_back(std::move(sampler));
+    tinygltf::Texture texture;
+    texture.name = "bark";
+    texture.sampler = static_cast<int>(model.samplers.size() - 1);
+    texture.source = static_cast<int>(model.images.size() - 1);
+    model.textures.push_back(std::move(texture));
+    model.materials[material].pbrMetallicRoughness.baseColorTexture.index =
+        static_cast<int>(model.textures.size() - 1);
+}
+
 }  // namespace
 
-std::string meshGlb(const TreeMesh& mesh) {
+std::string meshGlb(const TreeMesh& mesh, const MeshLook* look) {
+    if (look) requireLook(*look, "meshGlb");
     tinygltf::Model model;
     model.asset.version = "2.0";
     model.asset.generator = "sylva";
@@ -304,12 +417,20 @@ std::string meshGlb(const TreeMesh& mesh) {
     model.scenes.resize(1);
     model.scenes[0].name = "tree";
     model.defaultScene = 0;
+    int barkMaterial = -1;
     for (const Part& part : parts(mesh)) {
         if (part.mesh->empty()) continue;  // neither an empty accessor nor an unused material
-        model.materials.push_back(material(*part.material));
-        addPart(model, *part.mesh, part.object, static_cast<int>(model.materials.size() - 1),
-                /*withColour=*/part.mesh == &mesh.leaves);
+        model.materials.push_back(material(partMaterial(part, look)));
+        const int index = static_cast<int>(model.materials.size() - 1);
+        const bool leaves = part.mesh == &mesh.leaves;
+        std::vector<float> rgb;
+        if (look && leaves) rgb = leafVertexColours(mesh.leaves, *look);
+        addPart(model, *part.mesh, part.object, index, /*withColour=*/leaves,
+                rgb.empty() ? nullptr : &rgb);
+        if (!leaves) barkMaterial = index;
     }
+    // The image last: every vertex attribute before it stays 4-byte aligned.
+    if (look && barkMaterial >= 0) addBarkTexture(model, barkMaterial, *look);
     if (model.buffers[0].data.empty()) model.buffers.clear();  // no zero-length buffer
 
     std::ostringstream stream;

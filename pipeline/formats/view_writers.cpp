@@ -40,6 +40,7 @@
 //   without label images, at an integer scale (nearest pixel) in tiles of max(256, view size).
 #include "pipeline/formats/view_writers.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -155,14 +156,40 @@ std::vector<uint8_t> readChannel0(const fs::path& path, int& w, int& h) {
     return px;
 }
 
+// An RGBA picture (views/NNN_rgb.png) as RGB over white.
+std::vector<uint8_t> readRgbOverWhite(const fs::path& path, int& w, int& h) {
+    auto in = OIIO::ImageInput::open(path.string());
+    if (!in) {
+        throw std::runtime_error("cannot read image '" + path.string() + "': " + OIIO::geterror());
+    }
+    w = in->spec().width;
+    h = in->spec().height;
+    const int nc = in->spec().nchannels;
+    std::vector<uint8_t> px(static_cast<size_t>(std::max(w, 0)) * std::max(h, 0) * 4, 255);
+    if (w <= 0 || h <= 0 || nc < 3 ||
+        !in->read_image(0, 0, 0, std::min(nc, 4), OIIO::TypeDesc::UINT8, px.data(), 4)) {
+        const std::string err = in->geterror();
+        throw std::runtime_error("cannot read image '" + path.string() + "': " + err);
+    }
+    in->close();
+    std::vector<uint8_t> rgb(static_cast<size_t>(w) * h * 3);
+    for (size_t k = 0; k < rgb.size() / 3; ++k) {
+        const double a = px[4 * k + 3] / 255.0;
+        for (int c = 0; c < 3; ++c) {
+            rgb[3 * k + c] = static_cast<uint8_t>(std::lround(px[4 * k + c] * a + 255.0 * (1 - a)));
+        }
+    }
+    return rgb;
+}
+
 }  // namespace
 
 nlohmann::json transformsJson(const std::vector<Camera>& cameras, const ViewFiles& files,
                               const NgpPlacement& placement) {
     const size_t n = cameras.size();
-    auto matches = [n](const std::vector<std::string>& v) { return v.empty() || v.size() == n; };
+    auto matches = [n](const auto& v) { return v.empty() || v.size() == n; };
     if (files.images.size() != n || !matches(files.depthExr) || !matches(files.depthPng) ||
-        !matches(files.labels)) {
+        !matches(files.labels) || !matches(files.colour) || !matches(files.lights)) {
         throw std::invalid_argument("transformsJson: " + std::to_string(n) + " cameras but " +
                                     std::to_string(files.images.size()) + " images, " +
                                     std::to_string(files.depthExr.size()) + " depth EXRs, " +
@@ -187,12 +214,20 @@ nlohmann::json transformsJson(const std::vector<Camera>& cameras, const ViewFile
     nlohmann::json frames = nlohmann::json::array();
     for (size_t i = 0; i < n; ++i) {
         nlohmann::json f;
-        f["file_path"] = files.images[i];
+        f["file_path"] = files.colour.empty() ? files.images[i] : files.colour[i];
         f["mask_path"] = files.images[i];
         f["transform_matrix"] = matrixRows(cameras[i]);
         if (!files.depthExr.empty()) f["depth_file_path"] = files.depthExr[i];
         if (!files.depthPng.empty()) f["depth_path"] = files.depthPng[i];
         if (!files.labels.empty()) f["label_file_path"] = files.labels[i];
+        if (i < files.lights.size()) {
+            const ColourLight& l = files.lights[i];
+            f["sun_direction"] = {l.sunDirection.x, l.sunDirection.y, l.sunDirection.z};
+            f["sun_elevation_deg"] = l.sunElevationDeg;
+            f["sun_azimuth_deg"] = l.sunAzimuthDeg;
+            f["exposure_ev"] = l.exposureEv;
+            f["sky_haze"] = l.haze;
+        }
         f["azimuth_deg"] = cameras[i].azimuthDeg;
         f["elevation_deg"] = cameras[i].elevationDeg;
         if (!shared) putIntrinsics(f, cameras[i]);
@@ -307,6 +342,61 @@ std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<
     return out;
 }
 
+void writeColourImage(const fs::path& path, const ColourImage& image, bool jpeg, int quality) {
+    checkSize(image.width, image.height, image.rgba.size() / 4, "writeColourImage");
+    if (!jpeg) {
+        writeFileAtomic(path, encodeRgbaPng(image.width, image.height, image.rgba.data()));
+        return;
+    }
+    std::vector<uint8_t> rgb(static_cast<size_t>(image.width) * image.height * 3);
+    for (size_t k = 0; k < rgb.size() / 3; ++k) std::memcpy(&rgb[3 * k], &image.rgba[4 * k], 3);
+    std::vector<unsigned char> bytes;
+    OIIO::Filesystem::IOVecOutput proxy(bytes);
+    auto out = OIIO::ImageOutput::create("jpg");
+    OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
+    spec.attribute("Compression", "jpeg:" + std::to_string(quality));
+    if (!out || !out->set_ioproxy(&proxy) || !out->open(path.string(), spec) ||
+        !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close()) {
+        throw std::runtime_error("cannot encode JPEG '" + path.string() +
+                                 "': " + (out ? out->geterror() : OIIO::geterror()));
+    }
+    writeFileAtomic(path, std::string(bytes.begin(), bytes.end()));
+}
+
+// Straight-alpha sRGB over white, in 8 bits (the sheets are for looking at).
+static void overWhite(const uint8_t* rgba, uint8_t* rgb) {
+    const double a = rgba[3] / 255.0;
+    for (int c = 0; c < 3; ++c) {
+        rgb[c] = static_cast<uint8_t>(std::lround(rgba[c] * a + 255.0 * (1.0 - a)));
+    }
+}
+
+void writeColourContactSheet(const fs::path& path, const std::vector<ColourImage>& images,
+                             int columns) {
+    if (images.empty()) throw std::invalid_argument("writeColourContactSheet: no images");
+    int tw = 0, th = 0;
+    for (const ColourImage& v : images) {
+        checkSize(v.width, v.height, v.rgba.size() / 4, "writeColourContactSheet");
+        tw = std::max(tw, v.width);
+        th = std::max(th, v.height);
+    }
+    const int cols = std::max(1, columns);
+    const int rows = (static_cast<int>(images.size()) + cols - 1) / cols;
+    const int width = cols * tw, height = rows * th;
+    std::vector<uint8_t> sheet(3 * static_cast<size_t>(width) * height, 255);
+    for (size_t i = 0; i < images.size(); ++i) {
+        const ColourImage& v = images[i];
+        const int x0 = static_cast<int>(i % cols) * tw, y0 = static_cast<int>(i / cols) * th;
+        for (int y = 0; y < v.height; ++y) {
+            for (int x = 0; x < v.width; ++x) {
+                overWhite(&v.rgba[4 * (static_cast<size_t>(y) * v.width + x)],
+                          &sheet[3 * (static_cast<size_t>(y0 + y) * width + x0 + x)]);
+            }
+        }
+    }
+    writeFileAtomic(path, encodeRgbPng(width, height, sheet.data()));
+}
+
 void writeContactSheet(const fs::path& path, const std::vector<ViewImage>& views, int columns) {
     if (views.empty()) throw std::invalid_argument("writeContactSheet: no views");
     int tw = 0, th = 0;
@@ -337,7 +427,10 @@ void writeSpeciesSheet(const fs::path& path, const std::vector<fs::path>& instan
     for (const fs::path& dir : instanceDirs) {
         Tile t;
         const fs::path labels = dir / "views" / "000_label.png";
-        if (fs::exists(labels)) {
+        const fs::path colour = dir / "views" / "000_rgb.png";
+        if (fs::exists(colour)) {
+            t.rgb = readRgbOverWhite(colour, t.w, t.h);
+        } else if (fs::exists(labels)) {
             t.rgb = colourLabels(readChannel0(labels, t.w, t.h));
         } else {  // silhouettes only: the tree dark grey on white
             const std::vector<uint8_t> sil = readChannel0(dir / "views" / "000.png", t.w, t.h);

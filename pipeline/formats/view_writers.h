@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "pipeline/render/camera.h"
+#include "pipeline/render/colour_render.h"
 #include "pipeline/render/render.h"
 #include "species/model/tree.h"
 
@@ -22,7 +23,11 @@ struct ViewFiles {
     std::vector<std::string> depthExr;  // depth_file_path (nerfstudio: float metres)
     std::vector<std::string> depthPng;  // depth_path (instant-ngp: uint16 × integer_depth_scale)
     std::vector<std::string> labels;    // label_file_path
-    double integerDepthScale = 0.0;     // metres per PNG unit, with depthPng
+    // Colour pictures: file_path (the training images) when given, the silhouettes staying
+    // mask_path; each frame also records its light (colour_render.h ColourLight).
+    std::vector<std::string> colour;
+    std::vector<ColourLight> lights;
+    double integerDepthScale = 0.0;  // metres per PNG unit, with depthPng
 };
 
 // transforms.json (nerfstudio / instant-ngp) for the views of one instance; `placement` gives
@@ -35,6 +40,14 @@ void writeGreyPng(const std::filesystem::path& path, int width, int height,
                   const std::vector<uint8_t>& pixels);
 void writeDepthExr(const std::filesystem::path& path, int width, int height,
                    const std::vector<float>& depth);
+
+// A colour picture: an RGBA PNG (sRGB, straight alpha), or with `jpeg` a JPEG of its RGB at
+// `quality` (1–100; opaque backgrounds only: the alpha is dropped).
+void writeColourImage(const std::filesystem::path& path, const ColourImage& image, bool jpeg,
+                      int quality);
+// All colour views of an instance tiled in a grid, over white (RGB PNG).
+void writeColourContactSheet(const std::filesystem::path& path,
+                             const std::vector<ColourImage>& images, int columns);
 
 // 16-bit depth PNGs (instant-ngp's depth_path): value v ↔ depth v × integer_depth_scale metres,
 // 0 = no hit. The scale (metres per unit) is 0.001 — millimetres, nerfstudio's default depth
@@ -54,7 +67,8 @@ std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<
 void writeContactSheet(const std::filesystem::path& path, const std::vector<ViewImage>& views,
                        int columns);
 // A species' contact sheet (contact/<species>.png): one tile per instance directory, its
-// first view (views/000_label.png in label colours, else views/000.png), each view shown at
+// first view (views/000_rgb.png over white, else views/000_label.png in label colours, else
+// views/000.png), each view shown at
 // least kSpeciesSheetMinTile pixels wide so a twig can be seen. RGB PNG.
 constexpr int kSpeciesSheetMinTile = 256;
 void writeSpeciesSheet(const std::filesystem::path& path,

@@ -9,6 +9,9 @@
 #include "species/geometry/leaf_mesh.h"
 
 #include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <string>
 
 #include "species/model/leaf_shape.h"
 
@@ -60,6 +63,45 @@ Mesh leafMesh(const Tree& tree) {
         }
     }
     return mesh;
+}
+
+std::vector<LeafSpan> leafSpans(const Mesh& leaves) {
+    const size_t n = leaves.vertexCount();
+    if (n > 0 && leaves.normals.size() != 3 * n) {
+        throw std::invalid_argument("leafSpans: the leaf mesh has no normals");
+    }
+    // Bitwise comparisons: a leaf's vertices hold copies of one normal (NaN alike).
+    auto sameNormal = [&](size_t i, size_t j, bool negated) {
+        for (int c = 0; c < 3; ++c) {
+            const float a = leaves.normals[3 * i + c];
+            const float b = negated ? -leaves.normals[3 * j + c] : leaves.normals[3 * j + c];
+            if (std::memcmp(&a, &b, sizeof a) != 0) return false;
+        }
+        return true;
+    };
+    auto samePosition = [&](size_t i, size_t j) {
+        return std::memcmp(&leaves.positions[3 * i], &leaves.positions[3 * j], 3 * sizeof(float)) ==
+               0;
+    };
+    std::vector<LeafSpan> spans;
+    for (size_t first = 0; first < n;) {
+        size_t count = 1;  // the front face: the run of vertices sharing the first one's normal
+        while (first + count < n && sameNormal(first + count, first, false)) ++count;
+        if (first + 2 * count > n) {
+            throw std::invalid_argument("leafSpans: the leaf at vertex " + std::to_string(first) +
+                                        " has no back face");
+        }
+        for (size_t i = first; i < first + count; ++i) {
+            if (!sameNormal(i + count, first, true) || !samePosition(i + count, i)) {
+                throw std::invalid_argument("leafSpans: vertex " + std::to_string(i + count) +
+                                            " does not mirror the front face's vertex " +
+                                            std::to_string(i));
+            }
+        }
+        spans.push_back({static_cast<uint32_t>(first), static_cast<uint32_t>(count)});
+        first += 2 * count;
+    }
+    return spans;
 }
 
 }  // namespace sylva

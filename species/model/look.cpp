@@ -76,7 +76,8 @@ struct Cellular {
 Cellular cellular(double u, double v, int cellsU, int cellsV, double stretch, uint64_t key) {
     Cellular c;
     const double x = u * cellsU, y = v * cellsV;
-    const int64_t ix = static_cast<int64_t>(std::floor(x)), iy = static_cast<int64_t>(std::floor(y));
+    const int64_t ix = static_cast<int64_t>(std::floor(x)),
+                  iy = static_cast<int64_t>(std::floor(y));
     for (int64_t j = iy - 1; j <= iy + 1; ++j) {
         for (int64_t i = ix - 1; i <= ix + 1; ++i) {
             const int64_t wi = wrap(i, cellsU), wj = wrap(j, cellsV);
@@ -142,8 +143,8 @@ BarkShade barkShade(const Look& look, double u, double v) {
             const double len = 0.25 + 0.45 * lattice(wrap(row, rows), 1, key + 11);
             double along = u + offset;
             along -= std::floor(along);
-            const double dash = (along < len ? 1.0 : 0.0) *
-                                (1.0 - smoothstep(0.06, 0.16, std::abs(inRow - 0.5)));
+            const double dash =
+                (along < len ? 1.0 : 0.0) * (1.0 - smoothstep(0.06, 0.16, std::abs(inRow - 0.5)));
             const double patch = smoothstep(0.62, 0.78, fbm(u, v, 2, 3, key + 13));
             s.dark = std::max(dash, patch);
             s.light = 0.95 + 0.08 * fbm(u, v, 6, 6, key + 15);
@@ -180,10 +181,14 @@ bool parseHexColour(const std::string& text, LinearRgb& out) {
         for (int d = 0; d < 2; ++d) {
             const char ch = text[1 + 2 * k + d];
             int h;
-            if (ch >= '0' && ch <= '9') h = ch - '0';
-            else if (ch >= 'a' && ch <= 'f') h = ch - 'a' + 10;
-            else if (ch >= 'A' && ch <= 'F') h = ch - 'A' + 10;
-            else return false;
+            if (ch >= '0' && ch <= '9')
+                h = ch - '0';
+            else if (ch >= 'a' && ch <= 'f')
+                h = ch - 'a' + 10;
+            else if (ch >= 'A' && ch <= 'F')
+                h = ch - 'A' + 10;
+            else
+                return false;
             x = 16 * x + h;
         }
         v[k] = x;
@@ -211,7 +216,7 @@ const std::vector<std::string>& defaultLeafPalette() {
     static const std::vector<std::string> palette = {
         "#2f4a1e", "#3e5f24", "#52752c", "#6c8c38",  // greens, dark → light
         "#5e1f18", "#a3301e", "#c96a1f", "#d8b43c",  // dark red, red, orange, yellow
-        "#c29a2a", "#d9462a"};                        // fruit, flower
+        "#c29a2a", "#d9462a"};                       // fruit, flower
     return palette;
 }
 

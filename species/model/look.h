@@ -41,17 +41,17 @@ struct Look {
     LinearRgb bark;      // bark_colour: the bark's main colour
     LinearRgb barkDark;  // bark_dark_colour: furrows, cracks, lenticels, rings
     BarkPattern pattern = BarkPattern::kFurrowed;
-    int barkRepeat = 8;            // bark_repeat: the pattern's periods once round a branch
-    double barkContrast = 0.6;     // bark_contrast: how far the pattern reaches barkDark, [0, 1]
-    double barkRoughness = 0.9;    // bark_roughness: PBR roughness, [0, 1]
-    std::vector<LinearRgb> leaf;   // leaf_colours: per leaf colour class (class k: entry k,
-                                   // classes past the end: the last entry)
-    LinearRgb leafBack;            // leaf_back_colour: the underside of leaves of classes 0–3
-    bool leafBackSet = false;      // … given; else each class's front, lighter and paler
-    double leafVariation = 0.08;   // leaf_variation: per-leaf lightness spread (σ, relative)
-    double leafTranslucency = 0.3; // leaf_translucency: share of sunlight a leaf lets through
-    double leafSpecular = 0.04;    // leaf_specular: specular reflectance at normal incidence
-    double leafRoughness = 0.5;    // leaf_roughness: PBR roughness, [0, 1]
+    int barkRepeat = 8;             // bark_repeat: the pattern's periods once round a branch
+    double barkContrast = 0.6;      // bark_contrast: how far the pattern reaches barkDark, [0, 1]
+    double barkRoughness = 0.9;     // bark_roughness: PBR roughness, [0, 1]
+    std::vector<LinearRgb> leaf;    // leaf_colours: per leaf colour class (class k: entry k,
+                                    // classes past the end: the last entry)
+    LinearRgb leafBack;             // leaf_back_colour: the underside of leaves of classes 0–3
+    bool leafBackSet = false;       // … given; else each class's front, lighter and paler
+    double leafVariation = 0.08;    // leaf_variation: per-leaf lightness spread (σ, relative)
+    double leafTranslucency = 0.3;  // leaf_translucency: share of sunlight a leaf lets through
+    double leafSpecular = 0.04;     // leaf_specular: specular reflectance at normal incidence
+    double leafRoughness = 0.5;     // leaf_roughness: PBR roughness, [0, 1]
 
     Look();  // the defaults: grey-brown furrowed bark, the grammar palette's leaf colours
 

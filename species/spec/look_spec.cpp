@@ -37,8 +37,9 @@ Look readLook(Params& p) {
     if (p.has("leaf_colours")) {
         const std::vector<std::string> words = p.stringArray("leaf_colours");
         if (words.empty() || words.size() > 255) {
-            p.fail("leaf_colours", "expected 1–255 sRGB colours \"#rrggbb\", one per leaf colour "
-                                   "class from class 0");
+            p.fail("leaf_colours",
+                   "expected 1–255 sRGB colours \"#rrggbb\", one per leaf colour "
+                   "class from class 0");
         }
         o.leaf.clear();
         for (const std::string& w : words) {

@@ -6,11 +6,11 @@
 #include <sstream>
 
 #include "species/geometry/leaves.h"
-#include "species/spec/look_spec.h"
 #include "species/model/form.h"
 #include "species/spec/budget_spec.h"
 #include "species/spec/form_spec.h"
 #include "species/spec/leaves_spec.h"
+#include "species/spec/look_spec.h"
 
 namespace sylva {
 

@@ -1,0 +1,405 @@
+#include "pipeline/render/colour_render.h"
+
+#include <embree3/rtcore.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+
+#include "species/model/leaf_shape.h"
+
+namespace sylva {
+
+namespace {
+
+constexpr unsigned kWoodGeometry = 0;
+constexpr unsigned kLeafGeometry = 1;
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+struct Colour {
+    double r = 0, g = 0, b = 0;
+    Colour operator+(const Colour& o) const { return {r + o.r, g + o.g, b + o.b}; }
+    Colour operator*(double k) const { return {r * k, g * k, b * k}; }
+    Colour operator*(const Colour& o) const { return {r * o.r, g * o.g, b * o.b}; }
+    Colour& operator+=(const Colour& o) {
+        r += o.r, g += o.g, b += o.b;
+        return *this;
+    }
+};
+Colour of(const LinearRgb& c) { return {c.r, c.g, c.b}; }
+Colour mix(const Colour& a, const Colour& b, double t) { return a * (1 - t) + b * t; }
+
+// The light of one view: a sun (direction, irradiance) and a sky of zenith and horizon colours.
+struct Light {
+    Vec3 sun;
+    Colour sunIrradiance;  // W/m² in the renderer's units: a white surface facing it shows 1/π·…
+    Colour zenith, horizon;
+    Colour groundAlbedo{0.10, 0.11, 0.06};
+    double exposure = 1.0;
+
+    Colour sky(const Vec3& d) const {
+        if (d.y < 0) {  // the ground below the horizon, lit by sun and sky
+            return groundAlbedo * (1.0 / kPi) *
+                   (sunIrradiance * std::max(0.0, sun.y) + (zenith + horizon) * (0.5 * kPi));
+        }
+        return mix(horizon, zenith, std::sqrt(d.y));
+    }
+};
+
+Light makeLight(const ColourOptions& o, Rng& rng, ColourLight& out) {
+    Light l;
+    const double elev = rng.uniform(o.sunElevationDeg[0], o.sunElevationDeg[1]) * kPi / 180.0;
+    const double azim = rng.uniform(0.0, 2.0 * kPi);
+    l.sun = {std::cos(elev) * std::sin(azim), std::sin(elev), std::cos(elev) * std::cos(azim)};
+    const double haze = rng.uniform();
+    const double ev = rng.uniform(o.exposureEv[0], o.exposureEv[1]);
+    // Clear-sky daylight: the sun ≈ 3.5× the sky's irradiance on a level surface, warmer.
+    l.sunIrradiance = Colour{1.0, 0.96, 0.90} * kPi * 0.95;
+    const Colour deepZenith{0.16, 0.32, 0.75}, paleHorizon{0.62, 0.72, 0.88};
+    l.zenith = mix(deepZenith, paleHorizon, 0.6 * haze) * 0.45;
+    l.horizon = paleHorizon * 0.5;
+    l.exposure = std::pow(2.0, ev);
+    out.sunDirection = l.sun;
+    out.sunElevationDeg = elev * 180.0 / kPi;
+    out.sunAzimuthDeg = azim * 180.0 / kPi;
+    out.exposureEv = ev;
+    out.haze = haze;
+    return l;
+}
+
+// A direction about `n` with density cos θ / π.
+Vec3 cosineSample(const Vec3& n, double u1, double u2) {
+    const Frame f = Frame::fromAxis(n);
+    const double r = std::sqrt(u1), phi = 2.0 * kPi * u2;
+    const double x = r * std::cos(phi), z = r * std::sin(phi);
+    const double y = std::sqrt(std::max(0.0, 1.0 - u1));
+    return normalize(f.u * x + f.v * y + f.w * z);
+}
+
+uint8_t toByte(double linear) {
+    return static_cast<uint8_t>(std::lround(linearToSrgb(linear) * 255.0));
+}
+
+}  // namespace
+
+struct ColourScene::Impl {
+    RTCDevice device = nullptr;
+    RTCScene scene = nullptr;
+    const Mesh* wood = nullptr;
+    const Mesh* leaves = nullptr;
+    std::vector<uint32_t> leafFront;   // front-face triangles of `leaves`, 3 per triangle
+    std::vector<uint32_t> leafOf;      // per front triangle, its leaf's index
+    std::vector<uint8_t> leafClass;    // per leaf
+    std::vector<float> leafLightness;  // per leaf
+    Look look;
+    BarkTile bark;
+    double radius = 1.0;  // the tree's bounding sphere: ray offsets scale with it
+    double groundY = 0.0;
+
+    Impl(const Look& l) : look(l), bark(l) {}
+    ~Impl() {
+        if (scene) rtcReleaseScene(scene);
+        if (device) rtcReleaseDevice(device);
+    }
+
+    void addGeometry(const float* positions, size_t nv, const uint32_t* indices, size_t nt) {
+        RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+        auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                              RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                              std::max<size_t>(nv, 1)));
+        auto* t = static_cast<unsigned*>(
+            rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                    3 * sizeof(unsigned), std::max<size_t>(nt, 1)));
+        if (!v || !t) throw std::runtime_error("Embree: rtcSetNewGeometryBuffer failed");
+        if (nt == 0) {  // an empty part: one degenerate triangle keeps the geometry ids fixed
+            std::memset(v, 0, 3 * sizeof(float));
+            std::memset(t, 0, 3 * sizeof(unsigned));
+        } else {
+            std::memcpy(v, positions, nv * 3 * sizeof(float));
+            std::memcpy(t, indices, nt * 3 * sizeof(unsigned));
+        }
+        rtcCommitGeometry(g);
+        rtcAttachGeometry(scene, g);
+        rtcReleaseGeometry(g);
+    }
+
+    bool occluded(const Vec3& o, const Vec3& d, double tnear) const {
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        RTCRay ray;
+        ray.org_x = float(o.x), ray.org_y = float(o.y), ray.org_z = float(o.z);
+        ray.dir_x = float(d.x), ray.dir_y = float(d.y), ray.dir_z = float(d.z);
+        ray.tnear = float(tnear);
+        ray.tfar = kInf;
+        ray.time = 0;
+        ray.mask = 0xffffffffu;
+        ray.id = 0;
+        ray.flags = 0;
+        rtcOccluded1(scene, &ctx, &ray);
+        return ray.tfar < 0;
+    }
+
+    bool intersect(const Vec3& o, const Vec3& d, RTCRayHit& rh) const {
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        rh.ray.org_x = float(o.x), rh.ray.org_y = float(o.y), rh.ray.org_z = float(o.z);
+        rh.ray.dir_x = float(d.x), rh.ray.dir_y = float(d.y), rh.ray.dir_z = float(d.z);
+        rh.ray.tnear = 0;
+        rh.ray.tfar = kInf;
+        rh.ray.time = 0;
+        rh.ray.mask = 0xffffffffu;
+        rh.ray.id = 0;
+        rh.ray.flags = 0;
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        rtcIntersect1(scene, &ctx, &rh);
+        return rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+    }
+
+    // Sky light reaching `p` over the hemisphere about `n`: π · mean radiance of `rays`
+    // cosine-distributed rays, the occluded ones dark.
+    Colour skyIrradiance(const Vec3& p, const Vec3& n, const Light& light, int rays,
+                         Rng& rng) const {
+        Colour sum;
+        for (int k = 0; k < rays; ++k) {
+            const double u1 = rng.uniform(), u2 = rng.uniform();
+            const Vec3 d = cosineSample(n, u1, u2);
+            if (!occluded(p, d, 0)) sum += light.sky(d);
+        }
+        return sum * (kPi / std::max(1, rays));
+    }
+
+    // The radiance leaving a tree hit towards the camera.
+    Colour shade(const RTCRayHit& rh, const Vec3& dir, const Light& light, const ColourOptions& o,
+                 Rng& rng) const {
+        const Vec3 view = -dir;
+        const double eps = 1e-4 * radius;
+        const Vec3 p = Vec3{rh.ray.org_x, rh.ray.org_y, rh.ray.org_z} + dir * double(rh.ray.tfar);
+        const double bu = rh.hit.u, bv = rh.hit.v, bw = 1.0 - bu - bv;
+        Colour albedo;
+        Vec3 n;
+        double translucency = 0.0, specular = 0.04, roughness = 0.9;
+        if (rh.hit.geomID == kWoodGeometry) {
+            const uint32_t* tri = &wood->indices[3 * size_t(rh.hit.primID)];
+            auto attr = [&](const std::vector<float>& a, int k, int c) {
+                return bw * a[k * tri[0] + c] + bu * a[k * tri[1] + c] + bv * a[k * tri[2] + c];
+            };
+            albedo = of(bark.sample(attr(wood->uvs, 2, 0), attr(wood->uvs, 2, 1)));
+            n = normalize(Vec3{attr(wood->normals, 3, 0), attr(wood->normals, 3, 1),
+                               attr(wood->normals, 3, 2)});
+            const Vec3 ng = normalize(Vec3{rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z});
+            if (dot(n, view) <= 0) n = dot(ng, view) > 0 ? ng : -ng;
+            roughness = look.barkRoughness;
+        } else {
+            const uint32_t leaf = leafOf[rh.hit.primID];
+            const uint32_t v0 = leafFront[3 * size_t(rh.hit.primID)];
+            const Vec3 front{leaves->normals[3 * v0], leaves->normals[3 * v0 + 1],
+                             leaves->normals[3 * v0 + 2]};
+            const bool seenFront = dot(front, view) >= 0;
+            const uint8_t cls = leafClass[leaf];
+            albedo = of(seenFront ? look.leafFront(cls) : look.leafUnderside(cls)) *
+                     double(leafLightness[leaf]);
+            n = seenFront ? front : -front;
+            translucency = look.leafTranslucency;
+            specular = look.leafSpecular;
+            roughness = look.leafRoughness;
+        }
+        Colour out;
+        const Vec3 above = p + n * eps;
+        const double cosL = dot(n, light.sun);
+        if (cosL > 0) {
+            if (!occluded(above, light.sun, 0)) {
+                out += albedo * light.sunIrradiance * (cosL / kPi);
+                // Blinn–Phong lobe, normalised, its exponent from the roughness.
+                const double a = std::max(0.05, roughness);
+                const double shininess = std::clamp(2.0 / (a * a * a * a) - 2.0, 1.0, 4000.0);
+                const Vec3 h = normalize(light.sun + view);
+                const double nh = std::max(0.0, dot(n, h));
+                out += light.sunIrradiance *
+                       (specular * (shininess + 2) / (2 * kPi) * std::pow(nh, shininess) * cosL);
+            }
+        } else if (translucency > 0) {  // sunlight through the leaf from behind
+            if (!occluded(p - n * eps, light.sun, 0)) {
+                out += albedo * light.sunIrradiance * (-cosL * translucency / kPi);
+            }
+        }
+        out += albedo * skyIrradiance(above, n, light, o.aoRays, rng) * (1.0 / kPi);
+        return out;
+    }
+
+    // What a ray that meets no tree shows: the background.
+    Colour background(const Vec3& o, const Vec3& d, const Light& light,
+                      const ColourOptions& opt) const {
+        if (opt.background == ColourBackground::kColour) return of(opt.backgroundColour);
+        if (d.y < 0 && o.y > groundY) {  // the ground plane under the tree, its shadow on it
+            const double t = (groundY - o.y) / d.y;
+            const Vec3 g = o + d * t;
+            const double lit = occluded(g + Vec3{0, 1e-4 * radius, 0}, light.sun, 0) ? 0.0 : 1.0;
+            const Colour e = light.sunIrradiance * (lit * std::max(0.0, light.sun.y)) +
+                             (light.zenith + light.horizon) * (0.5 * kPi);
+            return light.groundAlbedo * e * (1.0 / kPi);
+        }
+        return light.sky(d);
+    }
+};
+
+ColourScene::ColourScene(const Tree& tree, const Mesh& wood, const Mesh& leaves, const Look& look,
+                         uint64_t treeSeed)
+    : impl_(std::make_unique<Impl>(look)) {
+    Impl& m = *impl_;
+    m.wood = &wood;
+    m.leaves = &leaves;
+    m.radius = treeBoundingSphere(tree).radius;
+    m.groundY = tree.nodes.empty() ? 0.0 : tree.nodes[0].position.y;
+    // Front faces of the leaves (leafMesh's layout: per leaf, 2n vertices and 2t triangles,
+    // the first t the front face).
+    size_t tri = 0;
+    m.leafClass.reserve(tree.leaves.size());
+    m.leafLightness.reserve(tree.leaves.size());
+    for (size_t i = 0; i < tree.leaves.size(); ++i) {
+        const Leaf& leaf = tree.leaves[i];
+        const size_t t = leafOutline(leaf.shape).triangleCount();
+        if (3 * (tri + 2 * t) > leaves.indices.size()) {
+            throw std::invalid_argument("ColourScene: the leaf mesh is not leafMesh(tree)'s");
+        }
+        m.leafFront.insert(m.leafFront.end(), leaves.indices.begin() + 3 * tri,
+                           leaves.indices.begin() + 3 * (tri + t));
+        m.leafOf.insert(m.leafOf.end(), t, static_cast<uint32_t>(i));
+        m.leafClass.push_back(leaf.colour);
+        m.leafLightness.push_back(static_cast<float>(
+            leafLightness(treeSeed, static_cast<uint32_t>(i), look.leafVariation)));
+        tri += 2 * t;
+    }
+    m.device = rtcNewDevice(nullptr);
+    if (!m.device) throw std::runtime_error("Embree: rtcNewDevice failed");
+    m.scene = rtcNewScene(m.device);
+    rtcSetSceneFlags(m.scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(m.scene, RTC_BUILD_QUALITY_MEDIUM);
+    m.addGeometry(wood.positions.data(), wood.vertexCount(), wood.indices.data(),
+                  wood.triangleCount());
+    m.addGeometry(leaves.positions.data(), leaves.vertexCount(), m.leafFront.data(),
+                  m.leafFront.size() / 3);
+    rtcCommitScene(m.scene);
+}
+
+ColourScene::~ColourScene() = default;
+
+ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
+                                const ColourOptions& options, Rng rng) const {
+    const Impl& m = *impl_;
+    const int w = camera.width, h = camera.height;
+    if (view.width != w || view.height != h || view.silhouette.size() != size_t(w) * h) {
+        throw std::invalid_argument("ColourScene::render: the view is not the camera's");
+    }
+    ColourImage img;
+    img.width = w;
+    img.height = h;
+    img.rgba.assign(size_t(w) * h * 4, 0);
+    Rng lightRng = rng.derive("light");
+    const Light light = makeLight(options, lightRng, img.light);
+    const int samples = std::max(1, options.samples);
+    const bool opaque = options.background != ColourBackground::kTransparent;
+    const Vec3 eye{camera.cameraToWorld[0][3], camera.cameraToWorld[1][3],
+                   camera.cameraToWorld[2][3]};
+    const Vec3 forward{-camera.cameraToWorld[0][2], -camera.cameraToWorld[1][2],
+                       -camera.cameraToWorld[2][2]};
+    auto ray = [&](double px, double py, Vec3& o, Vec3& d) {
+        if (camera.orthographic) {
+            o = camera.unproject(px, py, 0.0);
+            d = forward;
+        } else {
+            o = eye;
+            d = normalize(camera.unproject(px, py, 1.0) - eye);
+        }
+    };
+    auto inMask = [&](int x, int y) {
+        return x >= 0 && y >= 0 && x < w && y < h && view.silhouette[size_t(y) * w + x] != 0;
+    };
+    std::atomic<int64_t> misses{0};
+    Rng pixelRoot = rng.derive("pixels");
+    tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
+        for (int y = rows.begin(); y < rows.end(); ++y) {
+            for (int x = 0; x < w; ++x) {
+                const size_t i = size_t(y) * w + x;
+                const bool centreCovered = inMask(x, y);
+                bool near = false;
+                for (int dy = -1; dy <= 1 && !near; ++dy) {
+                    for (int dx = -1; dx <= 1 && !near; ++dx) near = inMask(x + dx, y + dy);
+                }
+                uint8_t* out = &img.rgba[4 * i];
+                if (!near && !opaque) continue;  // transparent, nothing near
+                Rng prng = pixelRoot.derive(static_cast<uint64_t>(i));
+                const int n = near ? samples : 1;
+                const double jx = prng.uniform(), jy = prng.uniform();
+                Colour tree, back;
+                int covered = 0;
+                bool missedCentre = false;
+                for (int s = 0; s < n; ++s) {
+                    double sx = 0.5, sy = 0.5;
+                    if (s > 0) {  // R2 low-discrepancy points, rotated per pixel
+                        sx = std::fmod(jx + 0.7548776662466927 * s, 1.0);
+                        sy = std::fmod(jy + 0.5698402909980532 * s, 1.0);
+                    }
+                    Vec3 o, d;
+                    ray(x + sx, y + sy, o, d);
+                    RTCRayHit rh;
+                    bool hit = m.intersect(o, d, rh);
+                    if (s == 0) {
+                        if (centreCovered && !hit) {  // retry a hair off the centre
+                            for (const auto& [ox, oy] :
+                                 {std::pair{1e-3, 0.0}, {-1e-3, 0.0}, {0.0, 1e-3}, {0.0, -1e-3}}) {
+                                ray(x + 0.5 + ox, y + 0.5 + oy, o, d);
+                                if ((hit = m.intersect(o, d, rh))) break;
+                            }
+                            if (!hit) missedCentre = true;
+                        }
+                        if (!centreCovered) hit = false;  // the mask decides the centre
+                    }
+                    if (missedCentre && s == 0) {
+                        ++covered;  // coloured below from the other samples
+                        continue;
+                    }
+                    if (hit) {
+                        tree += m.shade(rh, d, light, options, prng);
+                        ++covered;
+                    } else if (opaque) {
+                        back += m.background(o, d, light, options) *
+                                (options.background == ColourBackground::kColour ? 1.0
+                                                                                 : light.exposure);
+                    }
+                }
+                if (missedCentre) {
+                    misses.fetch_add(1, std::memory_order_relaxed);
+                    const int others = covered - 1;
+                    // No other sample found it either: the bark's mean colour in half light.
+                    tree += others > 0 ? tree * (1.0 / others) : of(m.bark.mean()) * 0.5;
+                }
+                tree = tree * light.exposure;
+                Colour c;
+                double alpha = 1.0;
+                if (opaque) {
+                    c = (tree + back) * (1.0 / n);
+                } else {
+                    alpha = double(covered) / n;
+                    c = covered > 0 ? tree * (1.0 / covered) : Colour{};
+                }
+                out[0] = toByte(c.r);
+                out[1] = toByte(c.g);
+                out[2] = toByte(c.b);
+                out[3] = static_cast<uint8_t>(std::lround(alpha * 255.0));
+                // Alpha 255 only for full coverage, above 0 for any.
+                if (!opaque && covered < n && out[3] == 255) out[3] = 254;
+                if (!opaque && covered > 0 && out[3] == 0) out[3] = 1;
+            }
+        }
+    });
+    img.centreMisses = misses.load();
+    return img;
+}
+
+}  // namespace sylva
