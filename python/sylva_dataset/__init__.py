@@ -17,6 +17,7 @@ importable. Install: ``pip install -e python/`` (docs/outputs.md, "The Python pa
         inst.scan()                      # scan.las: positions (P,3) f64, classification,
                                          # tree_id, semantic, … i64 (sylva_dataset.Scan)
         inst.masks(), inst.labels()      # lists of (H, W) uint8 views, in frame order
+        inst.rgb()                       # colour pictures ([views] colour): (H, W, 4) uint8
         inst.depths()                    # list of (H, W) float32 depth views (metres, 0 = none)
 
     from sylva_dataset.pytorch import TreeDataset, ViewDataset   # needs torch

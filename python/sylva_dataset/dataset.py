@@ -171,8 +171,25 @@ class Instance:
         return [os.path.join(base, fr[key]) for fr in cams.get("frames", []) if key in fr]
 
     def masks(self):
-        """The view silhouettes, in frame order: (H, W) uint8, 0 background, 255 tree."""
-        return [read_png(p) for p in self._frame_files("file_path")]
+        """The view silhouettes, in frame order: (H, W) uint8, 0 background, 255 tree (each
+        frame's mask_path; file_path in datasets written before colour pictures)."""
+        cams = self.cameras()
+        base = os.path.dirname(self.path("transforms"))
+        return [read_png(os.path.join(base, fr.get("mask_path", fr["file_path"])))
+                for fr in cams.get("frames", []) if "file_path" in fr or "mask_path" in fr]
+
+    def rgb(self):
+        """The colour pictures ([views] colour), in frame order: (H, W, 4) uint8 sRGB with
+        straight alpha from the PNGs, (H, W, 3) from JPEGs (read through Pillow or OpenCV, one of
+        which must be installed); [] when the dataset has none."""
+        cams = self.cameras()
+        base = os.path.dirname(self.path("transforms"))
+        out = []
+        for fr in cams.get("frames", []):
+            if "file_path" not in fr or fr["file_path"] == fr.get("mask_path", fr["file_path"]):
+                continue  # file_path is the silhouette: no colour picture
+            out.append(read_colour(os.path.join(base, fr["file_path"])))
+        return out
 
     def labels(self):
         """The label views, in frame order: (H, W) uint8, 0 background, 1 + branch order for the
@@ -195,6 +212,27 @@ class Instance:
             raise ValueError("%s: depth PNGs without a positive integer_depth_scale in "
                              "transforms.json" % self.id)
         return [(read_png(p).astype(np.float64) * scale).astype(np.float32) for p in pngs]
+
+
+def read_colour(path):
+    """A colour picture: an RGBA PNG (H, W, 4) by the package's decoder, a JPEG (H, W, 3) by
+    Pillow or OpenCV."""
+    if path.lower().endswith(".png"):
+        return read_png(path)
+    try:
+        from PIL import Image
+        with Image.open(path) as im:
+            return np.asarray(im.convert("RGB"), np.uint8)
+    except ImportError:
+        pass
+    try:
+        import cv2
+    except ImportError as e:
+        raise ImportError("%s: reading JPEG colour pictures needs Pillow or OpenCV" % path) from e
+    img = cv2.imread(path, cv2.IMREAD_COLOR)
+    if img is None:
+        raise ValueError("%s: not a readable JPEG" % path)
+    return img[:, :, ::-1].copy()
 
 
 def _manifest_paths(root):

@@ -15,7 +15,7 @@ import os
 import numpy as np
 import torch
 
-from .dataset import Dataset
+from .dataset import Dataset, read_colour
 from .exr import read_exr_first_channel
 from .png import read_png
 
@@ -50,8 +50,8 @@ class TreeDataset(torch.utils.data.Dataset):
               mesh_order, mesh_part, mesh_colour (those the format has), from `mesh_kind` in
               `mesh_format` (default: the first format the manifest lists)
     points    point_positions (P, 3) float32, point_labels (P,) int64, point_views (P,) int64
-    views     masks (V, H, W) uint8, labels (V, H, W) int64, depths (V, H, W) float32 (those
-              the dataset has), c2w (V, 4, 4) float32, K (V, 3, 3) float32
+    views     masks (V, H, W) uint8, labels (V, H, W) int64, depths (V, H, W) float32, rgb
+              (V, H, W, 4) uint8 colour pictures (those the dataset has), c2w (V, 4, 4) float32, K (V, 3, 3) float32
 
     root: a dataset directory or a sylva_dataset.Dataset; species: keep only these species;
     transform: applied to each item dict."""
@@ -88,11 +88,13 @@ class TreeDataset(torch.utils.data.Dataset):
             cams = inst.cameras()
             frames = cams.get("frames", [])
             masks, labels, depths = inst.masks(), inst.labels(), inst.depths()
+            rgb = inst.rgb()
             mats = [camera_arrays(cams, fr) for fr in frames]
             item.update(_tensors(
                 "", masks=np.stack(masks) if masks else None,
                 labels=np.stack(labels).astype(np.int64) if labels else None,
                 depths=np.stack(depths) if depths else None,
+                rgb=np.stack(rgb) if rgb else None,
                 c2w=np.stack([m[0] for m in mats]) if mats else None,
                 K=np.stack([m[1] for m in mats]) if mats else None))
         return self.transform(item) if self.transform else item
@@ -101,7 +103,8 @@ class TreeDataset(torch.utils.data.Dataset):
 class ViewDataset(torch.utils.data.Dataset):
     """Items, one per (instance, view) in manifest then frame order: {"id", "species", "view"
     (the frame index), "mask" (H, W) uint8 0/255, "labels" (H, W) int64 (if the dataset has
-    label views), "depth" (H, W) float32 metres, 0 = background (if it has depth views),
+    label views), "depth" (H, W) float32 metres, 0 = background (if it has depth views), "rgb"
+    (H, W, 4) uint8 sRGB + alpha (or (H, W, 3) from JPEGs; if it has colour pictures),
     "c2w" (4, 4) float32 camera-to-world (OpenGL convention), "K" (3, 3) float32}.
 
     Views of one dataset share a size, so DataLoader's default collation batches them."""
@@ -128,8 +131,11 @@ class ViewDataset(torch.utils.data.Dataset):
         base = os.path.dirname(inst.path("transforms"))
         c2w, K = camera_arrays(cams, frame)
         item = {"id": inst.id, "species": inst.species, "view": k,
-                "mask": torch.from_numpy(read_png(os.path.join(base, frame["file_path"]))),
+                "mask": torch.from_numpy(read_png(os.path.join(
+                    base, frame.get("mask_path", frame["file_path"])))),
                 "c2w": torch.from_numpy(c2w), "K": torch.from_numpy(K)}
+        if frame.get("mask_path", frame["file_path"]) != frame["file_path"]:
+            item["rgb"] = torch.from_numpy(read_colour(os.path.join(base, frame["file_path"])))
         if "label_file_path" in frame:
             labels = read_png(os.path.join(base, frame["label_file_path"])).astype(np.int64)
             item["labels"] = torch.from_numpy(labels)
