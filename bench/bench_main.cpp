@@ -43,6 +43,7 @@
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/view_writers.h"
 #include "pipeline/render/camera.h"
+#include "pipeline/render/colour_render.h"
 #include "pipeline/render/render.h"
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
@@ -181,6 +182,54 @@ static void RenderViewLarge(benchmark::State& state) {
     state.counters["wood_triangles"] = static_cast<double>(tubes.wood.triangleCount());
 }
 BENCHMARK(RenderViewLarge)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
+
+// Colour views against label views: a library tree (pedunculate-oak, seed 1) seen by 8 cameras
+// at 512×512 on one thread. Args (colour, samples, sky rays): colour 0, the 8 label views
+// (silhouette, depth, labels: renderView); 1, the same 8 views and their colour pictures at
+// `samples` per pixel and `sky rays` per sample (the Embree scene built once per tree, then 8
+// colour renders: colour_render.h) — the cost of colour is the ratio.
+static void ColourViews(benchmark::State& state) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    static const SpeciesFile species =
+        loadSpecies(SYLVA_SOURCE_DIR "/species/presets/pedunculate-oak.toml");
+    static const Tree tree = growSpecies(species, 1, nullptr, false).tree;
+    static const Tubes tubes(tree);
+    static const Mesh leaves = leafMesh(tree);
+    ViewOptions vo;
+    vo.count = 8;
+    vo.width = vo.height = 512;
+    vo.randomAzimuth = false;
+    Rng rng(1);
+    const std::vector<Camera> cams = makeCameras(tree, vo, rng);
+    ColourOptions co;
+    co.enabled = true;
+    co.samples = static_cast<int>(state.range(1));
+    co.aoRays = static_cast<int>(state.range(2));
+    const bool colour = state.range(0) != 0;
+    for (auto _ : state) {
+        std::vector<ViewImage> views;
+        for (const Camera& c : cams)
+            views.push_back(renderView(tree, tubes.wood, tubes.nodes, c, true, true));
+        if (colour) {
+            const ColourScene scene(tree, tubes.wood, leaves, *species.look, 1);
+            for (size_t k = 0; k < cams.size(); ++k) {
+                ColourImage img = scene.render(cams[k], views[k], co, Rng(1).derive(k));
+                benchmark::DoNotOptimize(img.rgba.data());
+            }
+        }
+        benchmark::DoNotOptimize(views.data());
+    }
+    state.SetLabel(colour ? "label + colour views" : "label views");
+    state.counters["triangles"] =
+        static_cast<double>(tubes.wood.triangleCount() + leaves.triangleCount() / 2);
+}
+BENCHMARK(ColourViews)
+    ->Args({0, 4, 2})
+    ->Args({1, 4, 2})
+    ->Args({1, 4, 1})
+    ->Args({1, 4, 0})
+    ->Args({1, 1, 2})
+    ->Unit(benchmark::kMillisecond);
 
 // Leaf shapes: Jain 2021's guava (species/papers/jain-2021/grammar-guava.toml, seed 1, about
 // 4,900 particle leaves) with every leaf given one shape (Arg: LeafShape, 0 card … 6 frond;

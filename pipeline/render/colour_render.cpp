@@ -278,7 +278,7 @@ ColourScene::ColourScene(const Tree& tree, const Mesh& wood, const Mesh& leaves,
     m.device = rtcNewDevice(nullptr);
     if (!m.device) throw std::runtime_error("Embree: rtcNewDevice failed");
     m.scene = rtcNewScene(m.device);
-    rtcSetSceneFlags(m.scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneFlags(m.scene, RTC_SCENE_FLAG_ROBUST);  // watertight edges: few centre misses
     rtcSetSceneBuildQuality(m.scene, RTC_BUILD_QUALITY_MEDIUM);
     m.addGeometry(wood.positions.data(), wood.vertexCount(), wood.indices.data(),
                   wood.triangleCount());
