@@ -65,7 +65,8 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     // tree's tubes in turn): no other copy of the plot's geometry is held.
     PlotScene scene;
     const bool scanned = o.scan.enabled;
-    if (meshes || scanned) {  // [scan] sees the scene's meshes
+    const bool colour = views && o.colour.enabled;
+    if (meshes || scanned || colour) {  // [scan] and the colour pictures see the scene's meshes
         scene = makePlotScene(plot, o.tubes, /*leafMeshes=*/true, o.leafOutlines);
     }
     if (meshes) {
@@ -121,9 +122,34 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
 
     if (views) {
         const std::vector<Camera> cameras = makePlotCameras(plot, o.views);
-        const std::vector<ViewImage> images =
-            renderPlotViews(plot, meshes || scanned ? &scene : nullptr, o.tubes, o.leafOutlines,
-                            cameras, o.views.depth || o.views.depthPng, o.views.labels, o.render);
+        const std::vector<ViewImage> images = renderPlotViews(
+            plot, meshes || scanned || colour ? &scene : nullptr, o.tubes, o.leafOutlines, cameras,
+            o.views.depth || o.views.depthPng || colour, o.views.labels, o.render);
+        // Colour pictures: every tree in its species' look, the terrain and the ground cover,
+        // the centre samples covered where the views drew any surface (depth > 0).
+        std::vector<ColourImage> colours;
+        if (colour) {
+            ColourScene cs;
+            for (size_t k = 0; k < plot.trees.size(); ++k) {
+                const PlotTree& t = plot.trees[k];
+                const size_t si = static_cast<size_t>(std::max(0, t.stem.species));
+                const Look look = plot.spec && si < plot.spec->species.size()
+                                      ? *plot.spec->species[si].species.look
+                                      : Look{};
+                cs.addTree(t.grown.tree, scene.trees[k].mesh.wood, scene.trees[k].mesh.leaves, look,
+                           hashCombine(plot.seed, static_cast<uint64_t>(t.stem.id)),
+                           !o.leafOutlines);
+            }
+            cs.addGround(scene.terrain, scene.groundCover);
+            cs.commit();
+            const Rng colourRng = Rng(plot.seed).derive("colour");
+            for (size_t k = 0; k < images.size(); ++k) {
+                std::vector<uint8_t> drawn(images[k].depth.size());
+                for (size_t i = 0; i < drawn.size(); ++i) drawn[i] = images[k].depth[i] > 0;
+                colours.push_back(
+                    cs.render(cameras[k], images[k], o.colour, colourRng.derive(k), &drawn));
+            }
+        }
         scene = PlotScene{};  // (last use)
         ViewFiles vf;
         if (o.views.depthPng) vf.integerDepthScale = integerDepthScale(images);
@@ -146,6 +172,12 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
                 put("", vf.labels.back(), encodeGreyPng(v.width, v.height, v.labels.data()));
             }
             put("", stem + "_id.png", encodeGrey16Png(v.width, v.height, v.ids.data()));
+            if (colour) {
+                vf.colour.push_back(stem + (o.colour.jpeg ? "_rgb.jpg" : "_rgb.png"));
+                vf.lights.push_back(colours[k].light);
+                put("", vf.colour.back(),
+                    encodeColourImage(colours[k], o.colour.jpeg, o.colour.jpegQuality));
+            }
         }
         files["views"] = (rel / "views").generic_string();
         nlohmann::json transforms = transformsJson(cameras, vf, plotNgpPlacement(plot));

@@ -63,11 +63,15 @@ std::vector<Part> parts(const TreeMesh& mesh) {
 }
 
 // A part's material as written: its own, or under a look white (the texture or the vertex
-// colours carry the colour) with the look's roughness.
+// colours carry the colour) with the look's roughness, and single-sided: a leaf's two faces
+// are triangles of their own (leaf_mesh.h), and drawn double-sided the back face, coplanar
+// and drawn after the front, wins the depth test from either side (three.js showed every
+// leaf's underside), so each side must be culled from behind to show its own colour.
 PartMaterial partMaterial(const Part& part, const MeshLook* look) {
     PartMaterial m = *part.material;
     if (look) {
         m.rgb[0] = m.rgb[1] = m.rgb[2] = 1.0;
+        m.doubleSided = false;
         m.roughness =
             part.material == &kBark ? look->look->barkRoughness : look->look->leafRoughness;
     }

@@ -10,7 +10,8 @@
 //   "leaf": base colour white × a colour per vertex: leafFront(class) on the front face,
 //           leafUnderside(class) on the back, both × leafLightness(treeSeed, leaf, variation)
 //           (the leaf found from leafMesh's layout, leafSpans), held to [0, 1]; roughness
-//           look.leafRoughness, double-sided.
+//           look.leafRoughness; single-sided (each face its own triangles: double-sided, a
+//           viewer draws both coplanar faces and shows one colour from both sides).
 // Without a look every writer's bytes are the untextured ones.
 #pragma once
 

@@ -342,12 +342,9 @@ std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<
     return out;
 }
 
-void writeColourImage(const fs::path& path, const ColourImage& image, bool jpeg, int quality) {
-    checkSize(image.width, image.height, image.rgba.size() / 4, "writeColourImage");
-    if (!jpeg) {
-        writeFileAtomic(path, encodeRgbaPng(image.width, image.height, image.rgba.data()));
-        return;
-    }
+std::string encodeColourImage(const ColourImage& image, bool jpeg, int quality) {
+    checkSize(image.width, image.height, image.rgba.size() / 4, "encodeColourImage");
+    if (!jpeg) return encodeRgbaPng(image.width, image.height, image.rgba.data());
     std::vector<uint8_t> rgb(static_cast<size_t>(image.width) * image.height * 3);
     for (size_t k = 0; k < rgb.size() / 3; ++k) std::memcpy(&rgb[3 * k], &image.rgba[4 * k], 3);
     std::vector<unsigned char> bytes;
@@ -355,12 +352,16 @@ void writeColourImage(const fs::path& path, const ColourImage& image, bool jpeg,
     auto out = OIIO::ImageOutput::create("jpg");
     OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
     spec.attribute("Compression", "jpeg:" + std::to_string(quality));
-    if (!out || !out->set_ioproxy(&proxy) || !out->open(path.string(), spec) ||
+    if (!out || !out->set_ioproxy(&proxy) || !out->open("memory.jpg", spec) ||
         !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close()) {
-        throw std::runtime_error("cannot encode JPEG '" + path.string() +
-                                 "': " + (out ? out->geterror() : OIIO::geterror()));
+        throw std::runtime_error("cannot encode a JPEG: " +
+                                 (out ? out->geterror() : OIIO::geterror()));
     }
-    writeFileAtomic(path, std::string(bytes.begin(), bytes.end()));
+    return std::string(bytes.begin(), bytes.end());
+}
+
+void writeColourImage(const fs::path& path, const ColourImage& image, bool jpeg, int quality) {
+    writeFileAtomic(path, encodeColourImage(image, jpeg, quality));
 }
 
 // Straight-alpha sRGB over white, in 8 bits (the sheets are for looking at).

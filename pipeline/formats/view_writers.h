@@ -45,6 +45,7 @@ void writeDepthExr(const std::filesystem::path& path, int width, int height,
 // `quality` (1–100; opaque backgrounds only: the alpha is dropped).
 void writeColourImage(const std::filesystem::path& path, const ColourImage& image, bool jpeg,
                       int quality);
+std::string encodeColourImage(const ColourImage& image, bool jpeg, int quality);
 // All colour views of an instance tiled in a grid, over white (RGB PNG).
 void writeColourContactSheet(const std::filesystem::path& path,
                              const std::vector<ColourImage>& images, int columns);

@@ -17,8 +17,6 @@ namespace sylva {
 
 namespace {
 
-constexpr unsigned kWoodGeometry = 0;
-constexpr unsigned kLeafGeometry = 1;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
 struct Colour {
@@ -87,21 +85,51 @@ uint8_t toByte(double linear) {
 
 }  // namespace
 
-struct ColourScene::Impl {
-    RTCDevice device = nullptr;
-    RTCScene scene = nullptr;
-    const Mesh* wood = nullptr;
-    const Mesh* leaves = nullptr;
-    std::vector<uint32_t> leafFront;   // front-face triangles of `leaves`, 3 per triangle
+// What an Embree geometry of the scene is: a tree's wood or leaves, the terrain, ground cover.
+enum class ObjectKind : uint8_t { kWood, kLeaves, kTerrain, kCover };
+
+struct ColourObject {
+    ObjectKind kind = ObjectKind::kWood;
+    const Mesh* mesh = nullptr;
+    int look = 0;                      // index into the scene's looks (wood, leaves)
+    std::vector<uint32_t> leafFront;   // leaves: front-face triangles of `mesh`, 3 per triangle
     std::vector<uint32_t> leafOf;      // per front triangle, its leaf's index
     std::vector<uint8_t> leafClass;    // per leaf
     std::vector<float> leafLightness;  // per leaf
-    Look look;
-    BarkTile bark;
-    double radius = 1.0;  // the tree's bounding sphere: ray offsets scale with it
-    double groundY = 0.0;
+};
 
-    Impl(const Look& l) : look(l), bark(l) {}
+// Low vegetation and bare ground: a grass-green and an earth brown (sRGB #4f6b2c, #6b5a44).
+const Look& groundLook() {
+    static const Look look = [] {
+        Look l;
+        LinearRgb grass, earth;
+        parseHexColour("#4f6b2c", grass);
+        parseHexColour("#6b5a44", earth);
+        l.leaf.assign(1, grass);
+        l.bark = earth;
+        l.leafTranslucency = 0.2;
+        l.leafSpecular = 0.02;
+        return l;
+    }();
+    return look;
+}
+
+struct ColourScene::Impl {
+    RTCDevice device = nullptr;
+    RTCScene scene = nullptr;
+    std::vector<ColourObject> objects;  // by Embree geometry id
+    std::vector<Look> looks;
+    std::vector<BarkTile> barks;  // per look
+    double radius = 1.0;          // the scene's bounding sphere: ray offsets scale with it
+    double groundY = 0.0;
+    bool hasGroundPlane = false;  // a tree alone: the sky background's ground plane
+
+    int addLook(const Look& look) {
+        looks.push_back(look);
+        barks.emplace_back(look);
+        return static_cast<int>(looks.size() - 1);
+    }
+
     ~Impl() {
         if (scene) rtcReleaseScene(scene);
         if (device) rtcReleaseDevice(device);
@@ -181,33 +209,54 @@ struct ColourScene::Impl {
         const double eps = 1e-4 * radius;
         const Vec3 p = Vec3{rh.ray.org_x, rh.ray.org_y, rh.ray.org_z} + dir * double(rh.ray.tfar);
         const double bu = rh.hit.u, bv = rh.hit.v, bw = 1.0 - bu - bv;
+        const ColourObject& obj = objects[rh.hit.geomID];
+        const Look& look = looks[obj.look];
+        const Mesh& mesh = *obj.mesh;
         Colour albedo;
         Vec3 n;
         double translucency = 0.0, specular = 0.04, roughness = 0.9;
-        if (rh.hit.geomID == kWoodGeometry) {
-            const uint32_t* tri = &wood->indices[3 * size_t(rh.hit.primID)];
-            auto attr = [&](const std::vector<float>& a, int k, int c) {
-                return bw * a[k * tri[0] + c] + bu * a[k * tri[1] + c] + bv * a[k * tri[2] + c];
-            };
-            albedo = of(bark.sample(attr(wood->uvs, 2, 0), attr(wood->uvs, 2, 1)));
-            n = normalize(Vec3{attr(wood->normals, 3, 0), attr(wood->normals, 3, 1),
-                               attr(wood->normals, 3, 2)});
-            const Vec3 ng = normalize(Vec3{rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z});
-            if (dot(n, view) <= 0) n = dot(ng, view) > 0 ? ng : -ng;
-            roughness = look.barkRoughness;
-        } else {
-            const uint32_t leaf = leafOf[rh.hit.primID];
-            const uint32_t v0 = leafFront[3 * size_t(rh.hit.primID)];
-            const Vec3 front{leaves->normals[3 * v0], leaves->normals[3 * v0 + 1],
-                             leaves->normals[3 * v0 + 2]};
+        const Vec3 ng = normalize(Vec3{rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z});
+        const Vec3 facing = dot(ng, view) > 0 ? ng : -ng;
+        if (obj.kind == ObjectKind::kLeaves) {
+            const uint32_t leaf = obj.leafOf[rh.hit.primID];
+            const uint32_t v0 = obj.leafFront[3 * size_t(rh.hit.primID)];
+            const Vec3 front{mesh.normals[3 * v0], mesh.normals[3 * v0 + 1],
+                             mesh.normals[3 * v0 + 2]};
             const bool seenFront = dot(front, view) >= 0;
-            const uint8_t cls = leafClass[leaf];
+            const uint8_t cls = obj.leafClass[leaf];
             albedo = of(seenFront ? look.leafFront(cls) : look.leafUnderside(cls)) *
-                     double(leafLightness[leaf]);
+                     double(obj.leafLightness[leaf]);
             n = seenFront ? front : -front;
             translucency = look.leafTranslucency;
             specular = look.leafSpecular;
             roughness = look.leafRoughness;
+        } else {
+            const uint32_t* tri = &mesh.indices[3 * size_t(rh.hit.primID)];
+            auto attr = [&](const std::vector<float>& a, int k, int c) {
+                return bw * a[k * tri[0] + c] + bu * a[k * tri[1] + c] + bv * a[k * tri[2] + c];
+            };
+            n = facing;
+            if (mesh.normals.size() == 3 * mesh.vertexCount()) {
+                n = normalize(Vec3{attr(mesh.normals, 3, 0), attr(mesh.normals, 3, 1),
+                                   attr(mesh.normals, 3, 2)});
+                if (dot(n, view) <= 0) n = facing;
+            }
+            if (obj.kind == ObjectKind::kWood) {
+                albedo = of(barks[obj.look].sample(attr(mesh.uvs, 2, 0), attr(mesh.uvs, 2, 1)));
+                roughness = look.barkRoughness;
+            } else if (obj.kind == ObjectKind::kTerrain) {
+                // Bare earth under a patchy sward: a value-noise mix on a 1.5 m scale.
+                const double mixGrass = 0.55 + 0.35 *
+                                                   std::sin(0.9 * p.x + 2.1 * std::sin(0.7 * p.z)) *
+                                                   std::cos(0.8 * p.z + 1.3 * std::sin(0.6 * p.x));
+                albedo = mix(of(look.bark), of(look.leafFront(0)), std::clamp(mixGrass, 0.0, 1.0));
+                roughness = 1.0;
+                specular = 0.0;
+            } else {  // ground cover: grass-green both sides
+                albedo = of(look.leafFront(0));
+                translucency = look.leafTranslucency;
+                specular = look.leafSpecular;
+            }
         }
         Colour out;
         const Vec3 above = p + n * eps;
@@ -236,7 +285,8 @@ struct ColourScene::Impl {
     Colour background(const Vec3& o, const Vec3& d, const Light& light,
                       const ColourOptions& opt) const {
         if (opt.background == ColourBackground::kColour) return of(opt.backgroundColour);
-        if (d.y < 0 && o.y > groundY) {  // the ground plane under the tree, its shadow on it
+        if (hasGroundPlane && d.y < 0 &&
+            o.y > groundY) {  // the ground plane under the tree, its shadow on it
             const double t = (groundY - o.y) / d.y;
             const Vec3 g = o + d * t;
             const double lit = occluded(g + Vec3{0, 1e-4 * radius, 0}, light.sun, 0) ? 0.0 : 1.0;
@@ -248,52 +298,97 @@ struct ColourScene::Impl {
     }
 };
 
-ColourScene::ColourScene(const Tree& tree, const Mesh& wood, const Mesh& leaves, const Look& look,
-                         uint64_t treeSeed)
-    : impl_(std::make_unique<Impl>(look)) {
+ColourScene::ColourScene() : impl_(std::make_unique<Impl>()) {
     Impl& m = *impl_;
-    m.wood = &wood;
-    m.leaves = &leaves;
-    m.radius = treeBoundingSphere(tree).radius;
-    m.groundY = tree.nodes.empty() ? 0.0 : tree.nodes[0].position.y;
-    // Front faces of the leaves (leafMesh's layout: per leaf, 2n vertices and 2t triangles,
-    // the first t the front face).
-    size_t tri = 0;
-    m.leafClass.reserve(tree.leaves.size());
-    m.leafLightness.reserve(tree.leaves.size());
-    for (size_t i = 0; i < tree.leaves.size(); ++i) {
-        const Leaf& leaf = tree.leaves[i];
-        const size_t t = leafOutline(leaf.shape).triangleCount();
-        if (3 * (tri + 2 * t) > leaves.indices.size()) {
-            throw std::invalid_argument("ColourScene: the leaf mesh is not leafMesh(tree)'s");
-        }
-        m.leafFront.insert(m.leafFront.end(), leaves.indices.begin() + 3 * tri,
-                           leaves.indices.begin() + 3 * (tri + t));
-        m.leafOf.insert(m.leafOf.end(), t, static_cast<uint32_t>(i));
-        m.leafClass.push_back(leaf.colour);
-        m.leafLightness.push_back(static_cast<float>(
-            leafLightness(treeSeed, static_cast<uint32_t>(i), look.leafVariation)));
-        tri += 2 * t;
-    }
     m.device = rtcNewDevice(nullptr);
     if (!m.device) throw std::runtime_error("Embree: rtcNewDevice failed");
     m.scene = rtcNewScene(m.device);
     rtcSetSceneFlags(m.scene, RTC_SCENE_FLAG_ROBUST);  // watertight edges: few centre misses
     rtcSetSceneBuildQuality(m.scene, RTC_BUILD_QUALITY_MEDIUM);
+}
+
+ColourScene::ColourScene(const Tree& tree, const Mesh& wood, const Mesh& leaves, const Look& look,
+                         uint64_t treeSeed)
+    : ColourScene() {
+    addTree(tree, wood, leaves, look, treeSeed);
+    impl_->groundY = tree.nodes.empty() ? 0.0 : tree.nodes[0].position.y;
+    impl_->hasGroundPlane = true;
+    commit();
+}
+
+void ColourScene::addTree(const Tree& tree, const Mesh& wood, const Mesh& leaves, const Look& look,
+                          uint64_t treeSeed, bool leavesAsCards) {
+    Impl& m = *impl_;
+    const int lookIndex = m.addLook(look);
+    ColourObject w;
+    w.kind = ObjectKind::kWood;
+    w.mesh = &wood;
+    w.look = lookIndex;
+    m.objects.push_back(std::move(w));
     m.addGeometry(wood.positions.data(), wood.vertexCount(), wood.indices.data(),
                   wood.triangleCount());
-    m.addGeometry(leaves.positions.data(), leaves.vertexCount(), m.leafFront.data(),
-                  m.leafFront.size() / 3);
+    // Front faces of the leaves (leafMesh's layout: per leaf, 2n vertices and 2t triangles,
+    // the first t the front face).
+    ColourObject l;
+    l.kind = ObjectKind::kLeaves;
+    l.mesh = &leaves;
+    l.look = lookIndex;
+    size_t tri = 0;
+    l.leafClass.reserve(tree.leaves.size());
+    l.leafLightness.reserve(tree.leaves.size());
+    for (size_t i = 0; i < tree.leaves.size(); ++i) {
+        const Leaf& leaf = tree.leaves[i];
+        const size_t t = leafOutline(leavesAsCards ? LeafShape::kCard : leaf.shape).triangleCount();
+        if (3 * (tri + 2 * t) > leaves.indices.size()) {
+            throw std::invalid_argument("ColourScene: the leaf mesh is not leafMesh(tree)'s");
+        }
+        l.leafFront.insert(l.leafFront.end(), leaves.indices.begin() + 3 * tri,
+                           leaves.indices.begin() + 3 * (tri + t));
+        l.leafOf.insert(l.leafOf.end(), t, static_cast<uint32_t>(i));
+        l.leafClass.push_back(leaf.colour);
+        l.leafLightness.push_back(static_cast<float>(
+            leafLightness(treeSeed, static_cast<uint32_t>(i), look.leafVariation)));
+        tri += 2 * t;
+    }
+    m.objects.push_back(std::move(l));
+    const ColourObject& added = m.objects.back();
+    m.addGeometry(leaves.positions.data(), leaves.vertexCount(), added.leafFront.data(),
+                  added.leafFront.size() / 3);
+}
+
+void ColourScene::addGround(const Mesh& terrain, const Mesh& groundCover) {
+    Impl& m = *impl_;
+    const int lookIndex = m.addLook(groundLook());
+    for (const Mesh* mesh : {&terrain, &groundCover}) {
+        ColourObject o;
+        o.kind = mesh == &terrain ? ObjectKind::kTerrain : ObjectKind::kCover;
+        o.mesh = mesh;
+        o.look = lookIndex;
+        m.objects.push_back(std::move(o));
+        m.addGeometry(mesh->positions.data(), mesh->vertexCount(), mesh->indices.data(),
+                      mesh->triangleCount());
+    }
+}
+
+void ColourScene::commit() {
+    Impl& m = *impl_;
     rtcCommitScene(m.scene);
+    RTCBounds b;
+    rtcGetSceneBounds(m.scene, &b);
+    const double dx = b.upper_x - b.lower_x, dy = b.upper_y - b.lower_y, dz = b.upper_z - b.lower_z;
+    const double r = 0.5 * std::sqrt(dx * dx + dy * dy + dz * dz);
+    m.radius = std::isfinite(r) && r > 0 ? r : 1.0;
 }
 
 ColourScene::~ColourScene() = default;
 
 ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
-                                const ColourOptions& options, Rng rng) const {
+                                const ColourOptions& options, Rng rng,
+                                const std::vector<uint8_t>* coverage) const {
     const Impl& m = *impl_;
     const int w = camera.width, h = camera.height;
-    if (view.width != w || view.height != h || view.silhouette.size() != size_t(w) * h) {
+    const std::vector<uint8_t>& centres = coverage ? *coverage : view.silhouette;
+    if (view.width != w || view.height != h || centres.size() != size_t(w) * h) {
         throw std::invalid_argument("ColourScene::render: the view is not the camera's");
     }
     ColourImage img;
@@ -318,7 +413,7 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
         }
     };
     auto inMask = [&](int x, int y) {
-        return x >= 0 && y >= 0 && x < w && y < h && view.silhouette[size_t(y) * w + x] != 0;
+        return x >= 0 && y >= 0 && x < w && y < h && centres[size_t(y) * w + x] != 0;
     };
     std::atomic<int64_t> misses{0};
     Rng pixelRoot = rng.derive("pixels");
@@ -377,7 +472,7 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
                     misses.fetch_add(1, std::memory_order_relaxed);
                     const int others = covered - 1;
                     // No other sample found it either: the bark's mean colour in half light.
-                    tree += others > 0 ? tree * (1.0 / others) : of(m.bark.mean()) * 0.5;
+                    tree += others > 0 ? tree * (1.0 / others) : of(m.barks[0].mean()) * 0.5;
                 }
                 tree = tree * light.exposure;
                 Colour c;

@@ -43,7 +43,7 @@ struct ColourOptions {
     ColourBackground background = ColourBackground::kTransparent;
     LinearRgb backgroundColour{1, 1, 1};       // colour_background_colour
     double sunElevationDeg[2] = {25.0, 65.0};  // colour_sun_elevation_deg: drawn per view
-    double exposureEv[2] = {0.3, 0.9};          // colour_exposure_ev: drawn per view
+    double exposureEv[2] = {0.3, 0.9};         // colour_exposure_ev: drawn per view
     bool jpeg = false;                         // colour_format = "jpg" (else "png")
     int jpegQuality = 92;                      // colour_jpeg_quality
 };
@@ -72,14 +72,23 @@ class ColourScene {
     // meshes must outlive the scene.
     ColourScene(const Tree& tree, const Mesh& wood, const Mesh& leaves, const Look& look,
                 uint64_t treeSeed);
+    // A scene of many objects (a plot): an empty scene, its trees and ground added, then
+    // committed once. `leavesAsCards`: `leaves` meshes every leaf as its card ([outputs]
+    // leaf_outlines = false). The ground: terrain (earth and grass) and ground cover (grass).
+    ColourScene();
+    void addTree(const Tree& tree, const Mesh& wood, const Mesh& leaves, const Look& look,
+                 uint64_t treeSeed, bool leavesAsCards = false);
+    void addGround(const Mesh& terrain, const Mesh& groundCover);
+    void commit();
     ~ColourScene();
     ColourScene(const ColourScene&) = delete;
     ColourScene& operator=(const ColourScene&) = delete;
 
     // One view: `view` is renderView's image of the same camera (its silhouette decides the
-    // centre samples' coverage). `rng`: the view's own stream.
+    // centre samples' coverage: a tree's mask; with `coverage` instead, those pixels: a plot's
+    // surfaces, terrain included). `rng`: the view's own stream.
     ColourImage render(const Camera& camera, const ViewImage& view, const ColourOptions& options,
-                       Rng rng) const;
+                       Rng rng, const std::vector<uint8_t>* coverage = nullptr) const;
 
     struct Impl;
 
