@@ -37,6 +37,7 @@ GrowOneResult growOne(const std::string& speciesPath, uint64_t seed, const fs::p
     Tree wood = g.tree;  // the branching, which leaves hide
     wood.leaves.clear();
     writeLabelPreviewPng(wood, r.dir / "preview_wood.png", kGrowPreviewSize);
+    writeColourPreviewPng(g.tree, *species.look, seed, r.dir / "preview_rgb.png", kGrowPreviewSize);
     nlohmann::json j = toJson(r.stats);
     for (const auto& [k, v] : g.methodStats) j[k] = v;
     const nlohmann::json rec = {{"species", species.name},

@@ -54,6 +54,8 @@
 #include "pipeline/formats/image_codecs.h"
 #include "pipeline/formats/little_endian.h"
 #include "pipeline/render/preview.h"
+#include "species/geometry/leaf_mesh.h"
+#include "species/geometry/tube_mesh.h"
 
 namespace sylva {
 
@@ -472,6 +474,29 @@ void writeSpeciesSheet(const fs::path& path, const std::vector<fs::path>& instan
 void writePreviewPng(const Tree& tree, const fs::path& path, int sizePixels) {
     const std::vector<uint8_t> pixels = renderPreview(tree, sizePixels);
     writeFileAtomic(path, encodeGreyPng(sizePixels, sizePixels, pixels.data()));
+}
+
+void writeColourPreviewPng(const Tree& tree, const Look& look, uint64_t seed, const fs::path& path,
+                           int size) {
+    ViewOptions o;
+    o.count = 1;
+    o.width = o.height = size;
+    o.elevationsDeg = {10};
+    o.randomAzimuth = false;
+    Rng unused(0);
+    const std::vector<Camera> cameras = makeCameras(tree, o, unused);
+    std::vector<int32_t> nodes;
+    const Mesh wood = tubeMesh(tree, TubeOptions{}, &nodes);
+    const Mesh leaves = leafMesh(tree);
+    const ViewImage v = renderView(tree, wood, nodes, cameras.front(), false, false);
+    const ColourScene scene(tree, wood, leaves, look, seed);
+    ColourOptions co;
+    co.enabled = true;
+    co.background = ColourBackground::kSky;
+    const ColourImage img = scene.render(cameras.front(), v, co, Rng(seed).derive("preview"));
+    std::vector<uint8_t> rgb(static_cast<size_t>(size) * size * 3);
+    for (size_t k = 0; k < rgb.size() / 3; ++k) std::memcpy(&rgb[3 * k], &img.rgba[4 * k], 3);
+    writeFileAtomic(path, encodeRgbPng(size, size, rgb.data()));
 }
 
 void writeLabelPreviewPng(const Tree& tree, const fs::path& path, int size) {
