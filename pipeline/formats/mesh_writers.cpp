@@ -86,6 +86,10 @@ const Look& requireLook(const MeshLook& look, const char* who) {
 std::string encodeBark(const MeshLook& ml, bool flipRows, const char* who) {
     const Look& look = requireLook(ml, who);
     const int size = ml.barkTextureSize;
+    if (size < 16 || (size & (size - 1)) != 0 || size > 8192) {
+        throw std::invalid_argument(std::string(who) + ": bark texture size " +
+                                    std::to_string(size) + " is not a power of 2 in [16, 8192]");
+    }
     std::vector<uint8_t> rgb = barkTexture(look, size);
     if (flipRows) {
         const size_t row = 3 * static_cast<size_t>(size);
@@ -395,7 +399,10 @@ void addBarkTexture(tinygltf::Model& model, int material, const MeshLook& look) 
     image.mimeType = "image/png";
     image.bufferView = addBytesView(model, barkPng(look));
     model.images.push_back(std::move(image));
-    tinygltf::Sampler sampler;  // the renderer's lookup: bilinear, wrapping (BarkTile::sample)
+    // Magnified as the renderer samples it (BarkTile::sample: bilinear, wrapping); minified
+    // through mipmaps, as a viewer drawing a twig a pixel wide must (the renderer averages
+    // several samples per pixel instead).
+    tinygltf::Sampler sampler;
     sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
     sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
     sampler.wrapS = TINYGLTF_TEXTURE_WRAP_REPEAT;

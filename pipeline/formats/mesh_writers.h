@@ -30,7 +30,8 @@ namespace sylva {
 struct MeshLook {
     const Look* look = nullptr;  // the species' look (not owned; required)
     uint64_t treeSeed = 0;       // the tree's seed (the instance seed): keys leafLightness
-    int barkTextureSize = 256;   // the bark tile's width and height, pixels (a power of 2, ≥ 16)
+    int barkTextureSize = 256;   // the bark tile's width and height, pixels: a power of 2 in
+                                 // [16, 8192] (else std::invalid_argument)
 };
 
 // The linear RGB colour (3 floats per vertex, each in [0, 1]) of every vertex of a leafMesh

@@ -228,6 +228,7 @@ nlohmann::json transformsJson(const std::vector<Camera>& cameras, const ViewFile
             f["sun_elevation_deg"] = l.sunElevationDeg;
             f["sun_azimuth_deg"] = l.sunAzimuthDeg;
             f["exposure_ev"] = l.exposureEv;
+            f["exposure_scale"] = l.exposureScale;
             f["sky_haze"] = l.haze;
         }
         f["azimuth_deg"] = cameras[i].azimuthDeg;
@@ -492,7 +493,7 @@ void writeColourPreviewPng(const Tree& tree, const Look& look, uint64_t seed, co
     const ColourScene scene(tree, wood, leaves, look, seed);
     ColourOptions co;
     co.enabled = true;
-    co.background = ColourBackground::kSky;
+    co.background = ColourBackground::kColour;  // white; the exposure meters the tree
     const ColourImage img = scene.render(cameras.front(), v, co, Rng(seed).derive("preview"));
     std::vector<uint8_t> rgb(static_cast<size_t>(size) * size * 3);
     for (size_t k = 0; k < rgb.size() / 3; ++k) std::memcpy(&rgb[3 * k], &img.rgba[4 * k], 3);

@@ -80,9 +80,9 @@ void writeSpeciesSheet(const std::filesystem::path& path,
 // framing the tree as the dataset views do (`sylva grow`'s preview).
 void writeLabelPreviewPng(const Tree& tree, const std::filesystem::path& path, int size);
 
-// The same view as a colour picture (colour_render.h) of the tree in `look`, over the sky and
-// a ground plane with the tree's shadow, 4 samples per pixel, its light drawn from `seed`: an
-// RGB PNG of size × size pixels (`sylva grow`'s preview_rgb.png).
+// The same view as a colour picture (colour_render.h) of the tree in `look`, over white, the
+// exposure metering the tree, 4 samples per pixel, its light drawn from `seed`: an RGB PNG of
+// size × size pixels (`sylva grow`'s preview_rgb.png).
 void writeColourPreviewPng(const Tree& tree, const Look& look, uint64_t seed,
                            const std::filesystem::path& path, int size);
 

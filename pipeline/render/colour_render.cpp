@@ -79,6 +79,10 @@ Vec3 cosineSample(const Vec3& n, double u1, double u2) {
     return normalize(f.u * x + f.v * y + f.w * z);
 }
 
+// The linear luminance the auto-exposure brings a tree's log-average to: below middle grey
+// (0.18), as foliage, darker than the grey card, photographs.
+constexpr double kMeterKey = 0.10;
+
 uint8_t toByte(double linear) {
     return static_cast<uint8_t>(std::lround(linearToSrgb(linear) * 255.0));
 }
@@ -416,6 +420,12 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
         return x >= 0 && y >= 0 && x < w && y < h && centres[size_t(y) * w + x] != 0;
     };
     std::atomic<int64_t> misses{0};
+    // Per pixel, before exposure: the sum of the covered samples' radiance, the background's
+    // (already final for a flat colour), and the counts.
+    const size_t npx = size_t(w) * h;
+    std::vector<float> treeSum(3 * npx, 0.0f), backSum(3 * npx, 0.0f);
+    std::vector<uint16_t> coveredOf(npx, 0), samplesOf(npx, 0);
+    const bool flatBack = options.background == ColourBackground::kColour;
     Rng pixelRoot = rng.derive("pixels");
     tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
         for (int y = rows.begin(); y < rows.end(); ++y) {
@@ -426,7 +436,6 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
                 for (int dy = -1; dy <= 1 && !near; ++dy) {
                     for (int dx = -1; dx <= 1 && !near; ++dx) near = inMask(x + dx, y + dy);
                 }
-                uint8_t* out = &img.rgba[4 * i];
                 if (!near && !opaque) continue;  // transparent, nothing near
                 Rng prng = pixelRoot.derive(static_cast<uint64_t>(i));
                 const int n = near ? samples : 1;
@@ -463,9 +472,7 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
                         tree += m.shade(rh, d, light, options, prng);
                         ++covered;
                     } else if (opaque) {
-                        back += m.background(o, d, light, options) *
-                                (options.background == ColourBackground::kColour ? 1.0
-                                                                                 : light.exposure);
+                        back += m.background(o, d, light, options);
                     }
                 }
                 if (missedCentre) {
@@ -474,25 +481,69 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
                     // No other sample found it either: the bark's mean colour in half light.
                     tree += others > 0 ? tree * (1.0 / others) : of(m.barks[0].mean()) * 0.5;
                 }
-                tree = tree * light.exposure;
-                Colour c;
-                double alpha = 1.0;
-                if (opaque) {
-                    c = (tree + back) * (1.0 / n);
-                } else {
-                    alpha = double(covered) / n;
-                    c = covered > 0 ? tree * (1.0 / covered) : Colour{};
-                }
-                out[0] = toByte(c.r);
-                out[1] = toByte(c.g);
-                out[2] = toByte(c.b);
-                out[3] = static_cast<uint8_t>(std::lround(alpha * 255.0));
-                // Alpha 255 only for full coverage, above 0 for any.
-                if (!opaque && covered < n && out[3] == 255) out[3] = 254;
-                if (!opaque && covered > 0 && out[3] == 0) out[3] = 1;
+                treeSum[3 * i] = float(tree.r), treeSum[3 * i + 1] = float(tree.g);
+                treeSum[3 * i + 2] = float(tree.b);
+                backSum[3 * i] = float(back.r), backSum[3 * i + 1] = float(back.g);
+                backSum[3 * i + 2] = float(back.b);
+                coveredOf[i] = static_cast<uint16_t>(covered);
+                samplesOf[i] = static_cast<uint16_t>(n);
             }
         }
     });
+    // Exposure: a camera metering the tree — its pixels' log-average luminance (the whole
+    // frame's over the sky) brought to `kMeterKey`, summed in pixel order (the same on any
+    // thread count) — times 2^EV.
+    double factor = 1.0;
+    if (options.autoExposure) {
+        double logSum = 0.0;
+        int64_t count = 0;
+        // Over the sky, the whole frame (as a camera's matrix metering); else the tree.
+        const bool wholeFrame = options.background == ColourBackground::kSky;
+        for (size_t i = 0; i < npx; ++i) {
+            const double lum3[3] = {0.2126, 0.7152, 0.0722};
+            double lum = 0.0;
+            if (wholeFrame && samplesOf[i] > 0) {
+                for (int c = 0; c < 3; ++c) {
+                    lum += lum3[c] * (treeSum[3 * i + c] + backSum[3 * i + c]) / samplesOf[i];
+                }
+            } else if (!wholeFrame && coveredOf[i] > 0) {
+                for (int c = 0; c < 3; ++c) lum += lum3[c] * treeSum[3 * i + c] / coveredOf[i];
+            } else {
+                continue;
+            }
+            logSum += std::log(std::max(lum, 1e-4));
+            ++count;
+        }
+        if (count > 0) {
+            factor = std::clamp(kMeterKey / std::exp(logSum / double(count)), 0.25, 16.0);
+        }
+    }
+    const double exposure = factor * light.exposure;
+    img.light.exposureScale = exposure;
+    for (size_t i = 0; i < npx; ++i) {
+        const int n = samplesOf[i], covered = coveredOf[i];
+        uint8_t* out = &img.rgba[4 * i];
+        if (n == 0) continue;
+        const Colour tree =
+            Colour{treeSum[3 * i], treeSum[3 * i + 1], treeSum[3 * i + 2]} * exposure;
+        const Colour back = Colour{backSum[3 * i], backSum[3 * i + 1], backSum[3 * i + 2]} *
+                            (flatBack ? 1.0 : exposure);
+        Colour c;
+        double alpha = 1.0;
+        if (opaque) {
+            c = (tree + back) * (1.0 / n);
+        } else {
+            alpha = double(covered) / n;
+            c = covered > 0 ? tree * (1.0 / covered) : Colour{};
+        }
+        out[0] = toByte(c.r);
+        out[1] = toByte(c.g);
+        out[2] = toByte(c.b);
+        out[3] = static_cast<uint8_t>(std::lround(alpha * 255.0));
+        // Alpha 255 only for full coverage, above 0 for any.
+        if (!opaque && covered < n && out[3] == 255) out[3] = 254;
+        if (!opaque && covered > 0 && out[3] == 0) out[3] = 1;
+    }
     img.centreMisses = misses.load();
     return img;
 }

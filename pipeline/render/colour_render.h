@@ -43,7 +43,8 @@ struct ColourOptions {
     ColourBackground background = ColourBackground::kTransparent;
     LinearRgb backgroundColour{1, 1, 1};       // colour_background_colour
     double sunElevationDeg[2] = {25.0, 65.0};  // colour_sun_elevation_deg: drawn per view
-    double exposureEv[2] = {0.3, 0.9};         // colour_exposure_ev: drawn per view
+    bool autoExposure = true;                  // colour_auto_exposure: meter the tree
+    double exposureEv[2] = {-0.3, 0.3};        // colour_exposure_ev: drawn per view
     bool jpeg = false;                         // colour_format = "jpg" (else "png")
     int jpegQuality = 92;                      // colour_jpeg_quality
 };
@@ -53,7 +54,8 @@ struct ColourLight {
     Vec3 sunDirection;  // unit, towards the sun
     double sunElevationDeg = 0, sunAzimuthDeg = 0;
     double exposureEv = 0;
-    double haze = 0;  // 0 a deep blue sky … 1 a pale, hazy one
+    double exposureScale = 1;  // what the light was multiplied by: metering × 2^exposureEv
+    double haze = 0;           // 0 a deep blue sky … 1 a pale, hazy one
 };
 
 struct ColourImage {

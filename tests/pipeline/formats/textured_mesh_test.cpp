@@ -172,7 +172,7 @@ TEST(TexturedMesh, GlbCarriesTheBarkTileAndTheLeafColours) {
     EXPECT_EQ(bark.pbrMetallicRoughness.roughnessFactor, look.barkRoughness);
     EXPECT_EQ(leaf.pbrMetallicRoughness.roughnessFactor, look.leafRoughness);
     EXPECT_FALSE(bark.doubleSided);
-    EXPECT_TRUE(leaf.doubleSided);
+    EXPECT_FALSE(leaf.doubleSided);  // each face its own triangles, each seen from its side
     EXPECT_EQ(leaf.pbrMetallicRoughness.baseColorTexture.index, -1);
     const tinygltf::TextureInfo& info = bark.pbrMetallicRoughness.baseColorTexture;
     ASSERT_EQ(info.index, 0);
@@ -381,6 +381,10 @@ TEST(TexturedMesh, WithoutALookTheBytesArePlain) {
     EXPECT_NE(meshGlb(tm, &other), textured);
     const MeshLook none{};
     EXPECT_THROW(meshGlb(tm, &none), std::invalid_argument);  // a MeshLook needs a look
+    const MeshLook odd{&look, 1, 100};
+    EXPECT_THROW(meshGlb(tm, &odd), std::invalid_argument);  // the tile: a power of 2
+    const MeshLook small{&look, 1, 32};
+    EXPECT_EQ(loadGlb(meshGlb(tm, &small)).images.at(0).width, 32);
 }
 
 }  // namespace

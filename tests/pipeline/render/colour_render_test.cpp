@@ -162,6 +162,7 @@ ColourOptions zenithSun() {
     o.aoRays = 0;  // no sky light: the sun alone
     o.sunElevationDeg[0] = o.sunElevationDeg[1] = 90;
     o.exposureEv[0] = o.exposureEv[1] = 0;
+    o.autoExposure = false;  // the light as it is
     o.samples = 1;
     return o;
 }
