@@ -359,6 +359,8 @@ void readColour(Params& v, ColourOptions& co) {
     std::tie(co.sunElevationDeg[0], co.sunElevationDeg[1]) =
         v.interval("colour_sun_elevation_deg", {co.sunElevationDeg[0], co.sunElevationDeg[1]},
                    Range::closed(1, 90));
+    co.unlit =
+        v.choice("colour_lighting", std::string("sun-and-sky"), {"sun-and-sky", "none"}) == "none";
     co.autoExposure = v.boolean("colour_auto_exposure", co.autoExposure);
     std::tie(co.exposureEv[0], co.exposureEv[1]) = v.interval(
         "colour_exposure_ev", {co.exposureEv[0], co.exposureEv[1]}, Range::closed(-8, 8));

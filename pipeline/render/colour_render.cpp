@@ -262,6 +262,7 @@ struct ColourScene::Impl {
                 specular = look.leafSpecular;
             }
         }
+        if (o.unlit) return albedo;  // the surface's own colour: an albedo picture
         Colour out;
         const Vec3 above = p + n * eps;
         const double cosL = dot(n, light.sun);
@@ -494,7 +495,9 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
     // frame's over the sky) brought to `kMeterKey`, summed in pixel order (the same on any
     // thread count) — times 2^EV.
     double factor = 1.0;
-    if (options.autoExposure) {
+    if (options.unlit) {
+        factor = 1.0 / light.exposure;  // albedo as it is: no exposure
+    } else if (options.autoExposure) {
         double logSum = 0.0;
         int64_t count = 0;
         // Over the sky, the whole frame (as a camera's matrix metering); else the tree.

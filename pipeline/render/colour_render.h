@@ -43,6 +43,7 @@ struct ColourOptions {
     ColourBackground background = ColourBackground::kTransparent;
     LinearRgb backgroundColour{1, 1, 1};       // colour_background_colour
     double sunElevationDeg[2] = {25.0, 65.0};  // colour_sun_elevation_deg: drawn per view
+    bool unlit = false;                        // colour_lighting = "none": albedo pictures
     bool autoExposure = true;                  // colour_auto_exposure: meter the tree
     double exposureEv[2] = {-0.3, 0.3};        // colour_exposure_ev: drawn per view
     bool jpeg = false;                         // colour_format = "jpg" (else "png")

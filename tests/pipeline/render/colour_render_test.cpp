@@ -229,3 +229,29 @@ TEST(ColourViews, ALeafInTheShadowOfAnotherGetsNoSun) {
 
 }  // namespace
 }  // namespace sylva
+
+namespace sylva {
+namespace {
+
+// colour_lighting = "none": every surface shows its own colour, whatever the light.
+TEST(ColourViews, UnlitPicturesShowTheAlbedo) {
+    const Card c = card({1.0});
+    Look look = matte();
+    const ColourScene scene(c.tree, c.wood, c.leaves, look, 1);
+    ColourOptions o = zenithSun();
+    o.unlit = true;
+    o.exposureEv[0] = o.exposureEv[1] = 1.5;  // ignored
+    for (bool above : {true, false}) {
+        const Camera cam = orthoCamera(above);
+        const ViewImage v = renderView(c.tree, c.wood, c.nodes, cam, false, false);
+        const ColourImage img = scene.render(cam, v, o, Rng(1));
+        const size_t i = 4 * (size_t(32) * 64 + 32);
+        const LinearRgb a = above ? look.leafFront(2) : look.leafUnderside(2);
+        EXPECT_EQ(img.rgba[i], std::lround(linearToSrgb(a.r) * 255)) << above;
+        EXPECT_EQ(img.rgba[i + 1], std::lround(linearToSrgb(a.g) * 255)) << above;
+        EXPECT_EQ(img.rgba[i + 2], std::lround(linearToSrgb(a.b) * 255)) << above;
+    }
+}
+
+}  // namespace
+}  // namespace sylva
