@@ -47,7 +47,9 @@ const fail = (file, what) => failures.push(`${file}: ${what}`);
 const counts = { glb: 0, obj: 0, ply: 0, texturedGlb: 0, texturedObj: 0 };
 
 // Node has no image decoding: GLTFLoader's ImageBitmapLoader fetches the image's blob URL
-// and hands the blob to createImageBitmap, here a PNG decoder of our own (png.mjs).
+// (made with self.URL: Node's URL) and hands the blob to createImageBitmap, here a PNG decoder
+// of our own (png.mjs).
+globalThis.self ??= globalThis;
 globalThis.createImageBitmap ??= async (blob) => {
     const img = decodePng(new Uint8Array(await blob.arrayBuffer()));
     return { ...img, close() {} };

@@ -30,7 +30,8 @@
 //   CAMERA.json: {"transform_matrix": [[…] ×4], "fov_deg": F, "w": W, "h": H} or a frame with
 //   fl_x, fl_y, cx, cy, w, h. --scale multiplies the resolution (and the intrinsics).
 //   --hide: nodes left out by name (sylva's mesh.glb: "wood", "leaves").
-// Module: import { renderGlb, cameraFromTransforms } from './render_glb.mjs'.
+// Module: import { renderGlb, renderGlbViews, cameraFromTransforms } from './render_glb.mjs'
+// (renderGlbViews draws several views in one Chromium session: ≈ 5 s saved per view).
 import { spawn, execFileSync } from 'node:child_process';
 import fs from 'node:fs';
 import http from 'node:http';
@@ -122,85 +123,87 @@ window.addEventListener('unhandledrejection', (e) => post({ error: String(e.reas
 try {
     const THREE = await import('three');
     const { GLTFLoader } = await import('three/addons/loaders/GLTFLoader.js');
-    const p = await (await fetch('/params.json')).json();
-    const c = p.camera;
-    const renderer = new THREE.WebGLRenderer({
-        antialias: p.antialias, alpha: true, preserveDrawingBuffer: true,
-        powerPreference: 'high-performance' });
-    renderer.setPixelRatio(1);
-    renderer.setSize(c.width, c.height, false);
-    renderer.outputColorSpace = THREE.SRGBColorSpace;
-    renderer.toneMapping = THREE.NoToneMapping;
-    document.body.appendChild(renderer.domElement);
-
+    const { views } = await (await fetch('/params.json')).json();
     const gltf = await new GLTFLoader().loadAsync('/model.glb');
     const scene = new THREE.Scene();
     scene.add(gltf.scene);
-    const hidden = new Set(p.hide);
-    gltf.scene.traverse((o) => { if (hidden.has(o.name)) o.visible = false; });
-    const materials = new Set();
+    // Each mesh's own material and its unlit twin (same colour, map, vertex colours, sides).
+    const meshes = [];
     gltf.scene.traverse((o) => {
         if (!o.isMesh) return;
-        materials.add(o.material.name);
-        if (p.unlit) {
-            const m = o.material;
-            o.material = new THREE.MeshBasicMaterial({
-                name: m.name, color: m.color, map: m.map, vertexColors: m.vertexColors,
-                side: m.side, transparent: m.transparent, opacity: m.opacity });
-        }
+        const m = o.material;
+        const unlit = new THREE.MeshBasicMaterial({
+            name: m.name, color: m.color, map: m.map, vertexColors: m.vertexColors,
+            side: m.side, transparent: m.transparent, opacity: m.opacity });
+        meshes.push({ mesh: o, lit: m, unlit });
     });
-    if (p.background) {
-        scene.background = new THREE.Color().setRGB(...p.background, THREE.SRGBColorSpace);
-    } else {
-        renderer.setClearColor(0x000000, 0);
-    }
-    if (!p.unlit) {
-        const sun = new THREE.DirectionalLight(0xffffff, p.light.intensity);
-        sun.position.set(...p.light.direction);  // shines from here toward the target (origin)
-        scene.add(sun, sun.target);
-        scene.add(new THREE.AmbientLight(0xffffff, p.ambient));
-    }
-
+    const sun = new THREE.DirectionalLight(0xffffff, 1);  // shines from its position to the origin
+    const ambient = new THREE.AmbientLight(0xffffff, 1);
+    scene.add(sun, sun.target, ambient);
     // The model's bounding sphere brackets near and far.
     const sphere = new THREE.Box3().setFromObject(gltf.scene).getBoundingSphere(new THREE.Sphere());
-    const pose = new THREE.Matrix4().set(...c.matrix);
-    const eye = new THREE.Vector3().setFromMatrixPosition(pose);
-    const forward = new THREE.Vector3(-pose.elements[8], -pose.elements[9], -pose.elements[10])
-        .normalize();
-    const along = sphere.center.clone().sub(eye).dot(forward);
-    const r = Math.max(sphere.radius, 1e-3);
-    let camera;
-    if (c.orthographic) {
-        camera = new THREE.OrthographicCamera(-c.width / (2 * c.fx), c.width / (2 * c.fx),
-                                              c.height / (2 * c.fy), -c.height / (2 * c.fy),
-                                              along - 1.5 * r, along + 1.5 * r);
-        camera.projectionMatrix.elements[12] += (2 * c.cx) / c.width - 1;
-        camera.projectionMatrix.elements[13] += 1 - (2 * c.cy) / c.height;
-    } else {
-        camera = new THREE.PerspectiveCamera();
-        const far = Math.max(along + 1.5 * r, 1e-2);
-        const near = Math.max(along - 1.5 * r, far * 1e-4);
-        camera.near = near;
-        camera.far = far;
-        camera.projectionMatrix.set(
-            (2 * c.fx) / c.width, 0, 1 - (2 * c.cx) / c.width, 0,
-            0, (2 * c.fy) / c.height, (2 * c.cy) / c.height - 1, 0,
-            0, 0, -(far + near) / (far - near), (-2 * far * near) / (far - near),
-            0, 0, -1, 0);
-    }
-    camera.projectionMatrixInverse.copy(camera.projectionMatrix).invert();
-    camera.matrixAutoUpdate = false;
-    camera.matrix.copy(pose);
-    camera.updateMatrixWorld(true);
+    const results = [];
+    for (const p of views) {
+        const c = p.camera;
+        const renderer = new THREE.WebGLRenderer({
+            antialias: p.antialias, alpha: true, preserveDrawingBuffer: true });
+        renderer.setPixelRatio(1);
+        renderer.setSize(c.width, c.height, false);
+        renderer.outputColorSpace = THREE.SRGBColorSpace;
+        renderer.toneMapping = THREE.NoToneMapping;
+        const hidden = new Set(p.hide);
+        gltf.scene.traverse((o) => { o.visible = !hidden.has(o.name); });
+        for (const m of meshes) m.mesh.material = p.unlit ? m.unlit : m.lit;
+        scene.background = p.background
+            ? new THREE.Color().setRGB(...p.background, THREE.SRGBColorSpace) : null;
+        renderer.setClearColor(0x000000, 0);
+        sun.visible = ambient.visible = !p.unlit;
+        sun.intensity = p.light.intensity;
+        sun.position.set(...p.light.direction);
+        ambient.intensity = p.ambient;
 
-    renderer.render(scene, camera);
-    const gl = renderer.getContext();
-    const debug = gl.getExtension('WEBGL_debug_renderer_info');
-    await post({
-        png: renderer.domElement.toDataURL('image/png'),
-        renderer: debug ? gl.getParameter(debug.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER),
-        materials: [...materials],
-    });
+        const pose = new THREE.Matrix4().set(...c.matrix);
+        const eye = new THREE.Vector3().setFromMatrixPosition(pose);
+        const forward = new THREE.Vector3(-pose.elements[8], -pose.elements[9], -pose.elements[10])
+            .normalize();
+        const along = sphere.center.clone().sub(eye).dot(forward);
+        const r = Math.max(sphere.radius, 1e-3);
+        let camera;
+        if (c.orthographic) {
+            camera = new THREE.OrthographicCamera(-c.width / (2 * c.fx), c.width / (2 * c.fx),
+                                                  c.height / (2 * c.fy), -c.height / (2 * c.fy),
+                                                  along - 1.5 * r, along + 1.5 * r);
+            camera.projectionMatrix.elements[12] += (2 * c.cx) / c.width - 1;
+            camera.projectionMatrix.elements[13] += 1 - (2 * c.cy) / c.height;
+        } else {
+            camera = new THREE.PerspectiveCamera();
+            const far = Math.max(along + 1.5 * r, 1e-2);
+            const near = Math.max(along - 1.5 * r, far * 1e-4);
+            camera.near = near;
+            camera.far = far;
+            camera.projectionMatrix.set(
+                (2 * c.fx) / c.width, 0, 1 - (2 * c.cx) / c.width, 0,
+                0, (2 * c.fy) / c.height, (2 * c.cy) / c.height - 1, 0,
+                0, 0, -(far + near) / (far - near), (-2 * far * near) / (far - near),
+                0, 0, -1, 0);
+        }
+        camera.projectionMatrixInverse.copy(camera.projectionMatrix).invert();
+        camera.matrixAutoUpdate = false;
+        camera.matrix.copy(pose);
+        camera.updateMatrixWorld(true);
+
+        renderer.render(scene, camera);
+        const gl = renderer.getContext();
+        const debug = gl.getExtension('WEBGL_debug_renderer_info');
+        results.push({
+            png: renderer.domElement.toDataURL('image/png'),
+            renderer: gl.getParameter(debug ? debug.UNMASKED_RENDERER_WEBGL : gl.RENDERER),
+            materials: meshes.map((m) => m.lit.name),
+        });
+        renderer.dispose();
+        renderer.forceContextLoss();
+    }
+    await post({ results });
 } catch (e) {
     await post({ error: String(e && e.stack || e) });
 }
@@ -208,14 +211,9 @@ try {
 
 const kTypes = { '.js': 'text/javascript', '.html': 'text/html', '.json': 'application/json' };
 
-// Renders `glb` (a path or bytes) and resolves to { png (Buffer), renderer, materials }.
-// options: camera (cameraFromTransforms' or {matrix, fovDeg, width, height}), scale (1),
-// light ({direction: [x, y, z] toward the light, intensity: π}), ambient (0.3 π), unlit (false),
-// background (null: transparent; [r, g, b] sRGB), hide ([] node names), antialias (false),
-// chromium (found on PATH), timeoutMs (120 000), log (a file for Chromium's stderr).
-export async function renderGlb(glb, options) {
-    const bytes = typeof glb === 'string' ? fs.readFileSync(glb) : Buffer.from(glb);
-    const params = {
+// A view's parameters as the page takes them (the options of renderGlb below).
+function viewParams(options) {
+    return {
         camera: intrinsics(options.camera, options.scale ?? 1),
         light: {
             direction: options.light?.direction ?? [0.3, 1, 0.5],
@@ -227,7 +225,18 @@ export async function renderGlb(glb, options) {
         hide: options.hide ?? [],
         antialias: !!options.antialias,
     };
-    const chromium = options.chromium ?? findChromium();
+}
+
+// Renders `glb` (a path or bytes) once per view in one Chromium session, resolving to
+// [{ png (Buffer), renderer (WebGL's renderer string), materials }]. A view: camera
+// (cameraFromTransforms' or {matrix, fovDeg, width, height}), scale (1), light ({direction:
+// [x, y, z] toward the light, intensity: π}), ambient (0.3 π), unlit (false), background (null:
+// transparent; [r, g, b] sRGB), hide ([] node names), antialias (false). session: chromium
+// (found on PATH), timeoutMs (120 000), log (a file for Chromium's stderr).
+export async function renderGlbViews(glb, views, session = {}) {
+    const bytes = typeof glb === 'string' ? fs.readFileSync(glb) : Buffer.from(glb);
+    const params = { views: views.map(viewParams) };
+    const chromium = session.chromium ?? findChromium();
     if (!chromium) throw new Error('render_glb: no chromium on PATH');
 
     let settle;
@@ -275,24 +284,26 @@ export async function renderGlb(glb, options) {
     await new Promise((resolve) => server.listen(0, '127.0.0.1', resolve));
     const port = server.address().port;
     const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'sylva-render-glb-'));
-    const stderr = options.log ? fs.openSync(options.log, 'a') : 'ignore';
+    const stderr = session.log ? fs.openSync(session.log, 'a') : 'ignore';
     // Its own process group, so stopping it stops its GPU and renderer processes too.
     const browser = spawn(chromium, [...kChromiumFlags, `--user-data-dir=${profile}`,
                                      `http://127.0.0.1:${port}/index.html`],
                           { detached: true, stdio: ['ignore', 'ignore', stderr] });
     browser.on('exit', (code) => settle.reject(new Error(`chromium exited (${code}) first`)));
     const timer = setTimeout(() => settle.reject(new Error('render_glb: timed out')),
-                             options.timeoutMs ?? 120000);
+                             session.timeoutMs ?? 120000);
     try {
         const result = await done;
         if (result.error) throw new Error(`render_glb: the page failed: ${result.error}`);
         const prefix = 'data:image/png;base64,';
-        if (!result.png?.startsWith(prefix)) throw new Error('render_glb: no PNG came back');
-        return {
-            png: Buffer.from(result.png.slice(prefix.length), 'base64'),
-            renderer: result.renderer,
-            materials: result.materials,
-        };
+        return result.results.map((r) => {
+            if (!r.png?.startsWith(prefix)) throw new Error('render_glb: no PNG came back');
+            return {
+                png: Buffer.from(r.png.slice(prefix.length), 'base64'),
+                renderer: r.renderer,
+                materials: r.materials,
+            };
+        });
     } finally {
         clearTimeout(timer);
         browser.removeAllListeners('exit');
@@ -307,6 +318,11 @@ export async function renderGlb(glb, options) {
         server.close();
         fs.rmSync(profile, { recursive: true, force: true });
     }
+}
+
+// One view (options: a view's and the session's, as renderGlbViews takes them).
+export async function renderGlb(glb, options) {
+    return (await renderGlbViews(glb, [options], options))[0];
 }
 
 function parseArgs(argv) {
