@@ -81,7 +81,7 @@ Vec3 cosineSample(const Vec3& n, double u1, double u2) {
 
 // The linear luminance the auto-exposure brings a tree's log-average to: below middle grey
 // (0.18), as foliage, darker than the grey card, photographs.
-constexpr double kMeterKey = 0.10;
+constexpr double kMeterKey = 0.08;
 
 uint8_t toByte(double linear) {
     return static_cast<uint8_t>(std::lround(linearToSrgb(linear) * 255.0));
@@ -518,7 +518,7 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
             ++count;
         }
         if (count > 0) {
-            factor = std::clamp(kMeterKey / std::exp(logSum / double(count)), 0.25, 16.0);
+            factor = std::clamp(kMeterKey / std::exp(logSum / double(count)), 0.25, 8.0);
         }
     }
     const double exposure = factor * light.exposure;

@@ -13,8 +13,8 @@ variant over the sky, then for every view:
   records its sun (a unit vector above the horizon within the spec's elevations) and exposure;
 - the tree is coloured as its species: silver birch's sunlit trunk (the brightest tenth of
   its label-1 pixels) is pale (its white bark) and lighter than hawthorn's; leaf pixels (label 255) are green (G > R, G > B);
-- the JPEG build: OpenCV reads 3-channel JPEGs of the same size, and a view from below the
-  crown shows a blue sky along its top rows.
+- the JPEG build (metered over the sky): OpenCV reads 3-channel JPEGs of the same size, the
+  exposure is the metering's, and a view from below the crown shows a blue sky along its top.
 
 Usage: test_colour_views.py SYLVA_EXE SOURCE_DIR
 A missing module (numpy, cv2, OpenImageIO) is a failure, not a skip.
@@ -79,8 +79,8 @@ def main():
                       <= 65 + 1e-9, what + ": sun direction and elevation")
                 check(abs(np.degrees(np.arcsin(sun[1])) - fr["sun_elevation_deg"]) < 1e-6,
                       what + ": elevation matches the direction")
-                check(-0.3 - 1e-9 <= fr["exposure_ev"] <= 0.3 + 1e-9 and fr["exposure_scale"] > 0,
-                      what + ": exposure")
+                check(abs(fr["exposure_ev"] - 0.6) < 1e-9 and
+                      abs(fr["exposure_scale"] - 2 ** 0.6) < 1e-9, what + ": the fixed exposure")
                 path = os.path.join(base, fr["file_path"])
                 cv = cv2.imread(path, cv2.IMREAD_UNCHANGED)
                 check(cv is not None and cv.shape == (tj["h"], tj["w"], 4) and cv.dtype == np.uint8,
@@ -128,6 +128,7 @@ def main():
         with open(os.path.join(src, "tests/data/colour_dataset.toml")) as f:
             spec = f.read().replace("colour = true", 'colour = true\ncolour_background = "sky"\n'
                                     'colour_format = "jpg"')
+        spec = spec.replace("colour_auto_exposure = false", "colour_auto_exposure = true")
         jspec = os.path.join(tmp, "colour_jpg.toml")
         with open(jspec, "w") as f:
             f.write(spec.replace("../../species", os.path.join(os.path.abspath(src), "species")))
@@ -139,6 +140,9 @@ def main():
             for k, fr in enumerate(tj["frames"]):
                 what = "%s jpg view %d" % (rec["id"], k)
                 check(fr["file_path"] == "views/%03d_rgb.jpg" % k, what + ": file_path")
+                check(fr["exposure_scale"] > 0 and
+                      abs(fr["exposure_scale"] - 2 ** fr["exposure_ev"]) > 1e-6,
+                      what + ": metered (the scale is not the EV's alone)")
                 img = cv2.imread(os.path.join(base, fr["file_path"]), cv2.IMREAD_UNCHANGED)
                 check(img is not None and img.shape == (tj["h"], tj["w"], 3), what + ": RGB JPEG")
                 if fr["elevation_deg"] < 0:  # looking up: sky along the top rows
