@@ -155,6 +155,16 @@ static void RenderView(benchmark::State& state) {
 }
 BENCHMARK(RenderView)->Arg(0)->Arg(1415)->Unit(benchmark::kMillisecond);
 
+// 8 cameras round a tree at 512 × 512, the first at azimuth 0.
+static std::vector<Camera> eightViews512(const Tree& tree) {
+    ViewOptions vo;
+    vo.count = 8;
+    vo.width = vo.height = 512;
+    vo.randomAzimuth = false;
+    Rng rng(1);
+    return makeCameras(tree, vo, rng);
+}
+
 // One 512×512 view with depth and labels of the large Table 1 tree (bench/table1.toml), per
 // view, on 1 thread (Arg 1) and on every core (Arg 0): the renderer's banded parallelism. The
 // tubes are made beforehand, once per tree, as in RenderView.
@@ -165,12 +175,7 @@ static void RenderViewLarge(benchmark::State& state) {
     }
     static const Tree tree =
         growSpecies(loadSpecies(SYLVA_SOURCE_DIR "/bench/table1.toml"), 1, nullptr, true).tree;
-    ViewOptions vo;
-    vo.count = 8;
-    vo.width = vo.height = 512;
-    vo.randomAzimuth = false;
-    Rng rng(1);
-    const std::vector<Camera> cams = makeCameras(tree, vo, rng);
+    const std::vector<Camera> cams = eightViews512(tree);
     static const Tubes tubes(tree);
     size_t k = 0;
     for (auto _ : state) {
@@ -195,12 +200,7 @@ static void ColourViews(benchmark::State& state) {
     static const Tree tree = growSpecies(species, 1, nullptr, false).tree;
     static const Tubes tubes(tree);
     static const Mesh leaves = leafMesh(tree);
-    ViewOptions vo;
-    vo.count = 8;
-    vo.width = vo.height = 512;
-    vo.randomAzimuth = false;
-    Rng rng(1);
-    const std::vector<Camera> cams = makeCameras(tree, vo, rng);
+    const std::vector<Camera> cams = eightViews512(tree);
     ColourOptions co;
     co.enabled = true;
     co.samples = static_cast<int>(state.range(1));

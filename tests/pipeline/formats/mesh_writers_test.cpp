@@ -13,6 +13,7 @@
 
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
+#include "tests/gltf_support.h"
 #include "tests/plot_fixture.h"
 #include "tests/test_support.h"
 
@@ -109,17 +110,7 @@ TEST(MeshWriters, PlyHeaderAndBodyEqualTheMesh) {
     EXPECT_EQ(pos, ply.size());
 }
 
-tinygltf::Model loadGlb(const std::string& glb) {
-    tinygltf::Model model;
-    tinygltf::TinyGLTF loader;
-    std::string err, warn;
-    const bool ok = loader.LoadBinaryFromMemory(&model, &err, &warn,
-                                                reinterpret_cast<const unsigned char*>(glb.data()),
-                                                static_cast<unsigned>(glb.size()));
-    EXPECT_TRUE(ok) << err;
-    EXPECT_TRUE(warn.empty()) << warn;
-    return model;
-}
+using test::loadGlb;
 
 // The elements of a tightly packed 4-byte accessor.
 template <typename T>

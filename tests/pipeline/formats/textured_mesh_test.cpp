@@ -18,6 +18,7 @@
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
 #include "species/model/leaf_shape.h"
+#include "tests/gltf_support.h"
 #include "tests/test_support.h"
 
 namespace sylva {
@@ -72,17 +73,7 @@ Look sampleLook() {
     return look;
 }
 
-tinygltf::Model loadGlb(const std::string& glb) {
-    tinygltf::Model model;
-    tinygltf::TinyGLTF loader;
-    std::string err, warn;
-    const bool ok = loader.LoadBinaryFromMemory(&model, &err, &warn,
-                                                reinterpret_cast<const unsigned char*>(glb.data()),
-                                                static_cast<unsigned>(glb.size()));
-    EXPECT_TRUE(ok) << err;
-    EXPECT_TRUE(warn.empty()) << warn;
-    return model;
-}
+using test::loadGlb;
 
 // The elements of a tightly packed float accessor.
 std::vector<float> floats(const tinygltf::Model& model, int index) {
