@@ -518,7 +518,7 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
             ++count;
         }
         if (count > 0) {
-            factor = std::clamp(kMeterKey / std::exp(logSum / double(count)), 0.25, 8.0);
+            factor = std::clamp(kMeterKey / std::exp(logSum / double(count)), 0.25, 4.0);
         }
     }
     const double exposure = factor * light.exposure;
