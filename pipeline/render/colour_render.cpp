@@ -207,8 +207,10 @@ struct ColourScene::Impl {
     }
 
     // The radiance leaving a tree hit towards the camera.
+    // `sky`: the pixel's sky irradiance, estimated at its first shaded sample (`haveSky` false)
+    // with all the pixel's sky rays and shared by its other samples.
     Colour shade(const RTCRayHit& rh, const Vec3& dir, const Light& light, const ColourOptions& o,
-                 Rng& rng) const {
+                 Rng& rng, Colour& sky, bool& haveSky) const {
         const Vec3 view = -dir;
         const double eps = 1e-4 * radius;
         const Vec3 p = Vec3{rh.ray.org_x, rh.ray.org_y, rh.ray.org_z} + dir * double(rh.ray.tfar);
@@ -282,7 +284,11 @@ struct ColourScene::Impl {
                 out += albedo * light.sunIrradiance * (-cosL * translucency / kPi);
             }
         }
-        out += albedo * skyIrradiance(above, n, light, o.aoRays, rng) * (1.0 / kPi);
+        if (!haveSky) {
+            sky = skyIrradiance(above, n, light, o.aoRays, rng);
+            haveSky = true;
+        }
+        out += albedo * sky * (1.0 / kPi);
         return out;
     }
 
@@ -441,7 +447,8 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
                 Rng prng = pixelRoot.derive(static_cast<uint64_t>(i));
                 const int n = near ? samples : 1;
                 const double jx = prng.uniform(), jy = prng.uniform();
-                Colour tree, back;
+                Colour tree, back, sky;
+                bool haveSky = false;
                 int covered = 0;
                 bool missedCentre = false;
                 for (int s = 0; s < n; ++s) {
@@ -470,7 +477,7 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
                         continue;
                     }
                     if (hit) {
-                        tree += m.shade(rh, d, light, options, prng);
+                        tree += m.shade(rh, d, light, options, prng, sky, haveSky);
                         ++covered;
                     } else if (opaque) {
                         back += m.background(o, d, light, options);
