@@ -158,6 +158,33 @@ std::vector<uint8_t> readChannel0(const fs::path& path, int& w, int& h) {
     return px;
 }
 
+// Straight-alpha sRGB over white, in 8 bits (the sheets are for looking at).
+void overWhite(const uint8_t* rgba, uint8_t* rgb) {
+    const double a = rgba[3] / 255.0;
+    for (int c = 0; c < 3; ++c) {
+        rgb[c] = static_cast<uint8_t>(std::lround(rgba[c] * a + 255.0 * (1.0 - a)));
+    }
+}
+
+// The RGB of a colour picture, its alpha dropped.
+std::vector<uint8_t> rgbOf(const ColourImage& image) {
+    std::vector<uint8_t> rgb(static_cast<size_t>(image.width) * image.height * 3);
+    for (size_t k = 0; k < rgb.size() / 3; ++k) std::memcpy(&rgb[3 * k], &image.rgba[4 * k], 3);
+    return rgb;
+}
+
+// One camera for a tree's previews: perspective at azimuth 0 (looking along −z), 10° above the
+// horizon, size × size pixels, framing the tree as the dataset views do.
+Camera previewCamera(const Tree& tree, int size) {
+    ViewOptions o;
+    o.count = 1;
+    o.width = o.height = size;
+    o.elevationsDeg = {10};
+    o.randomAzimuth = false;
+    Rng unused(0);  // no random azimuth
+    return makeCameras(tree, o, unused).front();
+}
+
 // An RGBA picture (views/NNN_rgb.png) as RGB over white.
 std::vector<uint8_t> readRgbOverWhite(const fs::path& path, int& w, int& h) {
     auto in = OIIO::ImageInput::open(path.string());
@@ -175,12 +202,7 @@ std::vector<uint8_t> readRgbOverWhite(const fs::path& path, int& w, int& h) {
     }
     in->close();
     std::vector<uint8_t> rgb(static_cast<size_t>(w) * h * 3);
-    for (size_t k = 0; k < rgb.size() / 3; ++k) {
-        const double a = px[4 * k + 3] / 255.0;
-        for (int c = 0; c < 3; ++c) {
-            rgb[3 * k + c] = static_cast<uint8_t>(std::lround(px[4 * k + c] * a + 255.0 * (1 - a)));
-        }
-    }
+    for (size_t k = 0; k < rgb.size() / 3; ++k) overWhite(&px[4 * k], &rgb[3 * k]);
     return rgb;
 }
 
@@ -348,8 +370,7 @@ std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<
 std::string encodeColourImage(const ColourImage& image, bool jpeg, int quality) {
     checkSize(image.width, image.height, image.rgba.size() / 4, "encodeColourImage");
     if (!jpeg) return encodeRgbaPng(image.width, image.height, image.rgba.data());
-    std::vector<uint8_t> rgb(static_cast<size_t>(image.width) * image.height * 3);
-    for (size_t k = 0; k < rgb.size() / 3; ++k) std::memcpy(&rgb[3 * k], &image.rgba[4 * k], 3);
+    const std::vector<uint8_t> rgb = rgbOf(image);
     std::vector<unsigned char> bytes;
     OIIO::Filesystem::IOVecOutput proxy(bytes);
     auto out = OIIO::ImageOutput::create("jpg");
@@ -365,14 +386,6 @@ std::string encodeColourImage(const ColourImage& image, bool jpeg, int quality) 
 
 void writeColourImage(const fs::path& path, const ColourImage& image, bool jpeg, int quality) {
     writeFileAtomic(path, encodeColourImage(image, jpeg, quality));
-}
-
-// Straight-alpha sRGB over white, in 8 bits (the sheets are for looking at).
-static void overWhite(const uint8_t* rgba, uint8_t* rgb) {
-    const double a = rgba[3] / 255.0;
-    for (int c = 0; c < 3; ++c) {
-        rgb[c] = static_cast<uint8_t>(std::lround(rgba[c] * a + 255.0 * (1.0 - a)));
-    }
 }
 
 void writeColourContactSheet(const fs::path& path, const std::vector<ColourImage>& images,
@@ -479,36 +492,21 @@ void writePreviewPng(const Tree& tree, const fs::path& path, int sizePixels) {
 
 void writeColourPreviewPng(const Tree& tree, const Look& look, uint64_t seed, const fs::path& path,
                            int size) {
-    ViewOptions o;
-    o.count = 1;
-    o.width = o.height = size;
-    o.elevationsDeg = {10};
-    o.randomAzimuth = false;
-    Rng unused(0);
-    const std::vector<Camera> cameras = makeCameras(tree, o, unused);
+    const Camera camera = previewCamera(tree, size);
     std::vector<int32_t> nodes;
     const Mesh wood = tubeMesh(tree, TubeOptions{}, &nodes);
     const Mesh leaves = leafMesh(tree);
-    const ViewImage v = renderView(tree, wood, nodes, cameras.front(), false, false);
+    const ViewImage v = renderView(tree, wood, nodes, camera, false, false);
     const ColourScene scene(tree, wood, leaves, look, seed);
     ColourOptions co;
     co.enabled = true;
     co.background = ColourBackground::kColour;  // white; the exposure meters the tree
-    const ColourImage img = scene.render(cameras.front(), v, co, Rng(seed).derive("preview"));
-    std::vector<uint8_t> rgb(static_cast<size_t>(size) * size * 3);
-    for (size_t k = 0; k < rgb.size() / 3; ++k) std::memcpy(&rgb[3 * k], &img.rgba[4 * k], 3);
-    writeFileAtomic(path, encodeRgbPng(size, size, rgb.data()));
+    const ColourImage img = scene.render(camera, v, co, Rng(seed).derive("preview"));
+    writeFileAtomic(path, encodeRgbPng(size, size, rgbOf(img).data()));
 }
 
 void writeLabelPreviewPng(const Tree& tree, const fs::path& path, int size) {
-    ViewOptions o;
-    o.count = 1;
-    o.width = o.height = size;
-    o.elevationsDeg = {10};
-    o.randomAzimuth = false;
-    Rng unused(0);  // no random azimuth
-    const std::vector<Camera> cameras = makeCameras(tree, o, unused);
-    const ViewImage v = renderView(tree, cameras.front(), false, true);
+    const ViewImage v = renderView(tree, previewCamera(tree, size), false, true);
     writeFileAtomic(path, encodeRgbPng(size, size, colourLabels(v.labels).data()));
 }
 

@@ -160,10 +160,8 @@ struct ColourScene::Impl {
         rtcReleaseGeometry(g);
     }
 
-    bool occluded(const Vec3& o, const Vec3& d, double tnear) const {
-        RTCIntersectContext ctx;
-        rtcInitIntersectContext(&ctx);
-        RTCRay ray;
+    // A ray from `o` along `d`, from `tnear` to infinity.
+    static void setRay(RTCRay& ray, const Vec3& o, const Vec3& d, double tnear) {
         ray.org_x = float(o.x), ray.org_y = float(o.y), ray.org_z = float(o.z);
         ray.dir_x = float(d.x), ray.dir_y = float(d.y), ray.dir_z = float(d.z);
         ray.tnear = float(tnear);
@@ -172,6 +170,13 @@ struct ColourScene::Impl {
         ray.mask = 0xffffffffu;
         ray.id = 0;
         ray.flags = 0;
+    }
+
+    bool occluded(const Vec3& o, const Vec3& d, double tnear) const {
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        RTCRay ray;
+        setRay(ray, o, d, tnear);
         rtcOccluded1(scene, &ctx, &ray);
         return ray.tfar < 0;
     }
@@ -179,14 +184,7 @@ struct ColourScene::Impl {
     bool intersect(const Vec3& o, const Vec3& d, RTCRayHit& rh) const {
         RTCIntersectContext ctx;
         rtcInitIntersectContext(&ctx);
-        rh.ray.org_x = float(o.x), rh.ray.org_y = float(o.y), rh.ray.org_z = float(o.z);
-        rh.ray.dir_x = float(d.x), rh.ray.dir_y = float(d.y), rh.ray.dir_z = float(d.z);
-        rh.ray.tnear = 0;
-        rh.ray.tfar = kInf;
-        rh.ray.time = 0;
-        rh.ray.mask = 0xffffffffu;
-        rh.ray.id = 0;
-        rh.ray.flags = 0;
+        setRay(rh.ray, o, d, 0);
         rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
         rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
         rtcIntersect1(scene, &ctx, &rh);
