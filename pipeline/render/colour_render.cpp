@@ -204,11 +204,41 @@ struct ColourScene::Impl {
         return sum * (kPi / std::max(1, rays));
     }
 
-    // The radiance leaving a tree hit towards the camera.
-    // `sky`: the pixel's sky irradiance, estimated at its first shaded sample (`haveSky` false)
-    // with all the pixel's sky rays and shared by its other samples.
+    // What a pixel's samples share: its sky irradiance, estimated at its first shaded sample
+    // with all the pixel's sky rays, and the sun's visibility, cast from the first sample that
+    // meets a surface and reused by the later samples on the same surface — the same leaf, or the
+    // same wood or ground object at a depth within 2 % (within a pixel, one surface is in or out
+    // of the sun but at a shadow's edge).
+    struct PixelShare {
+        Colour sky;
+        bool haveSky = false;
+        bool haveSun = false;
+        unsigned sunGeom = RTC_INVALID_GEOMETRY_ID;
+        uint32_t sunLeaf = 0;
+        double sunDepth = 0;
+        bool sunLit = false;
+    };
+
+    // Whether the sun reaches `from` (a point on the sun's side of a surface), shared with the
+    // pixel's earlier samples on the same surface.
+    bool sunLit(const Vec3& from, const Vec3& sun, unsigned geom, uint32_t leaf, bool isLeaf,
+                double depth, PixelShare& share) const {
+        if (share.haveSun && share.sunGeom == geom &&
+            (isLeaf ? share.sunLeaf == leaf
+                    : std::abs(depth - share.sunDepth) <= 0.02 * share.sunDepth)) {
+            return share.sunLit;
+        }
+        share.haveSun = true;
+        share.sunGeom = geom;
+        share.sunLeaf = leaf;
+        share.sunDepth = depth;
+        share.sunLit = !occluded(from, sun, 0);
+        return share.sunLit;
+    }
+
+    // The radiance leaving a tree hit towards the camera (`share`: see PixelShare).
     Colour shade(const RTCRayHit& rh, const Vec3& dir, const Light& light, const ColourOptions& o,
-                 Rng& rng, Colour& sky, bool& haveSky) const {
+                 Rng& rng, PixelShare& share) const {
         const Vec3 view = -dir;
         const double eps = 1e-4 * radius;
         const Vec3 p = Vec3{rh.ray.org_x, rh.ray.org_y, rh.ray.org_z} + dir * double(rh.ray.tfar);
@@ -218,11 +248,12 @@ struct ColourScene::Impl {
         const Mesh& mesh = *obj.mesh;
         Colour albedo;
         Vec3 n;
+        uint32_t leafIndex = 0;
         double translucency = 0.0, specular = 0.04, roughness = 0.9;
         const Vec3 ng = normalize(Vec3{rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z});
         const Vec3 facing = dot(ng, view) > 0 ? ng : -ng;
         if (obj.kind == ObjectKind::kLeaves) {
-            const uint32_t leaf = obj.leafOf[rh.hit.primID];
+            const uint32_t leaf = leafIndex = obj.leafOf[rh.hit.primID];
             const uint32_t v0 = obj.leafFront[3 * size_t(rh.hit.primID)];
             const Vec3 front{mesh.normals[3 * v0], mesh.normals[3 * v0 + 1],
                              mesh.normals[3 * v0 + 2]};
@@ -266,8 +297,10 @@ struct ColourScene::Impl {
         Colour out;
         const Vec3 above = p + n * eps;
         const double cosL = dot(n, light.sun);
+        const bool isLeaf = obj.kind == ObjectKind::kLeaves;
+        const double depth = rh.ray.tfar;
         if (cosL > 0) {
-            if (!occluded(above, light.sun, 0)) {
+            if (sunLit(above, light.sun, rh.hit.geomID, leafIndex, isLeaf, depth, share)) {
                 out += albedo * light.sunIrradiance * (cosL / kPi);
                 // Blinn–Phong lobe, normalised, its exponent from the roughness.
                 const double a = std::max(0.05, roughness);
@@ -278,15 +311,15 @@ struct ColourScene::Impl {
                        (specular * (shininess + 2) / (2 * kPi) * std::pow(nh, shininess) * cosL);
             }
         } else if (translucency > 0) {  // sunlight through the leaf from behind
-            if (!occluded(p - n * eps, light.sun, 0)) {
+            if (sunLit(p - n * eps, light.sun, rh.hit.geomID, leafIndex, isLeaf, depth, share)) {
                 out += albedo * light.sunIrradiance * (-cosL * translucency / kPi);
             }
         }
-        if (!haveSky) {
-            sky = skyIrradiance(above, n, light, o.aoRays, rng);
-            haveSky = true;
+        if (!share.haveSky) {
+            share.sky = skyIrradiance(above, n, light, o.aoRays, rng);
+            share.haveSky = true;
         }
-        out += albedo * sky * (1.0 / kPi);
+        out += albedo * share.sky * (1.0 / kPi);
         return out;
     }
 
@@ -445,8 +478,8 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
                 Rng prng = pixelRoot.derive(static_cast<uint64_t>(i));
                 const int n = near ? samples : 1;
                 const double jx = prng.uniform(), jy = prng.uniform();
-                Colour tree, back, sky;
-                bool haveSky = false;
+                Colour tree, back;
+                Impl::PixelShare share;
                 int covered = 0;
                 bool missedCentre = false;
                 for (int s = 0; s < n; ++s) {
@@ -475,7 +508,7 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
                         continue;
                     }
                     if (hit) {
-                        tree += m.shade(rh, d, light, options, prng, sky, haveSky);
+                        tree += m.shade(rh, d, light, options, prng, share);
                         ++covered;
                     } else if (opaque) {
                         back += m.background(o, d, light, options);
