@@ -11,6 +11,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "pipeline/render/sky_grid.h"
 #include "species/model/leaf_shape.h"
 
 namespace sylva {
@@ -79,6 +80,14 @@ Vec3 cosineSample(const Vec3& n, double u1, double u2) {
     return normalize(f.u * x + f.v * y + f.w * z);
 }
 
+// The sky grid (sky_grid.h): cells along the scene's longest side; the clumping index Ω and the
+// near rays' reach (in cells), chosen together so that the estimate's mean matches rays cast to
+// infinity (skyIrradiance): leaves on shoots and in clusters leave more gaps than the same area
+// spread at random, and the near rays already count the occluders closest to a point.
+constexpr int kSkyGridCells = 48;
+constexpr double kClumping = 0.5;
+constexpr double kNearReachCells = 0.5;
+
 // The linear luminance the auto-exposure brings a tree's log-average to: below middle grey
 // (0.18), as foliage, darker than the grey card, photographs.
 constexpr double kMeterKey = 0.08;
@@ -126,7 +135,8 @@ struct ColourScene::Impl {
     std::vector<BarkTile> barks;  // per look
     double radius = 1.0;          // the scene's bounding sphere: ray offsets scale with it
     double groundY = 0.0;
-    bool hasGroundPlane = false;  // a tree alone: the sky background's ground plane
+    bool hasGroundPlane = false;       // a tree alone: the sky background's ground plane
+    std::unique_ptr<SkyGrid> skyGrid;  // the occluders' transmittance: sky light
 
     int addLook(const Look& look) {
         looks.push_back(look);
@@ -172,11 +182,12 @@ struct ColourScene::Impl {
         ray.flags = 0;
     }
 
-    bool occluded(const Vec3& o, const Vec3& d, double tnear) const {
+    bool occluded(const Vec3& o, const Vec3& d, double tnear, double tfar = kInf) const {
         RTCIntersectContext ctx;
         rtcInitIntersectContext(&ctx);
         RTCRay ray;
         setRay(ray, o, d, tnear);
+        ray.tfar = float(tfar);
         rtcOccluded1(scene, &ctx, &ray);
         return ray.tfar < 0;
     }
@@ -191,17 +202,39 @@ struct ColourScene::Impl {
         return rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
     }
 
-    // Sky light reaching `p` over the hemisphere about `n`: π · mean radiance of `rays`
-    // cosine-distributed rays, the occluded ones dark.
-    Colour skyIrradiance(const Vec3& p, const Vec3& n, const Light& light, int rays,
+    // Sky light reaching `p` over the hemisphere about `n`: the sky's radiance towards the
+    // grid's directions, each through the crown's transmittance from half a grid cell out along
+    // `n` (cosine-weighted over the hemisphere), times the share of `nearRays` cosine-distributed
+    // rays half a cell long that escape (the occluders nearer than the grid resolves: a leaf's
+    // neighbours, the fork it sits in). `skyRadiance[k]`: the view's sky towards
+    // directions()[k]. Against 256 rays cast to infinity from points on a hawthorn's and an oak's
+    // leaves and wood, this with 4 near rays has a mean 2–7 % below and a correlation of
+    // 0.86–0.90; 4 rays to infinity (the renderer before the grid), 0.72–0.80; the grid alone
+    // 0.63–0.66 (ColourViews.TheSkyGridAgreesWithTracedSkyLight).
+    Colour skyIrradiance(const Vec3& p, const Vec3& n, const Colour* skyRadiance, int nearRays,
                          Rng& rng) const {
+        const double reach = kNearReachCells * skyGrid->cellSize();
+        float t[SkyGrid::kDirections];
+        skyGrid->transmittance(p + n * reach, t);
         Colour sum;
-        for (int k = 0; k < rays; ++k) {
-            const double u1 = rng.uniform(), u2 = rng.uniform();
-            const Vec3 d = cosineSample(n, u1, u2);
-            if (!occluded(p, d, 0)) sum += light.sky(d);
+        double weights = 0.0;
+        for (int k = 0; k < SkyGrid::kDirections; ++k) {
+            const double w = dot(n, skyGrid->directions()[k]);
+            if (w <= 0) continue;
+            sum += skyRadiance[k] * (w * t[k]);
+            weights += w;
         }
-        return sum * (kPi / std::max(1, rays));
+        if (weights <= 0) return {};
+        double open = 1.0;
+        if (nearRays > 0) {
+            int escaped = 0;
+            for (int k = 0; k < nearRays; ++k) {
+                const double u1 = rng.uniform(), u2 = rng.uniform();
+                escaped += occluded(p, cosineSample(n, u1, u2), 0, reach) ? 0 : 1;
+            }
+            open = double(escaped) / nearRays;
+        }
+        return sum * (kPi * open / weights);
     }
 
     // What a pixel's samples share: its sky irradiance, estimated at its first shaded sample
@@ -237,8 +270,9 @@ struct ColourScene::Impl {
     }
 
     // The radiance leaving a tree hit towards the camera (`share`: see PixelShare).
-    Colour shade(const RTCRayHit& rh, const Vec3& dir, const Light& light, const ColourOptions& o,
-                 Rng& rng, PixelShare& share) const {
+    Colour shade(const RTCRayHit& rh, const Vec3& dir, const Light& light,
+                 const Colour* skyRadiance, const ColourOptions& o, Rng& rng,
+                 PixelShare& share) const {
         const Vec3 view = -dir;
         const double eps = 1e-4 * radius;
         const Vec3 p = Vec3{rh.ray.org_x, rh.ray.org_y, rh.ray.org_z} + dir * double(rh.ray.tfar);
@@ -315,12 +349,38 @@ struct ColourScene::Impl {
                 out += albedo * light.sunIrradiance * (-cosL * translucency / kPi);
             }
         }
-        if (!share.haveSky) {
-            share.sky = skyIrradiance(above, n, light, o.aoRays, rng);
+        if (!share.haveSky && o.aoRays > 0) {
+            share.sky = skyIrradiance(above, n, skyRadiance, o.aoRays, rng);
             share.haveSky = true;
         }
         out += albedo * share.sky * (1.0 / kPi);
         return out;
+    }
+
+    // The sky grid over the scene's bounds: the leaves (front faces; G = ½), the wood and the
+    // ground cover (closed surfaces and grass; G = ¼ and ½); the terrain is the sky model's
+    // ground below the horizon.
+    void buildSkyGrid(const RTCBounds& b) {
+        Vec3 lo{b.lower_x, b.lower_y, b.lower_z}, hi{b.upper_x, b.upper_y, b.upper_z};
+        if (!(std::isfinite(lo.x) && std::isfinite(hi.x)) || lo.x > hi.x) lo = hi = Vec3{};
+        skyGrid = std::make_unique<SkyGrid>(lo, hi, kSkyGridCells, kClumping);
+        for (const ColourObject& obj : objects) {
+            if (obj.kind == ObjectKind::kTerrain) continue;
+            const Mesh& mesh = *obj.mesh;
+            const std::vector<uint32_t>& idx =
+                obj.kind == ObjectKind::kLeaves ? obj.leafFront : mesh.indices;
+            const double g = obj.kind == ObjectKind::kWood ? 0.25 : 0.5;
+            for (size_t t = 0; t + 2 < idx.size(); t += 3) {
+                auto vertex = [&](uint32_t v) {
+                    return Vec3{mesh.positions[3 * v], mesh.positions[3 * v + 1],
+                                mesh.positions[3 * v + 2]};
+                };
+                const Vec3 a = vertex(idx[t]), bb = vertex(idx[t + 1]), c = vertex(idx[t + 2]);
+                const double area = 0.5 * length(cross(bb - a, c - a));
+                skyGrid->addArea((a + bb + c) / 3.0, g * area);
+            }
+        }
+        skyGrid->finish();
     }
 
     // What a ray that meets no tree shows: the background.
@@ -420,9 +480,25 @@ void ColourScene::commit() {
     const double dx = b.upper_x - b.lower_x, dy = b.upper_y - b.lower_y, dz = b.upper_z - b.lower_z;
     const double r = 0.5 * std::sqrt(dx * dx + dy * dy + dz * dz);
     m.radius = std::isfinite(r) && r > 0 ? r : 1.0;
+    m.buildSkyGrid(b);
 }
 
 ColourScene::~ColourScene() = default;
+
+double ColourScene::skyView(const Vec3& p, const Vec3& n, int nearRays, Rng& rng) const {
+    Colour uniform[SkyGrid::kDirections];
+    for (Colour& c : uniform) c = {1, 1, 1};
+    return impl_->skyIrradiance(p, normalize(n), uniform, nearRays, rng).r / kPi;
+}
+
+double ColourScene::skyViewTraced(const Vec3& p, const Vec3& n, int rays, Rng& rng) const {
+    int escaped = 0;
+    for (int k = 0; k < rays; ++k) {
+        const double u1 = rng.uniform(), u2 = rng.uniform();
+        escaped += impl_->occluded(p, cosineSample(normalize(n), u1, u2), 0) ? 0 : 1;
+    }
+    return double(escaped) / std::max(1, rays);
+}
 
 ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
                                 const ColourOptions& options, Rng rng,
@@ -439,6 +515,10 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
     img.rgba.assign(size_t(w) * h * 4, 0);
     Rng lightRng = rng.derive("light");
     const Light light = makeLight(options, lightRng, img.light);
+    Colour skyRadiance[SkyGrid::kDirections];
+    for (int k = 0; k < SkyGrid::kDirections; ++k) {
+        skyRadiance[k] = light.sky(m.skyGrid->directions()[k]);
+    }
     const int samples = std::max(1, options.samples);
     const bool opaque = options.background != ColourBackground::kTransparent;
     const Vec3 eye{camera.cameraToWorld[0][3], camera.cameraToWorld[1][3],
@@ -508,7 +588,7 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
                         continue;
                     }
                     if (hit) {
-                        tree += m.shade(rh, d, light, options, prng, share);
+                        tree += m.shade(rh, d, light, skyRadiance, options, prng, share);
                         ++covered;
                     } else if (opaque) {
                         back += m.background(o, d, light, options);

@@ -93,6 +93,12 @@ class ColourScene {
     ColourImage render(const Camera& camera, const ViewImage& view, const ColourOptions& options,
                        Rng rng, const std::vector<uint8_t>* coverage = nullptr) const;
 
+    // The share of a uniform sky's light (cosine-weighted over the hemisphere about `n`) that
+    // reaches `p`: as the renderer estimates it (the sky grid and `nearRays` short rays), and
+    // traced by `rays` rays to infinity — the grid's check.
+    double skyView(const Vec3& p, const Vec3& n, int nearRays, Rng& rng) const;
+    double skyViewTraced(const Vec3& p, const Vec3& n, int rays, Rng& rng) const;
+
     struct Impl;
 
   private:
