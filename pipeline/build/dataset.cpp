@@ -330,6 +330,11 @@ void readOutputs(Params& o, OutputOptions& out) {
     if (out.textures && !has("glb") && !has("obj")) {
         o.fail("textures", "needs a textured mesh format: set mesh = [\"glb\"] (or obj)");
     }
+    out.meshopt =
+        o.choice("mesh_compression", std::string("none"), {"none", "meshopt"}) == "meshopt";
+    if (out.meshopt && !has("glb")) {
+        o.fail("mesh_compression", "compresses GLB meshes: set mesh = [\"glb\"] as well");
+    }
     out.speciesSheet =
         static_cast<int>(o.integer("species_sheet", out.speciesSheet, Range::closed(0, 10000)));
     o.finish();

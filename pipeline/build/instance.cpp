@@ -6,6 +6,7 @@
 
 #include "pipeline/build/plot_instance.h"
 #include "pipeline/formats/atomic_file.h"
+#include "pipeline/formats/glb_meshopt.h"
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/skeleton_writers.h"
 #include "pipeline/formats/stats_json.h"
@@ -36,8 +37,9 @@ std::string hex64(uint64_t v) {
     return buf;
 }
 
-std::string meshBytes(const TreeMesh& m, const std::string& format, const MeshLook* look) {
-    if (format == "glb") return meshGlb(m, look);
+std::string meshBytes(const TreeMesh& m, const std::string& format, const MeshLook* look,
+                      bool meshopt) {
+    if (format == "glb") return meshopt ? compressGlbMeshopt(meshGlb(m, look)) : meshGlb(m, look);
     return meshPly(m);
 }
 
@@ -228,7 +230,7 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
             put(stem + "_mtl", stem + ".mtl", meshMtl(m, ml, bark ? stem + "_bark.png" : ""));
             put(stem + "_obj", stem + ".obj", meshObj(m, stem + ".mtl", ml));
         } else {
-            put(stem + "_" + f, stem + "." + f, meshBytes(m, f, ml));
+            put(stem + "_" + f, stem + "." + f, meshBytes(m, f, ml, o.meshopt));
         }
     };
     for (const std::string& f : o.meshFormats) {

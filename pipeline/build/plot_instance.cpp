@@ -9,6 +9,7 @@
 #include "core/rng.h"
 #include "pipeline/build/scan_instance.h"
 #include "pipeline/formats/atomic_file.h"
+#include "pipeline/formats/glb_meshopt.h"
 #include "pipeline/formats/image_codecs.h"
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/plot_tables.h"
@@ -89,7 +90,10 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
                 put("", dir / "mesh.mtl", meshMtl(m));
                 put("", dir / "mesh.obj", meshObj(m, "mesh.mtl"));
             } else {
-                put("", dir / ("mesh." + f), f == "glb" ? meshGlb(m) : meshPly(m));
+                put("", dir / ("mesh." + f),
+                    f != "glb"  ? meshPly(m)
+                    : o.meshopt ? compressGlbMeshopt(meshGlb(m))
+                                : meshGlb(m));
             }
         }
         nlohmann::json st = toJson(computeStats(atOrigin(t.grown.tree, t.stem.base)));

@@ -1,0 +1,303 @@
+#include "pipeline/formats/glb_meshopt.h"
+
+#include <meshoptimizer.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <vector>
+
+namespace sylva {
+
+namespace {
+
+using nlohmann::json;
+
+constexpr int kByte = 5120, kUnsignedByte = 5121, kShort = 5122, kUnsignedShort = 5123,
+              kUnsignedInt = 5125, kFloat = 5126;
+
+[[noreturn]] void refuse(const std::string& why) {
+    throw std::invalid_argument("compressGlbMeshopt: " + why);
+}
+
+uint32_t loadU32(const std::string& s, size_t at) {
+    uint32_t v = 0;
+    for (int i = 0; i < 4; ++i) v |= uint32_t(uint8_t(s[at + i])) << (8 * i);
+    return v;
+}
+void appendU32(std::string& s, uint32_t v) {
+    for (int i = 0; i < 4; ++i) s.push_back(static_cast<char>(v >> (8 * i)));
+}
+
+int components(const std::string& type) {
+    if (type == "SCALAR") return 1;
+    if (type == "VEC2") return 2;
+    if (type == "VEC3") return 3;
+    if (type == "VEC4") return 4;
+    refuse("an accessor of type " + type);
+}
+
+// A buffer view's new bytes (decoded, as the fallback buffer would hold them) and how to
+// compress them.
+struct View {
+    std::vector<unsigned char> bytes;
+    size_t count = 0;   // elements (vertices, indices)
+    size_t stride = 0;  // bytes per element; 0: not compressed (an image)
+    bool indices = false;
+};
+
+}  // namespace
+
+std::string compressGlbMeshopt(const std::string& glb, GlbCompression* report) {
+    // The container: a 12-byte header, a JSON chunk, a BIN chunk (glTF 2.0 §4.4).
+    if (glb.size() < 20 || loadU32(glb, 0) != 0x46546C67u || loadU32(glb, 4) != 2) {
+        refuse("not a GLB 2.0 file");
+    }
+    const size_t jsonLength = loadU32(glb, 12);
+    if (loadU32(glb, 16) != 0x4E4F534Au || 20 + jsonLength > glb.size()) refuse("no JSON chunk");
+    json doc = json::parse(glb.begin() + 20, glb.begin() + 20 + jsonLength);
+    std::string_view bin;
+    if (size_t at = 20 + jsonLength; at + 8 <= glb.size()) {
+        const size_t binLength = loadU32(glb, at);
+        if (loadU32(glb, at + 4) != 0x004E4942u || at + 8 + binLength > glb.size()) {
+            refuse("a chunk after the JSON that is not BIN");
+        }
+        bin = std::string_view(glb).substr(at + 8, binLength);
+    }
+    json& views = doc["bufferViews"];
+    json& accessors = doc["accessors"];
+    if (!views.is_array() || !accessors.is_array()) refuse("no buffer views or accessors");
+    auto raw = [&](const json& view) {
+        if (view.value("buffer", -1) != 0) refuse("a buffer view outside the BIN chunk");
+        const size_t off = view.value("byteOffset", size_t(0)), len = view.at("byteLength");
+        if (off + len > bin.size()) refuse("a buffer view past the BIN chunk");
+        return bin.substr(off, len);
+    };
+
+    // Which accessor reads each view, and what it is.
+    std::vector<int> accessorOf(views.size(), -1);
+    std::vector<std::string> semanticOf(accessors.size());
+    for (const json& mesh : doc.value("meshes", json::array())) {
+        for (const json& prim : mesh.at("primitives")) {
+            for (const auto& [name, index] : prim.at("attributes").items()) {
+                semanticOf.at(index.get<size_t>()) = name;
+            }
+            if (prim.contains("indices")) semanticOf.at(prim["indices"].get<size_t>()) = "#indices";
+        }
+    }
+    for (size_t a = 0; a < accessors.size(); ++a) {
+        const json& acc = accessors[a];
+        if (acc.contains("sparse") || !acc.contains("bufferView")) refuse("a sparse accessor");
+        const size_t v = acc["bufferView"];
+        if (v >= views.size() || accessorOf[v] >= 0) refuse("buffer views shared by accessors");
+        accessorOf[v] = static_cast<int>(a);
+    }
+
+    // The positions' grid: one for the file, centred on the bounds of every POSITION.
+    double lo[3], hi[3];
+    std::fill(lo, lo + 3, std::numeric_limits<double>::infinity());
+    std::fill(hi, hi + 3, -std::numeric_limits<double>::infinity());
+    for (size_t a = 0; a < accessors.size(); ++a) {
+        if (semanticOf[a] != "POSITION") continue;
+        for (int c = 0; c < 3; ++c) {
+            lo[c] = std::min(lo[c], accessors[a].at("min")[c].get<double>());
+            hi[c] = std::max(hi[c], accessors[a].at("max")[c].get<double>());
+        }
+    }
+    double centre[3] = {0, 0, 0}, half = 0.0;
+    if (std::isfinite(lo[0])) {
+        for (int c = 0; c < 3; ++c) {
+            centre[c] = 0.5 * (lo[c] + hi[c]);
+            half = std::max(half, 0.5 * (hi[c] - lo[c]));
+        }
+    }
+    const double scale = half > 0 ? half / 32767.0 : 1.0;
+
+    std::vector<View> out(views.size());
+    for (size_t v = 0; v < views.size(); ++v) {
+        json& view = views[v];
+        const std::string_view src = raw(view);
+        View& o = out[v];
+        if (accessorOf[v] < 0) {  // an image: as it is
+            o.bytes.assign(src.begin(), src.end());
+            continue;
+        }
+        json& acc = accessors[accessorOf[v]];
+        const std::string& semantic = semanticOf[accessorOf[v]];
+        const size_t count = acc.at("count");
+        const int n = components(acc.at("type"));
+        const int type = acc.at("componentType");
+        if (view.contains("byteStride")) refuse("an interleaved buffer view");
+        o.count = count;
+        if (semantic == "#indices") {
+            if (type != kUnsignedInt || count % 3 != 0 || src.size() != 4 * count) {
+                refuse("indices that are not a UNSIGNED_INT triangle list");
+            }
+            o.bytes.assign(src.begin(), src.end());
+            o.stride = 4;
+            o.indices = true;
+            continue;
+        }
+        if (type != kFloat || src.size() != 4 * n * count)
+            refuse("a vertex attribute not of floats");
+        auto value = [&](size_t i, int c) {
+            float f;
+            std::memcpy(&f, src.data() + 4 * (n * i + c), 4);
+            return f;
+        };
+        if (semantic == "POSITION" || semantic == "NORMAL") {
+            const bool position = semantic == "POSITION";
+            o.stride = position ? 8 : 4;
+            o.bytes.assign(o.stride * count, 0);
+            std::vector<int> qmin(3, 0), qmax(3, 0);
+            for (size_t i = 0; i < count; ++i) {
+                for (int c = 0; c < 3; ++c) {
+                    if (position) {
+                        const double q = std::clamp(std::round((value(i, c) - centre[c]) / scale),
+                                                    -32767.0, 32767.0);
+                        const int16_t s = static_cast<int16_t>(q);
+                        std::memcpy(&o.bytes[8 * i + 2 * c], &s, 2);
+                        qmin[c] = i == 0 ? s : std::min<int>(qmin[c], s);
+                        qmax[c] = i == 0 ? s : std::max<int>(qmax[c], s);
+                    } else {
+                        const double q =
+                            std::clamp(std::round(double(value(i, c)) * 127.0), -127.0, 127.0);
+                        o.bytes[4 * i + c] = static_cast<unsigned char>(static_cast<int8_t>(q));
+                    }
+                }
+            }
+            acc["componentType"] = position ? kShort : kByte;
+            if (position) {
+                acc["min"] = qmin;
+                acc["max"] = qmax;
+            } else {
+                acc["normalized"] = true;
+            }
+            view["byteStride"] = o.stride;
+            continue;
+        }
+        // Vertex colours (in [0, 1]) as UNSIGNED_BYTE normalised, texture coordinates that lie
+        // in [0, 1] (the leaves' outline UVs) as UNSIGNED_SHORT normalised; each element padded
+        // to 4 bytes.
+        bool unit = semantic == "COLOR_0" || semantic == "TEXCOORD_0";
+        for (size_t i = 0; unit && i < count; ++i) {
+            for (int c = 0; c < n && unit; ++c) unit = value(i, c) >= 0.0f && value(i, c) <= 1.0f;
+        }
+        if (unit && semantic == "COLOR_0" && n <= 4) {
+            o.stride = 4;
+            o.bytes.assign(4 * count, 0);
+            for (size_t i = 0; i < count; ++i) {
+                for (int c = 0; c < n; ++c) {
+                    o.bytes[4 * i + c] =
+                        static_cast<unsigned char>(std::lround(value(i, c) * 255.0));
+                }
+            }
+            acc["componentType"] = kUnsignedByte;
+            acc["normalized"] = true;
+        } else if (unit && semantic == "TEXCOORD_0" && n == 2) {
+            o.stride = 4;
+            o.bytes.assign(4 * count, 0);
+            for (size_t i = 0; i < count; ++i) {
+                for (int c = 0; c < 2; ++c) {
+                    const auto u = static_cast<uint16_t>(std::lround(value(i, c) * 65535.0));
+                    std::memcpy(&o.bytes[4 * i + 2 * c], &u, 2);
+                }
+            }
+            acc["componentType"] = kUnsignedShort;
+            acc["normalized"] = true;
+        } else {
+            o.bytes.assign(src.begin(), src.end());
+            o.stride = 4 * n;
+            if (o.stride > 256) refuse("a vertex attribute wider than 256 bytes");
+        }
+        view["byteStride"] = o.stride;
+    }
+
+    // The BIN chunk: each compressed view (or image) 4-byte aligned; the fallback buffer's
+    // layout: each decoded view likewise.
+    std::string newBin;
+    size_t fallback = 0;
+    for (size_t v = 0; v < views.size(); ++v) {
+        json& view = views[v];
+        View& o = out[v];
+        while (newBin.size() % 4) newBin.push_back('\0');
+        if (o.stride == 0) {
+            view["byteOffset"] = newBin.size();
+            view["byteLength"] = o.bytes.size();
+            newBin.append(reinterpret_cast<const char*>(o.bytes.data()), o.bytes.size());
+            continue;
+        }
+        std::vector<unsigned char> packed;
+        size_t size = 0;
+        if (o.indices) {
+            std::vector<unsigned> idx(o.count);
+            std::memcpy(idx.data(), o.bytes.data(), 4 * o.count);
+            size_t vertices = 0;
+            for (unsigned i : idx) vertices = std::max<size_t>(vertices, i + 1);
+            packed.resize(meshopt_encodeIndexBufferBound(o.count, vertices));
+            size = meshopt_encodeIndexBuffer(packed.data(), packed.size(), idx.data(), o.count);
+        } else {
+            packed.resize(meshopt_encodeVertexBufferBound(o.count, o.stride));
+            size = meshopt_encodeVertexBuffer(packed.data(), packed.size(), o.bytes.data(), o.count,
+                                              o.stride);
+        }
+        if (size == 0) throw std::runtime_error("compressGlbMeshopt: meshoptimizer failed");
+        json ext = {{"buffer", 0},        {"byteOffset", newBin.size()},
+                    {"byteLength", size}, {"byteStride", o.stride},
+                    {"count", o.count},   {"mode", o.indices ? "TRIANGLES" : "ATTRIBUTES"}};
+        newBin.append(reinterpret_cast<const char*>(packed.data()), size);
+        while (fallback % 4) ++fallback;
+        view["buffer"] = 1;
+        view["byteOffset"] = fallback;
+        view["byteLength"] = o.bytes.size();
+        view["extensions"]["EXT_meshopt_compression"] = ext;
+        fallback += o.bytes.size();
+    }
+    while (newBin.size() % 4) newBin.push_back('\0');
+    doc["buffers"] = json::array();
+    doc["buffers"].push_back({{"byteLength", newBin.size()}});
+    doc["buffers"].push_back({{"byteLength", std::max<size_t>(fallback, 4)},
+                              {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}});
+
+    // Every node with a mesh: the grid's translation and scale.
+    for (json& node : doc["nodes"]) {
+        if (!node.contains("mesh")) continue;
+        if (node.contains("matrix") || node.contains("translation") || node.contains("scale") ||
+            node.contains("rotation")) {
+            refuse("a node with a transform of its own");
+        }
+        node["translation"] = {centre[0], centre[1], centre[2]};
+        node["scale"] = {scale, scale, scale};
+    }
+    for (const char* list : {"extensionsUsed", "extensionsRequired"}) {
+        json& names = doc[list];
+        if (!names.is_array()) names = json::array();
+        for (const char* e : {"EXT_meshopt_compression", "KHR_mesh_quantization"}) {
+            if (std::find(names.begin(), names.end(), e) == names.end()) names.push_back(e);
+        }
+    }
+
+    std::string text = doc.dump();
+    while (text.size() % 4) text.push_back(' ');
+    std::string file;
+    appendU32(file, 0x46546C67u);
+    appendU32(file, 2);
+    appendU32(file, static_cast<uint32_t>(12 + 8 + text.size() + 8 + newBin.size()));
+    appendU32(file, static_cast<uint32_t>(text.size()));
+    appendU32(file, 0x4E4F534Au);
+    file += text;
+    appendU32(file, static_cast<uint32_t>(newBin.size()));
+    appendU32(file, 0x004E4942u);
+    file += newBin;
+    if (report) {
+        report->bytesBefore = glb.size();
+        report->bytesAfter = file.size();
+        report->positionError = 0.5 * scale;
+    }
+    return file;
+}
+
+}  // namespace sylva

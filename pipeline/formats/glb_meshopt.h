@@ -1,0 +1,42 @@
+// A GLB made compact: positions and normals quantised (KHR_mesh_quantization) and every vertex
+// and index buffer view compressed with meshoptimizer's codecs (EXT_meshopt_compression), as
+// three.js's GLTFLoader (with its MeshoptDecoder), Babylon.js, gltfpack and Blender 3.1+ read
+// them. Both extensions are required: a reader without them refuses the file instead of
+// drawing garbage.
+//
+//   std::string small = compressGlbMeshopt(meshGlb(mesh, look), &report);
+//
+// What changes, for a GLB as meshGlb writes it (each accessor its own tightly packed buffer
+// view, no sparse accessors, nodes without transforms):
+//   POSITION  SHORT (−32767 … 32767, 4 per vertex, the 4th 0), one grid for the whole file:
+//             every node that holds a mesh gets translation t and uniform scale s, so
+//             p = t + s·q; t is the centre of the positions' bounds and s half their largest
+//             extent / 32767, so a coordinate is off by at most s / 2 (report.positionError).
+//   NORMAL    BYTE normalised (round(127·n), 4 per vertex): off by at most 1/254 per component.
+//   COLOR_0   UNSIGNED_BYTE normalised (round(255·c), 4 per vertex): off by at most 1/510.
+//   TEXCOORD_0  where every value lies in [0, 1] (the leaves' outline UVs) UNSIGNED_SHORT
+//             normalised (round(65535·u), off by at most 1/131070); else (the tubes' UVs, which
+//             run along a branch past 1) floats as they were.
+//   the rest  (_ORDER, _COLOUR) as they were, floats.
+//   indices   UNSIGNED_INT, meshoptimizer's triangle codec (version 1): the same triangles in
+//             the same order, each possibly rotated (a, b, c → b, c, a; the winding kept).
+// Buffer 0 (the BIN chunk) holds the compressed views and any image (the bark texture: already
+// PNG, kept as it is); buffer 1 is EXT_meshopt_compression's fallback buffer — no bytes, only
+// its length, the decoded views' home.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace sylva {
+
+struct GlbCompression {
+    uint64_t bytesBefore = 0, bytesAfter = 0;
+    double positionError = 0.0;  // metres: the largest error of a coordinate, s / 2
+};
+
+// Throws std::invalid_argument for a GLB it cannot take (not GLB 2.0, sparse or shared
+// accessors, a node with a transform of its own).
+std::string compressGlbMeshopt(const std::string& glb, GlbCompression* report = nullptr);
+
+}  // namespace sylva
