@@ -28,8 +28,10 @@
 #include "pipeline/analysis/volume_output.h"
 #include "pipeline/build/build.h"
 #include "pipeline/build/dataset.h"
+#include "pipeline/build/estimate.h"
 #include "pipeline/build/grow_one.h"
 #include "pipeline/build/output_lock.h"
+#include "pipeline/formats/atomic_file.h"
 #include "species/spec/species.h"
 
 namespace fs = std::filesystem;
@@ -37,17 +39,45 @@ using namespace sylva;
 
 namespace {
 
-int runBuild(const std::string& specPath, std::string out, bool outGiven, int threads,
-             const std::string& shard) {
+// --shard I/N (already checked by shardValidator) as index and count; {0, 1} when not given.
+std::pair<int, int> parseShard(const std::string& shard) {
     int si = 0, sn = 1;
     if (!shard.empty()) {
         int used = 0;
         if (std::sscanf(shard.c_str(), "%d/%d%n", &si, &sn, &used) != 2 ||
             used != static_cast<int>(shard.size()) || sn < 1 || si < 0 || si >= sn) {
-            std::fprintf(stderr, "sylva: --shard %s: expected I/N with 0 ≤ I < N\n", shard.c_str());
-            return 2;
+            throw InputError("--shard " + shard + ": expected I/N with 0 ≤ I < N");
         }
     }
+    return {si, sn};
+}
+
+// build --estimate: grows a few instances of every species and plot into a scratch directory
+// and prints what the whole build (and the shard) would take; --out is never written.
+int runEstimate(const std::string& specPath, const std::string& out, bool outGiven, int threads,
+                const std::string& shard, int samples, bool jsonGiven,
+                const std::string& jsonPath) {
+    const auto [si, sn] = parseShard(shard);
+    if (outGiven && out.empty()) throw InputError("--out: expected a directory, got \"\"");
+    if (jsonGiven && jsonPath.empty()) {
+        throw InputError("--estimate-json: expected a file, got \"\"");
+    }
+    DatasetSpec spec = loadDataset(specPath);
+    EstimateOptions o;
+    o.samples = samples;
+    o.threads = threads;
+    o.shardIndex = si;
+    o.shardCount = sn;
+    o.out = out.empty() ? fs::path("out") / spec.name : fs::path(out);
+    const EstimateResult r = estimateDataset(spec, o);
+    if (jsonGiven) writeFileAtomic(jsonPath, estimateJson(r).dump(2) + "\n");
+    std::fputs(estimateTable(r).c_str(), stdout);
+    return 0;
+}
+
+int runBuild(const std::string& specPath, std::string out, bool outGiven, int threads,
+             const std::string& shard) {
+    const auto [si, sn] = parseShard(shard);
     DatasetSpec spec = loadDataset(specPath);  // validates everything before any write
     BuildOptions o;
     if (outGiven && out.empty()) throw InputError("--out: expected a directory, got \"\"");
@@ -241,6 +271,18 @@ CLI::Validator unsignedValidator(uint64_t max, const std::string& note) {
         "INT in [0, " + std::to_string(max) + "]");
 }
 
+// An integer in [min, max] (a count that must be at least `min`).
+CLI::Validator countValidator(uint64_t min, uint64_t max) {
+    const std::string range = "[" + std::to_string(min) + ", " + std::to_string(max) + "]";
+    return CLI::Validator(
+        [min, max, range](std::string& s) -> std::string {
+            const std::optional<uint64_t> v = parseUnsigned(s, max);
+            if (v && *v >= min) return "";
+            return "expected an integer in " + range + ", got \"" + s + "\"";
+        },
+        "INT in " + range);
+}
+
 // A finite number > 0 (metres), at most 10⁹ like any number in a spec.
 CLI::Validator positiveMetres() {
     return CLI::Validator(
@@ -401,6 +443,20 @@ int main(int argc, char** argv) {
                      "Build shard I of N (I/N, 0-based): a contiguous block of instances whose "
                      "manifests concatenate, in shard order, to the whole dataset's")
         ->check(shardValidator());
+    bool estimate = false;
+    uint64_t estimateSamples = 2;
+    std::string estimateJsonPath;
+    build->add_flag("--estimate", estimate,
+                    "Build nothing: grow the first instances of each species and plot into a "
+                    "scratch directory (removed) and print the time, bytes and files the build "
+                    "would take");
+    auto* estimateSamplesOption =
+        build
+            ->add_option("--estimate-samples", estimateSamples,
+                         "With --estimate: instances measured per species and plot (default 2)")
+            ->check(countValidator(1, 1000));
+    auto* estimateJsonOption = build->add_option(
+        "--estimate-json", estimateJsonPath, "With --estimate: the same numbers as JSON -> FILE");
 
     std::string speciesPath, growOut;
     uint64_t seed = 1;
@@ -539,7 +595,17 @@ int main(int argc, char** argv) {
     for (const CLI::App* c : app.get_subcommands()) command = c->get_name();
     if (*speciesList) command = "species list";
     try {
-        if (*build) return runBuild(spec, out, buildOut->count() > 0, threads, shard);
+        if (*build && !estimate) {
+            for (const CLI::Option* e : {estimateSamplesOption, estimateJsonOption}) {
+                if (e->count() > 0) throw InputError(e->get_name() + ": needs --estimate");
+            }
+            return runBuild(spec, out, buildOut->count() > 0, threads, shard);
+        }
+        if (*build) {
+            return runEstimate(spec, out, buildOut->count() > 0, threads, shard,
+                               static_cast<int>(estimateSamples), estimateJsonOption->count() > 0,
+                               estimateJsonPath);
+        }
         if (*grow) return runGrow(speciesPath, seed, growOut, growThreads);
         if (*validate) return runValidate(validatePath);
         if (*merge) return runMerge(mergeOptions);
