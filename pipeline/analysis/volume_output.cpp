@@ -28,6 +28,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "core/clock.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/view_writers.h"
@@ -48,10 +49,6 @@ constexpr double kMaxVoxels = 2e9;         // as for `voxel_size` in species fil
 // through a voxel centre makes volumeToMesh emit coincident vertices and degenerate
 // triangles (see species/geometry/watertight.cpp). Moves the mesh by at most 0.001 voxel.
 constexpr float kZeroNudgeVoxels = 1e-3f;
-
-double msSince(std::chrono::steady_clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 // The zero level set as a closed triangle mesh, counter-clockwise seen from outside, with
 // area-weighted vertex normals.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/clock.h"
 #include "pipeline/build/plot_instance.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/glb_meshopt.h"
@@ -26,10 +27,6 @@ namespace fs = std::filesystem;
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double msSince(Clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 std::string hex64(uint64_t v) {
     char buf[20];

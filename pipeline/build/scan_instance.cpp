@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "core/clock.h"
 #include "core/rng.h"
 #include "pipeline/formats/qsm_writer.h"
 #include "pipeline/formats/scan_writers.h"
@@ -32,10 +33,6 @@ const char* systemIdentifier(ScanPlatform p) {
             return "sylva ULS simulation";
     }
     return "sylva simulation";
-}
-
-double msSince(std::chrono::steady_clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
 uint64_t fileSize(const fs::path& p) {
