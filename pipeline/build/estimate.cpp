@@ -234,7 +234,7 @@ std::string estimateFileKind(const fs::path& relative) {
         if (name.find("_rgb.") != std::string::npos) return "colour";
         return "views";
     }
-    if (name == "transforms.json") return "views";
+    if (name == "transforms.json" || name == "transforms_top.json") return "views";
     if (startsWith(name, "scan")) return "scan";
     if (startsWith(name, "qsm")) return "qsm";
     if (startsWith(name, "skeleton.")) return "skeleton";

@@ -184,13 +184,45 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
             }
         }
         files["views"] = (rel / "views").generic_string();
-        nlohmann::json transforms = transformsJson(cameras, vf, plotNgpPlacement(plot));
-        for (size_t k = 0; k < cameras.size() && k < transforms["frames"].size(); ++k) {
-            transforms["frames"][k]["view"] = kPlotViewNames[k];
-            transforms["frames"][k]["id_file_path"] =
-                std::string("views/") + kPlotViewNames[k] + "_id.png";
+        // transforms.json holds the perspective views alone: nerfstudio applies its top-level
+        // intrinsics to every frame and instant-ngp would take the orthographic view's pixels
+        // per metre for a focal length, both without a word. The orthographic top view has a
+        // file of its own, transforms_top.json, in the same layout ("orthographic": true).
+        auto transformsOf = [&](bool orthographic) {
+            std::vector<Camera> cams;
+            std::vector<size_t> index;
+            ViewFiles part;
+            part.integerDepthScale = vf.integerDepthScale;
+            auto take = [](const std::vector<std::string>& from, size_t k,
+                           std::vector<std::string>& to) {
+                if (k < from.size()) to.push_back(from[k]);
+            };
+            for (size_t k = 0; k < cameras.size(); ++k) {
+                if (cameras[k].orthographic != orthographic) continue;
+                cams.push_back(cameras[k]);
+                index.push_back(k);
+                take(vf.images, k, part.images);
+                take(vf.depthExr, k, part.depthExr);
+                take(vf.depthPng, k, part.depthPng);
+                take(vf.labels, k, part.labels);
+                take(vf.colour, k, part.colour);
+                if (k < vf.lights.size()) part.lights.push_back(vf.lights[k]);
+            }
+            if (cams.empty()) return nlohmann::json();
+            nlohmann::json t = transformsJson(cams, part, plotNgpPlacement(plot));
+            for (size_t f = 0; f < index.size() && f < t["frames"].size(); ++f) {
+                t["frames"][f]["view"] = kPlotViewNames[index[f]];
+                t["frames"][f]["id_file_path"] =
+                    std::string("views/") + kPlotViewNames[index[f]] + "_id.png";
+            }
+            return t;
+        };
+        if (const nlohmann::json t = transformsOf(false); !t.is_null()) {
+            put("transforms", "transforms.json", t.dump(2) + "\n");
         }
-        put("transforms", "transforms.json", transforms.dump(2) + "\n");
+        if (const nlohmann::json t = transformsOf(true); !t.is_null()) {
+            put("transforms_top", "transforms_top.json", t.dump(2) + "\n");
+        }
     }
 
     const std::vector<TreeRecord> table = treeTable(plot);

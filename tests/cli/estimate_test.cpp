@@ -58,7 +58,7 @@ std::string kindOf(const fs::path& rel) {
         if (name.find("_id.") != std::string::npos) return "ids";
         return "views";
     }
-    if (name == "transforms.json") return "views";
+    if (name == "transforms.json" || name == "transforms_top.json") return "views";
     if (name.rfind("skeleton.", 0) == 0) return "skeleton";
     if (name.rfind("mesh", 0) == 0 || name.rfind("scene.", 0) == 0) return "mesh";
     if (name == "points.ply") return "points";

@@ -54,7 +54,7 @@ TEST(PlotInstance, WritesEveryFileAndTheRecord) {
     EXPECT_NEAR(rec["stats"]["stems_per_ha"].get<double>(), 3 / 400.0 * 1e4, 1e-9);
     const fs::path root = dir.path() / "plots" / "hand" / "hand-0";
     for (const char* key : {"scene_glb", "scene_ply", "trees_csv", "trees_json", "plot_json",
-                            "transforms", "views", "trees"}) {
+                            "transforms", "transforms_top", "views", "trees"}) {
         ASSERT_TRUE(rec["files"].contains(key)) << key;
         EXPECT_TRUE(fs::exists(dir.path() / rec["files"][key].get<std::string>())) << key;
     }
@@ -88,10 +88,21 @@ TEST(PlotInstance, WritesEveryFileAndTheRecord) {
     EXPECT_DOUBLE_EQ(st["base"][0].get<double>(), 1.0);
     EXPECT_NEAR(st["height_m"].get<double>(),
                 plot.trees[1].grown.tree.nodes.back().position.y - plot.trees[1].stem.base.y, 6.0);
+    // The perspective views in transforms.json (what nerfstudio and instant-ngp read), the
+    // orthographic top view in a file of its own.
     const auto transforms = nlohmann::json::parse(test::slurp(root / "transforms.json"));
-    ASSERT_EQ(transforms["frames"].size(), 3u);
-    EXPECT_EQ(transforms["frames"][2]["view"], "top");
-    EXPECT_EQ(transforms["frames"][2]["id_file_path"], "views/top_id.png");
+    ASSERT_EQ(transforms["frames"].size(), 2u);
+    EXPECT_EQ(transforms["frames"][0]["view"], "overview");
+    EXPECT_EQ(transforms["frames"][1]["view"], "oblique");
+    EXPECT_FALSE(transforms.contains("orthographic"));
+    for (const auto& f : transforms["frames"]) EXPECT_FALSE(f.contains("orthographic"));
+    const auto top = nlohmann::json::parse(test::slurp(root / "transforms_top.json"));
+    ASSERT_EQ(top["frames"].size(), 1u);
+    EXPECT_EQ(top["orthographic"], true);
+    EXPECT_EQ(top["frames"][0]["view"], "top");
+    EXPECT_EQ(top["frames"][0]["file_path"], "views/top.png");
+    EXPECT_EQ(top["frames"][0]["id_file_path"], "views/top_id.png");
+    EXPECT_EQ(rec["files"]["transforms_top"], "plots/hand/hand-0/transforms_top.json");
 }
 
 // Without mesh formats: no scene or tree meshes, the views and tables all the same; without
