@@ -35,11 +35,11 @@
 #include <optional>
 #include <vector>
 
-#include "pipeline/build/build.h"
-#include "pipeline/build/dataset.h"
-#include "pipeline/build/instance.h"
-#include "pipeline/build/instance_set.h"
-#include "pipeline/build/resume.h"
+#include "pipeline/batch/build.h"
+#include "pipeline/batch/dataset.h"
+#include "pipeline/batch/instance.h"
+#include "pipeline/batch/instance_set.h"
+#include "pipeline/batch/resume.h"
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/view_writers.h"
 #include "pipeline/render/camera.h"
@@ -713,7 +713,7 @@ BENCHMARK(ColonizationAllocation)
 // --- the species library (issue 6) -------------------------------------------------------------
 
 // What one gallery tree costs: grow + mesh (tubes + leaf cards) + 8 views at 256² with depth
-// and labels, the stages of `sylva build` (pipeline/build/instance.h) with the outputs of
+// and labels, the stages of `sylva build` (pipeline/batch/instance.h) with the outputs of
 // datasets/species-gallery.toml, but no file writes (they cost the same for every species and
 // are measured by WriteViewFile and GalleryBuild). One thread, so the figure is per core; a
 // new instance seed every iteration, as a build draws them. Registered per preset by main().

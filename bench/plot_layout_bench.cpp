@@ -6,7 +6,7 @@
 
 #include <string>
 
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 #include "species/plot/layout.h"
 #include "species/plot/terrain.h"
 

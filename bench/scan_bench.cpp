@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 #include "pipeline/render/plot_render.h"
 #include "pipeline/scan/scanner.h"
 #include "species/geometry/leaf_mesh.h"

@@ -25,7 +25,7 @@ struct SourcePos {
 
 // The machine ran out of something the build needs — disk space (ENOSPC), quota (EDQUOT), the
 // file size limit (EFBIG) or memory (ENOMEM) — while writing `path`: neither bad input nor a
-// bug. A build stops at the first one and a rerun resumes (pipeline/build/build.h).
+// bug. A build stops at the first one and a rerun resumes (pipeline/batch/build.h).
 class ResourceError : public std::runtime_error {
   public:
     ResourceError(int error, const std::string& path, const std::string& message);

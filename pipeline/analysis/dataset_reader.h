@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/build/build.h"
+#include "pipeline/batch/build.h"
 
 namespace sylva {
 
-// kMaxManifestLineBytes and kMaxDatasetJsonBytes: pipeline/build/build.h.
+// kMaxManifestLineBytes and kMaxDatasetJsonBytes: pipeline/batch/build.h.
 inline constexpr int kMaxRecordDepth = 32;  // nesting of arrays and objects in one record
 
 // One manifest line, checked: a JSON object, at most kMaxRecordDepth deep, with

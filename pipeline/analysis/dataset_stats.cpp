@@ -14,7 +14,7 @@
 
 #include "core/input_file.h"
 #include "pipeline/analysis/dataset_reader.h"
-#include "pipeline/build/output_lock.h"
+#include "pipeline/batch/output_lock.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/skeleton_reader.h"
 #include "pipeline/formats/skeleton_writers.h"

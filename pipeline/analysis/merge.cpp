@@ -12,9 +12,9 @@
 
 #include "core/input_file.h"
 #include "pipeline/analysis/dataset_reader.h"
-#include "pipeline/build/build.h"
-#include "pipeline/build/output_lock.h"
-#include "pipeline/build/run_log.h"
+#include "pipeline/batch/build.h"
+#include "pipeline/batch/output_lock.h"
+#include "pipeline/batch/run_log.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/view_writers.h"
 

@@ -19,7 +19,7 @@
 #include "core/input_file.h"
 #include "pipeline/analysis/dataset_reader.h"
 #include "pipeline/analysis/dataset_stats.h"
-#include "pipeline/build/output_lock.h"
+#include "pipeline/batch/output_lock.h"
 #include "pipeline/formats/atomic_file.h"
 
 namespace fs = std::filesystem;

@@ -7,7 +7,7 @@
 #include <stdexcept>
 
 #include "core/params.h"
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 #include "species/spec/species.h"
 
 namespace fs = std::filesystem;

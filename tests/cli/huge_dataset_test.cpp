@@ -21,7 +21,7 @@
 #include <thread>
 #include <vector>
 
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 #include "tests/cli/cli_support.h"
 #include "tests/test_support.h"
 

@@ -28,7 +28,7 @@
 
 #include "core/errors.h"
 #include "core/params.h"
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 #include "species/spec/species.h"
 #include "volumes/canopy_envelope.h"
 #include "volumes/mask.h"

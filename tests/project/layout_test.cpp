@@ -134,14 +134,14 @@ TEST(Layout, CheckerFindsAnUpwardIncludeAndAMissingReadme) {
           "#include \"species/spec/s.h\"\n#include \"species/model/tree.h\"\n");
     // The violations: model including spec (upward), and a folder without a README.
     write(root / "species/model/tree.cpp", "#include \"species/spec/s.h\"\n");
-    write(root / "pipeline/build/b.cpp", "#include \"species/model/tree.h\"\n");
+    write(root / "pipeline/batch/b.cpp", "#include \"species/model/tree.h\"\n");
 
     const LayoutReport r = checkLayout(root);
     ASSERT_EQ(r.problems.size(), 2u);
-    EXPECT_NE(r.problems[0].find("pipeline/build/README.md: missing"), std::string::npos)
+    EXPECT_NE(r.problems[0].find("pipeline/batch/README.md: missing"), std::string::npos)
         << r.problems[0];
     EXPECT_NE(r.problems[1].find("species/model/tree.cpp:1: includes \"species/spec/s.h\""),
               std::string::npos)
         << r.problems[1];
-    EXPECT_EQ(r.filesChecked, 4);  // pipeline/build/b.cpp is not checked without its README
+    EXPECT_EQ(r.filesChecked, 4);  // pipeline/batch/b.cpp is not checked without its README
 }

@@ -21,7 +21,7 @@
 
 #include "core/params.h"
 #include "pipeline/analysis/fit.h"
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 #include "pipeline/scan/scan_options.h"
 #include "species/spec/species.h"
 #include "tests/test_support.h"

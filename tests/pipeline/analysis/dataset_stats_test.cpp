@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/build/build.h"
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/build.h"
+#include "pipeline/batch/dataset.h"
 #include "pipeline/formats/skeleton_writers.h"
 #include "species/model/reference_metrics.h"
 #include "tests/test_support.h"

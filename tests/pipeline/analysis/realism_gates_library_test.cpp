@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "pipeline/analysis/realism_gates.h"
-#include "pipeline/build/build.h"
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/build.h"
+#include "pipeline/batch/dataset.h"
 
 namespace sylva {
 namespace {

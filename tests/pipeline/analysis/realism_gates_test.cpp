@@ -13,8 +13,8 @@
 #include <fstream>
 #include <set>
 
-#include "pipeline/build/build.h"
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/build.h"
+#include "pipeline/batch/dataset.h"
 
 namespace sylva {
 namespace {

@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/build/build.h"
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/build.h"
+#include "pipeline/batch/dataset.h"
 #include "tests/test_support.h"
 
 namespace sylva {

@@ -15,7 +15,7 @@
 #include <set>
 #include <tuple>
 
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 #include "species/spec/species.h"
 
 namespace sylva {

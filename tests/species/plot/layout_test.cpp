@@ -10,7 +10,7 @@
 #include <map>
 #include <vector>
 
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 #include "species/plot/point_process.h"
 #include "species/plot/terrain.h"
 #include "tests/test_support.h"

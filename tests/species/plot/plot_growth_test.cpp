@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "core/errors.h"
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 #include "species/plot/inventory.h"
 #include "species/plot/layout.h"
 #include "species/spec/species.h"

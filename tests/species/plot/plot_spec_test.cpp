@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 
 namespace sylva {
 namespace {

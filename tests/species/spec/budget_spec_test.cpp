@@ -10,7 +10,7 @@
 #include <fstream>
 #include <string>
 
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 #include "species/geometry/tube_mesh.h"
 #include "species/methods/grammar.h"
 #include "species/spec/species.h"

@@ -1,4 +1,4 @@
-#include "pipeline/build/plot_instance.h"
+#include "pipeline/batch/plot_instance.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <set>
 
 #include "core/rng.h"
-#include "pipeline/build/scan_instance.h"
+#include "pipeline/batch/scan_instance.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/glb_meshopt.h"
 #include "pipeline/formats/image_codecs.h"

@@ -1,4 +1,4 @@
-#include "pipeline/build/plot_instance.h"
+#include "pipeline/batch/plot_instance.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>

@@ -1,4 +1,4 @@
-#include "pipeline/build/resume.h"
+#include "pipeline/batch/resume.h"
 
 #include <unistd.h>
 
@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "core/input_file.h"
-#include "pipeline/build/build.h"
+#include "pipeline/batch/build.h"
 
 namespace sylva {
 

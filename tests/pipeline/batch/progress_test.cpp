@@ -1,6 +1,6 @@
-// The progress line's durations (pipeline/build/progress.h): known values in each unit, and
+// The progress line's durations (pipeline/batch/progress.h): known values in each unit, and
 // the elapsed and remaining times of a count far past 2^31 seconds stay positive and readable.
-#include "pipeline/build/progress.h"
+#include "pipeline/batch/progress.h"
 
 #include <gtest/gtest.h>
 

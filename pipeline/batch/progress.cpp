@@ -1,4 +1,4 @@
-#include "pipeline/build/progress.h"
+#include "pipeline/batch/progress.h"
 
 #include <unistd.h>
 

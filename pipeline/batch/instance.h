@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/build/dataset.h"
-#include "pipeline/build/progress.h"
-#include "pipeline/build/scan_instance.h"
+#include "pipeline/batch/dataset.h"
+#include "pipeline/batch/progress.h"
+#include "pipeline/batch/scan_instance.h"
 #include "pipeline/render/colour_render.h"
 #include "pipeline/render/render.h"
 #include "species/geometry/mesh.h"

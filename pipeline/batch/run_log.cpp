@@ -1,12 +1,12 @@
-#include "pipeline/build/run_log.h"
+#include "pipeline/batch/run_log.h"
 
 #include <unistd.h>
 
 #include <vector>
 
 #include "core/input_file.h"
-#include "pipeline/build/build.h"
-#include "pipeline/build/output_lock.h"
+#include "pipeline/batch/build.h"
+#include "pipeline/batch/output_lock.h"
 #include "pipeline/formats/atomic_file.h"
 
 namespace sylva {

@@ -1,4 +1,4 @@
-#include "pipeline/build/scan_instance.h"
+#include "pipeline/batch/scan_instance.h"
 
 #include <algorithm>
 #include <chrono>

@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <filesystem>
 
-#include "pipeline/build/dataset.h"
-#include "pipeline/build/instance_set.h"
+#include "pipeline/batch/dataset.h"
+#include "pipeline/batch/instance_set.h"
 
 namespace sylva {
 

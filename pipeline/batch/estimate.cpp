@@ -1,4 +1,4 @@
-#include "pipeline/build/estimate.h"
+#include "pipeline/batch/estimate.h"
 
 #include <sys/resource.h>
 #include <tbb/global_control.h>
@@ -13,8 +13,8 @@
 #include <set>
 
 #include "core/errors.h"
-#include "pipeline/build/build.h"
-#include "pipeline/build/instance.h"
+#include "pipeline/batch/build.h"
+#include "pipeline/batch/instance.h"
 
 namespace sylva {
 

@@ -1,4 +1,4 @@
-#include "pipeline/build/manifest_repair.h"
+#include "pipeline/batch/manifest_repair.h"
 
 #include <algorithm>
 #include <fstream>

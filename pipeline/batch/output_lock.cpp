@@ -1,4 +1,4 @@
-#include "pipeline/build/output_lock.h"
+#include "pipeline/batch/output_lock.h"
 
 #include <fcntl.h>
 #include <limits.h>
@@ -21,7 +21,7 @@
 
 #include "core/errors.h"
 #include "core/input_file.h"
-#include "pipeline/build/build.h"
+#include "pipeline/batch/build.h"
 
 namespace sylva {
 

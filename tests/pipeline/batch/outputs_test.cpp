@@ -15,8 +15,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "pipeline/build/build.h"
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/build.h"
+#include "pipeline/batch/dataset.h"
 
 namespace fs = std::filesystem;
 using namespace sylva;

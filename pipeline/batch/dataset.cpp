@@ -1,4 +1,4 @@
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 
 #include <algorithm>
 #include <cmath>

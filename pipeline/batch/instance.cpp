@@ -1,11 +1,11 @@
-#include "pipeline/build/instance.h"
+#include "pipeline/batch/instance.h"
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 
 #include "core/clock.h"
-#include "pipeline/build/plot_instance.h"
+#include "pipeline/batch/plot_instance.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/glb_meshopt.h"
 #include "pipeline/formats/mesh_writers.h"

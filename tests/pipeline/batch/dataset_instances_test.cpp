@@ -13,10 +13,10 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/build/build.h"
-#include "pipeline/build/dataset.h"
-#include "pipeline/build/instance_set.h"
-#include "pipeline/build/resume.h"
+#include "pipeline/batch/build.h"
+#include "pipeline/batch/dataset.h"
+#include "pipeline/batch/instance_set.h"
+#include "pipeline/batch/resume.h"
 #include "tests/test_support.h"
 
 namespace fs = std::filesystem;

@@ -1,4 +1,4 @@
-#include "pipeline/build/instance_set.h"
+#include "pipeline/batch/instance_set.h"
 
 #include <algorithm>
 #include <iterator>

@@ -1,4 +1,4 @@
-#include "pipeline/build/build.h"
+#include "pipeline/batch/build.h"
 
 #include <OpenImageIO/oiioversion.h>
 #include <fcntl.h>
@@ -29,12 +29,12 @@
 #include <unordered_map>
 
 #include "core/input_file.h"
-#include "pipeline/build/instance.h"
-#include "pipeline/build/manifest_repair.h"
-#include "pipeline/build/output_lock.h"
-#include "pipeline/build/progress.h"
-#include "pipeline/build/resume.h"
-#include "pipeline/build/run_log.h"
+#include "pipeline/batch/instance.h"
+#include "pipeline/batch/manifest_repair.h"
+#include "pipeline/batch/output_lock.h"
+#include "pipeline/batch/progress.h"
+#include "pipeline/batch/resume.h"
+#include "pipeline/batch/run_log.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/view_writers.h"
 #include "volumes/versions.h"

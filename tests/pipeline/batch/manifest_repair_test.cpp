@@ -1,6 +1,6 @@
 // repairManifest: the first complete record of each id, in job order, whatever an old
 // concurrent or killed run left; the file rewritten only when that changes it.
-#include "pipeline/build/manifest_repair.h"
+#include "pipeline/batch/manifest_repair.h"
 
 #include <gtest/gtest.h>
 

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 
 namespace sylva {
 

@@ -1,9 +1,9 @@
-#include "pipeline/build/grow_one.h"
+#include "pipeline/batch/grow_one.h"
 
 #include <chrono>
 #include <nlohmann/json.hpp>
 
-#include "pipeline/build/output_lock.h"
+#include "pipeline/batch/output_lock.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/skeleton_writers.h"
 #include "pipeline/formats/stats_json.h"

@@ -1,7 +1,7 @@
 // OutputLock in-process: which scopes exclude each other, the holder recorded, stale and
 // foreign locks, removal; checkOutputDir on paths that cannot be a dataset directory. (Two
 // real processes: tests/cli/build_safety_test.cpp.)
-#include "pipeline/build/output_lock.h"
+#include "pipeline/batch/output_lock.h"
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/build/dataset.h"
+#include "pipeline/batch/dataset.h"
 #include "pipeline/scan/scan_point.h"
 #include "pipeline/scan/scan_spool.h"
 #include "pipeline/scan/scanner.h"
