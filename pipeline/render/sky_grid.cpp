@@ -122,34 +122,6 @@ void SkyGrid::transmittance(const Vec3& p, float* t) const {
     for (int d = 0; d < kDirections; ++d) t[d] = static_cast<float>(sum[d]);
 }
 
-double SkyGrid::transmittance(const Vec3& p, int direction) const {
-    const Vec3 u = (p - origin_) / h_ - Vec3{0.5, 0.5, 0.5};
-    const int i0 = static_cast<int>(std::floor(u.x)), j0 = static_cast<int>(std::floor(u.y)),
-              k0 = static_cast<int>(std::floor(u.z));
-    const double fx = u.x - i0, fy = u.y - j0, fz = u.z - k0;
-    double sum = 0.0;
-    for (int c = 0; c < 8; ++c) {
-        const int i = i0 + (c & 1), j = j0 + ((c >> 1) & 1), k = k0 + ((c >> 2) & 1);
-        const double w = ((c & 1) ? fx : 1 - fx) * (((c >> 1) & 1) ? fy : 1 - fy) *
-                         (((c >> 2) & 1) ? fz : 1 - fz);
-        if (w == 0.0) continue;
-        if (i < 0 || j < 0 || k < 0 || i >= nx_ || j >= ny_ || k >= nz_) {
-            sum += w;
-            continue;
-        }
-        sum += w * trans_[cell(i, j, k) * kDirections + direction] * (1.0 / 65535.0);
-    }
-    return sum;
-}
-
-int SkyGrid::nearest(const Vec3& d) const {
-    int best = 0;
-    for (int k = 1; k < kDirections; ++k) {
-        if (dot(d, directions_[k]) > dot(d, directions_[best])) best = k;
-    }
-    return best;
-}
-
 double SkyGrid::extinction(const Vec3& p) const {
     const Vec3 u = (p - origin_) / h_;
     const int i = static_cast<int>(std::floor(u.x)), j = static_cast<int>(std::floor(u.y)),

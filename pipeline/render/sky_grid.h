@@ -48,10 +48,6 @@ class SkyGrid {
     // The transmittance from `p` to the grid's edge towards each direction, trilinear in the
     // cells; 1 outside the grid.
     void transmittance(const Vec3& p, float* t) const;
-    // The same towards directions()[direction] alone.
-    double transmittance(const Vec3& p, int direction) const;
-    // The index of the direction nearest `d` (unit).
-    int nearest(const Vec3& d) const;
 
     double cellSize() const { return h_; }
     // The extinction coefficient (1/m) at the cell holding `p` (0 outside the grid).
