@@ -10,6 +10,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "pipeline/formats/little_endian.h"
+
 namespace sylva {
 
 namespace {
@@ -27,9 +29,6 @@ uint32_t loadU32(const std::string& s, size_t at) {
     uint32_t v = 0;
     for (int i = 0; i < 4; ++i) v |= uint32_t(uint8_t(s[at + i])) << (8 * i);
     return v;
-}
-void appendU32(std::string& s, uint32_t v) {
-    for (int i = 0; i < 4; ++i) s.push_back(static_cast<char>(v >> (8 * i)));
 }
 
 int components(const std::string& type) {
@@ -283,14 +282,14 @@ std::string compressGlbMeshopt(const std::string& glb, GlbCompression* report) {
     std::string text = doc.dump();
     while (text.size() % 4) text.push_back(' ');
     std::string file;
-    appendU32(file, 0x46546C67u);
-    appendU32(file, 2);
-    appendU32(file, static_cast<uint32_t>(12 + 8 + text.size() + 8 + newBin.size()));
-    appendU32(file, static_cast<uint32_t>(text.size()));
-    appendU32(file, 0x4E4F534Au);
+    putU32(file, 0x46546C67u);
+    putU32(file, 2);
+    putU32(file, static_cast<uint32_t>(12 + 8 + text.size() + 8 + newBin.size()));
+    putU32(file, static_cast<uint32_t>(text.size()));
+    putU32(file, 0x4E4F534Au);
     file += text;
-    appendU32(file, static_cast<uint32_t>(newBin.size()));
-    appendU32(file, 0x004E4942u);
+    putU32(file, static_cast<uint32_t>(newBin.size()));
+    putU32(file, 0x004E4942u);
     file += newBin;
     if (report) {
         report->bytesBefore = glb.size();

@@ -225,16 +225,19 @@ struct ColourScene::Impl {
             weights += w;
         }
         if (weights <= 0) return {};
-        double open = 1.0;
-        if (nearRays > 0) {
-            int escaped = 0;
-            for (int k = 0; k < nearRays; ++k) {
-                const double u1 = rng.uniform(), u2 = rng.uniform();
-                escaped += occluded(p, cosineSample(n, u1, u2), 0, reach) ? 0 : 1;
-            }
-            open = double(escaped) / nearRays;
-        }
+        const double open = nearRays > 0 ? openShare(p, n, nearRays, reach, rng) : 1.0;
         return sum * (kPi * open / weights);
+    }
+
+    // The share of `rays` cosine-distributed rays about `n` from `p` that meet nothing within
+    // `reach` metres.
+    double openShare(const Vec3& p, const Vec3& n, int rays, double reach, Rng& rng) const {
+        int escaped = 0;
+        for (int k = 0; k < rays; ++k) {
+            const double u1 = rng.uniform(), u2 = rng.uniform();
+            escaped += occluded(p, cosineSample(n, u1, u2), 0, reach) ? 0 : 1;
+        }
+        return double(escaped) / std::max(1, rays);
     }
 
     // What a pixel's samples share: its sky irradiance, estimated at its first shaded sample
@@ -370,11 +373,11 @@ struct ColourScene::Impl {
             const std::vector<uint32_t>& idx =
                 obj.kind == ObjectKind::kLeaves ? obj.leafFront : mesh.indices;
             const double g = obj.kind == ObjectKind::kWood ? 0.25 : 0.5;
+            auto vertex = [&](uint32_t v) {
+                return Vec3{mesh.positions[3 * v], mesh.positions[3 * v + 1],
+                            mesh.positions[3 * v + 2]};
+            };
             for (size_t t = 0; t + 2 < idx.size(); t += 3) {
-                auto vertex = [&](uint32_t v) {
-                    return Vec3{mesh.positions[3 * v], mesh.positions[3 * v + 1],
-                                mesh.positions[3 * v + 2]};
-                };
                 const Vec3 a = vertex(idx[t]), bb = vertex(idx[t + 1]), c = vertex(idx[t + 2]);
                 const double area = 0.5 * length(cross(bb - a, c - a));
                 skyGrid->addArea((a + bb + c) / 3.0, g * area);
@@ -492,12 +495,7 @@ double ColourScene::skyView(const Vec3& p, const Vec3& n, int nearRays, Rng& rng
 }
 
 double ColourScene::skyViewTraced(const Vec3& p, const Vec3& n, int rays, Rng& rng) const {
-    int escaped = 0;
-    for (int k = 0; k < rays; ++k) {
-        const double u1 = rng.uniform(), u2 = rng.uniform();
-        escaped += impl_->occluded(p, cosineSample(normalize(n), u1, u2), 0) ? 0 : 1;
-    }
-    return double(escaped) / std::max(1, rays);
+    return impl_->openShare(p, normalize(n), rays, kInf, rng);
 }
 
 ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
