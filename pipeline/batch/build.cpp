@@ -7,6 +7,7 @@
 #include <tbb/flow_graph.h>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
+#include <tbb/task_group.h>
 #include <tbb/version.h>
 #include <toml++/toml.h>
 #include <unistd.h>
@@ -32,6 +33,7 @@
 #include "pipeline/batch/instance.h"
 #include "pipeline/batch/manifest_repair.h"
 #include "pipeline/batch/output_lock.h"
+#include "pipeline/batch/pack.h"
 #include "pipeline/batch/progress.h"
 #include "pipeline/batch/resume.h"
 #include "pipeline/batch/run_log.h"
@@ -186,6 +188,8 @@ std::string stopAdvice(int error) {
             return "free space (or raise the quota) and rerun to resume";
         case EFBIG:
             return "raise the file size limit (ulimit -f) and rerun to resume";
+        case EIO:
+            return "rerun to resume";
         default:
             return "free memory (or use fewer --threads) and rerun to resume";
     }
@@ -221,21 +225,28 @@ auto stageBody(F stage, StopState& stop) {
 // only a block of the dataset's).
 void writeSpeciesSheets(const DatasetSpec& spec, const DatasetInstances& instances,
                         const InstanceSet& recorded, int64_t lo, int64_t hi, const fs::path& out,
-                        const std::string& suffix) {
+                        const std::string& suffix, const PackLayout& pack) {
     const int k = spec.outputs.speciesSheet;
     if (k <= 0 || spec.outputs.views.count <= 0) return;
+    DatasetFiles files(out);
     for (size_t s = 0; s < spec.species.size(); ++s) {
         const auto [begin, end] = instances.speciesRange(s);
         const int64_t stop = std::min(hi, end);
-        std::vector<fs::path> dirs;
+        std::vector<InstanceFileReader> views;
         for (int64_t i = recorded.nextPresent(std::max(lo, begin), stop); i < stop;
              i = recorded.nextPresent(i + 1, stop)) {
-            const fs::path dir = out / instanceDir(instances[i]);
-            if (fs::exists(dir / "views" / "000.png")) dirs.push_back(dir);
-            if (static_cast<int>(dirs.size()) >= k) break;
+            const InstanceJob job = instances[i];
+            InstanceFileReader read = [&files, id = job.id, dir = instanceDir(job).string(),
+                                       tar = pack.packed() ? pack.tarPath(pack.shardOf(i))
+                                                           : std::string()](const std::string& f) {
+                return files.readInstanceFile(id, tar, dir, f);
+            };
+            if (read("views/000.png")) views.push_back(std::move(read));
+            if (static_cast<int>(views.size()) >= k) break;
         }
-        if (dirs.empty()) continue;
-        writeSpeciesSheet(out / "contact" / (spec.species[s].species.name + suffix + ".png"), dirs);
+        if (views.empty()) continue;
+        writeSpeciesSheet(out / "contact" / (spec.species[s].species.name + suffix + ".png"),
+                          views);
     }
 }
 
@@ -449,12 +460,18 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
     std::mutex doneMutex;  // the source reads `done` while the recorder adds to it
     summary.skipped = done.countIn(lo, hi);
     removeStaleTemporaries(o.out, instances, done, lo, hi);
+    const PackLayout pack = packLayout(instances.size(), spec.outputs.packInstances);
+    if (pack.packed()) {
+        removeStalePackFiles(o.out, instances, pack, lo, hi,
+                             [&done](int64_t p) { return done.contains(p); });
+    }
     std::vector<std::string> ownFiles = {manifestName(o.shardIndex, o.shardCount),
                                          datasetJsonName(o.shardIndex, o.shardCount),
                                          runLogName(o.shardIndex, o.shardCount)};
     for (const SpeciesEntry& e : spec.species) {
         ownFiles.push_back("contact/" + e.species.name + suffix + ".png");
     }
+    if (pack.packed()) ownFiles.push_back("shards/index" + suffix + ".json");
     removeStaleOwnTempFiles(o.out, ownFiles);
 
     run["shard"] = {{"index", o.shardIndex}, {"count", o.shardCount}};
@@ -475,6 +492,45 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
     }();
     const TestPause pause;
     const double progressEvery = instanceProgressEvery();
+
+    // [outputs] pack: a tar shard is sealed (written, its instance directories removed) in the
+    // background once every instance of it this run builds has finished, whatever the result.
+    const InstanceSet doneBefore = done;
+    std::map<int64_t, int64_t> unfinished;  // tar shard → its instances this run has yet to finish
+    tbb::task_group sealing;
+    auto seal = [&](int64_t k) {
+        std::vector<int64_t> positions;
+        const int64_t a = std::max(k * pack.perShard, lo),
+                      b = std::min((k + 1) * pack.perShard, hi);
+        {
+            std::lock_guard<std::mutex> hold(doneMutex);
+            for (int64_t p = done.nextPresent(a, b); p < b; p = done.nextPresent(p + 1, b)) {
+                positions.push_back(p);
+            }
+        }
+        try {
+            sealPackShard(o.out, instances, pack, k, positions);
+        } catch (const ResourceError& e) {
+            stop.note(e);
+        } catch (const std::bad_alloc&) {
+            stop.note(ENOMEM, "out of memory while writing " + pack.tarPath(k));
+        } catch (const std::exception& e) {
+            stop.note(EIO, std::string(e.what()) + " (writing " + pack.tarPath(k) + ")");
+        }
+    };
+    auto finished = [&](int64_t position) {
+        if (!pack.packed()) return;
+        const int64_t k = pack.shardOf(position);
+        auto it = unfinished.find(k);
+        if (it == unfinished.end()) {
+            const int64_t a = std::max(k * pack.perShard, lo);
+            const int64_t b = std::min((k + 1) * pack.perShard, hi);
+            it = unfinished.emplace(k, (b - a) - doneBefore.countIn(a, b)).first;
+        }
+        if (--it->second > 0) return;
+        unfinished.erase(it);
+        sealing.run([&seal, k] { seal(k); });
+    };
 
     // Two phases, in job order: the trees of the species, many in flight; then the plots, one
     // at a time — a plot holds hundreds of trees and grows, meshes and renders them in parallel
@@ -506,6 +562,7 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
             m.seq = seq++;
             m.work = std::make_shared<InstanceWork>();
             m.work->job = instances[next++];
+            if (pack.packed()) m.work->packTar = pack.tarPath(pack.shardOf(m.work->job.position));
             if (o.progress && m.work->job.plot) {
                 m.work->progress.emplace(m.work->job.id, progressEvery);
             }
@@ -558,10 +615,12 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
                 }
                 if (w.job.position < lastRecorded) fillsAGap = true;
                 ++summary.built;
+                finished(w.job.position);
                 if (abortAfter >= 0 && summary.built >= abortAfter) std::_Exit(137);
                 pause.reached(summary.built);
             } else {
                 ++failed;
+                finished(w.job.position);
                 if (summary.failedIds.size() < BuildSummary::kMaxFailedIds) {
                     summary.failedIds.push_back(w.job.id);
                 }
@@ -583,6 +642,24 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
         g.wait_for_all();
     }
 
+    sealing.wait();
+    if (pack.packed() && !stop.requested) {
+        // Failed instances' directories go; shards left unsealed (a killed run's) are sealed.
+        removeStalePackFiles(o.out, instances, pack, lo, hi,
+                             [&done](int64_t p) { return done.contains(p); });
+        for (const int64_t k : unsealedPackShards(o.out, instances, pack, lo, hi)) seal(k);
+        if (!stop.requested) writePackIndex(o.out, spec.name, suffix, pack, lo, hi);
+        // The emptied trees/<species>/ and plots/<plot>/ directories go too — unsharded only:
+        // another shard sharing the directory may be about to write into one.
+        if (o.shardCount == 1 && !stop.requested) {
+            std::error_code ec;
+            for (const SpeciesEntry& e : spec.species)
+                fs::remove(o.out / "trees" / e.species.name, ec);
+            for (const PlotSpec& p : spec.plots) fs::remove(o.out / "plots" / p.name, ec);
+            fs::remove(o.out / "trees", ec);
+            fs::remove(o.out / "plots", ec);
+        }
+    }
     if (stop.requested) {
         // What the dropped instances wrote is not part of the dataset (a rerun makes them
         // again): removed, which also gives back the space dataset.json and the run log need.
@@ -590,7 +667,7 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
         for (const InstanceJob& j : dropped) fs::remove_all(o.out / instanceDir(j), ec);
     } else {
         if (fillsAGap) repairManifest(manifestPath, positionOf);  // back in job order
-        writeSpeciesSheets(spec, instances, done, lo, hi, o.out, suffix);
+        writeSpeciesSheets(spec, instances, done, lo, hi, o.out, suffix, pack);
         progress.finish(summary.built + failed, failed);
     }
 }
@@ -614,9 +691,9 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
     // Instances are computed from their position as the source reaches them: nothing here is
     // sized by the dataset's count (resume holds runs of recorded positions, InstanceSet).
     const DatasetInstances instances(spec);
-    const auto [shardLo, shardHi] =
-        shardRange(static_cast<size_t>(instances.size()), o.shardIndex, o.shardCount);
-    const auto lo = static_cast<int64_t>(shardLo), hi = static_cast<int64_t>(shardHi);
+    // Contiguous blocks of the instance order; of whole tar shards when packing.
+    const auto [lo, hi] =
+        shardPositions(instances.size(), o.shardIndex, o.shardCount, spec.outputs.packInstances);
 
     // --out: checked before anything is written and created only once every check passed;
     // then this shard of it is locked for the whole build (another build, merge, stats or

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "pipeline/batch/pack.h"
 #include "pipeline/scan/scan_pattern.h"
 #include "species/plot/plot_spec.h"
 #include "species/spec/budget_spec.h"
@@ -337,6 +338,12 @@ void readOutputs(Params& o, OutputOptions& out) {
     }
     out.speciesSheet =
         static_cast<int>(o.integer("species_sheet", out.speciesSheet, Range::closed(0, 10000)));
+    const bool tar = o.choice("pack", std::string("none"), {"none", "tar"}) == "tar";
+    const int64_t perShard = o.integer("pack_instances", 256, Range::closed(1, kMaxPackInstances));
+    if (!tar && o.raw("pack_instances")) {
+        o.fail("pack_instances", "sets the instances per tar shard: set pack = \"tar\" as well");
+    }
+    out.packInstances = tar ? perShard : 0;
     o.finish();
 }
 

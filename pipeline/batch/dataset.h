@@ -94,6 +94,8 @@ struct OutputOptions {
     int speciesSheet = 16;  // first K instances per species in a sheet
     ScanOutputs scan;       // [scan]
     bool qsm = false;       // qsm.csv + qsm_treeqsm.txt per tree (default: with [scan])
+    // pack = "tar": instances per tar shard (pack_instances; pack.h); 0: one directory each.
+    int64_t packInstances = 0;
 };
 
 struct DatasetSpec {

@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "core/clock.h"
+#include "pipeline/batch/pack.h"
 #include "pipeline/batch/plot_instance.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/glb_meshopt.h"
@@ -171,6 +172,16 @@ void scanStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     w.scanMs = msSince(t0);
 }
 
+// An instance to be packed (w.packTar set): its record names the members it will be, and
+// record.json beside its files (the record without `timing`, which is added after) becomes
+// "<id>.json" in the shard.
+static void stageForPacking(InstanceWork& w, const fs::path& out) {
+    if (w.packTar.empty()) return;
+    const std::string rel = instanceDir(w.job).generic_string();
+    packRecordFiles(w.record, w.job.id, rel, w.packTar);
+    writeFileAtomic(out / rel / kPackRecordFile, w.record.dump());
+}
+
 void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     auto t0 = Clock::now();
     const InstanceJob& job = w.job;
@@ -188,6 +199,7 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
         if (!job.plot->sweptFrom.empty()) w.record["sweep"] = job.plot->sweep;
         w.record["index"] = job.index;
         w.record["seed"] = hex64(job.seed);
+        stageForPacking(w, out);
         w.writeMs = msSince(t0);
         // writePlot's timing (the scan's, within write_ms) first, then the stages'.
         w.record["timing"]["grow_ms"] = w.growMs;
@@ -342,6 +354,7 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     }
     rec["stats"] = st;
     if (w.scan) rec["scan"] = w.scan->stats;
+    stageForPacking(w, out);
     w.writeMs = msSince(t0);
     // The only fields that differ between identical builds.
     rec["timing"] = {{"grow_ms", w.growMs},

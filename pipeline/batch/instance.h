@@ -35,6 +35,7 @@ struct InstanceWork {
     double scanMs = 0;
     // A plot's progress lines (its trees growing, its scan), when the build shows progress.
     std::optional<InstanceProgress> progress;
+    std::string packTar;    // [outputs] pack: its tar shard ("shards/000003.tar"), else ""
     nlohmann::json record;  // the manifest line, made by write()
     std::string error;      // set by the first stage that fails; later stages skip
 };

@@ -46,7 +46,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -140,19 +142,26 @@ struct Sheet {
     }
 };
 
-// The first channel of an 8-bit image file (a label or silhouette PNG), exactly. Read
-// directly (no ImageCache), so a file rewritten during the run is never seen stale.
-std::vector<uint8_t> readChannel0(const fs::path& path, int& w, int& h) {
-    auto in = OIIO::ImageInput::open(path.string());
-    if (!in) {
-        throw std::runtime_error("cannot read image '" + path.string() + "': " + OIIO::geterror());
-    }
+// An image decoded from memory (a PNG's bytes, from a file or a tar member); `name` for
+// messages and for OIIO to pick the format by its extension.
+std::unique_ptr<OIIO::ImageInput> openImage(const std::string& name,
+                                            OIIO::Filesystem::IOMemReader& mem) {
+    auto in = OIIO::ImageInput::open(name, nullptr, &mem);
+    if (!in) throw std::runtime_error("cannot read image '" + name + "': " + OIIO::geterror());
+    return in;
+}
+
+// The first channel of an 8-bit image (a label or silhouette PNG), exactly.
+std::vector<uint8_t> readChannel0(const std::string& bytes, const std::string& name, int& w,
+                                  int& h) {
+    OIIO::Filesystem::IOMemReader mem(bytes.data(), bytes.size());
+    auto in = openImage(name, mem);
     w = in->spec().width;
     h = in->spec().height;
     std::vector<uint8_t> px(static_cast<size_t>(std::max(w, 0)) * std::max(h, 0));
     if (w <= 0 || h <= 0 || !in->read_image(0, 0, 0, 1, OIIO::TypeDesc::UINT8, px.data())) {
         const std::string err = in->geterror();
-        throw std::runtime_error("cannot read image '" + path.string() + "': " + err);
+        throw std::runtime_error("cannot read image '" + name + "': " + err);
     }
     in->close();
     return px;
@@ -186,11 +195,10 @@ Camera previewCamera(const Tree& tree, int size) {
 }
 
 // An RGBA picture (views/NNN_rgb.png) as RGB over white.
-std::vector<uint8_t> readRgbOverWhite(const fs::path& path, int& w, int& h) {
-    auto in = OIIO::ImageInput::open(path.string());
-    if (!in) {
-        throw std::runtime_error("cannot read image '" + path.string() + "': " + OIIO::geterror());
-    }
+std::vector<uint8_t> readRgbOverWhite(const std::string& bytes, const std::string& name, int& w,
+                                      int& h) {
+    OIIO::Filesystem::IOMemReader mem(bytes.data(), bytes.size());
+    auto in = openImage(name, mem);
     w = in->spec().width;
     h = in->spec().height;
     const int nc = in->spec().nchannels;
@@ -198,7 +206,7 @@ std::vector<uint8_t> readRgbOverWhite(const fs::path& path, int& w, int& h) {
     if (w <= 0 || h <= 0 || nc < 3 ||
         !in->read_image(0, 0, 0, std::min(nc, 4), OIIO::TypeDesc::UINT8, px.data(), 4)) {
         const std::string err = in->geterror();
-        throw std::runtime_error("cannot read image '" + path.string() + "': " + err);
+        throw std::runtime_error("cannot read image '" + name + "': " + err);
     }
     in->close();
     std::vector<uint8_t> rgb(static_cast<size_t>(w) * h * 3);
@@ -433,29 +441,47 @@ void writeContactSheet(const fs::path& path, const std::vector<ViewImage>& views
     writeGreyPng(path, sheet.width, sheet.height, sheet.pixels);
 }
 
+InstanceFileReader instanceDirReader(const fs::path& dir) {
+    return [dir](const std::string& relPath) -> std::optional<std::string> {
+        std::error_code ec;
+        if (!fs::is_regular_file(dir / relPath, ec)) return std::nullopt;
+        std::ifstream in(dir / relPath, std::ios::binary);
+        std::ostringstream s;
+        s << in.rdbuf();
+        if (!in) throw std::runtime_error("cannot read '" + (dir / relPath).string() + "'");
+        return s.str();
+    };
+}
+
 void writeSpeciesSheet(const fs::path& path, const std::vector<fs::path>& instanceDirs) {
-    if (instanceDirs.empty()) throw std::invalid_argument("writeSpeciesSheet: no instances");
+    std::vector<InstanceFileReader> readers;
+    for (const fs::path& d : instanceDirs) readers.push_back(instanceDirReader(d));
+    writeSpeciesSheet(path, readers);
+}
+
+void writeSpeciesSheet(const fs::path& path, const std::vector<InstanceFileReader>& instances) {
+    if (instances.empty()) throw std::invalid_argument("writeSpeciesSheet: no instances");
     struct Tile {
         int w = 0, h = 0;
         std::vector<uint8_t> rgb;
     };
     std::vector<Tile> tiles;
     int tile = kSpeciesSheetMinTile;
-    for (const fs::path& dir : instanceDirs) {
+    for (const InstanceFileReader& read : instances) {
         Tile t;
-        const fs::path labels = dir / "views" / "000_label.png";
-        const fs::path colour = dir / "views" / "000_rgb.png";
-        if (fs::exists(colour)) {
-            t.rgb = readRgbOverWhite(colour, t.w, t.h);
-        } else if (fs::exists(labels)) {
-            t.rgb = colourLabels(readChannel0(labels, t.w, t.h));
-        } else {  // silhouettes only: the tree dark grey on white
-            const std::vector<uint8_t> sil = readChannel0(dir / "views" / "000.png", t.w, t.h);
+        if (auto colour = read("views/000_rgb.png")) {
+            t.rgb = readRgbOverWhite(*colour, "views/000_rgb.png", t.w, t.h);
+        } else if (auto labels = read("views/000_label.png")) {
+            t.rgb = colourLabels(readChannel0(*labels, "views/000_label.png", t.w, t.h));
+        } else if (auto silhouette = read("views/000.png")) {  // the tree dark grey on white
+            const std::vector<uint8_t> sil = readChannel0(*silhouette, "views/000.png", t.w, t.h);
             t.rgb.resize(3 * sil.size());
             for (size_t k = 0; k < sil.size(); ++k) {
                 const uint8_t v = sil[k] ? 40 : 255;
                 t.rgb[3 * k] = t.rgb[3 * k + 1] = t.rgb[3 * k + 2] = v;
             }
+        } else {
+            throw std::runtime_error("writeSpeciesSheet: an instance without views/000.png");
         }
         tile = std::max({tile, t.w, t.h});
         tiles.push_back(std::move(t));

@@ -5,7 +5,9 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -72,6 +74,12 @@ void writeContactSheet(const std::filesystem::path& path, const std::vector<View
 // views/000.png), each view shown at
 // least kSpeciesSheetMinTile pixels wide so a twig can be seen. RGB PNG.
 constexpr int kSpeciesSheetMinTile = 256;
+// An instance's files by their path in its directory ("views/000.png"): the bytes, or nullopt
+// when it has none such (a directory on disk, or a packed instance's tar members: pack.h).
+using InstanceFileReader = std::function<std::optional<std::string>(const std::string& relPath)>;
+InstanceFileReader instanceDirReader(const std::filesystem::path& dir);
+void writeSpeciesSheet(const std::filesystem::path& path,
+                       const std::vector<InstanceFileReader>& instances);
 void writeSpeciesSheet(const std::filesystem::path& path,
                        const std::vector<std::filesystem::path>& instanceDirs);
 

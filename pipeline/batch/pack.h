@@ -1,0 +1,115 @@
+// Packed datasets ([outputs] pack = "tar"): instances in WebDataset tar shards, shard k holding
+// the recorded instances at positions k·M … (k + 1)·M − 1 (M = pack_instances) in position
+// order, so a shard's bytes depend on the spec alone — not on threads, --shard blocks (whole
+// tar shards when packing) or resumed runs. An instance is written unpacked first (its
+// directory, as an unpacked build writes it, plus record.json) and packed when its tar shard is
+// sealed. Layout and member names: docs/outputs.md "Packed datasets".
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "pipeline/batch/dataset.h"
+#include "pipeline/formats/tar_pack.h"
+
+namespace sylva {
+
+// The largest pack_instances: a shard's index stays a few tens of MB.
+constexpr int64_t kMaxPackInstances = 1'000'000;
+
+// An instance's record without `timing`, staged in its directory and packed as "<id>.json".
+inline constexpr char kPackRecordFile[] = "record.json";
+
+struct PackLayout {
+    int64_t perShard = 0;  // M; 0: unpacked
+    int64_t shards = 0;    // ⌈dataset size / M⌉
+    int width = 6;         // digits of a shard's file name: at least 6, enough for the last
+    bool packed() const { return perShard > 0; }
+    int64_t shardOf(int64_t position) const { return position / perShard; }
+    // "shards/000003.tar", and the file name alone.
+    std::string tarPath(int64_t shard) const { return "shards/" + tarName(shard); }
+    std::string tarName(int64_t shard) const;
+};
+PackLayout packLayout(int64_t datasetSize, int64_t perShard);
+
+// The positions [lo, hi) build shard `index` of `count` covers: contiguous blocks of about
+// equal size (shardRange, build.h) — of whole tar shards when `perShard` > 0.
+std::pair<int64_t, int64_t> shardPositions(int64_t datasetSize, int index, int count,
+                                           int64_t perShard);
+
+// The member a file of an instance becomes: "<id>." + its path in the instance directory with
+// "/" as "." ("views/000.png" → "<id>.views.000.png"); record.json becomes "<id>.json".
+std::string packMemberName(std::string_view id, std::string_view relPath);
+
+// A record of an instance to be packed into `tarPath`: "pack" set, and every string of its
+// "files" under the instance directory `rel` renamed to its member name ("rel/views" →
+// "<id>.views").
+void packRecordFiles(nlohmann::json& record, const std::string& id, const std::string& rel,
+                     const std::string& tarPath);
+
+// Writes tar shard `shard` (temp + rename) with the instances at `positions` (recorded, sorted):
+// each from its instance directory when it is on disk (then removed), else as the existing
+// shard holds it; writes its index (shards/NNNNNN.index.json) after the tar. Throws
+// ResourceError on a full disk, std::runtime_error on other I/O errors.
+void sealPackShard(const std::filesystem::path& out, const DatasetInstances& instances,
+                   const PackLayout& layout, int64_t shard, const std::vector<int64_t>& positions);
+
+// The tar shards of [lo, hi) with instance directories on disk (a run's unsealed instances,
+// or a killed run's), from listing trees/<species>/ and plots/<plot>/ of the species and
+// plots with instances there.
+std::vector<int64_t> unsealedPackShards(const std::filesystem::path& out,
+                                        const DatasetInstances& instances, const PackLayout& layout,
+                                        int64_t lo, int64_t hi);
+
+// Removes what a killed run left of shard writes in [lo, hi) (shards/<name>.tmp.*), and the
+// directories of instances of [lo, hi) that are on disk but not recorded (failed ones), so that
+// they are not sealed.
+void removeStalePackFiles(const std::filesystem::path& out, const DatasetInstances& instances,
+                          const PackLayout& layout, int64_t lo, int64_t hi,
+                          const std::function<bool(int64_t)>& recorded);
+
+// shards/index<suffix>.json: the wids-shard-index-v1 list of the tar shards of [lo, hi) that
+// exist, with their sample counts and sizes.
+void writePackIndex(const std::filesystem::path& out, const std::string& datasetName,
+                    const std::string& suffix, const PackLayout& layout, int64_t lo, int64_t hi);
+
+// A tar shard's samples: from its index file when that matches the tar's size, else from the
+// tar's headers (members grouped by the key before their first dot; positions −1).
+struct PackSample {
+    std::string key;
+    int64_t position = -1;
+    std::vector<TarMember> members;
+};
+std::vector<PackSample> readPackSamples(const std::filesystem::path& tar);
+
+// Reads the files of a dataset's instances, packed or not, by the strings their records'
+// "files" hold: a path under the dataset directory, or (a record with "pack") a member of that
+// tar. Tar indexes are read once and kept. Thread-safe.
+class DatasetFiles {
+  public:
+    explicit DatasetFiles(std::filesystem::path datasetDir) : dir_(std::move(datasetDir)) {}
+    // The file's bytes, or nullopt when there is no such file or member.
+    std::optional<std::string> read(const nlohmann::json& record, const std::string& file);
+    // The same for an instance's file by its path in the instance directory ("views/000.png"),
+    // unpacked at `instanceDir` (relative to the dataset) or packed as `id` in `tarPath`.
+    std::optional<std::string> readInstanceFile(const std::string& id, const std::string& tarPath,
+                                                const std::string& instanceDir,
+                                                const std::string& relPath);
+
+  private:
+    std::optional<std::string> member(const std::string& tarPath, const std::string& name);
+    std::filesystem::path dir_;
+    std::mutex mutex_;
+    std::map<std::string, std::map<std::string, TarMember, std::less<>>> tars_;
+};
+
+}  // namespace sylva
