@@ -241,4 +241,20 @@ ImageFile readImageFile(const std::string& path) {
     return readWithOiio(path);
 }
 
+ImageFile readPngBytes(const std::string& bytes, const std::string& name) {
+    if (bytes.empty()) fail(name, "the file is empty");
+    if (bytes.size() < 8 || std::memcmp(bytes.data(), kPngSignature, 8) != 0) {
+        fail(name, "not a PNG file (it does not start with the PNG signature)");
+    }
+    unsigned char header[33] = {0};
+    if (bytes.size() < sizeof header) fail(name, "truncated: the file ends inside the PNG header");
+    std::unique_ptr<std::FILE, FileCloser> file(
+        fmemopen(const_cast<char*>(bytes.data()), bytes.size(), "rb"));
+    if (!file) fail(name, std::strerror(errno));
+    if (std::fread(header, 1, sizeof header, file.get()) != sizeof header) {
+        fail(name, "truncated: the file ends inside the PNG header");
+    }
+    return readPng(name, file.get(), header);
+}
+
 }  // namespace sylva

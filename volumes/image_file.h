@@ -48,5 +48,7 @@ struct ImageFile {
 
 // Reads the image at `path`. Throws ImageError ("cannot read the image <path>: <why>").
 ImageFile readImageFile(const std::string& path);
+// The same for a PNG held in memory (a member of a packed dataset's tar); `name` for messages.
+ImageFile readPngBytes(const std::string& bytes, const std::string& name);
 
 }  // namespace sylva

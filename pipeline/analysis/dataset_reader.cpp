@@ -101,6 +101,12 @@ ManifestRecord parseManifestRecord(const std::string& line, const std::string& w
     for (const char* key : {"bytes_written", "trees"}) {
         if (has(key)) needs(isCount(j[key]), where, key, "an integer >= 0");
     }
+    if (has("pack")) {
+        needs(j["pack"].is_string() && isPathInside(j["pack"].get<std::string>()) &&
+                  fs::path(j["pack"].get<std::string>()).extension() == ".tar",
+              where, "pack", "a relative path inside the dataset to a .tar shard");
+        r.pack = j["pack"].get<std::string>();
+    }
     if (has("files")) {
         needs(j["files"].is_object(), where, "files", "an object");
         for (const auto& [k, v] : j["files"].items()) {

@@ -32,6 +32,7 @@ struct ManifestRecord {
     std::string group;  // the species, or the plot's name
     bool plot = false;
     int64_t index = 0;
+    std::string pack;   // a packed instance's tar ("shards/000003.tar"); "" unpacked
     std::string where;  // "manifest.jsonl:12", for messages
 };
 

@@ -15,6 +15,7 @@
 #include "core/input_file.h"
 #include "pipeline/analysis/dataset_reader.h"
 #include "pipeline/batch/output_lock.h"
+#include "pipeline/batch/pack.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/skeleton_reader.h"
 #include "pipeline/formats/skeleton_writers.h"
@@ -258,8 +259,13 @@ ReferenceValues readSkeletonReferenceValues(const fs::path& path) {
         throw DatasetStatsInputError(std::string(e.what()) +
                                      "; the manifest lists it as skeleton_ply");
     }
+    return skeletonReferenceValuesOf(bytes, path.string());
+}
+
+ReferenceValues skeletonReferenceValuesOf(const std::string& bytes, const std::string& name) {
+    const fs::path path = name;
     try {
-        return referenceValues(readSkeletonPly(bytes, path.string()));
+        return referenceValues(readSkeletonPly(bytes, name));
     } catch (const DatasetStatsInputError&) {
         throw;
     } catch (const InputError& e) {  // readSkeletonPly's message names the file
@@ -293,6 +299,7 @@ struct Record {
     int64_t index = 0;
     std::string id, species, habit;
     std::string skeleton;  // files.skeleton_ply, relative to the dataset directory ("" if none)
+    std::string pack;      // packed: the tar holding it (skeleton is a member's name)
     std::map<std::string, double> metrics;
     std::vector<std::pair<std::string, std::string>> sweep;  // path → value (as text)
 };
@@ -333,6 +340,7 @@ Record statsRecord(const ManifestRecord& m, const DatasetStatsOptions& options) 
     r.index = m.index;
     r.species = m.group;
     r.habit = m.plot ? "plot" : j.value("habit", std::string());
+    r.pack = m.pack;
     if (j.contains("files") && j["files"].contains("skeleton_ply")) {
         r.skeleton = j["files"]["skeleton_ply"].get<std::string>();
     }
@@ -396,11 +404,22 @@ ReferenceFiles compareWithReference(const fs::path& dir, const fs::path& file, c
                                     const std::vector<Record>& records, DatasetStatsResult& res) {
     std::map<std::string, ReferenceValues> pooled;
     std::map<std::string, size_t> read;
+    DatasetFiles packed(dir);
     std::map<std::string, std::string> habit;
     for (const Record& r : records) {
         if (!habit.count(r.species)) habit[r.species] = r.habit;
         if (r.skeleton.empty()) continue;
-        poolReferenceValues(pooled[r.species], readSkeletonReferenceValues(dir / r.skeleton));
+        if (r.pack.empty()) {
+            poolReferenceValues(pooled[r.species], readSkeletonReferenceValues(dir / r.skeleton));
+        } else {
+            const std::string where = (dir / r.pack).string() + ": " + r.skeleton;
+            const std::optional<std::string> bytes = packed.read(r.pack, r.skeleton);
+            if (!bytes) {
+                throw DatasetStatsInputError(where + ": no such member; the manifest lists it as "
+                                                     "skeleton_ply");
+            }
+            poolReferenceValues(pooled[r.species], skeletonReferenceValuesOf(*bytes, where));
+        }
         ++read[r.species];
     }
     if (read.empty()) {

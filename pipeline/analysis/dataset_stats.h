@@ -101,6 +101,8 @@ Reference readReference(const std::filesystem::path& file);
 // The reference distributions (reference_metrics.h) of the skeleton in a binary skeleton.ply.
 // Throws DatasetStatsInputError "PATH: …" when it cannot be read or is not a skeleton.
 ReferenceValues readSkeletonReferenceValues(const std::filesystem::path& path);
+// The same for a skeleton.ply already read (a packed instance's member); `name` for messages.
+ReferenceValues skeletonReferenceValuesOf(const std::string& bytes, const std::string& name);
 
 // One tree's reference distributions as `sylva stats --reference` measures them: from the tree
 // written as skeleton.ply (skeletonPly: float positions and radii) and read back, so a tree

@@ -14,6 +14,7 @@
 #include "pipeline/analysis/dataset_reader.h"
 #include "pipeline/batch/build.h"
 #include "pipeline/batch/output_lock.h"
+#include "pipeline/batch/pack.h"
 #include "pipeline/batch/run_log.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/view_writers.h"
@@ -34,6 +35,7 @@ struct Shard {
 struct Record {
     std::string line;           // verbatim manifest line
     std::string id, species;    // species: the plot's name for a plot
+    std::string pack;           // a packed instance's tar ("shards/000003.tar"), else ""
     std::filesystem::path dir;  // trees/<species>/<id> or plots/<plot>/<id>
     const Shard* shard = nullptr;
 };
@@ -154,13 +156,20 @@ MergeSummary mergeShards(const MergeOptions& o) {
     // Manifest lines. Shard manifests concatenated in shard order are the unsharded manifest
     // (contiguous blocks, see shardRange), so that is the merged order; each shard must record
     // exactly its block's hi - lo instances, and no id may appear twice.
+    // A packed dataset's shards are blocks of whole tar shards (pack.h shardPositions).
+    const nlohmann::json outputs =
+        first.dataset.value("spec", nlohmann::json::object()).value("outputs", nlohmann::json::object());
+    const int64_t perShard = outputs.value("pack", std::string("none")) == "tar"
+                                 ? outputs.value("pack_instances", int64_t{256})
+                                 : 0;
+    const PackLayout pack = packLayout(total, perShard);
     std::vector<Record> records;
     records.reserve(static_cast<size_t>(total));
     std::map<std::string, std::string> seen;  // id → where first recorded
     for (const Shard* s : byIndex) {
         const fs::path mpath = s->dir / manifestName(s->index, s->count);
         if (!fs::exists(mpath)) fail(mpath.string() + ": missing");
-        auto [lo, hi] = shardRange(static_cast<size_t>(total), s->index, s->count);
+        const auto [lo, hi] = shardPositions(total, s->index, s->count, perShard);
         size_t lineNo = 0;
         try {
             InputFile in(mpath);
@@ -177,12 +186,15 @@ MergeSummary mergeShards(const MergeOptions& o) {
                 r.id = m.id;
                 r.species = m.group;
                 r.dir = fs::path(m.plot ? "plots" : "trees") / r.species / r.id;
+                r.pack = m.pack;
                 r.shard = s;
                 if (auto [it, fresh] = seen.emplace(r.id, where); !fresh) {
                     fail(where + ": instance " + r.id + " already recorded at " + it->second);
                 }
-                if (!fs::is_directory(s->dir / r.dir)) {
-                    fail(where + ": " + (s->dir / r.dir).string() + " missing");
+                if (!r.pack.empty() ? !fs::is_regular_file(s->dir / r.pack)
+                                    : !fs::is_directory(s->dir / r.dir)) {
+                    fail(where + ": " + (s->dir / (r.pack.empty() ? r.dir : fs::path(r.pack))).string() +
+                         " missing");
                 }
                 r.line = std::move(line);
                 records.push_back(std::move(r));
@@ -192,7 +204,7 @@ MergeSummary mergeShards(const MergeOptions& o) {
         } catch (const InputError& e) {
             fail(e.what());
         }
-        if (lineNo != hi - lo) {
+        if (static_cast<int64_t>(lineNo) != hi - lo) {
             fail(mpath.string() + ": " + std::to_string(lineNo) + " of the shard's " +
                  std::to_string(hi - lo) +
                  " instances recorded (failed trees: rerun that shard's build)");
@@ -239,11 +251,23 @@ MergeSummary mergeShards(const MergeOptions& o) {
     fs::create_directories(stage);
     try {
         std::string manifest;
+        std::string lastPack;  // a tar shard's records are consecutive: each moved once
         for (const Record& r : records) {
-            transfer(r.shard->dir / r.dir, stage / r.dir, o.move);
+            if (r.pack.empty()) {
+                transfer(r.shard->dir / r.dir, stage / r.dir, o.move);
+            } else if (r.pack != lastPack) {
+                fs::path index = r.pack;
+                index.replace_extension(".index.json");
+                transfer(r.shard->dir / r.pack, stage / r.pack, o.move);
+                if (fs::exists(r.shard->dir / index)) {
+                    transfer(r.shard->dir / index, stage / index, o.move);
+                }
+                lastPack = r.pack;
+            }
             manifest += r.line;
             manifest += '\n';
         }
+        if (pack.packed()) writePackIndex(stage, first.dataset.value("name", ""), "", pack, 0, total);
         writeFileAtomic(stage / manifestName(0, 1), manifest);
 
         // Species sheets as buildDataset's writeSpeciesSheets: per species in spec order, its
@@ -252,17 +276,20 @@ MergeSummary mergeShards(const MergeOptions& o) {
         const nlohmann::json& spec = first.dataset.value("spec", nlohmann::json::object());
         const int64_t k = spec.value("outputs", nlohmann::json::object())
                               .value("species_sheet", int64_t{16});  // dataset.cpp's default
+        DatasetFiles files(stage);
         for (const auto& e : first.dataset.value("species", nlohmann::json::array())) {
             const std::string name = e.value("name", "");
-            std::vector<fs::path> dirs;
+            std::vector<InstanceFileReader> views;
             for (const Record& r : records) {
-                if (k <= 0 || static_cast<int64_t>(dirs.size()) >= k) break;
+                if (k <= 0 || static_cast<int64_t>(views.size()) >= k) break;
                 if (r.species != name) continue;
-                const fs::path dir = stage / "trees" / r.species / r.id;
-                if (fs::exists(dir / "views" / "000.png")) dirs.push_back(dir);
+                InstanceFileReader read = [&files, &r](const std::string& f) {
+                    return files.readInstanceFile(r.id, r.pack, r.dir.string(), f);
+                };
+                if (read("views/000.png")) views.push_back(std::move(read));
             }
-            if (dirs.empty()) continue;
-            writeSpeciesSheet(stage / "contact" / (name + ".png"), dirs);
+            if (views.empty()) continue;
+            writeSpeciesSheet(stage / "contact" / (name + ".png"), views);
             ++summary.sheets;
         }
 

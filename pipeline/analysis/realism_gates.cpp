@@ -12,6 +12,7 @@
 #include "core/input_file.h"
 #include "pipeline/analysis/dataset_reader.h"
 #include "pipeline/analysis/dataset_stats.h"
+#include "pipeline/batch/pack.h"
 #include "species/model/tree_metrics.h"
 #include "volumes/image_file.h"
 
@@ -257,9 +258,19 @@ std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir)
     ManifestRead read = readManifests(datasetDir);
     (void)readDatasetDescription(datasetDir);
     std::vector<nlohmann::json> records;
+    std::vector<std::string> packs;  // a packed record's tar, else ""
     for (ManifestRecord& r : read.records) {
-        if (!r.plot) records.push_back(std::move(r.json));
+        if (r.plot) continue;
+        records.push_back(std::move(r.json));
+        packs.push_back(r.pack);
     }
+    DatasetFiles packed(datasetDir);
+    // A member of a packed record's tar. Thrown: InputError naming it.
+    auto bytesOf = [&](size_t i, const std::string& file) {
+        std::optional<std::string> b = packed.read(packs[i], file);
+        if (!b) throw InputError((datasetDir / packs[i]).string() + ": no member " + file);
+        return std::move(*b);
+    };
     std::vector<InstanceShape> shapes(records.size());
     for (size_t i = 0; i < records.size(); ++i) {
         const nlohmann::json& files = records[i].value("files", nlohmann::json::object());
@@ -267,13 +278,19 @@ std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir)
             return files.contains(key) ? files[key].get<std::string>() : "";
         };
         if (const std::string skeleton = file("skeleton_ply"); !skeleton.empty()) {
-            shapes[i].reference = readSkeletonReferenceValues(datasetDir / skeleton);
+            shapes[i].reference =
+                packs[i].empty() ? readSkeletonReferenceValues(datasetDir / skeleton)
+                                 : skeletonReferenceValuesOf(bytesOf(i, skeleton),
+                                                             packs[i] + ": " + skeleton);
         }
         const std::string transforms = file("transforms");
         if (transforms.empty()) continue;
-        const std::filesystem::path tpath = datasetDir / transforms;
+        const std::filesystem::path tpath =
+            datasetDir / (packs[i].empty() ? transforms : packs[i] + "/" + transforms);
         const nlohmann::json t = nlohmann::json::parse(
-            readInputFile(tpath, kMaxTransformsBytes, "a transforms.json"), nullptr, false);
+            packs[i].empty() ? readInputFile(tpath, kMaxTransformsBytes, "a transforms.json")
+                             : bytesOf(i, transforms),
+            nullptr, false);
         const bool framed = t.is_object() && t.contains("frames") && t["frames"].is_array() &&
                             !t["frames"].empty() && t["frames"][0].is_object();
         const nlohmann::json frame = framed ? t["frames"][0] : nlohmann::json();
@@ -286,8 +303,10 @@ std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir)
         }
         ImageFile mask;
         try {
-            mask = readImageFile(
-                (tpath.parent_path() / frame["mask_path"].get<std::string>()).string());
+            const std::string maskPath = frame["mask_path"].get<std::string>();
+            mask = packs[i].empty()
+                       ? readImageFile((tpath.parent_path() / maskPath).string())
+                       : readPngBytes(bytesOf(i, maskPath), packs[i] + ": " + maskPath);
         } catch (const ImageError& e) {
             throw InputError(e.what());
         }

@@ -15,6 +15,7 @@
 #include "core/errors.h"
 #include "pipeline/batch/build.h"
 #include "pipeline/batch/instance.h"
+#include "pipeline/batch/pack.h"
 
 namespace sylva {
 
@@ -259,9 +260,8 @@ EstimateResult estimateDataset(const DatasetSpec& spec, const EstimateOptions& o
     r.out = o.out;
 
     const DatasetInstances instances(spec);
-    const auto [shardLo, shardHi] =
-        shardRange(static_cast<size_t>(instances.size()), o.shardIndex, o.shardCount);
-    const auto lo = static_cast<int64_t>(shardLo), hi = static_cast<int64_t>(shardHi);
+    const auto [lo, hi] = shardPositions(instances.size(), o.shardIndex, o.shardCount,
+                                         spec.outputs.packInstances);
     const size_t rows = spec.species.size() + spec.plots.size();
 
     ScratchDir scratch(o.scratch);
@@ -289,12 +289,12 @@ EstimateResult estimateDataset(const DatasetSpec& spec, const EstimateOptions& o
 
     if (o.shardCount > 1 && o.shardCount <= EstimateResult::kMaxShardsScanned) {
         for (int s = 0; s < o.shardCount; ++s) {
-            const auto [a, b] = shardRange(static_cast<size_t>(instances.size()), s, o.shardCount);
+            const auto [a, b] =
+                shardPositions(instances.size(), s, o.shardCount, spec.outputs.packInstances);
             double cpu = 0;
             for (size_t k = 0; k < rows; ++k) {
                 cpu +=
-                    static_cast<double>(overlap(instances.speciesRange(k), static_cast<int64_t>(a),
-                                                static_cast<int64_t>(b))) *
+                    static_cast<double>(overlap(instances.speciesRange(k), a, b)) *
                     r.rows[k].cpuSeconds;
             }
             if (r.heaviestShard < 0 || cpu > r.heaviestShardCpuSeconds) {

@@ -361,14 +361,15 @@ std::optional<std::string> DatasetFiles::member(const std::string& tarPath,
         if (found == it->second.end()) return std::nullopt;
         m = found->second;
     }
+    if (m.size > kMaxMemberBytes) {
+        throw InputError(tar.string() + ": member " + name + " larger than " +
+                         std::to_string(kMaxMemberBytes >> 30) + " GiB");
+    }
     return readTarMember(tar, m);
 }
 
-std::optional<std::string> DatasetFiles::read(const nlohmann::json& record,
-                                              const std::string& file) {
-    if (record.contains("pack") && record["pack"].is_string()) {
-        return member(record["pack"].get<std::string>(), file);
-    }
+std::optional<std::string> DatasetFiles::read(const std::string& pack, const std::string& file) {
+    if (!pack.empty()) return member(pack, file);
     std::error_code ec;
     const fs::path p = dir_ / file;
     if (!fs::is_regular_file(p, ec)) return std::nullopt;

@@ -97,8 +97,12 @@ std::vector<PackSample> readPackSamples(const std::filesystem::path& tar);
 class DatasetFiles {
   public:
     explicit DatasetFiles(std::filesystem::path datasetDir) : dir_(std::move(datasetDir)) {}
-    // The file's bytes, or nullopt when there is no such file or member.
-    std::optional<std::string> read(const nlohmann::json& record, const std::string& file);
+    // The file's bytes, or nullopt when there is no such file or member: `file` is a path under
+    // the dataset directory, or with `pack` ("shards/000003.tar", a record's "pack") a member.
+    std::optional<std::string> read(const std::string& pack, const std::string& file);
+    std::optional<std::string> read(const nlohmann::json& record, const std::string& file) {
+        return read(record.value("pack", std::string()), file);
+    }
     // The same for an instance's file by its path in the instance directory ("views/000.png"),
     // unpacked at `instanceDir` (relative to the dataset) or packed as `id` in `tarPath`.
     std::optional<std::string> readInstanceFile(const std::string& id, const std::string& tarPath,
