@@ -415,8 +415,9 @@ ReferenceFiles compareWithReference(const fs::path& dir, const fs::path& file, c
             const std::string where = (dir / r.pack).string() + ": " + r.skeleton;
             const std::optional<std::string> bytes = packed.read(r.pack, r.skeleton);
             if (!bytes) {
-                throw DatasetStatsInputError(where + ": no such member; the manifest lists it as "
-                                                     "skeleton_ply");
+                throw DatasetStatsInputError(where +
+                                             ": no such member; the manifest lists it as "
+                                             "skeleton_ply");
             }
             poolReferenceValues(pooled[r.species], skeletonReferenceValuesOf(*bytes, where));
         }

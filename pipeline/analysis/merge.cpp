@@ -157,8 +157,8 @@ MergeSummary mergeShards(const MergeOptions& o) {
     // (contiguous blocks, see shardRange), so that is the merged order; each shard must record
     // exactly its block's hi - lo instances, and no id may appear twice.
     // A packed dataset's shards are blocks of whole tar shards (pack.h shardPositions).
-    const nlohmann::json outputs =
-        first.dataset.value("spec", nlohmann::json::object()).value("outputs", nlohmann::json::object());
+    const nlohmann::json outputs = first.dataset.value("spec", nlohmann::json::object())
+                                       .value("outputs", nlohmann::json::object());
     const int64_t perShard = outputs.value("pack", std::string("none")) == "tar"
                                  ? outputs.value("pack_instances", int64_t{256})
                                  : 0;
@@ -193,7 +193,8 @@ MergeSummary mergeShards(const MergeOptions& o) {
                 }
                 if (!r.pack.empty() ? !fs::is_regular_file(s->dir / r.pack)
                                     : !fs::is_directory(s->dir / r.dir)) {
-                    fail(where + ": " + (s->dir / (r.pack.empty() ? r.dir : fs::path(r.pack))).string() +
+                    fail(where + ": " +
+                         (s->dir / (r.pack.empty() ? r.dir : fs::path(r.pack))).string() +
                          " missing");
                 }
                 r.line = std::move(line);
@@ -267,7 +268,8 @@ MergeSummary mergeShards(const MergeOptions& o) {
             manifest += r.line;
             manifest += '\n';
         }
-        if (pack.packed()) writePackIndex(stage, first.dataset.value("name", ""), "", pack, 0, total);
+        if (pack.packed())
+            writePackIndex(stage, first.dataset.value("name", ""), "", pack, 0, total);
         writeFileAtomic(stage / manifestName(0, 1), manifest);
 
         // Species sheets as buildDataset's writeSpeciesSheets: per species in spec order, its

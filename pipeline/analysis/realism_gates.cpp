@@ -279,9 +279,9 @@ std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir)
         };
         if (const std::string skeleton = file("skeleton_ply"); !skeleton.empty()) {
             shapes[i].reference =
-                packs[i].empty() ? readSkeletonReferenceValues(datasetDir / skeleton)
-                                 : skeletonReferenceValuesOf(bytesOf(i, skeleton),
-                                                             packs[i] + ": " + skeleton);
+                packs[i].empty()
+                    ? readSkeletonReferenceValues(datasetDir / skeleton)
+                    : skeletonReferenceValuesOf(bytesOf(i, skeleton), packs[i] + ": " + skeleton);
         }
         const std::string transforms = file("transforms");
         if (transforms.empty()) continue;

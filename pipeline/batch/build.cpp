@@ -7,7 +7,6 @@
 #include <tbb/flow_graph.h>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
-#include <tbb/task_group.h>
 #include <tbb/version.h>
 #include <toml++/toml.h>
 #include <unistd.h>
@@ -16,9 +15,12 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <cstring>
+#include <deque>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -219,6 +221,53 @@ auto stageBody(F stage, StopState& stop) {
         return m;
     };
 }
+
+// Tar shards sealed one after another on a thread of their own, in the order queued: the work
+// is mostly I/O, so it overlaps the flow graph without taking one of its threads (and with
+// --threads 1 a TBB task could not run before the graph is done). The destructor waits for
+// the queue to empty.
+class Sealer {
+  public:
+    explicit Sealer(std::function<void(int64_t)> seal) : seal_(std::move(seal)) {
+        thread_ = std::thread([this] { run(); });
+    }
+    ~Sealer() {
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            closed_ = true;
+        }
+        wake_.notify_one();
+        thread_.join();
+    }
+    void push(int64_t shard) {
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            queue_.push_back(shard);
+        }
+        wake_.notify_one();
+    }
+
+  private:
+    void run() {
+        for (;;) {
+            int64_t shard = 0;
+            {
+                std::unique_lock<std::mutex> lock(mutex_);
+                wake_.wait(lock, [this] { return closed_ || !queue_.empty(); });
+                if (queue_.empty()) return;
+                shard = queue_.front();
+                queue_.pop_front();
+            }
+            seal_(shard);  // catches what it throws (noted as the build's stop)
+        }
+    }
+    std::function<void(int64_t)> seal_;
+    std::mutex mutex_;
+    std::condition_variable wake_;
+    std::deque<int64_t> queue_;
+    bool closed_ = false;
+    std::thread thread_;
+};
 
 // Per species, a sheet of the first views of its first K recorded instances
 // (contact/<species>.png; contact/<species>.shard-I-of-N.png for a shard, whose instances are
@@ -497,7 +546,7 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
     // background once every instance of it this run builds has finished, whatever the result.
     const InstanceSet doneBefore = done;
     std::map<int64_t, int64_t> unfinished;  // tar shard → its instances this run has yet to finish
-    tbb::task_group sealing;
+    std::optional<Sealer> sealing;
     auto seal = [&](int64_t k) {
         std::vector<int64_t> positions;
         const int64_t a = std::max(k * pack.perShard, lo),
@@ -529,7 +578,8 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
         }
         if (--it->second > 0) return;
         unfinished.erase(it);
-        sealing.run([&seal, k] { seal(k); });
+        if (!sealing) sealing.emplace(seal);
+        sealing->push(k);
     };
 
     // Two phases, in job order: the trees of the species, many in flight; then the plots, one
@@ -642,7 +692,7 @@ void buildShard(const DatasetSpec& spec, const BuildOptions& o, const DatasetIns
         g.wait_for_all();
     }
 
-    sealing.wait();
+    sealing.reset();  // every shard queued is sealed
     if (pack.packed() && !stop.requested) {
         // Failed instances' directories go; shards left unsealed (a killed run's) are sealed.
         removeStalePackFiles(o.out, instances, pack, lo, hi,

@@ -260,8 +260,8 @@ EstimateResult estimateDataset(const DatasetSpec& spec, const EstimateOptions& o
     r.out = o.out;
 
     const DatasetInstances instances(spec);
-    const auto [lo, hi] = shardPositions(instances.size(), o.shardIndex, o.shardCount,
-                                         spec.outputs.packInstances);
+    const auto [lo, hi] =
+        shardPositions(instances.size(), o.shardIndex, o.shardCount, spec.outputs.packInstances);
     const size_t rows = spec.species.size() + spec.plots.size();
 
     ScratchDir scratch(o.scratch);
@@ -293,9 +293,8 @@ EstimateResult estimateDataset(const DatasetSpec& spec, const EstimateOptions& o
                 shardPositions(instances.size(), s, o.shardCount, spec.outputs.packInstances);
             double cpu = 0;
             for (size_t k = 0; k < rows; ++k) {
-                cpu +=
-                    static_cast<double>(overlap(instances.speciesRange(k), a, b)) *
-                    r.rows[k].cpuSeconds;
+                cpu += static_cast<double>(overlap(instances.speciesRange(k), a, b)) *
+                       r.rows[k].cpuSeconds;
             }
             if (r.heaviestShard < 0 || cpu > r.heaviestShardCpuSeconds) {
                 r.heaviestShard = s;

@@ -1,6 +1,8 @@
 """A dataset directory written by ``sylva build``: dataset.json, the manifest, and per instance
-the files its manifest record names (docs/outputs.md)."""
+the files its manifest record names (docs/outputs.md) — files in the instance's directory, or
+members of a tar shard when the dataset is packed (the record's "pack")."""
 
+import io
 import json
 import os
 import re
@@ -13,6 +15,8 @@ from .las import read_las
 from .meshes import read_mesh
 from .ply import read_ply
 from .png import read_png
+from .shards import TarShards, member_name
+from .source import read_source
 
 __all__ = ["Dataset", "Instance", "Skeleton", "PointCloud", "Scan", "MESH_FORMATS"]
 
@@ -70,13 +74,91 @@ def _native(a, dtype):
     return np.ascontiguousarray(a, dtype=dtype)
 
 
+class _DirectoryFiles:
+    """An unpacked instance's files: names are paths relative to the dataset directory; a frame's
+    files are relative to its transforms.json's directory."""
+
+    def __init__(self, root):
+        self.root = root
+
+    def source(self, name):
+        return os.path.join(self.root, name)
+
+    def describe(self, name):
+        return os.path.join(self.root, name)
+
+    def sibling(self, of, name):
+        return os.path.join(os.path.dirname(of), name)
+
+
+class _TarFiles:
+    """A packed instance's files: names are members of its tar shard, and so are a frame's.
+    Until the shard holds them (the build is running, or was killed before it wrote the shard)
+    they are files in the instance's directory `staged`, whose transforms.json names its frames'
+    files by path: either is read from there."""
+
+    def __init__(self, shards, tar, key, staged):
+        self.shards, self.tar, self.key, self.staged = shards, tar, key, staged
+
+    def source(self, name):
+        try:
+            return self.shards.read(self.tar, name)
+        except (FileNotFoundError, KeyError):
+            path = self._staged_path(name)
+            if path is None:
+                raise
+            return path
+
+    def _staged_path(self, name):
+        if self.staged is None:
+            return None
+        path = os.path.join(self.staged, name)  # a staged transforms.json's frame path
+        if os.path.isfile(path):
+            return path
+        for dirpath, _, names in os.walk(self.staged):
+            for n in names:
+                p = os.path.join(dirpath, n)
+                if member_name(self.key, os.path.relpath(p, self.staged)) == name:
+                    return p
+        return None
+
+    def describe(self, name):
+        return "%s:%s" % (self.shards.path(self.tar), name)
+
+    def sibling(self, of, name):
+        return name
+
+
+class _SampleFiles:
+    """A streamed sample's files: {member name: bytes} (sylva_dataset.iter_shard); a frame's files
+    are members too."""
+
+    def __init__(self, members, where):
+        self.members, self.where = members, where
+
+    def source(self, name):
+        if name not in self.members:
+            raise KeyError("%s: sample has no member %r (it has %s)"
+                           % (self.where, name, ", ".join(sorted(self.members))))
+        return self.members[name]
+
+    def describe(self, name):
+        return "%s:%s" % (self.where, name)
+
+    def sibling(self, of, name):
+        return name
+
+
 class Instance:
     """One instance of a dataset — a tree, or a plot (kind "plot") — its manifest record and
-    readers for its files."""
+    readers for its files, from its directory or, when the record has "pack", from the members of
+    that tar shard (shards: the sylva_dataset.shards.TarShards that reads them; Dataset passes its
+    own, shared by its instances)."""
 
-    def __init__(self, dataset_dir, record):
+    def __init__(self, dataset_dir, record, shards=None):
         self.root = dataset_dir
         self.record = record
+        self.pack = record.get("pack")  # "shards/000003.tar" when packed, else None
         self.id = record.get("id")
         self.kind = record.get("kind", "tree")  # "tree" or "plot"
         self.species = record.get("species")   # a tree's species; None for a plot
@@ -87,29 +169,78 @@ class Instance:
         self.params = record.get("params", {})
         self.sweep = record.get("sweep", {})
         self.files = record.get("files", {})
+        if self.pack is None:
+            self._files = _DirectoryFiles(dataset_dir)
+        else:
+            self._files = _TarFiles(shards or TarShards(dataset_dir), self.pack, self.id,
+                                    self._directory())
+
+    @classmethod
+    def from_sample(cls, key, members, where="<sample>"):
+        """The instance of a sample streamed from a tar shard: key, {member name: bytes} as
+        sylva_dataset.iter_shard yields them; its record is the member <key>.json. where: what
+        error messages call the sample's source (its tar)."""
+        name = key + ".json"
+        if name not in members:
+            raise KeyError("%s: sample %r has no %s member (the instance's record)"
+                           % (where, key, name))
+        inst = cls(None, json.loads(members[name].decode("utf-8")))
+        inst._files = _SampleFiles(members, where)
+        return inst
 
     def __repr__(self):
         if self.kind == "plot":
             return "Instance(%r, plot=%r)" % (self.id, self.plot)
         return "Instance(%r, species=%r)" % (self.id, self.species)
 
-    def path(self, key):
-        """Absolute path of the file named by the record's files[key] (KeyError if absent)."""
+    def _name(self, key):
         if key not in self.files:
             raise KeyError("%s: the manifest record has no %r file (it has %s)"
                            % (self.id, key, ", ".join(sorted(self.files)) or "none"))
-        return os.path.join(self.root, self.files[key])
+        return self.files[key]
+
+    def path(self, key):
+        """Absolute path of the file named by the record's files[key] (KeyError if absent). A
+        packed instance has no files of its own: read_bytes(key) reads its tar member."""
+        name = self._name(key)
+        if self.pack is not None or self.root is None:
+            raise ValueError("%s: packed (%s): files[%r] is the tar member %r, not a file; "
+                             "read_bytes(%r) reads it" % (self.id, self.pack, key, name, key))
+        return os.path.join(self.root, name)
+
+    def read_bytes(self, key):
+        """The bytes of the file named by files[key]: the file, or the packed instance's member."""
+        name = self._name(key)
+        return read_source(self._files.source(name), self._files.describe(name))[0]
+
+    def _source(self, key):
+        """(path or bytes, name for messages) of files[key]."""
+        name = self._name(key)
+        return self._files.source(name), self._files.describe(name)
+
+    def _frame_source(self, name):
+        """(path or bytes, name for messages) of a file a transforms.json frame names."""
+        name = self._files.sibling(self._name("transforms"), name)
+        return self._files.source(name), self._files.describe(name)
 
     @property
     def dir(self):
-        """The instance directory: trees/<species>/<id>, or plots/<plot>/<id> for a plot."""
+        """The instance directory: trees/<species>/<id>, or plots/<plot>/<id> for a plot; None
+        for a packed instance (its files are members of the tar shard `pack`)."""
+        if self.pack is not None or self.root is None:
+            return None
+        return self._directory()
+
+    def _directory(self):
+        if self.root is None:
+            return None
         if self.kind == "plot":
-            return os.path.join(self.root, "plots", self.plot, self.id)
-        return os.path.join(self.root, "trees", self.species, self.id)
+            return os.path.join(self.root, "plots", self.plot or "", self.id)
+        return os.path.join(self.root, "trees", self.species or "", self.id)
 
     def skeleton(self):
         """The skeleton graph from skeleton.ply (see Skeleton)."""
-        ply = read_ply(self.path("skeleton_ply"))
+        ply = read_ply(*self._source("skeleton_ply"))
         v, e = ply["vertex"], ply.get("edge")
         n = len(v)
         edges = (np.stack([e["vertex1"], e["vertex2"]], axis=1) if e is not None and len(e)
@@ -144,94 +275,104 @@ class Instance:
             fmt = have[0]
         if fmt not in MESH_FORMATS:
             raise ValueError("mesh format %r: expected one of %s" % (fmt, ", ".join(MESH_FORMATS)))
-        return read_mesh(self.path("%s_%s" % (kind, fmt)))
+        source, name = self._source("%s_%s" % (kind, fmt))
+        return read_mesh(source, fmt, name)
 
     def points(self):
         """The labelled point cloud (points.ply; see PointCloud)."""
-        v = read_ply(self.path("points_ply"))["vertex"]
+        v = read_ply(*self._source("points_ply"))["vertex"]
         return PointCloud(_native(np.stack([v["x"], v["y"], v["z"]], axis=1), np.float32),
                           _native(v["label"], np.int64), _native(v["view"], np.int64), v)
 
     def scan(self):
         """The simulated laser scan (scan.las; see Scan)."""
-        las = read_las(self.path("scan_las"))
+        las = read_las(*self._source("scan_las"))
         f = las.fields
         return Scan(las.positions, f["classification"], f["treeID"], f["treeSP"],
                     f["semantic_seg"], f["return_number"], f["number_of_returns"],
                     f["intensity"], f["gps_time"], f["branch_order"], f["node_id"], las)
 
     def cameras(self):
-        """transforms.json: intrinsics and one frame (camera-to-world matrix, files) per view."""
-        with open(self.path("transforms")) as f:
-            return json.load(f)
+        """transforms.json: intrinsics and one frame (camera-to-world matrix, files) per view. In
+        a tar shard its frames name their files by member name (ID.views.000.png)."""
+        return json.loads(self.read_bytes("transforms").decode("utf-8"))
 
-    def _frame_files(self, key):
-        cams = self.cameras()
-        base = os.path.dirname(self.path("transforms"))
-        return [os.path.join(base, fr[key]) for fr in cams.get("frames", []) if key in fr]
+    # One frame's files (ViewDataset reads views one at a time through these).
+
+    def _frame_mask(self, frame):
+        return read_png(*self._frame_source(frame.get("mask_path", frame["file_path"])))
+
+    def _frame_rgb(self, frame):
+        """The colour picture, or None when file_path is the silhouette (no colour pictures)."""
+        path = frame.get("file_path")
+        if path is None or path == frame.get("mask_path", path):
+            return None
+        return read_colour(*self._frame_source(path))
+
+    def _frame_labels(self, frame):
+        return read_png(*self._frame_source(frame["label_file_path"]))
+
+    def _frame_depth(self, frame):
+        return read_exr_first_channel(*self._frame_source(frame["depth_file_path"]))
 
     def masks(self):
         """The view silhouettes, in frame order: (H, W) uint8, 0 background, 255 tree (each
         frame's mask_path; file_path in datasets written before colour pictures)."""
-        cams = self.cameras()
-        base = os.path.dirname(self.path("transforms"))
-        return [read_png(os.path.join(base, fr.get("mask_path", fr["file_path"])))
-                for fr in cams.get("frames", []) if "file_path" in fr or "mask_path" in fr]
+        return [self._frame_mask(fr) for fr in self.cameras().get("frames", [])
+                if "file_path" in fr or "mask_path" in fr]
 
     def rgb(self):
         """The colour pictures ([views] colour), in frame order: (H, W, 4) uint8 sRGB with
         straight alpha from the PNGs, (H, W, 3) from JPEGs (read through Pillow or OpenCV, one of
         which must be installed); [] when the dataset has none."""
-        cams = self.cameras()
-        base = os.path.dirname(self.path("transforms"))
-        out = []
-        for fr in cams.get("frames", []):
-            if "file_path" not in fr or fr["file_path"] == fr.get("mask_path", fr["file_path"]):
-                continue  # file_path is the silhouette: no colour picture
-            out.append(read_colour(os.path.join(base, fr["file_path"])))
-        return out
+        pictures = (self._frame_rgb(fr) for fr in self.cameras().get("frames", []))
+        return [p for p in pictures if p is not None]
 
     def labels(self):
         """The label views, in frame order: (H, W) uint8, 0 background, 1 + branch order for the
         shoot's wood (at most 253), 254 root wood, 255 leaves."""
-        return [read_png(p) for p in self._frame_files("label_file_path")]
+        return [self._frame_labels(fr) for fr in self.cameras().get("frames", [])
+                if "label_file_path" in fr]
 
     def depths(self):
         """The depth views, in frame order: (H, W) float32 metres along the view axis (z-depth),
         0 = background. Read from each frame's depth_file_path EXR (its first channel, whatever its
         name); a dataset with 16-bit depth PNGs only (instant-ngp's depth_path) gives value ×
         integer_depth_scale instead, quantised to that scale."""
-        exrs = self._frame_files("depth_file_path")
-        if exrs:
-            return [read_exr_first_channel(p) for p in exrs]
-        pngs = self._frame_files("depth_path")
+        cams = self.cameras()
+        frames = cams.get("frames", [])
+        if any("depth_file_path" in fr for fr in frames):
+            return [self._frame_depth(fr) for fr in frames if "depth_file_path" in fr]
+        pngs = [fr["depth_path"] for fr in frames if "depth_path" in fr]
         if not pngs:
             return []
-        scale = self.cameras().get("integer_depth_scale")
+        scale = cams.get("integer_depth_scale")
         if not scale or scale <= 0:
             raise ValueError("%s: depth PNGs without a positive integer_depth_scale in "
                              "transforms.json" % self.id)
-        return [(read_png(p).astype(np.float64) * scale).astype(np.float32) for p in pngs]
+        return [(read_png(*self._frame_source(p)).astype(np.float64) * scale).astype(np.float32)
+                for p in pngs]
 
 
-def read_colour(path):
-    """A colour picture: an RGBA PNG (H, W, 4) by the package's decoder, a JPEG (H, W, 3) by
-    Pillow or OpenCV."""
-    if path.lower().endswith(".png"):
-        return read_png(path)
+def read_colour(source, name=None):
+    """A colour picture (a path or the file's bytes): an RGBA PNG (H, W, 4) by the package's
+    decoder, a JPEG (H, W, 3) by Pillow or OpenCV."""
+    data, name = read_source(source, name)
+    if data.startswith(b"\x89PNG\r\n\x1a\n"):
+        return read_png(data, name)
     try:
         from PIL import Image
-        with Image.open(path) as im:
+        with Image.open(io.BytesIO(data)) as im:
             return np.asarray(im.convert("RGB"), np.uint8)
     except ImportError:
         pass
     try:
         import cv2
     except ImportError as e:
-        raise ImportError("%s: reading JPEG colour pictures needs Pillow or OpenCV" % path) from e
-    img = cv2.imread(path, cv2.IMREAD_COLOR)
+        raise ImportError("%s: reading JPEG colour pictures needs Pillow or OpenCV" % name) from e
+    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
     if img is None:
-        raise ValueError("%s: not a readable JPEG" % path)
+        raise ValueError("%s: not a readable JPEG" % name)
     return img[:, :, ::-1].copy()
 
 
@@ -274,6 +415,16 @@ class Dataset:
                     except ValueError:
                         self.skipped_lines += 1
         self._by_id = {r.get("id"): i for i, r in enumerate(self.records)}
+        self.shards = TarShards(self.root)  # member indexes and open files of the tar shards
+
+    @property
+    def packed(self):
+        """True when some instance is packed in a tar shard ([outputs] pack = "tar")."""
+        return any("pack" in r for r in self.records)
+
+    def instance(self, record):
+        """The Instance of a manifest record (a packed one reads through self.shards)."""
+        return Instance(self.root, record, self.shards)
 
     def __repr__(self):
         return "Dataset(%r, %d instances)" % (self.root, len(self))
@@ -283,12 +434,12 @@ class Dataset:
 
     def __iter__(self):
         for r in self.records:
-            yield Instance(self.root, r)
+            yield self.instance(r)
 
     def __getitem__(self, key):
         if isinstance(key, str):
-            return Instance(self.root, self.records[self._by_id[key]])
-        return Instance(self.root, self.records[key])
+            return self.instance(self.records[self._by_id[key]])
+        return self.instance(self.records[key])
 
     @property
     def species(self):
@@ -310,4 +461,4 @@ class Dataset:
         return seen
 
     def by_species(self, name):
-        return [Instance(self.root, r) for r in self.records if r.get("species") == name]
+        return [self.instance(r) for r in self.records if r.get("species") == name]

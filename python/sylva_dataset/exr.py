@@ -8,13 +8,18 @@ number of channels, any data window. The layout is the one in OpenEXR's "OpenEXR
 document: magic number, version, header attributes, line offset table, then chunks of
 (y, data size, data), each scanline holding the channels in name order. For anything else (tiled,
 multi-part, deep, PIZ/PXR24/B44/DWA compression, subsampled channels) read_exr falls back on
-OpenImageIO's Python module when it is importable (Debian: python3-openimageio).
+OpenImageIO's Python module when it is importable (Debian: python3-openimageio). Every reader
+takes a path or the file's bytes (a tar shard's member).
 """
 
+import os
 import struct
+import tempfile
 import zlib
 
 import numpy as np
+
+from .source import read_source
 
 __all__ = ["read_exr", "read_exr_first_channel"]
 
@@ -150,10 +155,20 @@ def _read_native(path, data):
             for (name, _, _, _), plane in zip(channels, planes)}
 
 
-def _read_oiio(path):
+def _read_oiio(source, path):
     import OpenImageIO as oiio  # noqa: N813 (the module's own name)
 
-    inp = oiio.ImageInput.open(path)
+    if isinstance(source, (bytes, bytearray, memoryview)):
+        # OpenImageIO's Python module opens files only: bytes (a tar member) go through a
+        # temporary file, for the layouts the native decoder above does not read.
+        fd, tmp = tempfile.mkstemp(suffix=".exr")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                f.write(source)
+            return _read_oiio(tmp, path)
+        finally:
+            os.unlink(tmp)
+    inp = oiio.ImageInput.open(source)
     if inp is None:
         raise ValueError("%s: OpenImageIO: %s" % (path, oiio.geterror()))
     try:
@@ -166,27 +181,27 @@ def _read_oiio(path):
             for c, name in enumerate(spec.channelnames)}
 
 
-def read_exr(path):
+def read_exr(source, name=None):
     """Reads an OpenEXR image into {channel name: (H, W) array}, channels in the file's order
     (OpenEXR stores them sorted by name). FLOAT channels come back as float32, HALF as float16,
     UINT as uint32, all native byte order. Files this reader does not decode go through
-    OpenImageIO (as float32) when its Python module is importable."""
-    with open(path, "rb") as f:
-        data = f.read()
+    OpenImageIO (as float32) when its Python module is importable. source: a path or the file's
+    bytes; name: what error messages call it."""
+    data, path = read_source(source, name)
     try:
         return _read_native(path, data)
     except UnsupportedExr:
         try:
-            return _read_oiio(path)
+            return _read_oiio(source, path)
         except ImportError:
             raise UnsupportedExr("%s: not a layout sylva_dataset decodes, and OpenImageIO's Python "
                                  "module is not installed (Debian: python3-openimageio)" % path)
 
 
-def read_exr_first_channel(path):
-    """The first channel of an EXR file, whatever its name, as a float32 (H, W) array. sylva's
-    depth maps have exactly one channel."""
-    channels = read_exr(path)
+def read_exr_first_channel(source, name=None):
+    """The first channel of an EXR file (a path or its bytes), whatever its name, as a float32
+    (H, W) array. sylva's depth maps have exactly one channel."""
+    channels = read_exr(source, name)
     if not channels:
-        raise ValueError("%s: EXR file has no channels" % path)
+        raise ValueError("%s: EXR file has no channels" % (name or source))
     return np.asarray(next(iter(channels.values())), np.float32)

@@ -10,6 +10,8 @@ import struct
 
 import numpy as np
 
+from .source import read_source
+
 __all__ = ["read_las", "LasFile"]
 
 # LAS 1.4 R15, Table 24: Extra Bytes data types 1–10 (0 = undocumented bytes, `options` long).
@@ -67,10 +69,10 @@ def _extra_descriptors(payload):
     return out
 
 
-def read_las(path):
-    """Reads a LAS 1.4 file of point format 6, 7 or 8 (see LasFile)."""
-    with open(path, "rb") as f:
-        data = f.read()
+def read_las(source, name=None):
+    """Reads a LAS 1.4 file of point format 6, 7 or 8 (see LasFile). source: a path or the
+    file's bytes; name: what error messages call it."""
+    data, path = read_source(source, name)
     if len(data) < 375 or data[:4] != b"LASF":
         raise ValueError("%s: not a LAS file" % path)
     major, minor = data[24], data[25]

@@ -8,16 +8,19 @@ the same Mesh of plain numpy arrays.
 - OBJ: "o wood" / "o leaves" objects of v, vt, vn and f a/a/a lines (1-based, global indices).
 
 Parts follow the PLY convention everywhere: 0 wood, 1 leaves (GLB: the mesh named "leaves";
-OBJ: the object named "leaves").
+OBJ: the object named "leaves"). Every reader takes a path or the file's bytes (a tar shard's
+member); the OBJ reader does not read the MTL its mtllib names.
 """
 
 import json
+import os
 import struct
 from collections import namedtuple
 
 import numpy as np
 
 from .ply import read_ply
+from .source import read_source
 
 __all__ = ["Mesh", "read_mesh", "read_mesh_ply", "read_glb", "read_obj"]
 
@@ -46,8 +49,8 @@ def _i64(a):
     return np.ascontiguousarray(a, dtype=np.int64)
 
 
-def read_mesh_ply(path):
-    ply = read_ply(path)
+def read_mesh_ply(source, name=None):
+    ply = read_ply(source, name)
     v = ply["vertex"]
     names = v.dtype.names
     faces = ply["face"]["vertex_indices"] if "face" in ply else np.zeros((0, 3), np.int64)
@@ -133,11 +136,12 @@ def _node_matrix(node):
     return m
 
 
-def read_glb(path):
+def read_glb(source, name=None):
     """Reads the triangle primitives of a GLB's default scene (node transforms applied) into one
-    Mesh, in node order; vertex arrays missing from some primitive are None."""
-    with open(path, "rb") as f:
-        gltf, binary = _glb_chunks(f.read(), path)
+    Mesh, in node order; vertex arrays missing from some primitive are None. source: a path or
+    the file's bytes; name: what error messages call it."""
+    data, path = read_source(source, name)
+    gltf, binary = _glb_chunks(data, path)
     scenes = gltf.get("scenes", [])
     roots = scenes[gltf.get("scene", 0)].get("nodes", []) if scenes else range(len(gltf.get("nodes", [])))
     parts = []
@@ -204,20 +208,21 @@ def _concatenate(parts):
 # --- OBJ ------------------------------------------------------------------------------------------
 
 
-def read_obj(path):
+def read_obj(source, name=None):
     """Reads a Wavefront OBJ's v / vt / vn / f lines into a Mesh. Polygons are split into
     triangle fans. Normals and UVs are per vertex when every face corner uses the same UV and
     normal for the same position (as sylva writes, f a/a/a); otherwise they are None. The part
-    of each vertex is 1 under an object or group named "leaves", else 0."""
+    of each vertex is 1 under an object or group named "leaves", else 0. source: a path or the
+    file's bytes (UTF-8); name: what error messages call it."""
+    data, _ = read_source(source, name)
     lines = {"v": [], "vt": [], "vn": [], "f": []}
     part_starts = []  # (index of the first vertex after an o/g line, part)
-    with open(path, encoding="utf-8") as f:
-        for line in f:
-            tag, _, rest = line.strip().partition(" ")
-            if tag in lines:
-                lines[tag].append(rest)
-            elif tag in ("o", "g"):
-                part_starts.append((len(lines["v"]), 1 if rest.split()[:1] == ["leaves"] else 0))
+    for line in data.decode("utf-8").splitlines():
+        tag, _, rest = line.strip().partition(" ")
+        if tag in lines:
+            lines[tag].append(rest)
+        elif tag in ("o", "g"):
+            part_starts.append((len(lines["v"]), 1 if rest.split()[:1] == ["leaves"] else 0))
     positions = _f32(_obj_numbers(lines["v"], 3), 3)
     part = np.zeros(len(positions), np.int64)
     for start, p in part_starts:
@@ -271,10 +276,14 @@ def _obj_index(s, count):
     return i - 1 if i > 0 else count + i  # 1-based, or negative = relative to the end
 
 
-def read_mesh(path):
-    """A Mesh from a .ply, .glb or .obj file, by its extension."""
-    ext = path.rsplit(".", 1)[-1].lower()
+def read_mesh(source, fmt=None, name=None):
+    """A Mesh from a .ply, .glb or .obj file. source: a path or the file's bytes; fmt: "ply",
+    "glb" or "obj", by default the extension of `name` or of the path (a member name such as
+    ID.mesh.glb has one too)."""
+    what = name or ("<bytes>" if isinstance(source, (bytes, bytearray, memoryview))
+                    else os.fspath(source))
+    ext = (fmt or what.rsplit(".", 1)[-1]).lower()
     readers = {"ply": read_mesh_ply, "glb": read_glb, "obj": read_obj}
     if ext not in readers:
-        raise ValueError("%s: unknown mesh format %r (ply, glb, obj)" % (path, ext))
-    return readers[ext](path)
+        raise ValueError("%s: unknown mesh format %r (ply, glb, obj)" % (what, ext))
+    return readers[ext](source, name)

@@ -2,6 +2,8 @@
 
 import numpy as np
 
+from .source import read_source
+
 __all__ = ["read_ply"]
 
 
@@ -37,11 +39,14 @@ def _ply_header(data):
     return ("<" if fmt == "binary_little_endian" else ">"), elements, body
 
 
-def read_ply(path):
-    """Reads a binary PLY file into {element name: numpy structured array}."""
-    with open(path, "rb") as f:
-        data = f.read()
-    bo, elements, pos = _ply_header(data)
+def read_ply(source, name=None):
+    """Reads a binary PLY file into {element name: numpy structured array}. source: a path or
+    the file's bytes; name: what error messages call it."""
+    data, path = read_source(source, name)
+    try:
+        bo, elements, pos = _ply_header(data)
+    except ValueError as e:
+        raise ValueError("%s: %s" % (path, e)) from None
     out = {}
     for name, count, props in elements:
         lists = [p for p in props if isinstance(p[1], tuple)]

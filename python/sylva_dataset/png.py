@@ -6,17 +6,19 @@ import zlib
 
 import numpy as np
 
+from .source import read_source
+
 __all__ = ["read_png"]
 
 
 _PNG_CHANNELS = {0: 1, 2: 3, 4: 2, 6: 4}
 
 
-def read_png(path):
+def read_png(source, name=None):
     """Decodes a non-interlaced PNG (grey, grey+alpha, RGB, RGBA; 8 or 16 bits per sample) to a
-    uint8 or uint16 array: (H, W) for grey, (H, W, C) otherwise."""
-    with open(path, "rb") as f:
-        data = f.read()
+    uint8 or uint16 array: (H, W) for grey, (H, W, C) otherwise. source: a path or the file's
+    bytes; name: what error messages call it."""
+    data, path = read_source(source, name)
     if data[:8] != b"\x89PNG\r\n\x1a\n":
         raise ValueError("%s: not a PNG file" % path)
     pos, idat, hdr = 8, [], None
