@@ -215,7 +215,15 @@ void sealPackShard(const fs::path& out, const DatasetInstances& instances, const
         const fs::path dir = out / instanceDir(job);
         nlohmann::json members = nlohmann::json::array();
         std::error_code ec;
-        if (fs::is_directory(dir, ec)) {
+        if (auto it = old.find(job.id); it != old.end()) {
+            // The shard already holds it: a run killed while removing the packed directories
+            // may have left this one partly removed, so the tar's copy is the one to keep.
+            for (const TarMember& from : it->second.members) {
+                const TarMember m = writer.add(from.name, readTarMember(tar, from));
+                members.push_back({m.name, m.offset, m.size});
+            }
+            if (fs::exists(dir, ec)) packedDirs.push_back(dir);
+        } else if (fs::is_directory(dir, ec)) {
             const std::vector<std::string> files = filesUnder(dir);
             const std::set<std::string> fileSet(files.begin(), files.end());
             std::vector<std::pair<std::string, std::string>> named;
@@ -230,11 +238,6 @@ void sealPackShard(const fs::path& out, const DatasetInstances& instances, const
                 members.push_back({m.name, m.offset, m.size});
             }
             packedDirs.push_back(dir);
-        } else if (auto it = old.find(job.id); it != old.end()) {
-            for (const TarMember& from : it->second.members) {
-                const TarMember m = writer.add(from.name, readTarMember(tar, from));
-                members.push_back({m.name, m.offset, m.size});
-            }
         } else {
             std::fprintf(stderr,
                          "sylva: %s: recorded, but neither %s nor %s holds it (rebuild it: "

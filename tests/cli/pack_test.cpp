@@ -123,6 +123,16 @@ TEST(CliPack, SameShardsOnAnyThreadCountShardingAndAfterAKill) {
     buildOk(kPacked, t / "resumed", t.path());
     expectSameShards(ref, t / "resumed", "killed and rerun");
     EXPECT_FALSE(fs::exists(t / "resumed" / "trees"));
+
+    // A kill while the sealed shard's directories were being removed leaves one partly there:
+    // the rerun keeps the shard's copy of that instance, and removes the rest.
+    const std::string id = records(ref / "manifest.jsonl")[2]["id"];
+    const fs::path partial = t / "resumed" / "trees" / "tiny" / id;
+    fs::create_directories(partial / "views");
+    std::ofstream(partial / "views" / "000.png") << "half";
+    buildOk(kPacked, t / "resumed", t.path());
+    expectSameShards(ref, t / "resumed", "rerun over a partly removed directory");
+    EXPECT_FALSE(fs::exists(partial));
 }
 
 TEST(CliPack, GnuTarReadsTheMembersAndTheyAreTheUnpackedFiles) {
