@@ -181,6 +181,42 @@ ManifestRead readManifests(const fs::path& dir) {
     return out;
 }
 
+ManifestStream forEachManifestRecord(const fs::path& dir,
+                                     const std::function<void(ManifestRecord&)>& f) {
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) throw InputError(dir.string() + ": not a directory");
+    const std::vector<fs::path> files = manifestFiles(dir);
+    if (files.empty()) {
+        throw InputError(dir.string() +
+                         ": no manifest.jsonl or manifest.shard-*.jsonl (not a dataset "
+                         "directory)");
+    }
+    ManifestStream out;
+    // A directory holding a whole manifest beside shard manifests (a merge done in place) has
+    // each record twice: only then are ids remembered, to count each once.
+    const bool overlapping = files.size() > 1 && files.front().filename() == "manifest.jsonl";
+    std::unordered_set<std::string> seen;
+    for (const fs::path& file : files) {
+        out.files.push_back(file.filename().string());
+        InputFile in(file);
+        std::string line;
+        for (InputFile::Line got;
+             (got = in.next(line, kMaxManifestLineBytes)) != InputFile::Line::end;) {
+            if (got == InputFile::Line::torn) {
+                ++out.tornLines;
+                break;
+            }
+            if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+            ManifestRecord r =
+                parseManifestRecord(line, file.string() + ":" + std::to_string(in.lineNumber()));
+            if (overlapping && !seen.insert(r.id).second) continue;
+            ++out.records;
+            f(r);
+        }
+    }
+    return out;
+}
+
 json readDatasetJsonFile(const fs::path& file) {
     const std::string where = file.string();
     bool tooDeep = false;

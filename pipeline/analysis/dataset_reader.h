@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -58,6 +59,18 @@ struct ManifestRead {
 // kMaxManifestLineBytes). InputError when there is no manifest or a complete line is not a
 // record; a torn last line is counted, not an error.
 ManifestRead readManifests(const std::filesystem::path& dir);
+
+// The same records one at a time, for readers whose memory must not grow with the manifests'
+// length (`sylva stats`): `f` sees each checked record in file order. Shard manifests are
+// disjoint; only where a whole manifest lies beside them (a merge done in place) are the ids
+// kept, to see each record once.
+struct ManifestStream {
+    std::vector<std::string> files;  // the manifests read, by file name
+    size_t tornLines = 0;
+    size_t records = 0;
+};
+ManifestStream forEachManifestRecord(const std::filesystem::path& dir,
+                                     const std::function<void(ManifestRecord&)>& f);
 
 // The dataset's description: dataset.json, or where shards were built into one directory,
 // every dataset.shard-I-of-N.json (the first by (N, I) returned, the others checked). A regular

@@ -1,6 +1,7 @@
 #include "pipeline/analysis/dataset_stats.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -14,6 +15,7 @@
 
 #include "core/input_file.h"
 #include "pipeline/analysis/dataset_reader.h"
+#include "pipeline/analysis/quantile_sketch.h"
 #include "pipeline/batch/output_lock.h"
 #include "pipeline/batch/pack.h"
 #include "pipeline/formats/atomic_file.h"
@@ -393,70 +395,58 @@ nlohmann::json optJson(const std::optional<double>& x) {
     return x ? nlohmann::json(*x) : nlohmann::json(nullptr);
 }
 
-// Every species' reference distributions pooled over its instances' skeletons, against the
-// reference: fills res.reference and returns the text of reference.csv and reference.json and
-// the lines of the printed summary. Bad input (a listed skeleton missing or malformed, no
-// skeleton at all) throws before anything is written.
+// Per species, the reference distributions pooled over its instances' skeletons, streamed.
+struct ReferencePool {
+    std::array<QuantileSketch, kReferenceDistributions> values;
+    size_t instances = 0;
+};
+
 struct ReferenceFiles {
     std::string csv, json, summary;
 };
-ReferenceFiles compareWithReference(const fs::path& dir, const fs::path& file, const Reference& ref,
-                                    const std::vector<Record>& records, DatasetStatsResult& res) {
-    std::map<std::string, ReferenceValues> pooled;
-    std::map<std::string, size_t> read;
-    DatasetFiles packed(dir);
-    std::map<std::string, std::string> habit;
-    for (const Record& r : records) {
-        if (!habit.count(r.species)) habit[r.species] = r.habit;
-        if (r.skeleton.empty()) continue;
-        if (r.pack.empty()) {
-            poolReferenceValues(pooled[r.species], readSkeletonReferenceValues(dir / r.skeleton));
-        } else {
-            const std::string where = (dir / r.pack).string() + ": " + r.skeleton;
-            const std::optional<std::string> bytes = packed.read(r.pack, r.skeleton);
-            if (!bytes) {
-                throw DatasetStatsInputError(where +
-                                             ": no such member; the manifest lists it as "
-                                             "skeleton_ply");
-            }
-            poolReferenceValues(pooled[r.species], skeletonReferenceValuesOf(*bytes, where));
-        }
-        ++read[r.species];
-    }
-    if (read.empty()) {
-        throw DatasetStatsInputError(dir.string() +
-                                     ": --reference needs the instances' skeleton.ply, and the "
-                                     "manifest lists none (outputs.skeleton = [\"ply\"])");
-    }
-
+ReferenceFiles compareWithReference(const fs::path& file, const Reference& ref,
+                                    std::map<std::string, ReferencePool>& pooled,
+                                    const std::map<std::string, std::string>& habit,
+                                    DatasetStatsResult& res) {
     ReferenceFiles f;
     f.csv = "species,habit,distribution,instances,n,d,median,reference_n,reference_median\n";
     nlohmann::json j;
     j["reference"] = {{"file", file.string()}, {"name", ref.name}};
     j["d"] =
         "sup |F_species - F_reference|: F_species linear between the pooled values' order "
-        "statistics (type 7), F_reference linear between the reference's quantiles";
+        "statistics (type 7; from a KLL sketch's 1001 quantiles above 2048 values), "
+        "F_reference linear between the reference's quantiles";
     j["species"] = nlohmann::json::object();
     f.summary = "reference " + ref.name + ": KS distance D per species and distribution\n";
     for (const std::string& sp : res.species) {
         nlohmann::json dj = nlohmann::json::object();
         std::string line = "  " + sp + ":";
+        ReferencePool& pool = pooled[sp];
         for (int k = 0; k < kReferenceDistributions; ++k) {
             const std::string name = kReferenceDistributionNames[k];
             auto it = ref.distributions.find(name);
             if (it == ref.distributions.end()) continue;
-            std::vector<double> v = pooled[sp][k];
-            std::sort(v.begin(), v.end());
+            const QuantileSketch& sk = pool.values[k];
             DatasetStatsResult::ReferenceComparison c;
-            c.instances = read[sp];
-            c.n = v.size();
-            if (!v.empty()) {
+            c.instances = pool.instances;
+            c.n = sk.count();
+            if (sk.count() > 0 && sk.exact()) {
+                const std::vector<double> v = sk.sortedValues();
                 c.d = referenceDistance(v, it->second.table);
                 c.median = quantileType7(v, 0.5);
+            } else if (sk.count() > 0) {
+                QuantileTable t;
+                for (int i = 0; i <= 1000; ++i) {
+                    t.p.push_back(i / 1000.0);
+                    t.q.push_back(sk.quantile(i / 1000.0));
+                }
+                c.d = ksDistance(t, it->second.table);
+                c.median = sk.quantile(0.5);
             }
             res.reference[sp][name] = c;
             const double refMedian = quantileTableQuantile(it->second.table, 0.5);
-            f.csv += csvField(sp) + "," + csvField(habit[sp]) + "," + name + "," +
+            const std::string h = habit.count(sp) ? habit.at(sp) : std::string();
+            f.csv += csvField(sp) + "," + csvField(h) + "," + name + "," +
                      std::to_string(c.instances) + "," + std::to_string(c.n) + "," + num(c.d) +
                      "," + num(c.median) + "," + std::to_string(it->second.n) + "," +
                      num(refMedian) + "\n";
@@ -470,11 +460,40 @@ ReferenceFiles compareWithReference(const fs::path& dir, const fs::path& file, c
                           c.d ? num(std::round(*c.d * 100) / 100).c_str() : "-");
             line += buf;
         }
-        j["species"][sp] = {{"habit", habit[sp]}, {"instances", read[sp]}, {"distributions", dj}};
+        j["species"][sp] = {{"habit", habit.count(sp) ? habit.at(sp) : std::string()},
+                            {"instances", pool.instances},
+                            {"distributions", dj}};
         f.summary += line + "\n";
     }
     f.json = j.dump(2) + "\n";
     return f;
+}
+
+// A stream's summary as the tables print it: exact from the sorted values (as before sketches),
+// from the sketch above QuantileSketch::kExact values.
+MetricSummary summarize(const QuantileSketch& s) {
+    if (s.exact()) return sylva::summarize(s.sortedValues());
+    MetricSummary m;
+    m.count = s.count();
+    m.mean = s.mean();
+    m.sd = s.sd();
+    if (m.sd && m.mean != 0) m.cv = *m.sd / std::fabs(m.mean);
+    m.q05 = s.quantile(0.05);
+    m.q25 = s.quantile(0.25);
+    m.q50 = s.quantile(0.50);
+    m.q75 = s.quantile(0.75);
+    m.q95 = s.quantile(0.95);
+    return m;
+}
+
+// A sketch per stream, seeded by its name so that one manifest always gives the same files.
+QuantileSketch& stream(std::map<std::string, QuantileSketch>& m, const std::string& name,
+                       const std::string& owner) {
+    auto it = m.find(name);
+    if (it == m.end()) {
+        it = m.emplace(name, QuantileSketch(std::hash<std::string>{}(owner + "/" + name))).first;
+    }
+    return it->second;
 }
 
 }  // namespace
@@ -488,65 +507,104 @@ DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOp
     OutputLock lock(dir, "sylva stats");
     std::optional<Reference> reference;
     if (!options.reference.empty()) reference = readReference(options.reference);
-    // The manifests (manifest.jsonl, then the shards' in index order) and the description the
-    // build wrote first, both checked (dataset_reader.h) before anything is summarised.
-    ManifestRead read;
+
+    // The manifests (manifest.jsonl, then the shards' in index order) streamed a record at a
+    // time into bounded summaries (QuantileSketch), so memory does not grow with the records;
+    // the description the build wrote first, checked (dataset_reader.h).
+    using Streams = std::map<std::string, QuantileSketch>;
+    std::map<std::string, Streams> bySpecies;
+    // species → path → value → metric
+    std::map<std::string, std::map<std::string, std::map<std::string, Streams>>> bySweep;
+    std::set<std::string> allMetrics;
+    // Species in the order of their first instance by (index, id), and its habit: the order the
+    // tables list them, whichever manifest held which record.
+    std::map<std::string, std::pair<int64_t, std::string>> firstOf;
+    std::map<std::string, std::string> habit;
+    std::map<std::string, ReferencePool> pooled;
+    size_t skeletonsRead = 0;
+    DatasetFiles packed(dir);
+    DatasetStatsResult res;
+    ManifestStream read;
     try {
-        read = readManifests(dir);
+        read = forEachManifestRecord(dir, [&](ManifestRecord& m) {
+            const Record r = statsRecord(m, options);
+            const std::pair<int64_t, std::string> key{r.index, r.id};
+            auto first = firstOf.find(r.species);
+            if (first == firstOf.end() || key < first->second) {
+                firstOf[r.species] = key;
+                habit[r.species] = r.habit;
+            }
+            ++res.counts[r.species];
+            Streams& mv = bySpecies[r.species];
+            for (const auto& [k, x] : r.metrics) {
+                stream(mv, k, r.species).add(x);
+                allMetrics.insert(k);
+            }
+            for (const auto& [path, value] : r.sweep) {
+                Streams& sv = bySweep[r.species][path][value];
+                for (const auto& [k, x] : r.metrics) {
+                    stream(sv, k, r.species + "/" + path + "=" + value).add(x);
+                }
+            }
+            if (reference && !r.skeleton.empty()) {
+                ReferenceValues v;
+                if (r.pack.empty()) {
+                    v = readSkeletonReferenceValues(dir / r.skeleton);
+                } else {
+                    const std::string where = (dir / r.pack).string() + ": " + r.skeleton;
+                    const std::optional<std::string> bytes = packed.read(r.pack, r.skeleton);
+                    if (!bytes) {
+                        throw DatasetStatsInputError(where +
+                                                     ": no such member; the manifest lists it "
+                                                     "as skeleton_ply");
+                    }
+                    v = skeletonReferenceValuesOf(*bytes, where);
+                }
+                ReferencePool& pool = pooled[r.species];
+                for (int k = 0; k < kReferenceDistributions; ++k) {
+                    for (double x : v[k]) pool.values[k].add(x);
+                }
+                ++pool.instances;
+                ++skeletonsRead;
+            }
+        });
         (void)readDatasetDescription(dir);
     } catch (const DatasetStatsInputError&) {
         throw;
     } catch (const InputError& e) {
         throw DatasetStatsInputError(e.what());
     }
-    DatasetStatsResult res;
     res.outDir = dir / "stats";
     res.manifests = read.files;
     res.ignoredPartialLines = read.tornLines;
-    std::vector<Record> records;
-    records.reserve(read.records.size());
-    for (const ManifestRecord& m : read.records) records.push_back(statsRecord(m, options));
-    if (records.empty()) {
+    if (read.records == 0) {
         throw DatasetStatsInputError(dir.string() + ": the manifest has no complete record yet");
     }
-    // Instance order, so sums (and so the files) do not depend on which file held a record.
-    std::stable_sort(records.begin(), records.end(), [](const Record& a, const Record& b) {
-        return a.index != b.index ? a.index < b.index : a.id < b.id;
-    });
-
-    std::map<std::string, MetricValues> bySpecies;
-    // species → path → value → metric → values
-    std::map<std::string, std::map<std::string, std::map<std::string, MetricValues>>> bySweep;
-    std::set<std::string> allMetrics;
-    for (const Record& r : records) {
-        if (!res.counts.count(r.species)) res.species.push_back(r.species);
-        ++res.counts[r.species];
-        MetricValues& mv = bySpecies[r.species];
-        for (const auto& [k, x] : r.metrics) {
-            mv[k].push_back(x);
-            allMetrics.insert(k);
-        }
-        for (const auto& [path, value] : r.sweep) {
-            MetricValues& sv = bySweep[r.species][path][value];
-            for (const auto& [k, x] : r.metrics) sv[k].push_back(x);
-        }
+    if (reference && skeletonsRead == 0) {
+        throw DatasetStatsInputError(dir.string() +
+                                     ": --reference needs the instances' skeleton.ply, and the "
+                                     "manifest lists none (outputs.skeleton = [\"ply\"])");
     }
-    res.instances = records.size();
+    {
+        std::vector<std::pair<std::pair<int64_t, std::string>, std::string>> order;
+        for (const auto& [sp, key] : firstOf) order.emplace_back(key, sp);
+        std::sort(order.begin(), order.end());
+        for (const auto& o : order) res.species.push_back(o.second);
+    }
+    res.instances = read.records;
     res.metrics = allMetrics.size();
 
-    // Sorted copies once; summaries per species.
     std::map<std::string, std::map<std::string, MetricSummary>> summaries;
     for (auto& [sp, mv] : bySpecies) {
-        for (auto& [k, v] : mv) {
-            std::sort(v.begin(), v.end());
-            summaries[sp][k] = summarize(v);
-        }
+        for (auto& [k, v] : mv) summaries[sp][k] = summarize(v);
     }
 
     std::string speciesCsv = "species,metric,count,mean,sd,cv,q05,q25,q50,q75,q95\n";
     nlohmann::json sj;
     sj["instances"] = res.instances;
-    sj["quantiles"] = "type 7: linear interpolation between order statistics, h = (n-1)p";
+    sj["quantiles"] =
+        "type 7: linear interpolation between order statistics, h = (n-1)p; above 2048 values "
+        "from a KLL sketch (k = 200, rank error about 1%)";
     sj["sd"] = "sample standard deviation (n-1); null when count < 2";
     sj["cv"] = "sd / |mean|; null when sd is null or mean is 0";
     sj["species"] = nlohmann::json::object();
@@ -587,20 +645,33 @@ DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOp
                 double w, wNorm;
             };
             std::vector<Row> rows;
-            for (const auto& [k, va] : bySpecies[sa]) {
+            for (const auto& [k, qa] : bySpecies[sa]) {
                 auto it = bySpecies[sb].find(k);
                 if (it == bySpecies[sb].end()) continue;
-                const std::vector<double>& vb = it->second;
-                Row r{k, va.size(), vb.size(), ksTwoSample(va, vb), wasserstein1(va, vb), 0};
-                double pooled = 0;
+                const QuantileSketch& qb = it->second;
+                Row r{k, qa.count(), qb.count(), {}, 0, 0};
+                if (qa.exact() && qb.exact()) {
+                    const std::vector<double> va = qa.sortedValues(), vb = qb.sortedValues();
+                    r.ks = ksTwoSample(va, vb);
+                    r.w = wasserstein1(va, vb);
+                } else {  // D from the sketches; p from the asymptotic distribution
+                    const auto wa = qa.weighted(), wb = qb.weighted();
+                    r.ks.d = weightedKsDistance(wa, wb);
+                    const double ne = static_cast<double>(r.na) * static_cast<double>(r.nb) /
+                                      static_cast<double>(r.na + r.nb);
+                    const double sq = std::sqrt(ne);
+                    r.ks.p = r.ks.d <= 0 ? 1.0 : kolmogorovQ((sq + 0.12 + 0.11 / sq) * r.ks.d);
+                    r.w = weightedWasserstein(wa, wb);
+                }
+                double pooledSd = 0;
                 if (r.na + r.nb > 2) {
                     const auto &a = summaries[sa][k], &b = summaries[sb][k];
                     double sa2 = a.sd ? *a.sd * *a.sd : 0, sb2 = b.sd ? *b.sd * *b.sd : 0;
-                    pooled = std::sqrt(((r.na - 1) * sa2 + (r.nb - 1) * sb2) /
-                                       static_cast<double>(r.na + r.nb - 2));
+                    pooledSd = std::sqrt(((r.na - 1) * sa2 + (r.nb - 1) * sb2) /
+                                         static_cast<double>(r.na + r.nb - 2));
                 }
-                r.wNorm = pooled > 0 ? r.w / pooled
-                                     : (r.w > 0 ? std::numeric_limits<double>::infinity() : 0.0);
+                r.wNorm = pooledSd > 0 ? r.w / pooledSd
+                                       : (r.w > 0 ? std::numeric_limits<double>::infinity() : 0.0);
                 rows.push_back(r);
             }
             std::stable_sort(rows.begin(), rows.end(), [](const Row& x, const Row& y) {
@@ -652,7 +723,7 @@ DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOp
 
     std::optional<ReferenceFiles> referenceFiles;
     if (reference) {
-        referenceFiles = compareWithReference(dir, options.reference, *reference, records, res);
+        referenceFiles = compareWithReference(options.reference, *reference, pooled, habit, res);
     }
 
     writeFileAtomic(res.outDir / "species.csv", speciesCsv);

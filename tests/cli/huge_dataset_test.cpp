@@ -12,11 +12,13 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -227,6 +229,66 @@ TEST(CliHugeDataset, HugeShardResumesAfterAKill) {
         const fs::path f = fs::path("trees") / "tiny" / j["id"].get<std::string>() / "skeleton.ply";
         EXPECT_EQ(slurp(t / "out" / f), slurp(t / "ref" / f)) << f;
     }
+}
+
+// `sylva stats` of 10⁷ records in bounded memory: two species of 5 × 10⁶ records each with a
+// uniform metric (a low-discrepancy sequence on [0, 1)) and a constant, streamed into sketches.
+// Peak RSS stays within `sylva --help`'s plus the margin (under 512 MiB whatever the count),
+// and the quantiles land within the sketch's error of the known ones.
+TEST(CliHugeDataset, StatsOfTenMillionRecordsInBoundedMemory) {
+    TempDir t;
+    const fs::path dir = t / "huge";
+    fs::create_directories(dir);
+    spit(dir / "dataset.json", "{\"name\":\"huge\"}\n");
+    constexpr int64_t kRecords = 10'000'000;
+    {
+        std::ofstream out(dir / "manifest.jsonl", std::ios::binary);
+        std::string buf;
+        char line[160];
+        for (int64_t i = 0; i < kRecords; ++i) {
+            const char species = i % 2 ? 'b' : 'a';
+            const double u = std::fmod(static_cast<double>(i / 2) * 0.6180339887498949, 1.0);
+            const int n = std::snprintf(line, sizeof line,
+                                        "{\"id\":\"%c-%lld\",\"index\":%lld,\"species\":\"%c\","
+                                        "\"stats\":{\"u\":%.9f,\"k\":3}}\n",
+                                        species, static_cast<long long>(i / 2),
+                                        static_cast<long long>(i / 2), species, u);
+            buf.append(line, static_cast<size_t>(n));
+            if (buf.size() > (8u << 20)) {
+                out << buf;
+                buf.clear();
+            }
+        }
+        out << buf;
+    }
+    sylva::test::CliOptions o;
+    o.addressSpace = kAddressSpace;
+    o.watchdog = std::chrono::seconds(900);
+    const RunResult help = sylva::test::runSylva({"--help"}, t.path(), o);
+    const RunResult r = sylva::test::runSylva({"stats", dir.string()}, t.path(), o);
+    ASSERT_EQ(r.code, 0) << describe(r);
+    EXPECT_LT(r.maxRssKiB, bound(help)) << describe(r);
+    EXPECT_LT(r.maxRssKiB, 512 * 1024) << describe(r);
+    EXPECT_NE(r.out.find("2 species, 10000000 instances"), std::string::npos) << r.out;
+    // species,metric,count,mean,sd,cv,q05,q25,q50,q75,q95
+    std::ifstream csv(dir / "stats" / "species.csv");
+    int rows = 0;
+    for (std::string line; std::getline(csv, line);) {
+        if (line.rfind("a,u,", 0) != 0 && line.rfind("b,u,", 0) != 0) continue;
+        ++rows;
+        std::vector<double> v;
+        std::stringstream s(line.substr(4));
+        for (std::string f; std::getline(s, f, ',');) v.push_back(std::stod(f));
+        ASSERT_EQ(v.size(), 9u) << line;
+        EXPECT_EQ(v[0], 5e6) << line;
+        EXPECT_NEAR(v[1], 0.5, 1e-4) << line;                  // mean, exact
+        EXPECT_NEAR(v[2], std::sqrt(1.0 / 12), 1e-4) << line;  // sd, exact
+        const double q[] = {0.05, 0.25, 0.5, 0.75, 0.95};
+        for (int k = 0; k < 5; ++k) EXPECT_NEAR(v[4 + k], q[k], 0.01) << line << " q" << q[k];
+    }
+    EXPECT_EQ(rows, 2);
+    const std::string compare = slurp(dir / "stats" / "compare.csv");
+    EXPECT_NE(compare.find("a,b,u,5000000,5000000,"), std::string::npos) << compare;
 }
 
 }  // namespace
