@@ -5,10 +5,13 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
+#include <string_view>
 
 #include "core/input_file.h"
 #include "pipeline/analysis/dataset_reader.h"
@@ -32,12 +35,72 @@ struct Shard {
     nlohmann::json dataset;  // its dataset.shard-I-of-N.json
 };
 
+// A record as the species sheets need it (the first K of each species are kept).
 struct Record {
-    std::string line;           // verbatim manifest line
     std::string id, species;    // species: the plot's name for a plot
     std::string pack;           // a packed instance's tar ("shards/000003.tar"), else ""
     std::filesystem::path dir;  // trees/<species>/<id> or plots/<plot>/<id>
-    const Shard* shard = nullptr;
+};
+
+// Instance ids back to their positions in the dataset's order, from its description: species
+// entries in order, each `count` × `sweep_points` ("<species>-<index>", swept
+// "<species>-p<point>-<index>"), then the plots ("<plot>-<index>"). The shards' records must be
+// their blocks' positions in increasing order — which makes them unique without remembering
+// the ids.
+class IdPositions {
+  public:
+    explicit IdPositions(const nlohmann::json& dataset) {
+        int64_t start = 0;
+        for (const char* list : {"species", "plots"}) {
+            for (const auto& e : dataset.value(list, nlohmann::json::array())) {
+                Group g{e.value("name", ""), start, e.value("count", int64_t{0}),
+                        std::string(list) == "species" ? e.value("sweep_points", int64_t{1}) : 1};
+                start += g.count * g.points;
+                groups_.push_back(std::move(g));
+            }
+        }
+    }
+    std::optional<int64_t> operator()(const std::string& id) const {
+        std::optional<int64_t> best;
+        size_t bestName = 0;
+        for (const Group& g : groups_) {
+            if (id.size() <= g.name.size() + 1 || id.compare(0, g.name.size(), g.name) != 0 ||
+                id[g.name.size()] != '-' || (best && g.name.size() <= bestName)) {
+                continue;
+            }
+            std::string_view rest(id);
+            rest.remove_prefix(g.name.size() + 1);
+            int64_t point = 0;
+            if (!rest.empty() && rest[0] == 'p') {
+                const size_t dash = rest.find('-');
+                if (dash == std::string_view::npos || !digits(rest.substr(1, dash - 1), point)) {
+                    continue;
+                }
+                rest.remove_prefix(dash + 1);
+            }
+            int64_t index = 0;
+            if (!digits(rest, index) || point >= g.points || index >= g.count) continue;
+            best = g.start + point * g.count + index;
+            bestName = g.name.size();
+        }
+        return best;
+    }
+
+  private:
+    struct Group {
+        std::string name;
+        int64_t start = 0, count = 0, points = 1;
+    };
+    static bool digits(std::string_view s, int64_t& v) {
+        if (s.empty() || s.size() > 18) return false;
+        v = 0;
+        for (char c : s) {
+            if (c < '0' || c > '9') return false;
+            v = v * 10 + (c - '0');
+        }
+        return true;
+    }
+    std::vector<Group> groups_;
 };
 
 [[noreturn]] void fail(const std::string& what) { throw MergeError(what); }
@@ -163,50 +226,71 @@ MergeSummary mergeShards(const MergeOptions& o) {
                                  ? outputs.value("pack_instances", int64_t{256})
                                  : 0;
     const PackLayout pack = packLayout(total, perShard);
-    std::vector<Record> records;
-    records.reserve(static_cast<size_t>(total));
-    std::map<std::string, std::string> seen;  // id → where first recorded
-    for (const Shard* s : byIndex) {
-        const fs::path mpath = s->dir / manifestName(s->index, s->count);
-        if (!fs::exists(mpath)) fail(mpath.string() + ": missing");
-        const auto [lo, hi] = shardPositions(total, s->index, s->count, perShard);
-        size_t lineNo = 0;
-        try {
-            InputFile in(mpath);
-            for (std::string line;;) {
-                const InputFile::Line got = in.next(line, kMaxManifestLineBytes);
-                if (got == InputFile::Line::end) break;
-                lineNo = in.lineNumber();
-                const std::string where = mpath.string() + ":" + std::to_string(lineNo);
-                if (got == InputFile::Line::torn) {
-                    fail(where + ": torn last line (rerun the shard's build)");
+    // Checked a line at a time (nothing held per record): every line a record of the shard's
+    // block, in increasing position — so none twice — and the block complete; per species the
+    // first K records, for the sheets.
+    const IdPositions positionOf(first.dataset);
+    const nlohmann::json& specJson = first.dataset.value("spec", nlohmann::json::object());
+    const int64_t sheetCount = specJson.value("outputs", nlohmann::json::object())
+                                   .value("species_sheet", int64_t{16});  // dataset.cpp's default
+    std::map<std::string, std::vector<Record>> sheetRecords;
+    auto forEachLine =
+        [&](const Shard& s,
+            const std::function<void(const std::string&, const ManifestRecord&)>& f) {
+            const fs::path mpath = s.dir / manifestName(s.index, s.count);
+            if (!fs::exists(mpath)) fail(mpath.string() + ": missing");
+            try {
+                InputFile in(mpath);
+                for (std::string line;;) {
+                    const InputFile::Line got = in.next(line, kMaxManifestLineBytes);
+                    if (got == InputFile::Line::end) break;
+                    const std::string where =
+                        mpath.string() + ":" + std::to_string(in.lineNumber());
+                    if (got == InputFile::Line::torn) {
+                        fail(where + ": torn last line (rerun the shard's build)");
+                    }
+                    f(line, parseManifestRecord(line, where));
                 }
-                const ManifestRecord m = parseManifestRecord(line, where);
-                Record r;
-                r.id = m.id;
-                r.species = m.group;
-                r.dir = fs::path(m.plot ? "plots" : "trees") / r.species / r.id;
-                r.pack = m.pack;
-                r.shard = s;
-                if (auto [it, fresh] = seen.emplace(r.id, where); !fresh) {
-                    fail(where + ": instance " + r.id + " already recorded at " + it->second);
-                }
-                if (!r.pack.empty() ? !fs::is_regular_file(s->dir / r.pack)
-                                    : !fs::is_directory(s->dir / r.dir)) {
-                    fail(where + ": " +
-                         (s->dir / (r.pack.empty() ? r.dir : fs::path(r.pack))).string() +
-                         " missing");
-                }
-                r.line = std::move(line);
-                records.push_back(std::move(r));
+            } catch (const MergeError&) {
+                throw;
+            } catch (const InputError& e) {
+                fail(e.what());
             }
-        } catch (const MergeError&) {
-            throw;
-        } catch (const InputError& e) {
-            fail(e.what());
-        }
-        if (static_cast<int64_t>(lineNo) != hi - lo) {
-            fail(mpath.string() + ": " + std::to_string(lineNo) + " of the shard's " +
+            return mpath;
+        };
+    for (const Shard* s : byIndex) {
+        const auto [lo, hi] = shardPositions(total, s->index, s->count, perShard);
+        int64_t next = lo;  // the position the next record must have
+        const fs::path mpath = forEachLine(*s, [&](const std::string&, const ManifestRecord& m) {
+            const std::string& where = m.where;
+            const std::optional<int64_t> p = positionOf(m.id);
+            if (!p) fail(where + ": instance " + m.id + " is not one of this dataset's");
+            if (*p < next) {
+                fail(where + ": instance " + m.id + " recorded twice, or out of order");
+            }
+            if (*p >= hi) fail(where + ": instance " + m.id + " is not in this shard's block");
+            if (*p > next) {
+                fail(where + ": " + std::to_string(*p - next) + " instance(s) before " + m.id +
+                     " not recorded (failed trees: rerun that shard's build)");
+            }
+            next = *p + 1;
+            Record r;
+            r.id = m.id;
+            r.species = m.group;
+            r.dir = fs::path(m.plot ? "plots" : "trees") / r.species / r.id;
+            r.pack = m.pack;
+            if (!r.pack.empty() ? !fs::is_regular_file(s->dir / r.pack)
+                                : !fs::is_directory(s->dir / r.dir)) {
+                fail(where + ": " +
+                     (s->dir / (r.pack.empty() ? r.dir : fs::path(r.pack))).string() + " missing");
+            }
+            std::vector<Record>& firstK = sheetRecords[r.species];
+            if (!m.plot && static_cast<int64_t>(firstK.size()) < sheetCount) {
+                firstK.push_back(std::move(r));
+            }
+        });
+        if (next != hi) {
+            fail(mpath.string() + ": " + std::to_string(next - lo) + " of the shard's " +
                  std::to_string(hi - lo) +
                  " instances recorded (failed trees: rerun that shard's build)");
         }
@@ -251,40 +335,41 @@ MergeSummary mergeShards(const MergeOptions& o) {
     fs::remove_all(stage);
     fs::create_directories(stage);
     try {
-        std::string manifest;
-        std::string lastPack;  // a tar shard's records are consecutive: each moved once
-        for (const Record& r : records) {
-            if (r.pack.empty()) {
-                transfer(r.shard->dir / r.dir, stage / r.dir, o.move);
-            } else if (r.pack != lastPack) {
-                fs::path index = r.pack;
-                index.replace_extension(".index.json");
-                transfer(r.shard->dir / r.pack, stage / r.pack, o.move);
-                if (fs::exists(r.shard->dir / index)) {
-                    transfer(r.shard->dir / index, stage / index, o.move);
+        // The merged manifest, streamed: each shard's lines in shard order, each instance's
+        // directory (or, packed, each tar shard with its index, once) moved or copied.
+        AtomicFileWriter manifest(stage / manifestName(0, 1));
+        for (const Shard* s : byIndex) {
+            std::string lastPack;  // a tar shard's records are consecutive
+            forEachLine(*s, [&](const std::string& line, const ManifestRecord& m) {
+                if (m.pack.empty()) {
+                    const fs::path dir = fs::path(m.plot ? "plots" : "trees") / m.group / m.id;
+                    transfer(s->dir / dir, stage / dir, o.move);
+                } else if (m.pack != lastPack) {
+                    fs::path index = m.pack;
+                    index.replace_extension(".index.json");
+                    transfer(s->dir / m.pack, stage / m.pack, o.move);
+                    if (fs::exists(s->dir / index)) {
+                        transfer(s->dir / index, stage / index, o.move);
+                    }
+                    lastPack = m.pack;
                 }
-                lastPack = r.pack;
-            }
-            manifest += r.line;
-            manifest += '\n';
+                manifest.write(line);
+                manifest.write("\n");
+            });
         }
-        if (pack.packed())
+        manifest.commit();
+        if (pack.packed()) {
             writePackIndex(stage, first.dataset.value("name", ""), "", pack, 0, total);
-        writeFileAtomic(stage / manifestName(0, 1), manifest);
+        }
 
         // Species sheets as buildDataset's writeSpeciesSheets: per species in spec order, its
         // first K instances' contact.png (views/000.png when contact_sheet = false).
         MergeSummary summary;
-        const nlohmann::json& spec = first.dataset.value("spec", nlohmann::json::object());
-        const int64_t k = spec.value("outputs", nlohmann::json::object())
-                              .value("species_sheet", int64_t{16});  // dataset.cpp's default
         DatasetFiles files(stage);
         for (const auto& e : first.dataset.value("species", nlohmann::json::array())) {
             const std::string name = e.value("name", "");
             std::vector<InstanceFileReader> views;
-            for (const Record& r : records) {
-                if (k <= 0 || static_cast<int64_t>(views.size()) >= k) break;
-                if (r.species != name) continue;
+            for (const Record& r : sheetRecords[name]) {
                 InstanceFileReader read = [&files, &r](const std::string& f) {
                     return files.readInstanceFile(r.id, r.pack, r.dir.string(), f);
                 };
