@@ -260,7 +260,8 @@ MergeSummary mergeShards(const MergeOptions& o) {
         };
     for (const Shard* s : byIndex) {
         const auto [lo, hi] = shardPositions(total, s->index, s->count, perShard);
-        int64_t next = lo;  // the position the next record must have
+        int64_t next = lo;     // the position the next record must have
+        std::string packSeen;  // the last tar found (a tar shard's records are consecutive)
         const fs::path mpath = forEachLine(*s, [&](const std::string&, const ManifestRecord& m) {
             const std::string& where = m.where;
             const std::optional<int64_t> p = positionOf(m.id);
@@ -279,11 +280,17 @@ MergeSummary mergeShards(const MergeOptions& o) {
             r.species = m.group;
             r.dir = fs::path(m.plot ? "plots" : "trees") / r.species / r.id;
             r.pack = m.pack;
-            if (!r.pack.empty() ? !fs::is_regular_file(s->dir / r.pack)
-                                : !fs::is_directory(s->dir / r.dir)) {
+            if (pack.packed() != !r.pack.empty()) {
+                fail(where + ": instance " + m.id +
+                     (pack.packed() ? " not packed in a packed dataset"
+                                    : " packed, unlike its dataset"));
+            }
+            if (r.pack.empty() ? !fs::is_directory(s->dir / r.dir)
+                               : r.pack != packSeen && !fs::is_regular_file(s->dir / r.pack)) {
                 fail(where + ": " +
                      (s->dir / (r.pack.empty() ? r.dir : fs::path(r.pack))).string() + " missing");
             }
+            packSeen = r.pack;
             std::vector<Record>& firstK = sheetRecords[r.species];
             if (!m.plot && static_cast<int64_t>(firstK.size()) < sheetCount) {
                 firstK.push_back(std::move(r));
@@ -339,20 +346,29 @@ MergeSummary mergeShards(const MergeOptions& o) {
         // directory (or, packed, each tar shard with its index, once) moved or copied.
         AtomicFileWriter manifest(stage / manifestName(0, 1));
         for (const Shard* s : byIndex) {
-            std::string lastPack;  // a tar shard's records are consecutive
-            forEachLine(*s, [&](const std::string& line, const ManifestRecord& m) {
-                if (m.pack.empty()) {
-                    const fs::path dir = fs::path(m.plot ? "plots" : "trees") / m.group / m.id;
-                    transfer(s->dir / dir, stage / dir, o.move);
-                } else if (m.pack != lastPack) {
-                    fs::path index = m.pack;
+            if (pack.packed()) {
+                // The block's tar shards by number, and the manifest's bytes as they are: its
+                // lines were checked above (complete, each a record).
+                const auto [lo, hi] = shardPositions(total, s->index, s->count, perShard);
+                for (int64_t k = lo / perShard; k * perShard < hi; ++k) {
+                    const fs::path tar = pack.tarPath(k);
+                    fs::path index = tar;
                     index.replace_extension(".index.json");
-                    transfer(s->dir / m.pack, stage / m.pack, o.move);
-                    if (fs::exists(s->dir / index)) {
-                        transfer(s->dir / index, stage / index, o.move);
-                    }
-                    lastPack = m.pack;
+                    if (fs::exists(s->dir / tar)) transfer(s->dir / tar, stage / tar, o.move);
+                    if (fs::exists(s->dir / index)) transfer(s->dir / index, stage / index, o.move);
                 }
+                std::ifstream in(s->dir / manifestName(s->index, s->count), std::ios::binary);
+                std::string chunk(size_t(1) << 20, '\0');
+                while (in.read(chunk.data(), static_cast<std::streamsize>(chunk.size())) ||
+                       in.gcount() > 0) {
+                    manifest.write(
+                        std::string_view(chunk.data(), static_cast<size_t>(in.gcount())));
+                }
+                continue;
+            }
+            forEachLine(*s, [&](const std::string& line, const ManifestRecord& m) {
+                const fs::path dir = fs::path(m.plot ? "plots" : "trees") / m.group / m.id;
+                transfer(s->dir / dir, stage / dir, o.move);
                 manifest.write(line);
                 manifest.write("\n");
             });

@@ -231,28 +231,47 @@ TEST(CliHugeDataset, HugeShardResumesAfterAKill) {
     }
 }
 
-// `sylva stats` of 10⁷ records in bounded memory: two species of 5 × 10⁶ records each with a
-// uniform metric (a low-discrepancy sequence on [0, 1)) and a constant, streamed into sketches.
-// Peak RSS stays within `sylva --help`'s plus the margin (under 512 MiB whatever the count),
-// and the quantiles land within the sketch's error of the known ones.
-TEST(CliHugeDataset, StatsOfTenMillionRecordsInBoundedMemory) {
+// `sylva merge` and `sylva stats` of 10⁷ records in bounded memory: a packed dataset built as two
+// shards (synthetic: two species of 5 × 10⁶ records each, one tar shard per build shard) with a
+// uniform metric (a low-discrepancy sequence on [0, 1)) and a constant. Merged a line at a time,
+// then summarised into sketches: each run's peak RSS stays within `sylva --help`'s plus the
+// margin (and under 512 MiB) whatever the count, and the quantiles land within the sketch's
+// error of the known ones.
+TEST(CliHugeDataset, MergeAndStatsOfTenMillionRecordsInBoundedMemory) {
     TempDir t;
-    const fs::path dir = t / "huge";
-    fs::create_directories(dir);
-    spit(dir / "dataset.json", "{\"name\":\"huge\"}\n");
-    constexpr int64_t kRecords = 10'000'000;
-    {
-        std::ofstream out(dir / "manifest.jsonl", std::ios::binary);
+    const fs::path dir = t / "sharded";
+    fs::create_directories(dir / "shards");
+    constexpr int64_t kPerSpecies = 5'000'000;
+    for (int shard = 0; shard < 2; ++shard) {
+        const char species = shard ? 'b' : 'a';
+        nlohmann::json d = {
+            {"name", "huge"},
+            {"fingerprint", "f"},
+            {"status", "complete"},
+            {"versions", {{"sylva", "test"}}},
+            {"shard", {{"index", shard}, {"count", 2}}},
+            {"counts",
+             {{"instances_in_dataset", 2 * kPerSpecies},
+              {"instances_in_shard", kPerSpecies},
+              {"built", kPerSpecies},
+              {"missing", 0}}},
+            {"spec", {{"outputs", {{"pack", "tar"}, {"pack_instances", kPerSpecies}}}}},
+            {"species",
+             {{{"name", "a"}, {"count", kPerSpecies}, {"sweep_points", 1}},
+              {{"name", "b"}, {"count", kPerSpecies}, {"sweep_points", 1}}}}};
+        spit(dir / ("dataset.shard-" + std::to_string(shard) + "-of-2.json"), d.dump());
+        spit(dir / "shards" / ("00000" + std::to_string(shard) + ".tar"), std::string(10240, '\0'));
+        std::ofstream out(dir / ("manifest.shard-" + std::to_string(shard) + "-of-2.jsonl"),
+                          std::ios::binary);
         std::string buf;
-        char line[160];
-        for (int64_t i = 0; i < kRecords; ++i) {
-            const char species = i % 2 ? 'b' : 'a';
-            const double u = std::fmod(static_cast<double>(i / 2) * 0.6180339887498949, 1.0);
-            const int n = std::snprintf(line, sizeof line,
-                                        "{\"id\":\"%c-%lld\",\"index\":%lld,\"species\":\"%c\","
-                                        "\"stats\":{\"u\":%.9f,\"k\":3}}\n",
-                                        species, static_cast<long long>(i / 2),
-                                        static_cast<long long>(i / 2), species, u);
+        char line[200];
+        for (int64_t i = 0; i < kPerSpecies; ++i) {
+            const double u = std::fmod(static_cast<double>(i) * 0.6180339887498949, 1.0);
+            const int n = std::snprintf(
+                line, sizeof line,
+                "{\"id\":\"%c-%05lld\",\"index\":%lld,\"species\":\"%c\",\"pack\":"
+                "\"shards/00000%d.tar\",\"stats\":{\"u\":%.9f,\"k\":3}}\n",
+                species, static_cast<long long>(i), static_cast<long long>(i), species, shard, u);
             buf.append(line, static_cast<size_t>(n));
             if (buf.size() > (8u << 20)) {
                 out << buf;
@@ -265,13 +284,24 @@ TEST(CliHugeDataset, StatsOfTenMillionRecordsInBoundedMemory) {
     o.addressSpace = kAddressSpace;
     o.watchdog = std::chrono::seconds(900);
     const RunResult help = sylva::test::runSylva({"--help"}, t.path(), o);
-    const RunResult r = sylva::test::runSylva({"stats", dir.string()}, t.path(), o);
+    const fs::path merged = t / "merged";
+    const RunResult m =
+        sylva::test::runSylva({"merge", merged.string(), dir.string(), "--move"}, t.path(), o);
+    ASSERT_EQ(m.code, 0) << describe(m);
+    EXPECT_LT(m.maxRssKiB, bound(help)) << describe(m);
+    EXPECT_LT(m.maxRssKiB, 512 * 1024) << describe(m);
+    EXPECT_TRUE(fs::is_regular_file(merged / "shards" / "000001.tar"));
+    EXPECT_EQ(fs::file_size(merged / "manifest.jsonl"),
+              fs::file_size(dir / "manifest.shard-0-of-2.jsonl") +
+                  fs::file_size(dir / "manifest.shard-1-of-2.jsonl"));
+
+    const RunResult r = sylva::test::runSylva({"stats", merged.string()}, t.path(), o);
     ASSERT_EQ(r.code, 0) << describe(r);
     EXPECT_LT(r.maxRssKiB, bound(help)) << describe(r);
     EXPECT_LT(r.maxRssKiB, 512 * 1024) << describe(r);
     EXPECT_NE(r.out.find("2 species, 10000000 instances"), std::string::npos) << r.out;
     // species,metric,count,mean,sd,cv,q05,q25,q50,q75,q95
-    std::ifstream csv(dir / "stats" / "species.csv");
+    std::ifstream csv(merged / "stats" / "species.csv");
     int rows = 0;
     for (std::string line; std::getline(csv, line);) {
         if (line.rfind("a,u,", 0) != 0 && line.rfind("b,u,", 0) != 0) continue;
@@ -287,7 +317,7 @@ TEST(CliHugeDataset, StatsOfTenMillionRecordsInBoundedMemory) {
         for (int k = 0; k < 5; ++k) EXPECT_NEAR(v[4 + k], q[k], 0.01) << line << " q" << q[k];
     }
     EXPECT_EQ(rows, 2);
-    const std::string compare = slurp(dir / "stats" / "compare.csv");
+    const std::string compare = slurp(merged / "stats" / "compare.csv");
     EXPECT_NE(compare.find("a,b,u,5000000,5000000,"), std::string::npos) << compare;
 }
 
