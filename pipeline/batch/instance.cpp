@@ -35,12 +35,6 @@ std::string hex64(uint64_t v) {
     return buf;
 }
 
-std::string meshBytes(const TreeMesh& m, const std::string& format, const MeshLook* look,
-                      bool meshopt) {
-    if (format == "glb") return meshopt ? compressGlbMeshopt(meshGlb(m, look)) : meshGlb(m, look);
-    return meshPly(m);
-}
-
 // The mesh's triangles (tubes and both faces of every leaf), counted before it is made and
 // held to the tree's max_triangles (BudgetExceeded): the views draw the same tubes.
 void checkMeshTriangles(const GrownTree& g, const TubeOptions& tubes) {
@@ -75,6 +69,12 @@ void checkWatertightEstimate(const GrownTree& g, const WatertightOptions& o) {
 }
 
 }  // namespace
+
+std::string meshBytes(const TreeMesh& m, const std::string& format, const MeshLook* look,
+                      bool meshopt) {
+    if (format == "glb") return meshopt ? compressGlbMeshopt(meshGlb(m, look)) : meshGlb(m, look);
+    return meshPly(m);
+}
 
 fs::path instanceDir(const InstanceJob& job) {
     if (job.plot) return fs::path("plots") / job.plot->name / job.id;

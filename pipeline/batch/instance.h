@@ -13,6 +13,7 @@
 #include "pipeline/batch/dataset.h"
 #include "pipeline/batch/progress.h"
 #include "pipeline/batch/scan_instance.h"
+#include "pipeline/formats/mesh_writers.h"
 #include "pipeline/render/colour_render.h"
 #include "pipeline/render/render.h"
 #include "species/geometry/mesh.h"
@@ -46,6 +47,11 @@ void renderStage(InstanceWork& w, const OutputOptions& outputs);
 // [scan]: scans a tree (after its mesh); a plot is scanned by writePlot.
 void scanStage(InstanceWork& w, const OutputOptions& outputs, const std::filesystem::path& out);
 void writeStage(InstanceWork& w, const OutputOptions& outputs, const std::filesystem::path& out);
+
+// A mesh as a "glb" (compressed with meshopt: glb_meshopt.h; textured with `look`) or "ply"
+// file's bytes (OBJ, with its MTL beside it, is written by the callers).
+std::string meshBytes(const TreeMesh& m, const std::string& format, const MeshLook* look,
+                      bool meshopt);
 
 // Relative directory of an instance's files: trees/<species>/<id>, or plots/<plot>/<id>.
 std::filesystem::path instanceDir(const InstanceJob& job);

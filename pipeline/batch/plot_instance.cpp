@@ -7,9 +7,9 @@
 #include <set>
 
 #include "core/rng.h"
+#include "pipeline/batch/instance.h"
 #include "pipeline/batch/scan_instance.h"
 #include "pipeline/formats/atomic_file.h"
-#include "pipeline/formats/glb_meshopt.h"
 #include "pipeline/formats/image_codecs.h"
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/plot_tables.h"
@@ -90,10 +90,7 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
                 put("", dir / "mesh.mtl", meshMtl(m));
                 put("", dir / "mesh.obj", meshObj(m, "mesh.mtl"));
             } else {
-                put("", dir / ("mesh." + f),
-                    f != "glb"  ? meshPly(m)
-                    : o.meshopt ? compressGlbMeshopt(meshGlb(m))
-                                : meshGlb(m));
+                put("", dir / ("mesh." + f), meshBytes(m, f, nullptr, o.meshopt));
             }
         }
         nlohmann::json st = toJson(computeStats(atOrigin(t.grown.tree, t.stem.base)));
