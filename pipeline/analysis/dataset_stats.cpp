@@ -101,6 +101,12 @@ KsResult ksTwoSample(const std::vector<double>& a, const std::vector<double>& b)
     return r;
 }
 
+double ksAsymptoticP(double d, double na, double nb) {
+    if (d <= 0) return 1.0;
+    const double s = std::sqrt(na * nb / (na + nb));
+    return kolmogorovQ((s + 0.12 + 0.11 / s) * d);
+}
+
 double wasserstein1(const std::vector<double>& a, const std::vector<double>& b) {
     const size_t na = a.size(), nb = b.size();
     size_t i = 0, j = 0;
@@ -657,10 +663,8 @@ DatasetStatsResult computeDatasetStats(const fs::path& dir, const DatasetStatsOp
                 } else {  // D from the sketches; p from the asymptotic distribution
                     const auto wa = qa.weighted(), wb = qb.weighted();
                     r.ks.d = weightedKsDistance(wa, wb);
-                    const double ne = static_cast<double>(r.na) * static_cast<double>(r.nb) /
-                                      static_cast<double>(r.na + r.nb);
-                    const double sq = std::sqrt(ne);
-                    r.ks.p = r.ks.d <= 0 ? 1.0 : kolmogorovQ((sq + 0.12 + 0.11 / sq) * r.ks.d);
+                    r.ks.p =
+                        ksAsymptoticP(r.ks.d, static_cast<double>(r.na), static_cast<double>(r.nb));
                     r.w = weightedWasserstein(wa, wb);
                 }
                 double pooledSd = 0;

@@ -49,6 +49,9 @@ struct KsResult {
 // at λ = (√nₑ + 0.12 + 0.11/√nₑ)·D, nₑ = n_a n_b/(n_a+n_b) (Stephens 1970 correction, as in
 // Numerical Recipes §14.3).
 KsResult ksTwoSample(const std::vector<double>& a, const std::vector<double>& b);
+// The asymptotic p-value of D for samples of na and nb values (Kolmogorov's distribution with
+// Stephens' correction), as ksTwoSample gives it above 10,000 pairs.
+double ksAsymptoticP(double d, double na, double nb);
 
 // 1-D Wasserstein-1 distance ∫|F_a − F_b| dx between the empirical distributions of ascending
 // samples `a`, `b` (both non-empty).

@@ -29,8 +29,9 @@ class QuantileSketch {
 
     uint64_t count() const { return n_; }
     bool exact() const { return levels_.empty(); }
-    // Exact mode: the values, sorted.
+    // Exact mode: the values, sorted; and as they came.
     std::vector<double> sortedValues() const;
+    const std::vector<double>& values() const { return values_; }
     // The stream as sorted (value, weight) pairs, weights summing to count(): each value once
     // with weight 1 while exact, each retained item with its compactor's weight 2^depth after.
     std::vector<std::pair<double, uint64_t>> weighted() const;

@@ -19,6 +19,7 @@
 #include "core/input_file.h"
 #include "pipeline/analysis/dataset_reader.h"
 #include "pipeline/analysis/dataset_stats.h"
+#include "pipeline/analysis/quantile_sketch.h"
 #include "pipeline/batch/output_lock.h"
 #include "pipeline/formats/atomic_file.h"
 
@@ -125,6 +126,9 @@ namespace {
 
 // --- input -----------------------------------------------------------------------------------
 
+// One record's numbers as the report uses them. Numeric `stats` keys become metrics; an array
+// stat of the same length in every record (one value per view) becomes its mean; timing keys
+// become "timing.<key>".
 struct Record {
     std::string id, species;
     std::map<std::string, double> metrics;
@@ -136,60 +140,81 @@ std::string sweepValueString(const json& v) {
     return v.dump();
 }
 
-// Reads every complete record of the dataset's manifests (dataset_reader.h: checked, a torn last
-// line counted in `torn`). Numeric `stats` keys become metrics; an array stat of the same length
-// in every record (one value per view) becomes its mean; timing keys become "timing.<key>".
-std::vector<Record> readManifest(const fs::path& dir, size_t& torn,
-                                 std::set<std::string>& perView) {
-    std::vector<Record> recs;
+// The per-view stats of the dataset's manifests (a first pass: which array stats have one
+// length in every record).
+std::set<std::string> perViewStats(const fs::path& dir) {
     std::map<std::string, std::set<size_t>> arrayLengths;
-    ManifestRead read = readManifests(dir);
-    torn = read.tornLines;
-    std::vector<json> raw;
-    raw.reserve(read.records.size());
-    for (ManifestRecord& m : read.records) {
+    forEachManifestRecord(dir, [&](ManifestRecord& m) {
         const json& j = m.json;
-        if (j.contains("stats")) {
-            for (const auto& [k, v] : j["stats"].items()) {
-                if (!v.is_array()) continue;
-                bool numeric =
-                    std::all_of(v.begin(), v.end(), [](const json& x) { return x.is_number(); });
-                arrayLengths[k].insert(numeric ? v.size() : 0);
-            }
+        if (!j.contains("stats")) return;
+        for (const auto& [k, v] : j["stats"].items()) {
+            if (!v.is_array()) continue;
+            bool numeric =
+                std::all_of(v.begin(), v.end(), [](const json& x) { return x.is_number(); });
+            arrayLengths[k].insert(numeric ? v.size() : 0);
         }
-        raw.push_back(std::move(m.json));
-    }
+    });
+    std::set<std::string> perView;
     for (const auto& [k, lengths] : arrayLengths) {
         if (lengths.size() == 1 && *lengths.begin() > 0) perView.insert(k);
     }
-    for (const json& j : raw) {
-        Record r;
-        // A plot's record is grouped under its plot's name, as sylva stats does.
-        r.species = (j.contains("species") ? j["species"] : j["plot"]).get<std::string>();
-        r.id = j["id"].get<std::string>();
-        if (j.contains("stats") && j["stats"].is_object()) {
-            for (const auto& [k, v] : j["stats"].items()) {
-                if (v.is_number()) {
-                    r.metrics[k] = v.get<double>();
-                } else if (v.is_array() && perView.count(k) && !v.empty()) {
-                    double s = 0.0;
-                    for (const auto& x : v) s += x.get<double>();
-                    r.metrics[k] = s / static_cast<double>(v.size());
-                }
-            }
-        }
-        if (j.contains("timing") && j["timing"].is_object()) {
-            for (const auto& [k, v] : j["timing"].items()) {
-                if (v.is_number()) r.metrics["timing." + k] = v.get<double>();
-            }
-        }
-        if (j.contains("sweep") && j["sweep"].is_object()) {
-            for (const auto& [k, v] : j["sweep"].items()) r.sweep[k] = sweepValueString(v);
-        }
-        recs.push_back(std::move(r));
-    }
-    return recs;
+    return perView;
 }
+
+Record reportRecord(const json& j, const std::set<std::string>& perView) {
+    Record r;
+    // A plot's record is grouped under its plot's name, as sylva stats does.
+    r.species = (j.contains("species") ? j["species"] : j["plot"]).get<std::string>();
+    r.id = j["id"].get<std::string>();
+    if (j.contains("stats") && j["stats"].is_object()) {
+        for (const auto& [k, v] : j["stats"].items()) {
+            if (v.is_number()) {
+                r.metrics[k] = v.get<double>();
+            } else if (v.is_array() && perView.count(k) && !v.empty()) {
+                double s = 0.0;
+                for (const auto& x : v) s += x.get<double>();
+                r.metrics[k] = s / static_cast<double>(v.size());
+            }
+        }
+    }
+    if (j.contains("timing") && j["timing"].is_object()) {
+        for (const auto& [k, v] : j["timing"].items()) {
+            if (v.is_number()) r.metrics["timing." + k] = v.get<double>();
+        }
+    }
+    if (j.contains("sweep") && j["sweep"].is_object()) {
+        for (const auto& [k, v] : j["sweep"].items()) r.sweep[k] = sweepValueString(v);
+    }
+    return r;
+}
+
+// A metric's values of one species (or sweep point), streamed: a QuantileSketch (the values as
+// they came while there are at most 2,048, a KLL sketch beyond), the extremes, and the 150
+// smallest and largest values — the dots a strip past the whiskers can show.
+struct ValueStream {
+    static constexpr size_t kTail = 150;
+    QuantileSketch sketch;
+    double min = INFINITY, max = -INFINITY;
+    std::vector<double> low, high;  // heaps: the kTail smallest (max-heap), largest (min-heap)
+    void add(double x) {
+        sketch.add(x);
+        min = std::min(min, x);
+        max = std::max(max, x);
+        auto keep = [x](std::vector<double>& heap, auto better) {
+            if (heap.size() < kTail) {
+                heap.push_back(x);
+                std::push_heap(heap.begin(), heap.end(), better);
+            } else if (better(x, heap.front())) {
+                std::pop_heap(heap.begin(), heap.end(), better);
+                heap.back() = x;
+                std::push_heap(heap.begin(), heap.end(), better);
+            }
+        };
+        keep(low, std::less<double>());
+        keep(high, std::greater<double>());
+    }
+    size_t n() const { return static_cast<size_t>(sketch.count()); }
+};
 
 // --- formatting ------------------------------------------------------------------------------
 
@@ -289,6 +314,23 @@ Summary plotSummary(std::vector<double> v) {
     return s;
 }
 
+// The same from a stream: exactly as above while it holds its values, from its sketch beyond.
+Summary plotSummary(const ValueStream& v) {
+    if (v.sketch.exact()) return plotSummary(v.sketch.values());
+    Summary s;
+    s.n = v.n();
+    s.mean = v.sketch.mean();
+    s.sd = v.sketch.sd().value_or(0.0);
+    s.q05 = v.sketch.quantile(0.05);
+    s.q25 = v.sketch.quantile(0.25);
+    s.q50 = v.sketch.quantile(0.5);
+    s.q75 = v.sketch.quantile(0.75);
+    s.q95 = v.sketch.quantile(0.95);
+    s.min = v.min;
+    s.max = v.max;
+    return s;
+}
+
 // Deterministic jitter in [-1, 1] for the strip plot (a hash of the point's rank).
 double jitter(size_t i) {
     uint64_t z = (i + 1) * 0x9E3779B97F4A7C15ull;
@@ -323,19 +365,19 @@ double speciesLabelWidth(const std::vector<std::string>& species) {
 // whiskers q05–q95, box q25–q75, median line, mean diamond, and the individual instances as a
 // jittered strip. The SVG scales with its cell (viewBox, width 100%).
 std::string boxPlotFigure(const std::string& metric, const std::vector<std::string>& species,
-                          const std::map<std::string, std::vector<double>>& values,
+                          const std::map<std::string, ValueStream>& values,
                           const std::set<std::string>& perView, double labelWidth) {
     std::vector<size_t> rows;  // indices into `species`: colours stay the species' own
     std::vector<std::string> missing;
     double lo = INFINITY, hi = -INFINITY;
     for (size_t i = 0; i < species.size(); ++i) {
         auto it = values.find(species[i]);
-        if (it == values.end() || it->second.empty()) {
+        if (it == values.end() || it->second.n() == 0) {
             missing.push_back(species[i]);
             continue;
         }
         rows.push_back(i);
-        for (double v : it->second) lo = std::min(lo, v), hi = std::max(hi, v);
+        lo = std::min(lo, it->second.min), hi = std::max(hi, it->second.max);
     }
     std::vector<double> ticks = niceTicks(lo, hi, 4);
     // x1 leaves half of the widest tick label ("20000", "0.0004") to the right of the axis.
@@ -368,9 +410,17 @@ std::string boxPlotFigure(const std::string& metric, const std::vector<std::stri
     for (size_t r = 0; r < rows.size(); ++r) {
         const std::string& name = species[rows[r]];
         const std::string colour = speciesColour(rows[r]);
-        const std::vector<double>& v = values.at(name);
+        const ValueStream& stream = values.at(name);
         const double yc = top + row * (static_cast<double>(r) + 0.5);
-        const Summary s = plotSummary(v);
+        const Summary s = plotSummary(stream);
+        // The dots: the values as they came while the stream holds them all, else its tails.
+        std::vector<double> v = stream.sketch.exact() ? stream.sketch.values() : stream.low;
+        if (!stream.sketch.exact()) {
+            std::sort(v.begin(), v.end());
+            std::vector<double> high = stream.high;
+            std::sort(high.begin(), high.end());
+            v.insert(v.end(), high.begin(), high.end());
+        }
         o << "<g data-species=\"" << esc(name) << "\"><title>" << esc(name) << ": n " << s.n
           << ", mean " << num(s.mean) << ", sd " << num(s.sd) << ", q05 " << num(s.q05) << ", q25 "
           << num(s.q25) << ", median " << num(s.q50) << ", q75 " << num(s.q75) << ", q95 "
@@ -393,7 +443,7 @@ std::string boxPlotFigure(const std::string& metric, const std::vector<std::stri
           << "\" y2=\"" << px(yc + 8) << "\" stroke=\"" << colour << "\" stroke-width=\"2.5\"/>\n";
         // The strip: every instance when there are few, else only those past the whiskers.
         for (size_t i = 0; i < v.size(); ++i) {
-            if (v.size() > 300 && v[i] >= s.q05 && v[i] <= s.q95) continue;
+            if (s.n > 300 && v[i] >= s.q05 && v[i] <= s.q95) continue;
             o << "<circle cx=\"" << px(X(v[i])) << "\" cy=\"" << px(yc + 5.0 * jitter(i))
               << "\" r=\"" << (box ? "1.6" : "2.6") << "\" fill=\"" << colour
               << "\" fill-opacity=\"" << (box ? "0.55" : "0.8") << "\"/>";
@@ -550,13 +600,17 @@ const Theme kThemes[] = {
 struct ReportData {
     json info;
     std::string name;
-    std::vector<Record> recs;
+    size_t records = 0;  // manifest records read
     size_t skipped = 0;  // torn last lines of the manifests (a build killed or still writing)
     std::set<std::string> perView;
     std::vector<std::string> species;
     std::map<std::string, size_t> perSpeciesCount;
     // metric -> species -> values; constant metrics are listed, not plotted.
-    std::map<std::string, std::map<std::string, std::vector<double>>> values;
+    std::map<std::string, std::map<std::string, ValueStream>> values;
+    // species -> swept path -> value -> metric -> values
+    std::map<std::string,
+             std::map<std::string, std::map<std::string, std::map<std::string, ValueStream>>>>
+        sweeps;
     std::vector<std::string> metrics, constant, timing;
     // theme id -> the metrics plotted under it (metrics, then timing), in name order.
     std::map<std::string, std::vector<std::string>> byTheme;
@@ -578,35 +632,43 @@ ReportData readReportData(const fs::path& dir) {
             if (r.is_object()) d.runs.push_back(std::move(r));
         }
     }
-    d.recs = readManifest(dir, d.skipped, d.perView);
-    if (d.recs.empty()) throw InputError(dir.string() + ": the manifest has no record");
+    // The manifests streamed twice, a record at a time: which stats are per view, then every
+    // record into its species' (and sweep point's) value streams.
+    d.perView = perViewStats(dir);
     d.name = d.info.value("name", dir.filename().string());
-
     if (d.info.contains("species") && d.info["species"].is_array()) {
         for (const auto& s : d.info["species"]) {
             if (s.is_object() && s.contains("name") && s["name"].is_string())
                 d.species.push_back(s["name"].get<std::string>());
         }
     }
-    for (const Record& r : d.recs) {
+    const ManifestStream read = forEachManifestRecord(dir, [&](ManifestRecord& m) {
+        const Record r = reportRecord(m.json, d.perView);
         if (std::find(d.species.begin(), d.species.end(), r.species) == d.species.end())
             d.species.push_back(r.species);
-    }
-    for (const Record& r : d.recs) ++d.perSpeciesCount[r.species];
+        ++d.perSpeciesCount[r.species];
+        for (const auto& [k, v] : r.metrics) {
+            if (std::isfinite(v)) d.values[k][r.species].add(v);
+        }
+        for (const auto& [path, value] : r.sweep) {
+            auto& streams = d.sweeps[r.species][path][value];
+            for (const auto& [k, v] : r.metrics) {
+                if (std::isfinite(v)) streams[k].add(v);
+            }
+        }
+        if (!r.sweep.empty()) d.anySweep = true;
+    });
+    d.records = read.records;
+    d.skipped = read.tornLines;
+    if (d.records == 0) throw InputError(dir.string() + ": the manifest has no record");
     d.species.erase(
         std::remove_if(d.species.begin(), d.species.end(),
                        [&](const std::string& s) { return !d.perSpeciesCount.count(s); }),
         d.species.end());
 
-    for (const Record& r : d.recs) {
-        for (const auto& [k, v] : r.metrics) {
-            if (std::isfinite(v)) d.values[k][r.species].push_back(v);
-        }
-    }
     for (const auto& [m, bySpecies] : d.values) {
         double lo = INFINITY, hi = -INFINITY;
-        for (const auto& [s, v] : bySpecies)
-            for (double x : v) lo = std::min(lo, x), hi = std::max(hi, x);
+        for (const auto& [s, v] : bySpecies) lo = std::min(lo, v.min), hi = std::max(hi, v.max);
         if (m.rfind("timing.", 0) == 0) {
             d.timing.push_back(m);
         } else if (hi > lo) {
@@ -624,8 +686,6 @@ ReportData readReportData(const fs::path& dir) {
     for (const auto& m : d.metrics) d.byTheme[metricTheme(m, d.perView.count(m) > 0)].push_back(m);
     for (const auto& m : d.timing) d.byTheme["timing"].push_back(m);
     d.labelWidth = speciesLabelWidth(d.species);
-    d.anySweep =
-        std::any_of(d.recs.begin(), d.recs.end(), [](const Record& r) { return !r.sweep.empty(); });
     return d;
 }
 
@@ -704,7 +764,7 @@ void writeFacts(std::ostream& h, const ReportData& d) {
         for (const auto& [k, v] : d.info["counts"].items()) fact("count: " + k, scalar(v));
     }
     fact("manifest records read",
-         std::to_string(d.recs.size()) +
+         std::to_string(d.records) +
              (d.skipped ? " (" + std::to_string(d.skipped) + " torn last lines left out)"
                         : std::string()));
     if (d.info.contains("versions") && d.info["versions"].is_object()) {
@@ -862,16 +922,26 @@ void writeComparison(std::ostream& h, const ReportData& d) {
                     auto ia = d.values.at(m).find(d.species[a]),
                          ib = d.values.at(m).find(d.species[b]);
                     if (ia == d.values.at(m).end() || ib == d.values.at(m).end()) continue;
-                    std::vector<double> xa = ia->second, xb = ib->second;
-                    std::sort(xa.begin(), xa.end());
-                    std::sort(xb.begin(), xb.end());
-                    const KsResult ks = ksTwoSample(xa, xb);
+                    const QuantileSketch &qa = ia->second.sketch, &qb = ib->second.sketch;
+                    KsResult ks;
+                    double w = 0;
+                    if (qa.exact() && qb.exact()) {
+                        const std::vector<double> xa = qa.sortedValues(), xb = qb.sortedValues();
+                        ks = ksTwoSample(xa, xb);
+                        w = wasserstein1(xa, xb);
+                    } else {  // from the sketches, p asymptotic (as sylva stats)
+                        const auto wa = qa.weighted(), wb = qb.weighted();
+                        ks.d = weightedKsDistance(wa, wb);
+                        ks.p = ksAsymptoticP(ks.d, static_cast<double>(qa.count()),
+                                             static_cast<double>(qb.count()));
+                        w = weightedWasserstein(wa, wb);
+                    }
                     Summary sa = plotSummary(ia->second), sb = plotSummary(ib->second);
                     double pooled = std::sqrt(0.5 * (sa.sd * sa.sd + sb.sd * sb.sd));
                     double effect = pooled > 0 ? std::fabs(sa.mean - sb.mean) / pooled
                                                : (sa.mean != sb.mean ? INFINITY : 0.0);
-                    rows.push_back({m, ks.d, wasserstein1(xa, xb), sa.mean, sb.mean, ks.p, effect,
-                                    xa.size(), xb.size()});
+                    rows.push_back({m, ks.d, w, sa.mean, sb.mean, ks.p, effect, ia->second.n(),
+                                    ib->second.n()});
                 }
                 std::stable_sort(rows.begin(), rows.end(), [](const Row& x, const Row& y) {
                     return x.d != y.d ? x.d > y.d : x.effect > y.effect;
@@ -905,16 +975,9 @@ size_t writeSweeps(std::ostream& h, const ReportData& d) {
          "metrics whose means vary most with the value (largest share of variance between "
          "sweep points) are shown.</p>\n";
     for (const auto& s : d.species) {
-        std::set<std::string> paths;
-        for (const Record& r : d.recs)
-            if (r.species == s)
-                for (const auto& kv : r.sweep) paths.insert(kv.first);
-        for (const auto& path : paths) {
-            std::map<std::string, std::vector<const Record*>> groups;
-            for (const Record& r : d.recs) {
-                auto it = r.sweep.find(path);
-                if (r.species == s && it != r.sweep.end()) groups[it->second].push_back(&r);
-            }
+        auto bySpecies = d.sweeps.find(s);
+        if (bySpecies == d.sweeps.end()) continue;
+        for (const auto& [path, groups] : bySpecies->second) {
             if (groups.size() < 2) continue;
             bool numericX = true;
             std::vector<std::pair<double, std::string>> order;
@@ -933,25 +996,27 @@ size_t writeSweeps(std::ostream& h, const ReportData& d) {
             std::vector<Scored> scored;
             for (const auto& m : d.metrics) {
                 std::vector<SweepPoint> pts;
-                std::vector<double> all;
                 for (const auto& [x, label] : order) {
-                    std::vector<double> v;
-                    for (const Record* r : groups[label]) {
-                        auto it = r->metrics.find(m);
-                        if (it != r->metrics.end() && std::isfinite(it->second))
-                            v.push_back(it->second);
-                    }
-                    if (v.empty()) continue;
-                    all.insert(all.end(), v.begin(), v.end());
-                    pts.push_back({label, x, plotSummary(v)});
+                    const auto& streams = groups.at(label);
+                    auto it = streams.find(m);
+                    if (it == streams.end() || it->second.n() == 0) continue;
+                    pts.push_back({label, x, plotSummary(it->second)});
                 }
                 if (pts.size() < 2) continue;
-                double grand =
-                    std::accumulate(all.begin(), all.end(), 0.0) / static_cast<double>(all.size());
-                double total = 0, between = 0;
-                for (double v : all) total += (v - grand) * (v - grand);
-                for (const auto& p : pts)
+                // The share of variance between sweep points, from each point's n, mean and sd:
+                // total = Σ (n − 1) sd² + Σ n (mean − grand)², between = the second sum.
+                double n = 0, sum = 0;
+                for (const auto& p : pts) {
+                    n += static_cast<double>(p.s.n);
+                    sum += static_cast<double>(p.s.n) * p.s.mean;
+                }
+                const double grand = sum / n;
+                double within = 0, between = 0;
+                for (const auto& p : pts) {
+                    within += (static_cast<double>(p.s.n) - 1) * p.s.sd * p.s.sd;
                     between += static_cast<double>(p.s.n) * (p.s.mean - grand) * (p.s.mean - grand);
+                }
+                const double total = within + between;
                 if (total <= 0) continue;
                 scored.push_back({between / total, m, std::move(pts)});
             }
@@ -989,7 +1054,7 @@ ReportResult writeReport(const fs::path& dir) {
     if (fs::is_directory(dir, ec)) lock = std::make_unique<OutputLock>(dir, "sylva report");
     const ReportData d = readReportData(dir);
     ReportResult result;
-    result.instances = d.recs.size();
+    result.instances = d.records;
     result.species = d.species.size();
     result.metrics = d.metrics.size();
     std::ostringstream h;

@@ -231,13 +231,13 @@ TEST(CliHugeDataset, HugeShardResumesAfterAKill) {
     }
 }
 
-// `sylva merge` and `sylva stats` of 10⁷ records in bounded memory: a packed dataset built as two
-// shards (synthetic: two species of 5 × 10⁶ records each, one tar shard per build shard) with a
+// `sylva merge`, `stats` and `report` of 10⁷ records in bounded memory: a packed dataset built as
+// two shards (synthetic: two species of 5 × 10⁶ records each, one tar shard per build shard) with a
 // uniform metric (a low-discrepancy sequence on [0, 1)) and a constant. Merged a line at a time,
 // then summarised into sketches: each run's peak RSS stays within `sylva --help`'s plus the
 // margin (and under 512 MiB) whatever the count, and the quantiles land within the sketch's
 // error of the known ones.
-TEST(CliHugeDataset, MergeAndStatsOfTenMillionRecordsInBoundedMemory) {
+TEST(CliHugeDataset, MergeStatsAndReportOfTenMillionRecordsInBoundedMemory) {
     TempDir t;
     const fs::path dir = t / "sharded";
     fs::create_directories(dir / "shards");
@@ -319,6 +319,15 @@ TEST(CliHugeDataset, MergeAndStatsOfTenMillionRecordsInBoundedMemory) {
     EXPECT_EQ(rows, 2);
     const std::string compare = slurp(merged / "stats" / "compare.csv");
     EXPECT_NE(compare.find("a,b,u,5000000,5000000,"), std::string::npos) << compare;
+
+    // The report: its box plots from the same streams, its strips at most 300 dots a species.
+    const RunResult rep = sylva::test::runSylva({"report", merged.string()}, t.path(), o);
+    ASSERT_EQ(rep.code, 0) << describe(rep);
+    EXPECT_LT(rep.maxRssKiB, bound(help)) << describe(rep);
+    EXPECT_LT(rep.maxRssKiB, 512 * 1024) << describe(rep);
+    const std::string html = slurp(merged / "report" / "index.html");
+    EXPECT_NE(html.find("a: n 5000000, mean 0.5,"), std::string::npos);
+    EXPECT_LT(html.size(), size_t{1} << 20);
 }
 
 }  // namespace
