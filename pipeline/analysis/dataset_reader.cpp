@@ -146,43 +146,13 @@ std::vector<fs::path> manifestFiles(const fs::path& dir) {
     return files;
 }
 
-ManifestRead readManifests(const fs::path& dir) {
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec)) throw InputError(dir.string() + ": not a directory");
-    const std::vector<fs::path> files = manifestFiles(dir);
-    if (files.empty()) {
-        throw InputError(dir.string() +
-                         ": no manifest.jsonl or manifest.shard-*.jsonl (not a dataset "
-                         "directory)");
-    }
-    ManifestRead out;
-    std::unordered_set<std::string> seen;
-    for (const fs::path& f : files) {
-        const std::string name = f.filename().string();
-        out.files.push_back(name);
-        InputFile in(f);
-        std::string line;
-        for (InputFile::Line got;
-             (got = in.next(line, kMaxManifestLineBytes)) != InputFile::Line::end;) {
-            if (got == InputFile::Line::torn) {
-                ++out.tornLines;
-                break;
-            }
-            if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-            ManifestRecord r =
-                parseManifestRecord(line, f.string() + ":" + std::to_string(in.lineNumber()));
-            if (!seen.insert(r.id).second) {
-                ++out.duplicates;
-                continue;
-            }
-            out.records.push_back(std::move(r));
-        }
-    }
-    return out;
-}
+namespace {
 
-ManifestStream forEachManifestRecord(const fs::path& dir,
-                                     const std::function<void(ManifestRecord&)>& f) {
+// Every complete record of `dir`'s manifests to `f`, in file order. Ids are remembered (and a
+// record of one already seen left out, counted in `duplicates`) when `everyId`, else only where
+// a whole manifest lies beside shard manifests (a merge done in place: each record twice).
+ManifestStream streamManifests(const fs::path& dir, bool everyId,
+                               const std::function<void(ManifestRecord&)>& f, size_t& duplicates) {
     std::error_code ec;
     if (!fs::is_directory(dir, ec)) throw InputError(dir.string() + ": not a directory");
     const std::vector<fs::path> files = manifestFiles(dir);
@@ -192,9 +162,8 @@ ManifestStream forEachManifestRecord(const fs::path& dir,
                          "directory)");
     }
     ManifestStream out;
-    // A directory holding a whole manifest beside shard manifests (a merge done in place) has
-    // each record twice: only then are ids remembered, to count each once.
-    const bool overlapping = files.size() > 1 && files.front().filename() == "manifest.jsonl";
+    const bool remember =
+        everyId || (files.size() > 1 && files.front().filename() == "manifest.jsonl");
     std::unordered_set<std::string> seen;
     for (const fs::path& file : files) {
         out.files.push_back(file.filename().string());
@@ -209,12 +178,32 @@ ManifestStream forEachManifestRecord(const fs::path& dir,
             if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
             ManifestRecord r =
                 parseManifestRecord(line, file.string() + ":" + std::to_string(in.lineNumber()));
-            if (overlapping && !seen.insert(r.id).second) continue;
+            if (remember && !seen.insert(r.id).second) {
+                ++duplicates;
+                continue;
+            }
             ++out.records;
             f(r);
         }
     }
     return out;
+}
+
+}  // namespace
+
+ManifestRead readManifests(const fs::path& dir) {
+    ManifestRead out;
+    const ManifestStream s = streamManifests(
+        dir, true, [&](ManifestRecord& r) { out.records.push_back(std::move(r)); }, out.duplicates);
+    out.files = s.files;
+    out.tornLines = s.tornLines;
+    return out;
+}
+
+ManifestStream forEachManifestRecord(const fs::path& dir,
+                                     const std::function<void(ManifestRecord&)>& f) {
+    size_t duplicates = 0;
+    return streamManifests(dir, false, f, duplicates);
 }
 
 json readDatasetJsonFile(const fs::path& file) {
