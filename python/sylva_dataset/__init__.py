@@ -36,7 +36,7 @@ from .ply import read_ply
 from .png import read_png
 from .shards import TarShards, iter_shard, member_name, shard_list, tar_members
 
-__version__ = "0.2.0"
+__version__ = "0.3.0"
 
 __all__ = ["Dataset", "Instance", "Skeleton", "Mesh", "PointCloud", "Scan", "MESH_FORMATS", "read_ply",
            "read_las", "LasFile", "read_colour",
