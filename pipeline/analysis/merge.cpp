@@ -351,9 +351,7 @@ MergeSummary mergeShards(const MergeOptions& o) {
                 // lines were checked above (complete, each a record).
                 const auto [lo, hi] = shardPositions(total, s->index, s->count, perShard);
                 for (int64_t k = lo / perShard; k * perShard < hi; ++k) {
-                    const fs::path tar = pack.tarPath(k);
-                    fs::path index = tar;
-                    index.replace_extension(".index.json");
+                    const fs::path tar = pack.tarPath(k), index = packIndexPath(tar);
                     if (fs::exists(s->dir / tar)) transfer(s->dir / tar, stage / tar, o.move);
                     if (fs::exists(s->dir / index)) transfer(s->dir / index, stage / index, o.move);
                 }

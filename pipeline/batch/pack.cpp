@@ -22,10 +22,27 @@ constexpr uint64_t kMaxIndexBytes = uint64_t(1) << 30;
 // The largest instance file packed (a plot's scene meshes can take a few GB).
 constexpr uint64_t kMaxMemberBytes = uint64_t(64) << 30;
 
-fs::path indexPathOf(const fs::path& tar) {
-    fs::path p = tar;
-    p.replace_extension(".index.json");
-    return p;
+// Calls f on every string in `v` (objects and arrays walked), which it may replace.
+void forEachString(nlohmann::json& v, const std::function<void(nlohmann::json&)>& f) {
+    if (v.is_object() || v.is_array()) {
+        for (auto& e : v) forEachString(e, f);
+    } else if (v.is_string()) {
+        f(v);
+    }
+}
+
+// The shard number a file of shards/ starts with ("000003.tar", "000003.index.json.tmp.…"),
+// if it is one of the tar shards of positions [lo, hi).
+std::optional<int64_t> shardInRange(const std::string& name, const PackLayout& layout, int64_t lo,
+                                    int64_t hi) {
+    const std::string digits = name.substr(0, name.find('.'));
+    if (digits.empty() || digits.size() > 18 ||
+        digits.find_first_not_of("0123456789") != std::string::npos) {
+        return std::nullopt;
+    }
+    const int64_t k = std::atoll(digits.c_str());
+    if (k * layout.perShard < lo || k * layout.perShard >= hi) return std::nullopt;
+    return k;
 }
 
 // Every regular file under `dir`, as paths relative to it ('/'-separated), sorted; temp files
@@ -60,17 +77,12 @@ std::string rewriteReferences(std::string bytes, const std::string& id, const st
         nlohmann::json j = nlohmann::json::parse(bytes, nullptr, false);
         if (j.is_discarded()) return bytes;
         bool changed = false;
-        std::function<void(nlohmann::json&)> walk = [&](nlohmann::json& v) {
-            if (v.is_object() || v.is_array()) {
-                for (auto& e : v) walk(e);
-            } else if (v.is_string()) {
-                if (auto m = member(v.get<std::string>())) {
-                    v = *m;
-                    changed = true;
-                }
+        forEachString(j, [&](nlohmann::json& v) {
+            if (auto m = member(v.get<std::string>())) {
+                v = *m;
+                changed = true;
             }
-        };
-        walk(j);
+        });
         return changed ? j.dump(2) + "\n" : bytes;
     }
     if (ext != ".obj" && ext != ".mtl") return bytes;
@@ -106,10 +118,16 @@ void writeIndex(const fs::path& tar, uint64_t bytes, const nlohmann::json& sampl
     j["tar"] = tar.filename().string();
     j["bytes"] = bytes;
     j["samples"] = samples;
-    writeFileAtomic(indexPathOf(tar), j.dump() + "\n");
+    writeFileAtomic(packIndexPath(tar), j.dump() + "\n");
 }
 
 }  // namespace
+
+fs::path packIndexPath(const fs::path& tar) {
+    fs::path p = tar;
+    p.replace_extension(".index.json");
+    return p;
+}
 
 std::string PackLayout::tarName(int64_t shard) const {
     char buf[48];
@@ -150,22 +168,18 @@ void packRecordFiles(nlohmann::json& record, const std::string& id, const std::s
                      const std::string& tarPath) {
     record["pack"] = tarPath;
     const std::string prefix = rel + "/";
-    std::function<void(nlohmann::json&)> walk = [&](nlohmann::json& v) {
-        if (v.is_object() || v.is_array()) {
-            for (auto& e : v) walk(e);
-        } else if (v.is_string()) {
-            const std::string s = v.get<std::string>();
-            if (s.rfind(prefix, 0) == 0) v = packMemberName(id, s.substr(prefix.size()));
-        }
-    };
-    if (record.contains("files")) walk(record["files"]);
+    if (!record.contains("files")) return;
+    forEachString(record["files"], [&](nlohmann::json& v) {
+        const std::string s = v.get<std::string>();
+        if (s.rfind(prefix, 0) == 0) v = packMemberName(id, s.substr(prefix.size()));
+    });
 }
 
 std::vector<PackSample> readPackSamples(const fs::path& tar) {
     std::error_code ec;
     const uint64_t size = fs::file_size(tar, ec);
     if (ec) return {};
-    const fs::path index = indexPathOf(tar);
+    const fs::path index = packIndexPath(tar);
     if (fs::exists(index, ec)) {
         const nlohmann::json j = nlohmann::json::parse(
             readInputFile(index, kMaxIndexBytes, "a tar shard index"), nullptr, false);
@@ -296,17 +310,12 @@ void removeStalePackFiles(const fs::path& out, const DatasetInstances& instances
                           const std::function<bool(int64_t)>& recorded) {
     std::error_code ec;
     std::vector<fs::path> stale;
-    const std::string first = layout.tarName(layout.shardOf(lo));
     for (fs::directory_iterator it(out / "shards", ec), end; !ec && it != end; it.increment(ec)) {
-        const std::string name = it->path().filename().string();
-        const size_t tmp = name.find(".tmp.");
-        if (tmp == std::string::npos) continue;
         // "<digits>.tar.tmp.…" or "<digits>.index.json.tmp.…" of a shard in [lo, hi).
-        const size_t dot = name.find('.');
-        const std::string digits = name.substr(0, dot);
-        if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos) continue;
-        const int64_t k = std::atoll(digits.c_str());
-        if (k * layout.perShard >= lo && k * layout.perShard < hi) stale.push_back(it->path());
+        const std::string name = it->path().filename().string();
+        if (name.find(".tmp.") != std::string::npos && shardInRange(name, layout, lo, hi)) {
+            stale.push_back(it->path());
+        }
     }
     for (const fs::path& p : stale) fs::remove(p, ec);
     std::vector<fs::path> failed;
@@ -323,10 +332,7 @@ void writePackIndex(const fs::path& out, const std::string& datasetName, const s
     for (fs::directory_iterator it(out / "shards", ec), end; !ec && it != end; it.increment(ec)) {
         const std::string name = it->path().filename().string();
         if (name.size() < 5 || name.substr(name.size() - 4) != ".tar") continue;
-        const std::string digits = name.substr(0, name.size() - 4);
-        if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos) continue;
-        const int64_t k = std::atoll(digits.c_str());
-        if (k * layout.perShard >= lo && k * layout.perShard < hi) tars.emplace_back(k, it->path());
+        if (const auto k = shardInRange(name, layout, lo, hi)) tars.emplace_back(*k, it->path());
     }
     std::sort(tars.begin(), tars.end());
     nlohmann::json list = nlohmann::json::array();

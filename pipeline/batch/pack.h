@@ -41,6 +41,9 @@ struct PackLayout {
 };
 PackLayout packLayout(int64_t datasetSize, int64_t perShard);
 
+// A tar shard's member index: "shards/000003.tar" → "shards/000003.index.json".
+std::filesystem::path packIndexPath(const std::filesystem::path& tar);
+
 // The positions [lo, hi) build shard `index` of `count` covers: contiguous blocks of about
 // equal size (shardRange, build.h) — of whole tar shards when `perShard` > 0.
 std::pair<int64_t, int64_t> shardPositions(int64_t datasetSize, int index, int count,
