@@ -5,12 +5,14 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <csetjmp>
 #include <cstring>
 #include <stdexcept>
 #include <vector>
 
+#include "pipeline/formats/deflate_runs.h"
 #include "pipeline/formats/little_endian.h"
 
 namespace sylva {
@@ -114,6 +116,38 @@ size_t runLength(const uint8_t* in, size_t i, size_t n, size_t cap) {
     return j - i;
 }
 
+void putU32BigEndian(std::string& out, uint32_t v) {
+    for (int shift = 24; shift >= 0; shift -= 8)
+        out.push_back(static_cast<char>((v >> shift) & 0xff));
+}
+
+// A PNG chunk: length, type, data, CRC-32 of type and data (PNG §5.3).
+void putChunk(std::string& out, const char* type, const std::string& data) {
+    putU32BigEndian(out, static_cast<uint32_t>(data.size()));
+    const size_t typeAt = out.size();
+    out.append(type, 4);
+    out.append(data);
+    const auto* bytes = reinterpret_cast<const Bytef*>(out.data() + typeAt);
+    putU32BigEndian(out,
+                    static_cast<uint32_t>(crc32(0, bytes, static_cast<uInt>(4 + data.size()))));
+}
+
+// An 8-bit greyscale PNG whose rows are unfiltered (each row's filter byte 0) and whose one
+// IDAT chunk is zlibRunsOfRows's stream: see image_codecs.h.
+std::string encodeRunsPng(int width, int height, const uint8_t* pixels) {
+    std::string out("\x89PNG\r\n\x1a\n", 8);
+    std::string ihdr;
+    putU32BigEndian(ihdr, static_cast<uint32_t>(width));
+    putU32BigEndian(ihdr, static_cast<uint32_t>(height));
+    // bit depth 8, greyscale, deflate, adaptive filtering (method 0), no interlace
+    ihdr.append({8, 0, 0, 0, 0});
+    putChunk(out, "IHDR", ihdr);
+    putChunk(out, "IDAT",
+             zlibRunsOfRows(pixels, static_cast<size_t>(width), static_cast<size_t>(height), 0));
+    putChunk(out, "IEND", std::string());
+    return out;
+}
+
 // OpenEXR RLE of n bytes (see the header): appends to out, returns the encoded size.
 size_t rleEncode(const uint8_t* in, size_t n, std::vector<uint8_t>& out) {
     constexpr size_t kMaxRun = 128, kMinRun = 3;
@@ -144,11 +178,7 @@ size_t rleEncode(const uint8_t* in, size_t n, std::vector<uint8_t>& out) {
 
 std::string encodeGreyPng(int width, int height, const uint8_t* pixels) {
     checkSize(width, height, "encodeGreyPng");
-    std::string out;
-    out.reserve(static_cast<size_t>(width) * height / 8 + 256);
-    std::string error;
-    if (!pngEncode(width, height, 1, 8, pixels, out, error)) throw std::runtime_error(error);
-    return out;
+    return encodeRunsPng(width, height, pixels);
 }
 
 std::string encodeRgbPng(int width, int height, const uint8_t* rgb) {

@@ -1,9 +1,12 @@
 // In-memory encoders for the per-view images, so each file is one atomic write of bytes.
 //
-// encodeGreyPng: 8-bit greyscale PNG through libpng, zlib level 1 with the Z_RLE strategy,
-//   memLevel 6 and no row filter. Silhouettes and label images are long runs of a few values:
-//   this encodes a 256² silhouette in ≈ 0.1 ms (OIIO's writer: ≈ 0.2 ms) and about 40% smaller.
-// encodeGrey16Png: the same for 16-bit greyscale (samples big-endian in the file, as PNG
+// encodeGreyPng: 8-bit greyscale PNG, no row filter, one IDAT chunk of zlibRuns's stream
+//   (deflate_runs.h: the tokens of zlib's Z_RLE strategy in one block of dynamic codes).
+//   Silhouettes, label images and contact sheets are long runs of a few values: the files are
+//   the size libpng with zlib level 1 and Z_RLE made, written 2–2.7× faster (a 256²
+//   silhouette 202 → 74 µs, a 776² contact sheet 2.24 → 1.13 ms on this machine).
+// encodeRgbPng, encodeGrey16Png: through libpng, zlib level 1 with Z_RLE, memLevel 6, no
+//   row filter. encodeGrey16Png is 16-bit greyscale (samples big-endian in the file, as PNG
 //   requires; given here as native uint16 values). Depth maps for instant-ngp.
 //
 // encodeFloatExr: a single-part scanline OpenEXR 2.0 file, one FLOAT (32-bit) channel,
