@@ -142,12 +142,9 @@ void renderStage(InstanceWork& w, const OutputOptions& o) {
     }
     const Mesh& wood = meshed ? w.mesh.wood : ownWood;
     const std::vector<int32_t>& nodes = meshed ? w.woodNodes : ownNodes;
-    w.views.reserve(w.cameras.size());
-    for (const Camera& c : w.cameras) {
-        w.views.push_back(renderView(w.grown.tree, wood, nodes, c,
-                                     o.views.depth || o.views.depthPng || o.views.pointCloud,
-                                     o.views.labels || o.views.pointCloud, o.render));
-    }
+    w.views = renderViews(w.grown.tree, wood, nodes, w.cameras,
+                          o.views.depth || o.views.depthPng || o.views.pointCloud,
+                          o.views.labels || o.views.pointCloud, o.render);
     if (o.colour.enabled) {  // the same triangles through Embree, one BVH for every view
         Mesh ownLeaves;
         if (!meshed) ownLeaves = leafMesh(w.grown.tree);

@@ -290,6 +290,89 @@ void appendFragments(const Triangle& t, int w, Fragments& out) {
     out.setSize(out.size() + n);
 }
 
+// What every view of one tree shares: the labels per node, and the leaves' outline points in
+// the world (rounded to float, as leafMesh writes them) with their triangles — computed once
+// for all the views rather than once per view.
+struct TreePrep {
+    const Tree* tree = nullptr;
+    const Mesh* wood = nullptr;
+    const std::vector<int32_t>* woodNodes = nullptr;
+    const SceneLabels* labels = nullptr;
+    std::vector<uint8_t> ownNodeLabels;  // segmentLabel per node, when no labels are given
+    const uint8_t* nodeLabels = nullptr;
+    // Outline points of every leaf, leaf by leaf: x, y, z as float, the mesh's values. (Stored
+    // as floats: GCC 12 at -O2 drops the rounding from push_back({static_cast<float>(x), …})
+    // into a vector of double Vec3s.)
+    std::vector<float> leafWorld;
+    std::vector<uint32_t> leafIndices;   // into the corners (after the tube vertices)
+    std::vector<uint8_t> leafTriLabels;  // with labels: per leaf triangle
+    std::vector<uint16_t> leafTriIds;
+};
+
+TreePrep prepareTree(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+                     const SceneLabels* labels) {
+    if (woodNodes.size() != wood.triangleCount()) {
+        throw std::invalid_argument("renderView: woodNodes needs one node per wood triangle");
+    }
+    for (int32_t node : woodNodes) {
+        if (node < 0 || static_cast<size_t>(node) >= tree.nodes.size()) {
+            throw std::invalid_argument("renderView: woodNodes holds a node the tree lacks");
+        }
+    }
+    if (labels && (labels->nodeLabels.size() != tree.nodes.size() ||
+                   labels->nodeIds.size() != tree.nodes.size() ||
+                   labels->leafLabels.size() != tree.leaves.size() ||
+                   labels->leafIds.size() != tree.leaves.size())) {
+        throw std::invalid_argument("renderScene: one label and id per node and per leaf");
+    }
+    TreePrep prep;
+    prep.tree = &tree;
+    prep.wood = &wood;
+    prep.woodNodes = &woodNodes;
+    prep.labels = labels;
+    if (labels) {
+        prep.nodeLabels = labels->nodeLabels.data();
+    } else {
+        prep.ownNodeLabels.resize(tree.nodes.size());
+        for (size_t i = 0; i < tree.nodes.size(); ++i)
+            prep.ownNodeLabels[i] = segmentLabel(tree.nodes[i]);
+        prep.nodeLabels = prep.ownNodeLabels.data();
+    }
+    const size_t nWood = wood.vertexCount();
+    size_t nLeafPoints = 0, nLeafIndices = 0;
+    for (const Leaf& leaf : tree.leaves) {
+        const LeafOutline& outline = leafOutline(leaf.shape);
+        nLeafPoints += outline.points.size();
+        nLeafIndices += outline.triangles.size();
+    }
+    prep.leafWorld.reserve(3 * nLeafPoints);
+    prep.leafIndices.reserve(nLeafIndices);
+    if (labels) {
+        prep.leafTriLabels.reserve(nLeafIndices / 3);
+        prep.leafTriIds.reserve(nLeafIndices / 3);
+    }
+    std::vector<Vec3> points;
+    for (size_t li = 0; li < tree.leaves.size(); ++li) {
+        const Leaf& leaf = tree.leaves[li];
+        const LeafOutline& outline = leafOutline(leaf.shape);
+        if (labels) {
+            prep.leafTriLabels.insert(prep.leafTriLabels.end(), outline.triangleCount(),
+                                      labels->leafLabels[li]);
+            prep.leafTriIds.insert(prep.leafTriIds.end(), outline.triangleCount(),
+                                   labels->leafIds[li]);
+        }
+        sylva::leafPoints(leaf, leafFrame(leaf), outline, points);
+        const uint32_t first = static_cast<uint32_t>(nWood + prep.leafWorld.size() / 3);
+        for (const Vec3& p : points) {
+            prep.leafWorld.push_back(static_cast<float>(p.x));
+            prep.leafWorld.push_back(static_cast<float>(p.y));
+            prep.leafWorld.push_back(static_cast<float>(p.z));
+        }
+        for (uint32_t v : outline.triangles) prep.leafIndices.push_back(first + v);
+    }
+    return prep;
+}
+
 // What one view draws. Triangle ids: [0, woodTriangles) the tube triangles, then the leaf
 // triangles (leafIndices), then `clipped` (triangles cut by the near plane, made explicit);
 // line ids follow the triangles'. Triangles whose box holds at most kSmallBox pixel centres
@@ -299,15 +382,15 @@ struct Scene {
     std::unique_ptr<Corner[]> corners;  // tube vertices, then leaf outline points
     const Mesh* wood = nullptr;
     const int32_t* woodNodes = nullptr;
-    std::vector<uint8_t> nodeLabels;    // segmentLabel per skeleton node (or the caller's)
-    const uint16_t* nodeIds = nullptr;  // instance id per node (scene renders)
-    // Per leaf triangle, its label and instance id (scene renders; empty: kLabelLeaf, id 0).
-    std::vector<uint8_t> leafTriLabels;
-    std::vector<uint16_t> leafTriIds;
+    const uint8_t* nodeLabels = nullptr;  // segmentLabel per skeleton node (or the caller's)
+    const uint16_t* nodeIds = nullptr;    // instance id per node (scene renders)
+    // Per leaf triangle, its label and instance id (scene renders; null: kLabelLeaf, id 0).
+    const uint8_t* leafTriLabels = nullptr;
+    const uint16_t* leafTriIds = nullptr;
     size_t woodTriangles = 0;
-    std::vector<Vec3> leafPoints;       // leaf outline points in camera space
-    std::vector<uint32_t> leafIndices;  // into corners
-    size_t indexedTriangles = 0;        // woodTriangles + leaf triangles
+    std::vector<Vec3> leafPoints;           // leaf outline points in camera space
+    const uint32_t* leafIndices = nullptr;  // into corners
+    size_t indexedTriangles = 0;            // woodTriangles + leaf triangles
     std::vector<Triangle> clipped;
     std::vector<Line> lines;
     std::vector<std::vector<uint32_t>> bins;  // per band: ids in ascending order
@@ -325,7 +408,7 @@ constexpr int kSmallBox = 16;
 // Corner indices of indexed triangle `id`.
 inline void cornersOf(const Scene& s, size_t id, uint32_t v[3]) {
     const uint32_t* p = id < s.woodTriangles ? s.wood->indices.data() + 3 * id
-                                             : s.leafIndices.data() + 3 * (id - s.woodTriangles);
+                                             : s.leafIndices + 3 * (id - s.woodTriangles);
     v[0] = p[0];
     v[1] = p[1];
     v[2] = p[2];
@@ -333,12 +416,12 @@ inline void cornersOf(const Scene& s, size_t id, uint32_t v[3]) {
 
 inline uint8_t labelOf(const Scene& s, const Tree& tree, size_t id) {
     if (id < s.woodTriangles) return s.nodeLabels[s.woodNodes[id]];
-    return s.leafTriLabels.empty() ? kLabelLeaf : s.leafTriLabels[id - s.woodTriangles];
+    return s.leafTriLabels ? s.leafTriLabels[id - s.woodTriangles] : kLabelLeaf;
 }
 
 inline uint16_t idOf(const Scene& s, size_t id) {
     if (id < s.woodTriangles) return s.nodeIds ? s.nodeIds[s.woodNodes[id]] : 0;
-    return s.leafTriIds.empty() ? 0 : s.leafTriIds[id - s.woodTriangles];
+    return s.leafTriIds ? s.leafTriIds[id - s.woodTriangles] : 0;
 }
 
 // Camera-space position of corner v (wood vertices recomputed from the mesh).
@@ -398,32 +481,27 @@ void addLines(const Tree& tree, const View& view, double radius, Scene& scene) {
     }
 }
 
-Scene buildScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
-                 const SceneLabels* labels, const View& view, const RenderOptions& options) {
+Scene buildScene(const TreePrep& prep, const View& view, const RenderOptions& options) {
+    const Tree& tree = *prep.tree;
+    const Mesh& wood = *prep.wood;
     Scene scene;
     const int w = view.width, h = view.height;
     const int bands = (h + kBandRows - 1) / kBandRows;
     scene.bins.resize(bands);
     scene.wood = &wood;
-    scene.woodNodes = woodNodes.data();
+    scene.woodNodes = prep.woodNodes->data();
     scene.woodTriangles = wood.triangleCount();
-    if (labels) {
-        scene.nodeLabels = labels->nodeLabels;
-        scene.nodeIds = labels->nodeIds.data();
-    } else {
-        scene.nodeLabels.resize(tree.nodes.size());
-        for (size_t i = 0; i < tree.nodes.size(); ++i)
-            scene.nodeLabels[i] = segmentLabel(tree.nodes[i]);
+    scene.nodeLabels = prep.nodeLabels;
+    scene.nodeIds = prep.labels ? prep.labels->nodeIds.data() : nullptr;
+    scene.leafIndices = prep.leafIndices.data();
+    if (prep.labels) {
+        scene.leafTriLabels = prep.leafTriLabels.data();
+        scene.leafTriIds = prep.leafTriIds.data();
     }
 
     // Vertices: the tubes' (in parallel), then every leaf's outline points.
     const size_t nWood = wood.vertexCount();
-    size_t nLeafPoints = 0, nLeafIndices = 0;
-    for (const Leaf& leaf : tree.leaves) {
-        const LeafOutline& outline = leafOutline(leaf.shape);
-        nLeafPoints += outline.points.size();
-        nLeafIndices += outline.triangles.size();
-    }
+    const size_t nLeafPoints = prep.leafWorld.size() / 3;
     scene.corners.reset(new Corner[nWood + nLeafPoints]);  // (uninitialised: all written below)
     Corner* corners = scene.corners.get();
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nWood, 4096),
@@ -433,34 +511,14 @@ Scene buildScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>&
                               corners[i] = project(view, view.toCamera({p[0], p[1], p[2]}));
                           }
                       });
-    scene.leafPoints.reserve(nLeafPoints);
-    scene.leafIndices.reserve(nLeafIndices);
-    std::vector<Vec3> points;
-    if (labels) {
-        scene.leafTriLabels.reserve(nLeafIndices / 3);
-        scene.leafTriIds.reserve(nLeafIndices / 3);
+    scene.leafPoints.resize(nLeafPoints);
+    for (size_t k = 0; k < nLeafPoints; ++k) {
+        const float* p = &prep.leafWorld[3 * k];
+        const Vec3 c = view.toCamera({p[0], p[1], p[2]});
+        corners[nWood + k] = project(view, c);
+        scene.leafPoints[k] = c;
     }
-    for (size_t li = 0; li < tree.leaves.size(); ++li) {
-        const Leaf& leaf = tree.leaves[li];
-        const LeafOutline& outline = leafOutline(leaf.shape);
-        if (labels) {
-            scene.leafTriLabels.insert(scene.leafTriLabels.end(), outline.triangleCount(),
-                                       labels->leafLabels[li]);
-            scene.leafTriIds.insert(scene.leafTriIds.end(), outline.triangleCount(),
-                                    labels->leafIds[li]);
-        }
-        sylva::leafPoints(leaf, leafFrame(leaf), outline, points);
-        const uint32_t first = static_cast<uint32_t>(nWood + scene.leafPoints.size());
-        for (const Vec3& p : points) {
-            // Rounded to float as the mesh stores them.
-            const Vec3 c = view.toCamera(
-                {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)});
-            corners[nWood + scene.leafPoints.size()] = project(view, c);
-            scene.leafPoints.push_back(c);
-        }
-        for (uint32_t v : outline.triangles) scene.leafIndices.push_back(first + v);
-    }
-    scene.indexedTriangles = scene.woodTriangles + scene.leafIndices.size() / 3;
+    scene.indexedTriangles = scene.woodTriangles + prep.leafIndices.size() / 3;
 
     // Triangles, chunk by chunk in parallel: small ones straight to fragments, the others set
     // aside to be binned whole, those cut by the near plane set aside to be clipped.
@@ -658,26 +716,12 @@ void checkImageSize(const Camera& camera) {
 }
 
 // One object's pass into the z-buffer (ids: the id buffer, or null for a tree's own views).
-void drawInto(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
-              const SceneLabels* labels, const View& view, const RenderOptions& options,
-              float* zbuf, uint8_t* lbuf, uint16_t* ids) {
-    if (woodNodes.size() != wood.triangleCount()) {
-        throw std::invalid_argument("renderView: woodNodes needs one node per wood triangle");
-    }
-    for (int32_t node : woodNodes) {
-        if (node < 0 || static_cast<size_t>(node) >= tree.nodes.size()) {
-            throw std::invalid_argument("renderView: woodNodes holds a node the tree lacks");
-        }
-    }
-    if (labels && (labels->nodeLabels.size() != tree.nodes.size() ||
-                   labels->nodeIds.size() != tree.nodes.size() ||
-                   labels->leafLabels.size() != tree.leaves.size() ||
-                   labels->leafIds.size() != tree.leaves.size())) {
-        throw std::invalid_argument("renderScene: one label and id per node and per leaf");
-    }
+void drawInto(const TreePrep& prep, const View& view, const RenderOptions& options, float* zbuf,
+              uint8_t* lbuf, uint16_t* ids) {
+    const Tree& tree = *prep.tree;
     if (!(view.f > 0 && std::isfinite(view.f))) return;
     const int w = view.width, h = view.height;
-    const Scene scene = buildScene(tree, wood, woodNodes, labels, view, options);
+    const Scene scene = buildScene(prep, view, options);
     const size_t firstClipped = scene.indexedTriangles;
     const size_t firstLine = firstClipped + scene.clipped.size();
     const int bands = static_cast<int>(scene.bins.size());
@@ -734,17 +778,15 @@ ViewImage finishImage(int w, int h, std::vector<float>& zbuf, std::vector<uint8_
     return out;
 }
 
-ViewImage renderImpl(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
-                     const SceneLabels* labels, const Camera& camera, bool wantDepth,
-                     bool wantLabels, bool wantIds, const RenderOptions& options) {
+ViewImage renderImpl(const TreePrep& prep, const Camera& camera, bool wantDepth, bool wantLabels,
+                     bool wantIds, const RenderOptions& options) {
     checkImageSize(camera);
     const View view(camera);
     const size_t n = static_cast<size_t>(camera.width) * camera.height;
     std::vector<float> zbuf(n, std::numeric_limits<float>::infinity());
     std::vector<uint8_t> lbuf(n, kLabelBackground);
-    std::vector<uint16_t> ibuf(labels ? n : 0, 0);
-    drawInto(tree, wood, woodNodes, labels, view, options, zbuf.data(), lbuf.data(),
-             labels ? ibuf.data() : nullptr);
+    std::vector<uint16_t> ibuf(prep.labels ? n : 0, 0);
+    drawInto(prep, view, options, zbuf.data(), lbuf.data(), prep.labels ? ibuf.data() : nullptr);
     return finishImage(camera.width, camera.height, zbuf, lbuf, ibuf, wantDepth, wantLabels,
                        wantIds);
 }
@@ -763,8 +805,8 @@ SceneCanvas::SceneCanvas(const Camera& camera, const RenderOptions& options)
 void SceneCanvas::draw(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
                        const SceneLabels& labels) {
     if (zbuf_.empty()) throw std::logic_error("SceneCanvas: draw after finish");
-    drawInto(tree, wood, woodNodes, &labels, View(camera_), options_, zbuf_.data(), lbuf_.data(),
-             ibuf_.data());
+    drawInto(prepareTree(tree, wood, woodNodes, &labels), View(camera_), options_, zbuf_.data(),
+             lbuf_.data(), ibuf_.data());
 }
 
 ViewImage SceneCanvas::finish(bool wantDepth, bool wantLabels, bool wantIds) {
@@ -779,15 +821,28 @@ ViewImage SceneCanvas::finish(bool wantDepth, bool wantLabels, bool wantIds) {
 ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
                      const Camera& camera, bool wantDepth, bool wantLabels,
                      const RenderOptions& options) {
-    return renderImpl(tree, wood, woodNodes, nullptr, camera, wantDepth, wantLabels, false,
-                      options);
+    return renderImpl(prepareTree(tree, wood, woodNodes, nullptr), camera, wantDepth, wantLabels,
+                      false, options);
+}
+
+std::vector<ViewImage> renderViews(const Tree& tree, const Mesh& wood,
+                                   const std::vector<int32_t>& woodNodes,
+                                   const std::vector<Camera>& cameras, bool wantDepth,
+                                   bool wantLabels, const RenderOptions& options) {
+    const TreePrep prep = prepareTree(tree, wood, woodNodes, nullptr);
+    std::vector<ViewImage> views;
+    views.reserve(cameras.size());
+    for (const Camera& c : cameras) {
+        views.push_back(renderImpl(prep, c, wantDepth, wantLabels, false, options));
+    }
+    return views;
 }
 
 ViewImage renderScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
                       const SceneLabels& labels, const Camera& camera, bool wantDepth,
                       bool wantLabels, bool wantIds, const RenderOptions& options) {
-    return renderImpl(tree, wood, woodNodes, &labels, camera, wantDepth, wantLabels, wantIds,
-                      options);
+    return renderImpl(prepareTree(tree, wood, woodNodes, &labels), camera, wantDepth, wantLabels,
+                      wantIds, options);
 }
 
 ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, bool wantLabels,

@@ -63,6 +63,12 @@ struct RenderOptions {
 ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
                      const Camera& camera, bool wantDepth, bool wantLabels,
                      const RenderOptions& options = {});
+// renderView for each camera, byte for byte, sharing the work that does not depend on the
+// camera (the leaves' outline points, the labels per node).
+std::vector<ViewImage> renderViews(const Tree& tree, const Mesh& wood,
+                                   const std::vector<int32_t>& woodNodes,
+                                   const std::vector<Camera>& cameras, bool wantDepth,
+                                   bool wantLabels, const RenderOptions& options = {});
 
 // Many objects in one z-buffer pass (a plot's trees, terrain and ground cover), `tree` and
 // `wood` holding all of them (nodes, leaves and tube triangles concatenated; non-tree surfaces

@@ -34,7 +34,9 @@ double capsuleDistance(const Vec3& p, const Vec3& a, double ra, const Vec3& b, d
 }
 
 // Segments bucketed in a uniform grid of their bounding boxes (radius included), searched in
-// growing rings of cells until no unsearched segment can be nearer.
+// growing rings of cells until no unsearched segment can be nearer. The cells are one packed
+// array (counted, then filled) about as many as the segments, at most 64 along the longest
+// side: a vector per cell at 64 per side (262,144 of them per tree) cost more than the queries.
 class SegmentGrid {
   public:
     explicit SegmentGrid(const Tree& tree) : tree_(tree) {
@@ -50,12 +52,14 @@ class SegmentGrid {
         if (segments_.empty()) return;
         const Vec3 size = bounds_.size();
         const double extent = std::max({size.x, size.y, size.z, 1e-6});
-        cell_ = std::max(extent / 64.0, 0.05);
+        const double perSegment = std::max(size.x, 1e-6) * std::max(size.y, 1e-6) *
+                                  std::max(size.z, 1e-6) / static_cast<double>(segments_.size());
+        cell_ = std::max({extent / 64.0, std::cbrt(perSegment), 0.01});
         for (int a = 0; a < 3; ++a) {
             dims_[a] = std::max(1, static_cast<int>(std::ceil(size[a] / cell_)));
         }
-        cells_.resize(static_cast<size_t>(dims_[0]) * dims_[1] * dims_[2]);
-        for (int32_t i : segments_) {
+        start_.assign(static_cast<size_t>(dims_[0]) * dims_[1] * dims_[2] + 1, 0);
+        auto forEachCell = [&](int32_t i, auto&& visit) {
             const SkeletonNode& n = tree.nodes[i];
             const SkeletonNode& p = tree.nodes[n.parent];
             const double r = std::max(n.radius, p.radius);
@@ -64,8 +68,13 @@ class SegmentGrid {
             const auto hi = cellOf(vmax(n.position, p.position) + pad);
             for (int x = lo[0]; x <= hi[0]; ++x)
                 for (int y = lo[1]; y <= hi[1]; ++y)
-                    for (int z = lo[2]; z <= hi[2]; ++z) cells_[index(x, y, z)].push_back(i);
-        }
+                    for (int z = lo[2]; z <= hi[2]; ++z) visit(index(x, y, z));
+        };
+        for (int32_t i : segments_) forEachCell(i, [&](size_t cell) { ++start_[cell + 1]; });
+        for (size_t k = 1; k < start_.size(); ++k) start_[k] += start_[k - 1];
+        items_.resize(start_.back());
+        std::vector<uint32_t> next(start_.begin(), start_.end() - 1);
+        for (int32_t i : segments_) forEachCell(i, [&](size_t cell) { items_[next[cell]++] = i; });
     }
 
     double distanceTo(const Vec3& q) const {
@@ -74,6 +83,17 @@ class SegmentGrid {
         // Cells outside the grid hold nothing: start the rings from the nearest cell.
         const int maxRing = std::max({dims_[0], dims_[1], dims_[2]});
         const double outside = std::max(0.0, distanceToBox(q));
+        // Inside the grid, an unsearched segment after ring r lies beyond the searched block
+        // of cells: at least r cells plus q's distance to its own cell's nearest face away.
+        double inCell = 0.0;
+        if (outside == 0.0) {
+            inCell = kInf;
+            for (int a = 0; a < 3; ++a) {
+                const double lo = bounds_.lo[a] + c[a] * cell_;
+                inCell = std::min({inCell, q[a] - lo, lo + cell_ - q[a]});
+            }
+            inCell = std::max(0.0, inCell);
+        }
         double best = kInf;
         for (int ring = 0; ring <= maxRing; ++ring) {
             // The cells of the ring (Chebyshev distance `ring` from c) inside the grid: whole
@@ -85,8 +105,9 @@ class SegmentGrid {
                     const int step = face ? 1 : std::max(1, 2 * ring);
                     for (int x = c[0] - ring; x <= c[0] + ring; x += step) {
                         if (x < 0 || x >= dims_[0]) continue;
-                        for (int32_t i : cells_[index(x, y, z)]) {
-                            const SkeletonNode& n = tree_.nodes[i];
+                        const size_t cell = index(x, y, z);
+                        for (uint32_t k = start_[cell]; k < start_[cell + 1]; ++k) {
+                            const SkeletonNode& n = tree_.nodes[items_[k]];
                             const SkeletonNode& p = tree_.nodes[n.parent];
                             best = std::min(best, capsuleDistance(q, p.position, p.radius,
                                                                   n.position, n.radius));
@@ -96,7 +117,7 @@ class SegmentGrid {
             }
             // Every segment not yet seen lies in cells at least `ring` cells from q's cell
             // (the bounding boxes include the radii).
-            if (best <= std::max(outside, ring * cell_)) break;
+            if (best <= std::max(outside, ring * cell_ + inCell)) break;
         }
         return best;
     }
@@ -123,7 +144,8 @@ class SegmentGrid {
     Aabb bounds_;
     double cell_ = 1.0;
     std::array<int, 3> dims_{1, 1, 1};
-    std::vector<std::vector<int32_t>> cells_;
+    std::vector<uint32_t> start_;  // cell k holds items_[start_[k], start_[k + 1])
+    std::vector<int32_t> items_;
 };
 
 // The order-0 axis from the root: at each node the shoot child of order 0 (the highest one if
