@@ -1,6 +1,5 @@
 #include "volumes/image_file.h"
 
-#include <OpenImageIO/imageio.h>
 #include <png.h>
 #include <sys/stat.h>
 
@@ -13,6 +12,8 @@
 #include <filesystem>
 #include <memory>
 
+#include "volumes/oiio_module.h"
+
 namespace sylva {
 
 namespace {
@@ -21,12 +22,6 @@ const unsigned char kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '
 
 [[noreturn]] void fail(const std::string& path, const std::string& why) {
     throw ImageError("cannot read the image " + path + ": " + why);
-}
-
-std::string oneLine(std::string s) {
-    std::replace(s.begin(), s.end(), '\n', ' ');
-    while (!s.empty() && s.back() == ' ') s.pop_back();
-    return s;
 }
 
 // The header's dimensions against the limits, before anything is allocated for the pixels.
@@ -167,53 +162,22 @@ ImageFile readPng(const std::string& path, std::FILE* file, const unsigned char 
     return img;
 }
 
-// Any other format OpenImageIO reads: the header first (dimensions checked), then the pixels.
+// Any other format OpenImageIO reads (through its module, oiio_module.h): the header first
+// (dimensions checked), then the pixels.
 ImageFile readWithOiio(const std::string& path) {
-    OIIO::ImageSpec config;
-    config.attribute("oiio:UnassociatedAlpha", 1);
-    auto in = OIIO::ImageInput::open(path, &config);
-    if (!in) {
-        const std::string why = oneLine(OIIO::geterror());
-        fail(path, why.empty() ? "no image reader recognises it" : why);
-    }
-    const OIIO::ImageSpec& spec = in->spec();
-    checkDimensions(path, spec.width, spec.height, spec.nchannels);
-    if (spec.depth > 1)
-        fail(path, "it is a volume image (depth " + std::to_string(spec.depth) + ")");
     ImageFile img;
-    img.width = spec.width;
-    img.height = spec.height;
-    img.channels = spec.nchannels;
-    img.alphaChannel = spec.alpha_channel < spec.nchannels ? spec.alpha_channel : -1;
-    switch (spec.format.basetype) {
-        case OIIO::TypeDesc::UINT8:
-            img.integerMax = 255.0;
-            break;
-        case OIIO::TypeDesc::INT8:
-            img.integerMax = 127.0;
-            break;
-        case OIIO::TypeDesc::UINT16:
-            img.integerMax = 65535.0;
-            break;
-        case OIIO::TypeDesc::INT16:
-            img.integerMax = 32767.0;
-            break;
-        case OIIO::TypeDesc::UINT32:
-            img.integerMax = 4294967295.0;
-            break;
-        case OIIO::TypeDesc::INT32:
-            img.integerMax = 2147483647.0;
-            break;
-        default:
-            img.integerMax = 0.0;
-            break;  // half, float, double
+    std::string error;
+    const auto check = [&](int w, int h, int channels, int depth) {
+        checkDimensions(path, w, h, channels);
+        if (depth > 1) fail(path, "it is a volume image (depth " + std::to_string(depth) + ")");
+    };
+    const OiioModule* module = nullptr;
+    try {
+        module = &oiioModule();
+    } catch (const std::runtime_error& e) {
+        fail(path, e.what());
     }
-    img.pixels.resize(static_cast<size_t>(img.width) * img.height * img.channels);
-    if (!in->read_image(0, 0, 0, img.channels, OIIO::TypeDesc::FLOAT, img.pixels.data())) {
-        const std::string why = oneLine(in->geterror());
-        fail(path, why.empty() ? "its pixels cannot be read" : why);
-    }
-    in->close();
+    if (!module->readFile(path, check, img, error)) fail(path, error);
     return img;
 }
 

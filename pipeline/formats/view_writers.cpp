@@ -40,9 +40,6 @@
 //   without label images, at an integer scale (nearest pixel) in tiles of max(256, view size).
 #include "pipeline/formats/view_writers.h"
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -58,6 +55,8 @@
 #include "pipeline/render/preview.h"
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
+#include "volumes/image_file.h"
+#include "volumes/oiio_module.h"
 
 namespace sylva {
 
@@ -142,29 +141,43 @@ struct Sheet {
     }
 };
 
-// An image decoded from memory (a PNG's bytes, from a file or a tar member); `name` for
-// messages and for OIIO to pick the format by its extension.
-std::unique_ptr<OIIO::ImageInput> openImage(const std::string& name,
-                                            OIIO::Filesystem::IOMemReader& mem) {
-    auto in = OIIO::ImageInput::open(name, nullptr, &mem);
-    if (!in) throw std::runtime_error("cannot read image '" + name + "': " + OIIO::geterror());
-    return in;
+// An image decoded from memory (from a file or a tar member) into `channels` 8-bit channels
+// per pixel, the missing ones `fill`; `name` for messages and for the format. sylva's own PNGs
+// through libpng (image_file.h), anything else (a colour picture's JPEG) through OpenImageIO's
+// module (oiio_module.h). imageChannels: the image's own count.
+std::vector<uint8_t> decodeImage(const std::string& bytes, const std::string& name, int channels,
+                                 uint8_t fill, int& w, int& h, int& imageChannels) {
+    static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    std::vector<uint8_t> px;
+    if (bytes.size() >= 8 && std::memcmp(bytes.data(), kPng, 8) == 0) {
+        const ImageFile img = readPngBytes(bytes, name);
+        w = img.width;
+        h = img.height;
+        imageChannels = img.channels;
+        px.assign(static_cast<size_t>(w) * h * channels, fill);
+        const int copy = std::min(channels, img.channels);
+        for (size_t k = 0; k < static_cast<size_t>(w) * h; ++k) {
+            for (int c = 0; c < copy; ++c) {
+                // v / integerMax back to v: exact for 8-bit images.
+                const double v = img.pixels[k * img.channels + c] * img.integerMax;
+                px[k * channels + c] = static_cast<uint8_t>(
+                    std::lround(img.integerMax > 255.0 ? v * 255.0 / img.integerMax : v));
+            }
+        }
+        return px;
+    }
+    std::string error;
+    if (!oiioModule().decode(bytes, name, channels, fill, px, w, h, imageChannels, error)) {
+        throw std::runtime_error("cannot read image '" + name + "': " + error);
+    }
+    return px;
 }
 
 // The first channel of an 8-bit image (a label or silhouette PNG), exactly.
 std::vector<uint8_t> readChannel0(const std::string& bytes, const std::string& name, int& w,
                                   int& h) {
-    OIIO::Filesystem::IOMemReader mem(bytes.data(), bytes.size());
-    auto in = openImage(name, mem);
-    w = in->spec().width;
-    h = in->spec().height;
-    std::vector<uint8_t> px(static_cast<size_t>(std::max(w, 0)) * std::max(h, 0));
-    if (w <= 0 || h <= 0 || !in->read_image(0, 0, 0, 1, OIIO::TypeDesc::UINT8, px.data())) {
-        const std::string err = in->geterror();
-        throw std::runtime_error("cannot read image '" + name + "': " + err);
-    }
-    in->close();
-    return px;
+    int channels = 0;
+    return decodeImage(bytes, name, 1, 0, w, h, channels);
 }
 
 // Straight-alpha sRGB over white, in 8 bits (the sheets are for looking at).
@@ -194,21 +207,12 @@ Camera previewCamera(const Tree& tree, int size) {
     return makeCameras(tree, o, unused).front();
 }
 
-// An RGBA picture (views/NNN_rgb.png) as RGB over white.
+// An RGBA picture (views/NNN_rgb.png, or its JPEG) as RGB over white.
 std::vector<uint8_t> readRgbOverWhite(const std::string& bytes, const std::string& name, int& w,
                                       int& h) {
-    OIIO::Filesystem::IOMemReader mem(bytes.data(), bytes.size());
-    auto in = openImage(name, mem);
-    w = in->spec().width;
-    h = in->spec().height;
-    const int nc = in->spec().nchannels;
-    std::vector<uint8_t> px(static_cast<size_t>(std::max(w, 0)) * std::max(h, 0) * 4, 255);
-    if (w <= 0 || h <= 0 || nc < 3 ||
-        !in->read_image(0, 0, 0, std::min(nc, 4), OIIO::TypeDesc::UINT8, px.data(), 4)) {
-        const std::string err = in->geterror();
-        throw std::runtime_error("cannot read image '" + name + "': " + err);
-    }
-    in->close();
+    int channels = 0;
+    const std::vector<uint8_t> px = decodeImage(bytes, name, 4, 255, w, h, channels);
+    if (channels < 3) throw std::runtime_error("cannot read image '" + name + "': not colour");
     std::vector<uint8_t> rgb(static_cast<size_t>(w) * h * 3);
     for (size_t k = 0; k < rgb.size() / 3; ++k) overWhite(&px[4 * k], &rgb[3 * k]);
     return rgb;
@@ -379,17 +383,11 @@ std::string encodeColourImage(const ColourImage& image, bool jpeg, int quality) 
     checkSize(image.width, image.height, image.rgba.size() / 4, "encodeColourImage");
     if (!jpeg) return encodeRgbaPng(image.width, image.height, image.rgba.data());
     const std::vector<uint8_t> rgb = rgbOf(image);
-    std::vector<unsigned char> bytes;
-    OIIO::Filesystem::IOVecOutput proxy(bytes);
-    auto out = OIIO::ImageOutput::create("jpg");
-    OIIO::ImageSpec spec(image.width, image.height, 3, OIIO::TypeDesc::UINT8);
-    spec.attribute("Compression", "jpeg:" + std::to_string(quality));
-    if (!out || !out->set_ioproxy(&proxy) || !out->open("memory.jpg", spec) ||
-        !out->write_image(OIIO::TypeDesc::UINT8, rgb.data()) || !out->close()) {
-        throw std::runtime_error("cannot encode a JPEG: " +
-                                 (out ? out->geterror() : OIIO::geterror()));
+    std::string bytes, error;
+    if (!oiioModule().encodeJpeg(image.width, image.height, rgb.data(), quality, bytes, error)) {
+        throw std::runtime_error("cannot encode a JPEG: " + error);
     }
-    return std::string(bytes.begin(), bytes.end());
+    return bytes;
 }
 
 void writeColourImage(const fs::path& path, const ColourImage& image, bool jpeg, int quality) {
