@@ -430,6 +430,8 @@ void readViews(Params& v, ViewOptions& vo, RenderOptions& ro, ColourOptions& co)
     }
     vo.margin = v.number("margin", vo.margin, Range::closed(0.5, 10));
     vo.depth = v.boolean("depth", vo.depth);
+    vo.depthHalf = v.boolean("depth_half", vo.depthHalf);
+    if (vo.depthHalf && !vo.depth) v.fail("depth_half", "needs depth = true");
     vo.depthPng = v.boolean("depth_png", vo.depthPng);
     vo.labels = v.boolean("labels", vo.labels);
     vo.pointCloud = v.boolean("point_cloud", vo.pointCloud);

@@ -268,7 +268,8 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
             count(rel / vf.images.back());
             if (o.views.depth) {
                 vf.depthExr.push_back(std::string(stem) + "_depth.exr");
-                writeDepthExr(out / rel / vf.depthExr.back(), v.width, v.height, v.depth);
+                writeDepthExr(out / rel / vf.depthExr.back(), v.width, v.height, v.depth,
+                              o.views.depthHalf);
                 count(rel / vf.depthExr.back());
             }
             if (o.views.depthPng) {

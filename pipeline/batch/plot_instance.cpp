@@ -161,7 +161,8 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
             put("", vf.images.back(), encodeGreyPng(v.width, v.height, v.silhouette.data()));
             if (o.views.depth) {
                 vf.depthExr.push_back(stem + "_depth.exr");
-                put("", vf.depthExr.back(), encodeFloatExr(v.width, v.height, v.depth.data()));
+                put("", vf.depthExr.back(),
+                    encodeFloatExr(v.width, v.height, v.depth.data(), "Y", o.views.depthHalf));
             }
             if (o.views.depthPng) {
                 vf.depthPng.push_back(stem + "_depth.png");

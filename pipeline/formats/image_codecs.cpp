@@ -1,6 +1,7 @@
 // See image_codecs.h for the formats and why the EXR encoder is sylva's own.
 #include "pipeline/formats/image_codecs.h"
 
+#include <Imath/half.h>
 #include <png.h>
 #include <zlib.h>
 
@@ -210,13 +211,15 @@ std::string encodeGrey16Png(int width, int height, const uint16_t* pixels) {
     return out;
 }
 
-std::string encodeFloatExr(int width, int height, const float* pixels, const std::string& channel) {
+std::string encodeFloatExr(int width, int height, const float* pixels, const std::string& channel,
+                           bool half) {
     checkSize(width, height, "encodeFloatExr");
     if (channel.empty() || channel.size() > 31) {
         throw std::invalid_argument("encodeFloatExr: channel name must have 1–31 characters");
     }
     std::string out;
-    const size_t lineBytes = static_cast<size_t>(width) * 4;
+    const size_t pixelBytes = half ? 2 : 4;
+    const size_t lineBytes = static_cast<size_t>(width) * pixelBytes;
     out.reserve(512 + static_cast<size_t>(height) * (16 + lineBytes / 16));
     // Magic number 20000630 and version 2 (single-part scanline, short names).
     putU32(out, 20000630u);
@@ -224,10 +227,10 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
     // The required attributes, in name order as OpenEXR writes them.
     putAttribute(out, "channels", "chlist", static_cast<uint32_t>(channel.size() + 1 + 16 + 1));
     out.append(channel).push_back('\0');
-    putU32(out, 2);  // pixel type FLOAT
-    putU32(out, 0);  // pLinear = 0, three reserved bytes
-    putU32(out, 1);  // x sampling
-    putU32(out, 1);  // y sampling
+    putU32(out, half ? 1 : 2);  // pixel type HALF or FLOAT
+    putU32(out, 0);             // pLinear = 0, three reserved bytes
+    putU32(out, 1);             // x sampling
+    putU32(out, 1);             // y sampling
     out.push_back('\0');
     putAttribute(out, "compression", "compression", 1);
     out.push_back(1);  // RLE_COMPRESSION
@@ -250,8 +253,9 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
 
     std::vector<uint8_t> split(lineBytes), delta(lineBytes), packed;
     packed.reserve(lineBytes + lineBytes / 64 + 8);
-    const size_t half = lineBytes / 2;  // lineBytes is a multiple of 4
-    std::string background;             // the chunk data of an all-zero row, encoded once
+    const size_t second = lineBytes / 2;  // lineBytes is even
+    std::vector<uint16_t> halves(half ? static_cast<size_t>(width) : 0);
+    std::string background;  // the chunk data of an all-zero row, encoded once
     for (int y = 0; y < height; ++y) {
         const float* row = pixels + static_cast<size_t>(y) * width;
         storeU64(&out[tableAt + 8 * static_cast<size_t>(y)], out.size());
@@ -263,16 +267,25 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
             out += background;
             continue;
         }
-        // Little-endian bytes b0 b1 b2 b3 per pixel; the even ones (b0, b2) go to the first
-        // half, the odd ones (b1, b3) to the second. Separate buffers let the loops vectorise.
-        for (int x = 0; x < width; ++x) {
-            uint32_t bits;
-            std::memcpy(&bits, &row[x], 4);
-            const size_t e = 2 * static_cast<size_t>(x);
-            split[e] = static_cast<uint8_t>(bits);
-            split[e + 1] = static_cast<uint8_t>(bits >> 16);
-            split[half + e] = static_cast<uint8_t>(bits >> 8);
-            split[half + e + 1] = static_cast<uint8_t>(bits >> 24);
+        // Little-endian bytes b0 b1 (b2 b3) per pixel; the even ones go to the first half, the
+        // odd ones to the second. Separate buffers let the loops vectorise.
+        if (half) {
+            // Imath's conversion: round to nearest even, overflow to infinity.
+            for (int x = 0; x < width; ++x) halves[x] = imath_float_to_half(row[x]);
+            for (int x = 0; x < width; ++x) {
+                split[x] = static_cast<uint8_t>(halves[x]);
+                split[second + x] = static_cast<uint8_t>(halves[x] >> 8);
+            }
+        } else {
+            for (int x = 0; x < width; ++x) {
+                uint32_t bits;
+                std::memcpy(&bits, &row[x], 4);
+                const size_t e = 2 * static_cast<size_t>(x);
+                split[e] = static_cast<uint8_t>(bits);
+                split[e + 1] = static_cast<uint8_t>(bits >> 16);
+                split[second + e] = static_cast<uint8_t>(bits >> 8);
+                split[second + e + 1] = static_cast<uint8_t>(bits >> 24);
+            }
         }
         delta[0] = split[0];
         for (size_t k = 1; k < lineBytes; ++k) {
@@ -286,6 +299,11 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
         } else {  // would not shrink: stored raw (the pixels' own bytes), as OpenEXR does
             putU32(out, static_cast<uint32_t>(lineBytes));
             for (int x = 0; x < width; ++x) {
+                if (half) {
+                    out.push_back(static_cast<char>(halves[x] & 0xff));
+                    out.push_back(static_cast<char>(halves[x] >> 8));
+                    continue;
+                }
                 uint32_t bits;  // bit for bit: a float → double round trip could quiet a NaN
                 std::memcpy(&bits, &row[x], 4);
                 putU32(out, bits);

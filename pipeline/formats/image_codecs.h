@@ -9,7 +9,7 @@
 //   row filter. encodeGrey16Png is 16-bit greyscale (samples big-endian in the file, as PNG
 //   requires; given here as native uint16 values). Depth maps for instant-ngp.
 //
-// encodeFloatExr: a single-part scanline OpenEXR 2.0 file, one FLOAT (32-bit) channel,
+// encodeFloatExr: a single-part scanline OpenEXR 2.0 file, one FLOAT (32-bit) or HALF channel,
 //   RLE compression, one scanline per chunk, increasing y, data window = display window =
 //   (0, 0)–(w−1, h−1); the header holds exactly the eight required attributes (no
 //   time stamp, so equal pixels give equal bytes). Written here rather than through
@@ -44,7 +44,9 @@ std::string encodeRgbPng(int width, int height, const uint8_t* rgb);
 std::string encodeRgbaPng(int width, int height, const uint8_t* rgba);
 // 16-bit greyscale: one uint16 per pixel, row-major.
 std::string encodeGrey16Png(int width, int height, const uint16_t* pixels);
+// half: the channel as HALF (16-bit floats, Imath's round-to-nearest-even; relative error at
+// most 2⁻¹¹ ≈ 0.05 %, values above 65504 become infinity), half the bytes.
 std::string encodeFloatExr(int width, int height, const float* pixels,
-                           const std::string& channel = "Y");
+                           const std::string& channel = "Y", bool half = false);
 
 }  // namespace sylva

@@ -279,9 +279,10 @@ void writeGreyPng(const fs::path& path, int width, int height, const std::vector
     writeFileAtomic(path, encodeGreyPng(width, height, pixels.data()));
 }
 
-void writeDepthExr(const fs::path& path, int width, int height, const std::vector<float>& depth) {
+void writeDepthExr(const fs::path& path, int width, int height, const std::vector<float>& depth,
+                   bool half) {
     checkSize(width, height, depth.size(), "writeDepthExr");
-    writeFileAtomic(path, encodeFloatExr(width, height, depth.data(), "Y"));
+    writeFileAtomic(path, encodeFloatExr(width, height, depth.data(), "Y", half));
 }
 
 double integerDepthScale(const std::vector<ViewImage>& views) {

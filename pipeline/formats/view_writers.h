@@ -40,8 +40,9 @@ nlohmann::json transformsJson(const std::vector<Camera>& cameras, const ViewFile
 // Writers (atomic: temp name + rename).
 void writeGreyPng(const std::filesystem::path& path, int width, int height,
                   const std::vector<uint8_t>& pixels);
+// half: the channel as 16-bit half floats (image_codecs.h).
 void writeDepthExr(const std::filesystem::path& path, int width, int height,
-                   const std::vector<float>& depth);
+                   const std::vector<float>& depth, bool half = false);
 
 // A colour picture: an RGBA PNG (sRGB, straight alpha), or with `jpeg` a JPEG of its RGB at
 // `quality` (1–100; opaque backgrounds only: the alpha is dropped).

@@ -23,6 +23,7 @@ struct ViewOptions {
     int width = 256, height = 256;  // pixels
     double margin = 1.05;           // bounding sphere radius × margin fills the frame
     bool depth = false;             // depth EXR per view (float metres; nerfstudio, Blender)
+    bool depthHalf = false;         // the depth EXR's channel as 16-bit half floats
     bool depthPng = false;          // 16-bit depth PNG per view (instant-ngp)
     bool labels = false;            // label PNG per view
     bool pointCloud = false;        // labelled point cloud PLY per instance (needs depth)

@@ -2,6 +2,7 @@
 // (OpenEXR and libpng through OIIO): every pixel must come back bit for bit.
 #include "pipeline/formats/image_codecs.h"
 
+#include <Imath/half.h>
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
@@ -132,6 +133,38 @@ TEST(ImageCodecs, ExrChannelNameAndCompressionPayOff) {
     EXPECT_EQ(raw.size(), 281 + static_cast<size_t>(h) * 8 + static_cast<size_t>(h) * (8 + 4 * w));
     writeBytes(dir.path() / "n.exr", raw);
     EXPECT_TRUE(sameBits(readExr(dir.path() / "n.exr", w, h, "depth"), noise));
+}
+
+// depth_half: the channel is HALF. OpenEXR (through OIIO) must give back, bit for bit, each
+// value rounded to half by Imath; a smooth depth map takes about half the bytes of FLOAT.
+TEST(ImageCodecs, HalfExrRoundTripsAsImathsRoundingInHalfTheBytes) {
+    TempDir dir;
+    const int w = 301, h = 40;
+    std::vector<float> img = awkwardImage(w, h, 17);
+    for (float& v : img) {
+        if (!std::isfinite(v) || std::abs(v) > 60000.0f) v = 7.25f;  // keep to half's range
+    }
+    const fs::path p = dir.path() / "h.exr";
+    writeBytes(p, encodeFloatExr(w, h, img.data(), "Y", true));
+    auto in = OIIO::ImageInput::open(p.string());
+    ASSERT_TRUE(in) << OIIO::geterror();
+    EXPECT_EQ(in->spec().format, OIIO::TypeDesc::HALF);
+    EXPECT_EQ(in->spec().get_string_attribute("compression"), "rle");
+    std::vector<uint16_t> back(static_cast<size_t>(w) * h);
+    ASSERT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::HALF, back.data())) << in->geterror();
+    size_t wrong = 0;
+    for (size_t k = 0; k < img.size(); ++k) wrong += back[k] != Imath::half(img[k]).bits();
+    EXPECT_EQ(wrong, 0u);
+
+    // A depth map: a disc of smooth depths on background.
+    std::vector<float> depth(256 * 256, 0.0f);
+    for (int y = 0; y < 256; ++y)
+        for (int x = 0; x < 256; ++x)
+            if ((x - 128) * (x - 128) + (y - 128) * (y - 128) < 90 * 90)
+                depth[y * 256 + x] = 20.0f + 0.013f * x - 0.007f * y;
+    const size_t full = encodeFloatExr(256, 256, depth.data()).size();
+    const size_t halfSize = encodeFloatExr(256, 256, depth.data(), "Y", true).size();
+    EXPECT_LT(halfSize, full * 6 / 10) << halfSize << " vs " << full;
 }
 
 TEST(ImageCodecs, EqualPixelsGiveEqualBytes) {
