@@ -137,11 +137,11 @@ std::vector<uint16_t> canonicalCodes(const std::vector<uint8_t>& lengths) {
 class BitWriter {
   public:
     explicit BitWriter(char* out) : out_(out) {}
-    // count ≤ 35
+    // count ≤ 32: fewer than 32 bits wait in the accumulator, so nothing passes bit 63.
     void put(uint64_t bits, int count) {
         acc_ |= static_cast<uint64_t>(bits) << used_;
         used_ += count;
-        if (used_ >= 32) {
+        while (used_ >= 32) {
             const uint32_t low = static_cast<uint32_t>(acc_);
             const char bytes[4] = {
                 static_cast<char>(low & 0xff), static_cast<char>((low >> 8) & 0xff),
@@ -321,7 +321,8 @@ std::string deflateRuns(const std::vector<Run>& runs) {
         if (symbol >= 16) bits.put(extra, kLengthTokenExtra[symbol - 16]);
     }
     // A copy at distance 1 as one bit string: the length's code, its extra bits, then
-    // distance code 0 (at most 15 + 5 + 15 bits).
+    // distance code 0. The distance code has exactly two symbols (0, and 1 added by
+    // atLeastTwo), so code 0 is one bit: at most 15 + 5 + 1 bits, within BitWriter's 32.
     std::array<uint64_t, kMaxCopy + 1> copyCode{};
     std::array<uint8_t, kMaxCopy + 1> copyBits{};
     for (size_t len = 3; len <= kMaxCopy; ++len) {

@@ -149,7 +149,16 @@ std::vector<uint8_t> decodeImage(const std::string& bytes, const std::string& na
                                  uint8_t fill, int& w, int& h, int& imageChannels) {
     static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     std::vector<uint8_t> px;
-    if (bytes.size() >= 8 && std::memcmp(bytes.data(), kPng, 8) == 0) {
+    // The IHDR's width and height (bytes 16–23, big-endian): views may be larger than the
+    // species images image_file.h accepts (up to 16384² against 4096²); those go to OIIO.
+    auto bigEndian = [&](size_t at) {
+        uint32_t v = 0;
+        for (size_t k = 0; k < 4; ++k) v = (v << 8) | static_cast<unsigned char>(bytes[at + k]);
+        return static_cast<int64_t>(v);
+    };
+    const bool png = bytes.size() >= 24 && std::memcmp(bytes.data(), kPng, 8) == 0;
+    if (png && bigEndian(16) <= kMaxImageSide && bigEndian(20) <= kMaxImageSide &&
+        bigEndian(16) * bigEndian(20) <= kMaxImagePixels) {
         const ImageFile img = readPngBytes(bytes, name);
         w = img.width;
         h = img.height;

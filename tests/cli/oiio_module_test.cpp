@@ -85,4 +85,19 @@ TEST(CliOiioModule, AJpegMaskIsReadThroughTheModuleAndAMissingModuleIsOneLine) {
     EXPECT_EQ(fromPng.code, 0) << describeRun(fromPng);
 }
 
+// A view larger than the species images image_file.h reads (16384 × 1025 > 4096² pixels): the
+// species sheet decodes it through OpenImageIO's module instead of libpng and the build succeeds.
+TEST(CliSpeciesSheet, ViewsLargerThanSpeciesImageLimitsStillMakeTheSheet) {
+    TempDir t;
+    std::ofstream(t / "wide.toml")
+        << "name = \"wide\"\nseed = 3\n[[species]]\nfile = \""
+        << (kSource / "tests/data/tiny.toml").string()
+        << "\"\ncount = 1\n[outputs]\nskeleton = [\"ply\"]\nspecies_sheet = 1\n[views]\n"
+           "count = 1\nresolution = [16384, 1025]\ncontact_sheet = false\n";
+    const auto r =
+        runSylva({"build", (t / "wide.toml").string(), "--out", (t / "out").string()}, t.path());
+    ASSERT_EQ(r.code, 0) << describeRun(r);
+    EXPECT_TRUE(fs::is_regular_file(t / "out" / "contact" / "tiny.png"));
+}
+
 }  // namespace
