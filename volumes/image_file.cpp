@@ -25,15 +25,16 @@ const unsigned char kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '
 }
 
 // The header's dimensions against the limits, before anything is allocated for the pixels.
-void checkDimensions(const std::string& path, int64_t w, int64_t h, int64_t channels) {
+void checkDimensions(const std::string& path, int64_t w, int64_t h, int64_t channels,
+                     const ImageLimits& limits = ImageLimits{}) {
     if (w <= 0 || h <= 0) {
         fail(path,
              "it declares " + std::to_string(w) + " × " + std::to_string(h) + " pixels: no pixels");
     }
-    if (w > kMaxImageSide || h > kMaxImageSide || w * h > kMaxImagePixels) {
+    if (w > limits.maxSide || h > limits.maxSide || w * h > limits.maxPixels) {
         fail(path, "it declares " + std::to_string(w) + " × " + std::to_string(h) +
-                       " pixels; at most " + std::to_string(kMaxImageSide) + " on a side and " +
-                       std::to_string(kMaxImagePixels) + " (4096²) in all");
+                       " pixels; at most " + std::to_string(limits.maxSide) + " on a side and " +
+                       std::to_string(limits.maxPixels) + " in all");
     }
     if (channels < 1 || channels > kMaxImageChannels) {
         fail(path, "it declares " + std::to_string(channels) + " channels; expected 1 to " +
@@ -80,10 +81,18 @@ struct FileCloser {
     void operator()(std::FILE* f) const { std::fclose(f); }
 };
 
+// A PNG's samples as libpng hands them over, one row after another (16-bit samples in the
+// machine's byte order, or scaled to 8 bits when `eightBit`).
+struct PngRows {
+    int width = 0, height = 0, channels = 0, bitDepth = 0;
+    std::vector<unsigned char> rows;
+};
+
 // Decodes a PNG with the expansions OpenImageIO applies (palette → RGB, grey of 1–4 bits → 8
-// bits, tRNS → alpha), integer samples scaled as OpenImageIO scales them: float(v) · (1/max).
-// The pixel buffers are allocated before setjmp, so a longjmp skips no destructor.
-ImageFile readPng(const std::string& path, std::FILE* file, const unsigned char header[33]) {
+// bits, tRNS → alpha). The header is checked against `limits` before any pixel buffer exists,
+// and the pixel buffers are allocated before setjmp, so a longjmp skips no destructor.
+PngRows decodePng(const std::string& path, std::FILE* file, const unsigned char header[33],
+                  const ImageLimits& limits, bool eightBit) {
     // IHDR is the first chunk, 13 bytes: width, height, bit depth, colour type, ….
     if (bigEndian32(header + 8) != 13 || std::memcmp(header + 12, "IHDR", 4) != 0) {
         fail(path, "corrupt PNG: the first chunk is not IHDR");
@@ -95,10 +104,9 @@ ImageFile readPng(const std::string& path, std::FILE* file, const unsigned char 
                                      : colourType == 6 ? 4
                                      : colourType == 3 ? 4
                                                        : 1;
-    checkDimensions(path, w, h, declaredChannels);
+    checkDimensions(path, w, h, declaredChannels, limits);
 
-    ImageFile img;
-    std::vector<unsigned char> rows;
+    PngRows out;
     std::vector<png_bytep> rowPointers;
     PngSource source;
     source.file = file;
@@ -116,7 +124,8 @@ ImageFile readPng(const std::string& path, std::FILE* file, const unsigned char 
                        : std::string("corrupt PNG data: ") + source.error);
     }
     png_set_read_fn(png, &source, pngRead);
-    png_set_user_limits(png, kMaxImageSide, kMaxImageSide);
+    png_set_user_limits(png, static_cast<png_uint_32>(limits.maxSide),
+                        static_cast<png_uint_32>(limits.maxSide));
     png_set_chunk_malloc_max(png, 8u << 20);  // text and other ancillary chunks: 8 MiB each
     png_set_keep_unknown_chunks(png, PNG_HANDLE_CHUNK_NEVER, nullptr, 0);
     png_read_info(png, info);
@@ -126,38 +135,45 @@ ImageFile readPng(const std::string& path, std::FILE* file, const unsigned char 
     if (type == PNG_COLOR_TYPE_GRAY && bitDepth < 8) png_set_expand_gray_1_2_4_to_8(png);
     if (png_get_valid(png, info, PNG_INFO_tRNS)) png_set_tRNS_to_alpha(png);
     const uint16_t probe = 1;
-    if (bitDepth == 16 && *reinterpret_cast<const uint8_t*>(&probe) == 1) png_set_swap(png);
+    if (bitDepth == 16 && eightBit) {
+        png_set_scale_16(png);  // round(v · 255 / 65535)
+    } else if (bitDepth == 16 && *reinterpret_cast<const uint8_t*>(&probe) == 1) {
+        png_set_swap(png);
+    }
     png_set_interlace_handling(png);
     png_read_update_info(png, info);
-    img.width = static_cast<int>(png_get_image_width(png, info));
-    img.height = static_cast<int>(png_get_image_height(png, info));
-    img.channels = png_get_channels(png, info);
-    img.alphaChannel = (img.channels == 2 || img.channels == 4) ? img.channels - 1 : -1;
+    out.width = static_cast<int>(png_get_image_width(png, info));
+    out.height = static_cast<int>(png_get_image_height(png, info));
+    out.channels = png_get_channels(png, info);
+    out.bitDepth = png_get_bit_depth(png, info);
     const size_t rowBytes = png_get_rowbytes(png, info);
-    rows.resize(rowBytes * img.height);
-    rowPointers.resize(img.height);
-    for (int y = 0; y < img.height; ++y) rowPointers[y] = rows.data() + rowBytes * y;
+    out.rows.resize(rowBytes * out.height);
+    rowPointers.resize(out.height);
+    for (int y = 0; y < out.height; ++y) rowPointers[y] = out.rows.data() + rowBytes * y;
     png_read_image(png, rowPointers.data());
     png_read_end(png, nullptr);  // the chunks after the image data, up to IEND
     png_destroy_read_struct(&png, &info, nullptr);
+    return out;
+}
 
+// A PNG as float samples, integer samples scaled as OpenImageIO scales them: float(v) · (1/max).
+ImageFile readPng(const std::string& path, std::FILE* file, const unsigned char header[33]) {
+    const PngRows png = decodePng(path, file, header, ImageLimits{}, false);
+    ImageFile img;
+    img.width = png.width;
+    img.height = png.height;
+    img.channels = png.channels;
+    img.alphaChannel = (img.channels == 2 || img.channels == 4) ? img.channels - 1 : -1;
     const size_t samples = static_cast<size_t>(img.width) * img.height * img.channels;
     img.pixels.resize(samples);
-    img.integerMax = bitDepth == 16 ? 65535.0 : 255.0;
-    if (bitDepth == 16) {
+    img.integerMax = png.bitDepth == 16 ? 65535.0 : 255.0;
+    if (png.bitDepth == 16) {
         const float scale = 1.0f / 65535.0f;
-        for (int y = 0; y < img.height; ++y) {
-            const auto* src = reinterpret_cast<const uint16_t*>(rowPointers[y]);
-            float* dst = img.pixels.data() + static_cast<size_t>(y) * img.width * img.channels;
-            for (int i = 0; i < img.width * img.channels; ++i) dst[i] = float(src[i]) * scale;
-        }
+        const auto* src = reinterpret_cast<const uint16_t*>(png.rows.data());
+        for (size_t i = 0; i < samples; ++i) img.pixels[i] = float(src[i]) * scale;
     } else {
         const float scale = 1.0f / 255.0f;
-        for (int y = 0; y < img.height; ++y) {
-            const png_bytep src = rowPointers[y];
-            float* dst = img.pixels.data() + static_cast<size_t>(y) * img.width * img.channels;
-            for (int i = 0; i < img.width * img.channels; ++i) dst[i] = float(src[i]) * scale;
-        }
+        for (size_t i = 0; i < samples; ++i) img.pixels[i] = float(png.rows[i]) * scale;
     }
     return img;
 }
@@ -183,15 +199,54 @@ ImageFile readWithOiio(const std::string& path) {
 
 }  // namespace
 
-ImageFile readImageFile(const std::string& path) {
-    // A FIFO would block fopen, a device never end: only regular files are images.
+namespace {
+
+// Opens `path` for reading, refusing what is not a regular file (a FIFO would block fopen, a
+// device never end), and reads the first 33 bytes (the signature and IHDR) into `header`.
+std::unique_ptr<std::FILE, FileCloser> openImage(const std::string& path, unsigned char* header,
+                                                 size_t& got) {
     struct stat st {};
     if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) fail(path, "not a regular file");
     std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
     if (!file) fail(path, std::strerror(errno));
-    unsigned char header[33] = {0};
-    const size_t got = std::fread(header, 1, sizeof header, file.get());
+    got = std::fread(header, 1, 33, file.get());
     if (got == 0) fail(path, "the file is empty");
+    return file;
+}
+
+// A PNG held in memory as a FILE, its first 33 bytes read into `header`.
+std::unique_ptr<std::FILE, FileCloser> openPngBytes(const std::string& bytes,
+                                                    const std::string& name,
+                                                    unsigned char* header) {
+    if (bytes.empty()) fail(name, "the file is empty");
+    if (bytes.size() < 8 || std::memcmp(bytes.data(), kPngSignature, 8) != 0) {
+        fail(name, "not a PNG file (it does not start with the PNG signature)");
+    }
+    if (bytes.size() < 33) fail(name, "truncated: the file ends inside the PNG header");
+    std::unique_ptr<std::FILE, FileCloser> file(
+        fmemopen(const_cast<char*>(bytes.data()), bytes.size(), "rb"));
+    if (!file) fail(name, std::strerror(errno));
+    if (std::fread(header, 1, 33, file.get()) != 33) {
+        fail(name, "truncated: the file ends inside the PNG header");
+    }
+    return file;
+}
+
+Image8 toImage8(PngRows&& png) {
+    Image8 img;
+    img.width = png.width;
+    img.height = png.height;
+    img.channels = png.channels;
+    img.pixels = std::move(png.rows);
+    return img;
+}
+
+}  // namespace
+
+ImageFile readImageFile(const std::string& path) {
+    unsigned char header[33] = {0};
+    size_t got = 0;
+    auto file = openImage(path, header, got);
     if (got >= 8 && std::memcmp(header, kPngSignature, 8) == 0) {
         if (got < sizeof header) {
             fail(path, "truncated: the file ends inside the PNG header");
@@ -205,20 +260,21 @@ ImageFile readImageFile(const std::string& path) {
     return readWithOiio(path);
 }
 
-ImageFile readPngBytes(const std::string& bytes, const std::string& name) {
-    if (bytes.empty()) fail(name, "the file is empty");
-    if (bytes.size() < 8 || std::memcmp(bytes.data(), kPngSignature, 8) != 0) {
-        fail(name, "not a PNG file (it does not start with the PNG signature)");
-    }
+Image8 readPng8File(const std::string& path, const ImageLimits& limits) {
     unsigned char header[33] = {0};
-    if (bytes.size() < sizeof header) fail(name, "truncated: the file ends inside the PNG header");
-    std::unique_ptr<std::FILE, FileCloser> file(
-        fmemopen(const_cast<char*>(bytes.data()), bytes.size(), "rb"));
-    if (!file) fail(name, std::strerror(errno));
-    if (std::fread(header, 1, sizeof header, file.get()) != sizeof header) {
-        fail(name, "truncated: the file ends inside the PNG header");
+    size_t got = 0;
+    auto file = openImage(path, header, got);
+    if (got < 8 || std::memcmp(header, kPngSignature, 8) != 0) {
+        fail(path, "not a PNG file (it does not start with the PNG signature)");
     }
-    return readPng(name, file.get(), header);
+    if (got < sizeof header) fail(path, "truncated: the file ends inside the PNG header");
+    return toImage8(decodePng(path, file.get(), header, limits, true));
+}
+
+Image8 readPng8Bytes(const std::string& bytes, const std::string& name, const ImageLimits& limits) {
+    unsigned char header[33] = {0};
+    auto file = openPngBytes(bytes, name, header);
+    return toImage8(decodePng(name, file.get(), header, limits, true));
 }
 
 }  // namespace sylva

@@ -9,6 +9,8 @@
 // PNG reader installs no libpng error handler, so a corrupt file printed libpng's own lines on
 // stderr); the values equal OpenImageIO's float read (tests/volumes/image_file_test.cpp).
 // Other formats (JPEG, TIFF, EXR, …) go through OpenImageIO, their header checked first.
+// sylva's own views read back (contact sheets, gates) go through the same PNG decoder into
+// 8-bit samples, with the views' larger size limits.
 #pragma once
 
 #include <cstdint>
@@ -24,6 +26,14 @@ constexpr int kMaxImageSide = 16384;
 constexpr int64_t kMaxImagePixels = int64_t(4096) * 4096;
 // Channels (grey, grey + alpha, RGB, RGBA, or more in an EXR).
 constexpr int kMaxImageChannels = 16;
+
+// The size an image may declare before it is decoded.
+struct ImageLimits {
+    int maxSide = kMaxImageSide;
+    int64_t maxPixels = kMaxImagePixels;
+};
+// sylva's own views (masks, labels, colour pictures): up to 16384 × 16384 ([views] resolution).
+constexpr ImageLimits kViewImageLimits{16384, int64_t(16384) * 16384};
 
 // An image that cannot be used; the message is one line naming the file.
 class ImageError : public std::runtime_error {
@@ -48,7 +58,15 @@ struct ImageFile {
 
 // Reads the image at `path`. Throws ImageError ("cannot read the image <path>: <why>").
 ImageFile readImageFile(const std::string& path);
-// The same for a PNG held in memory (a member of a packed dataset's tar); `name` for messages.
-ImageFile readPngBytes(const std::string& bytes, const std::string& name);
+// A PNG's samples in 8 bits (16-bit samples rounded to v · 255 / 65535), as sylva reads back
+// its own views for contact sheets and gates: the same checks and expansions as above, the
+// size checked against `limits`. The second reads a PNG held in memory (a member of a packed
+// dataset's tar); `name` for messages.
+struct Image8 {
+    int width = 0, height = 0, channels = 0;
+    std::vector<uint8_t> pixels;  // row-major, top row first, channels interleaved
+};
+Image8 readPng8File(const std::string& path, const ImageLimits& limits);
+Image8 readPng8Bytes(const std::string& bytes, const std::string& name, const ImageLimits& limits);
 
 }  // namespace sylva

@@ -301,12 +301,13 @@ std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir)
                              ": expected frames[0] with azimuth_deg and mask_path, a relative "
                              "path beside it");
         }
-        ImageFile mask;
+        Image8 mask;
         try {
             const std::string maskPath = frame["mask_path"].get<std::string>();
             mask = packs[i].empty()
-                       ? readImageFile((tpath.parent_path() / maskPath).string())
-                       : readPngBytes(bytesOf(i, maskPath), packs[i] + ": " + maskPath);
+                       ? readPng8File((tpath.parent_path() / maskPath).string(), kViewImageLimits)
+                       : readPng8Bytes(bytesOf(i, maskPath), packs[i] + ": " + maskPath,
+                                       kViewImageLimits);
         } catch (const ImageError& e) {
             throw InputError(e.what());
         }
@@ -314,10 +315,8 @@ std::vector<SpeciesGates> evaluateGates(const std::filesystem::path& datasetDir)
         shapes[i].maskHeight = mask.height;
         shapes[i].azimuthDeg = frame["azimuth_deg"].get<double>();
         shapes[i].mask.resize(static_cast<size_t>(mask.width) * mask.height);
-        for (int y = 0; y < mask.height; ++y) {
-            for (int x = 0; x < mask.width; ++x) {
-                shapes[i].mask[static_cast<size_t>(y) * mask.width + x] = mask.at(x, y, 0) > 0.5f;
-            }
+        for (size_t k = 0; k < shapes[i].mask.size(); ++k) {
+            shapes[i].mask[k] = mask.pixels[k * mask.channels] > 127;
         }
     }
     return evaluateGates(records, &shapes);

@@ -143,35 +143,22 @@ struct Sheet {
 
 // An image decoded from memory (from a file or a tar member) into `channels` 8-bit channels
 // per pixel, the missing ones `fill`; `name` for messages and for the format. sylva's own PNGs
-// through libpng (image_file.h), anything else (a colour picture's JPEG) through OpenImageIO's
-// module (oiio_module.h). imageChannels: the image's own count.
+// through libpng at the views' size limits (image_file.h), anything else (a colour picture's
+// JPEG) through OpenImageIO's module (oiio_module.h). imageChannels: the image's own count.
 std::vector<uint8_t> decodeImage(const std::string& bytes, const std::string& name, int channels,
                                  uint8_t fill, int& w, int& h, int& imageChannels) {
     static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     std::vector<uint8_t> px;
-    // The IHDR's width and height (bytes 16–23, big-endian): views may be larger than the
-    // species images image_file.h accepts (up to 16384² against 4096²); those go to OIIO.
-    auto bigEndian = [&](size_t at) {
-        uint32_t v = 0;
-        for (size_t k = 0; k < 4; ++k) v = (v << 8) | static_cast<unsigned char>(bytes[at + k]);
-        return static_cast<int64_t>(v);
-    };
-    const bool png = bytes.size() >= 24 && std::memcmp(bytes.data(), kPng, 8) == 0;
-    if (png && bigEndian(16) <= kMaxImageSide && bigEndian(20) <= kMaxImageSide &&
-        bigEndian(16) * bigEndian(20) <= kMaxImagePixels) {
-        const ImageFile img = readPngBytes(bytes, name);
+    if (bytes.size() >= 8 && std::memcmp(bytes.data(), kPng, 8) == 0) {
+        Image8 img = readPng8Bytes(bytes, name, kViewImageLimits);
         w = img.width;
         h = img.height;
         imageChannels = img.channels;
+        if (img.channels == channels) return std::move(img.pixels);
         px.assign(static_cast<size_t>(w) * h * channels, fill);
         const int copy = std::min(channels, img.channels);
         for (size_t k = 0; k < static_cast<size_t>(w) * h; ++k) {
-            for (int c = 0; c < copy; ++c) {
-                // v / integerMax back to v: exact for 8-bit images.
-                const double v = img.pixels[k * img.channels + c] * img.integerMax;
-                px[k * channels + c] = static_cast<uint8_t>(
-                    std::lround(img.integerMax > 255.0 ? v * 255.0 / img.integerMax : v));
-            }
+            std::memcpy(&px[k * channels], &img.pixels[k * img.channels], copy);
         }
         return px;
     }

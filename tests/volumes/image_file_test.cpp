@@ -6,8 +6,12 @@
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -130,6 +134,79 @@ TEST(ImageFile, TheReadersOfMasksLayersAndStrokesUseTheChecks) {
     EXPECT_THROW(traceStrokeImage(truncated, 0, 5), StrokeError);
     EXPECT_THROW(traceStrokeImage(huge, 0, 5), StrokeError);
     EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+}
+
+// The file's bytes, for the in-memory reader.
+std::string bytesOf(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+TEST(ImageFile, EightBitReadsAreTheFloatReadsRounded) {
+    for (const char* name :
+         {"ok_grey8.png", "ok_grey16.png", "ok_grey1.png", "ok_grey_alpha8.png", "ok_rgb8.png",
+          "ok_rgba8.png", "ok_palette.png", "ok_palette_trns.png", "ok_interlaced.png"}) {
+        SCOPED_TRACE(name);
+        const ImageFile ref = readImageFile((kImages / name).string());
+        const Image8 file = readPng8File((kImages / name).string(), kViewImageLimits);
+        const Image8 mem = readPng8Bytes(bytesOf(kImages / name), name, kViewImageLimits);
+        ASSERT_EQ(file.width, ref.width);
+        ASSERT_EQ(file.height, ref.height);
+        ASSERT_EQ(file.channels, ref.channels);
+        ASSERT_EQ(file.pixels.size(), ref.pixels.size());
+        EXPECT_EQ(mem.pixels, file.pixels);
+        size_t differ = 0;
+        for (size_t i = 0; i < ref.pixels.size(); ++i) {
+            // v / 255 or v / 65535 back to 8 bits: v · 255 / 65535 has no ties to round.
+            differ += file.pixels[i] != std::lround(double(ref.pixels[i]) * 255.0);
+        }
+        EXPECT_EQ(differ, 0u);
+    }
+}
+
+TEST(ImageFile, EightBitReadsTakeTheirLimitsFromTheCaller) {
+    // 4100 × 4100 pixels: more than a species image may have (4096²), within a view's limits.
+    const fs::path dir = fs::temp_directory_path() / ("sylva_png8_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    const fs::path big = dir / "big.png";
+    {
+        const int side = 4100;
+        std::vector<uint8_t> px(size_t(side) * side, 0);
+        px[size_t(4099) * side + 4098] = 200;
+        auto out = OIIO::ImageOutput::create(big.string());
+        ASSERT_TRUE(out);
+        ASSERT_TRUE(out->open(big.string(), OIIO::ImageSpec(side, side, 1, OIIO::TypeDesc::UINT8)));
+        ASSERT_TRUE(out->write_image(OIIO::TypeDesc::UINT8, px.data()));
+        ASSERT_TRUE(out->close());
+    }
+    EXPECT_THROW(readImageFile(big.string()), ImageError);
+    const Image8 view = readPng8File(big.string(), kViewImageLimits);
+    ASSERT_EQ(view.width, 4100);
+    ASSERT_EQ(view.height, 4100);
+    EXPECT_EQ(view.pixels[size_t(4099) * 4100 + 4098], 200);
+    EXPECT_EQ(view.pixels[size_t(4099) * 4100 + 4099], 0);
+    fs::remove_all(dir);
+
+    // Tight limits refuse before decoding, in one line; the file's name leads the message.
+    const ImageLimits tiny{8, 64};
+    for (const char* name : {"ok_grey8.png", "huge_dims.png"}) {
+        try {
+            readPng8Bytes(bytesOf(kImages / name), name, tiny);
+            ADD_FAILURE() << name << " read within 8 × 8";
+        } catch (const ImageError& e) {
+            const std::string m = e.what();
+            EXPECT_EQ(m.rfind(std::string("cannot read the image ") + name + ": it declares ", 0),
+                      0u)
+                << m;
+            EXPECT_NE(m.find("at most 8 on a side and 64 in all"), std::string::npos) << m;
+        }
+    }
+    // Broken files are the same one-line errors as the float reader's.
+    for (const char* name : {"truncated.png", "bad_crc.png", "text.png", "empty.png"}) {
+        EXPECT_THROW(readPng8Bytes(bytesOf(kImages / name), name, kViewImageLimits), ImageError)
+            << name;
+        EXPECT_THROW(readPng8File((kImages / name).string(), kViewImageLimits), ImageError) << name;
+    }
 }
 
 }  // namespace
