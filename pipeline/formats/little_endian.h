@@ -8,6 +8,15 @@
 
 namespace sylva {
 
+// True on a little-endian host, where the bytes of a float or a uint32 in memory are already in
+// the files' order and whole arrays can be copied (the compiler folds the test).
+inline bool isLittleEndian() {
+    const uint16_t probe = 1;
+    unsigned char first;
+    std::memcpy(&first, &probe, 1);
+    return first == 1;
+}
+
 // Stores v at p[0..4) and returns p + 4: for writers that size their output first (a mesh
 // of 20k vertices is a million bytes; appending them one by one cost a millisecond).
 inline char* storeU32(char* p, uint32_t v) {

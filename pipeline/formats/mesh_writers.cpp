@@ -282,10 +282,17 @@ int addView(tinygltf::Model& model, const std::vector<T>& values, int target) {
     view.byteOffset = data.size();
     view.byteLength = values.size() * sizeof(T);
     view.target = target;
-    for (T v : values) {
-        uint32_t bits;
-        std::memcpy(&bits, &v, 4);
-        for (int i = 0; i < 4; ++i) data.push_back(static_cast<unsigned char>(bits >> (8 * i)));
+    data.resize(data.size() + values.size() * 4);
+    unsigned char* out = data.data() + view.byteOffset;
+    if (isLittleEndian()) {
+        if (!values.empty()) std::memcpy(out, values.data(), values.size() * 4);
+    } else {
+        for (size_t k = 0; k < values.size(); ++k) {
+            uint32_t bits;
+            std::memcpy(&bits, &values[k], 4);
+            for (int i = 0; i < 4; ++i)
+                out[4 * k + i] = static_cast<unsigned char>(bits >> (8 * i));
+        }
     }
     model.bufferViews.push_back(std::move(view));
     return static_cast<int>(model.bufferViews.size() - 1);
