@@ -33,10 +33,12 @@ double capsuleDistance(const Vec3& p, const Vec3& a, double ra, const Vec3& b, d
     return std::max(0.0, distance(p, a + ab * t) - r);
 }
 
-// Segments bucketed in a uniform grid of their bounding boxes (radius included), searched in
-// growing rings of cells until no unsearched segment can be nearer. The cells are one packed
-// array (counted, then filled) about as many as the segments, at most 64 along the longest
-// side: a vector per cell at 64 per side (262,144 of them per tree) cost more than the queries.
+// Segments bucketed in a uniform grid of their bounding boxes (radius included), searched from
+// the query's cell outward until no unsearched segment can be nearer. The cells are one packed
+// array (counted, then filled), about 8 per segment (half the cube root of the volume per
+// segment: twigs crowd the crown, and a query's own cell should hold few of them), at most 128
+// along the longest side: a vector per cell at 64 per side (262,144 of them per tree) cost
+// more than the queries.
 class SegmentGrid {
   public:
     explicit SegmentGrid(const Tree& tree) : tree_(tree) {
@@ -54,7 +56,7 @@ class SegmentGrid {
         const double extent = std::max({size.x, size.y, size.z, 1e-6});
         const double perSegment = std::max(size.x, 1e-6) * std::max(size.y, 1e-6) *
                                   std::max(size.z, 1e-6) / static_cast<double>(segments_.size());
-        cell_ = std::max({extent / 64.0, std::cbrt(perSegment), 0.01});
+        cell_ = std::max({extent / 128.0, 0.5 * std::cbrt(perSegment), 0.01});
         for (int a = 0; a < 3; ++a) {
             dims_[a] = std::max(1, static_cast<int>(std::ceil(size[a] / cell_)));
         }
@@ -77,9 +79,33 @@ class SegmentGrid {
         for (int32_t i : segments_) forEachCell(i, [&](size_t cell) { items_[next[cell]++] = i; });
     }
 
-    double distanceTo(const Vec3& q) const {
+    // The distance from q to the nearest capsule. `hint` is the distance to one of them (a
+    // leaf's own segment), an upper bound. q's own cell is searched first; then only segments
+    // nearer than the best so far matter, and their padded boxes overlap the box q ± best, so
+    // when that box spans a few cells those cells are all that is searched; otherwise rings of
+    // cells grow until nothing unsearched can be nearer. The minimum is over the same values
+    // either way: the result is the same to the bit with or without the hint.
+    double distanceTo(const Vec3& q, double hint = kInf) const {
         if (segments_.empty()) return kInf;
+        if (!(hint < kInf)) hint = kInf;  // NaN: no hint
         const auto c = cellOf(q);
+        double best = std::min(hint, nearestInCell(q, c[0], c[1], c[2]));
+        if (best < kInf) {
+            const Vec3 pad{best, best, best};
+            const auto lo = cellOf(q - pad), hi = cellOf(q + pad);
+            const int64_t cells =
+                int64_t(hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1);
+            if (cells <= kBoxCells) {
+                for (int z = lo[2]; z <= hi[2]; ++z)
+                    for (int y = lo[1]; y <= hi[1]; ++y)
+                        for (int x = lo[0]; x <= hi[0]; ++x) {
+                            if (x != c[0] || y != c[1] || z != c[2]) {
+                                best = std::min(best, nearestInCell(q, x, y, z));
+                            }
+                        }
+                return best;
+            }
+        }
         // Cells outside the grid hold nothing: start the rings from the nearest cell.
         const int maxRing = std::max({dims_[0], dims_[1], dims_[2]});
         const double outside = std::max(0.0, distanceToBox(q));
@@ -94,7 +120,6 @@ class SegmentGrid {
             }
             inCell = std::max(0.0, inCell);
         }
-        double best = kInf;
         for (int ring = 0; ring <= maxRing; ++ring) {
             // The cells of the ring (Chebyshev distance `ring` from c) inside the grid: whole
             // rows where y or z is on the ring's face, else only the two x ends.
@@ -105,13 +130,7 @@ class SegmentGrid {
                     const int step = face ? 1 : std::max(1, 2 * ring);
                     for (int x = c[0] - ring; x <= c[0] + ring; x += step) {
                         if (x < 0 || x >= dims_[0]) continue;
-                        const size_t cell = index(x, y, z);
-                        for (uint32_t k = start_[cell]; k < start_[cell + 1]; ++k) {
-                            const SkeletonNode& n = tree_.nodes[items_[k]];
-                            const SkeletonNode& p = tree_.nodes[n.parent];
-                            best = std::min(best, capsuleDistance(q, p.position, p.radius,
-                                                                  n.position, n.radius));
-                        }
+                        best = std::min(best, nearestInCell(q, x, y, z));
                     }
                 }
             }
@@ -123,6 +142,21 @@ class SegmentGrid {
     }
 
   private:
+    // The box search's limit: beyond it (a bound far larger than a cell) the rings are cheaper.
+    static constexpr int64_t kBoxCells = 64;
+
+    // The nearest capsule among those registered in cell (x, y, z); +infinity if none.
+    double nearestInCell(const Vec3& q, int x, int y, int z) const {
+        const size_t cell = index(x, y, z);
+        double best = kInf;
+        for (uint32_t k = start_[cell]; k < start_[cell + 1]; ++k) {
+            const SkeletonNode& n = tree_.nodes[items_[k]];
+            const SkeletonNode& p = tree_.nodes[n.parent];
+            best = std::min(best, capsuleDistance(q, p.position, p.radius, n.position, n.radius));
+        }
+        return best;
+    }
+
     std::array<int, 3> cellOf(const Vec3& p) const {
         std::array<int, 3> c{};
         for (int a = 0; a < 3; ++a) {
@@ -169,11 +203,21 @@ std::vector<Vec3> leaderAxis(const Tree& tree, const ChildIndex& children) {
 
 }  // namespace
 
-std::vector<double> woodDistances(const Tree& tree, const std::vector<Vec3>& points) {
+std::vector<double> woodDistances(const Tree& tree, const std::vector<Vec3>& points,
+                                  const std::vector<int32_t>& near) {
     const SegmentGrid grid(tree);
     std::vector<double> out;
     out.reserve(points.size());
-    for (const Vec3& p : points) out.push_back(grid.distanceTo(p));
+    for (size_t k = 0; k < points.size(); ++k) {
+        const int32_t i = k < near.size() ? near[k] : -1;
+        double hint = kInf;
+        if (i > 0 && static_cast<size_t>(i) < tree.nodes.size()) {
+            const SkeletonNode& n = tree.nodes[i];
+            const SkeletonNode& p = tree.nodes[n.parent];
+            hint = capsuleDistance(points[k], p.position, p.radius, n.position, n.radius);
+        }
+        out.push_back(grid.distanceTo(points[k], hint));
+    }
     return out;
 }
 
@@ -239,9 +283,14 @@ void addRealismMetrics(const Tree& tree, TreeStats& s) {
     // wood; the 95th percentile.
     if (!tree.leaves.empty() && nodes.size() > 1) {
         std::vector<Vec3> attach;
+        std::vector<int32_t> carriers;
         attach.reserve(tree.leaves.size());
-        for (const Leaf& l : tree.leaves) attach.push_back(l.position - l.tangent * (0.5 * l.size));
-        s.leafWoodDistanceP95 = quantile(woodDistances(tree, attach), 0.95);
+        carriers.reserve(tree.leaves.size());
+        for (const Leaf& l : tree.leaves) {
+            attach.push_back(l.position - l.tangent * (0.5 * l.size));
+            carriers.push_back(l.node);
+        }
+        s.leafWoodDistanceP95 = quantile(woodDistances(tree, attach, carriers), 0.95);
     }
 }
 

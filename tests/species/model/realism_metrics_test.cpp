@@ -105,6 +105,25 @@ TEST(RealismMetrics, WoodDistanceToTaperedCapsules) {
         }
         EXPECT_NEAR(fast[k], best, 1e-12) << k;
     }
+    // A node near each point bounds the search and changes no result, to the bit: the point's
+    // own nearest node, a random one (a loose bound), none (−1, the root), or out of range.
+    std::vector<int32_t> near(q.size());
+    std::vector<Vec3> onWood;
+    for (size_t k = 0; k < q.size(); ++k) {
+        near[k] = static_cast<int32_t>(k % 5 == 0   ? -1
+                                       : k % 5 == 1 ? 0
+                                       : k % 5 == 2 ? 100000
+                                                    : 1 + k % 299);
+    }
+    EXPECT_EQ(woodDistances(r, q, near), fast);
+    // Points beside their carriers (as leaves are): the box search, checked against the rings.
+    std::vector<int32_t> carriers;
+    for (int i = 1; i < 300; ++i) {
+        onWood.push_back(r.nodes[i].position + Vec3{rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3),
+                                                    rng.uniform(-0.3, 0.3)});
+        carriers.push_back(i);
+    }
+    EXPECT_EQ(woodDistances(r, onWood, carriers), woodDistances(r, onWood));
 }
 
 TEST(RealismMetrics, LeafWoodDistanceIsThe95thPercentileFromTheCardsNearEdge) {
