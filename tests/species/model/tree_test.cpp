@@ -1,10 +1,16 @@
 // ChildIndex, assignBranchOrder and computeStats on small hand-built trees.
 #include "species/model/tree.h"
 
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Exact_rational.h>
+#include <CGAL/Surface_mesh.h>
+#include <CGAL/convex_hull_3.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <stdexcept>
 
+#include "core/rng.h"
 #include "species/model/tree_stats.h"
 #include "tests/test_support.h"
 
@@ -162,6 +168,54 @@ TEST(TreeStats, HullOfUnitCubeCornersPlusCentreIsOne) {
     addNode(t, -1, pts[0]);
     for (size_t i = 1; i < pts.size(); ++i) addNode(t, 0, pts[i]);
     EXPECT_NEAR(computeStats(t).crownHullVolume, 1.0, 1e-12);
+}
+
+// The exact volume of the hull of every point, as convexHullVolume computed it before it threw
+// away the points inside the polytope of 26 extreme points: the reference for the throw-away.
+double hullOfAll(const std::vector<Vec3>& points) {
+    using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+    std::vector<K::Point_3> pts;
+    for (const Vec3& p : points) pts.emplace_back(p.x, p.y, p.z);
+    CGAL::Surface_mesh<K::Point_3> hull;
+    CGAL::convex_hull_3(pts.begin(), pts.end(), hull);
+    using Q = CGAL::Exact_rational;
+    const K::Point_3& o = hull.point(*hull.vertices().begin());
+    Q vol6 = 0;
+    for (auto f : hull.faces()) {
+        auto h = hull.halfedge(f);
+        const K::Point_3& a = hull.point(hull.target(h));
+        const K::Point_3& b = hull.point(hull.target(hull.next(h)));
+        const K::Point_3& c = hull.point(hull.source(h));
+        const Q ax = Q(a.x()) - o.x(), ay = Q(a.y()) - o.y(), az = Q(a.z()) - o.z();
+        const Q bx = Q(b.x()) - o.x(), by = Q(b.y()) - o.y(), bz = Q(b.z()) - o.z();
+        const Q cx = Q(c.x()) - o.x(), cy = Q(c.y()) - o.y(), cz = Q(c.z()) - o.z();
+        vol6 += ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
+    }
+    return std::abs(CGAL::to_double(vol6)) / 6.0;
+}
+
+TEST(TreeStats, HullIgnoresInteriorPointsToTheBit) {
+    // A lattice of 17³ points 1/8 apart (exact in binary), as canopy nodes lie: a 2 m cube.
+    std::vector<Vec3> lattice;
+    for (int x = 0; x <= 16; ++x)
+        for (int y = 0; y <= 16; ++y)
+            for (int z = 0; z <= 16; ++z) lattice.push_back({x / 8.0, y / 8.0, z / 8.0});
+    EXPECT_EQ(convexHullVolume(lattice), 8.0);
+    // Clouds with most points inside: a ball with a dense core, and a crown-like cone, with
+    // a few points just outside the polytope of extreme points (within its margin, 1e-9 of
+    // the extent) and on the clouds' lattice planes. The same volume as the hull of all.
+    Rng rng(11);
+    for (int trial = 0; trial < 6; ++trial) {
+        std::vector<Vec3> cloud;
+        for (int i = 0; i < 3000; ++i) {
+            const Vec3 u = rng.unitVector();
+            const double r = i % 3 == 0 ? 1.0 : std::cbrt(rng.uniform()) * (trial % 2 ? 0.5 : 1.0);
+            Vec3 p = u * r;
+            if (trial >= 4) p = {std::round(p.x * 16) / 16, std::round(p.y * 16) / 16, p.z};
+            cloud.push_back(p + Vec3{3.0 * trial, 10.0, -2.0});
+        }
+        EXPECT_EQ(convexHullVolume(cloud), hullOfAll(cloud)) << "trial " << trial;
+    }
 }
 
 TEST(TreeStats, DegenerateHullsAreZero) {
