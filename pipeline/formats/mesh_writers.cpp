@@ -8,8 +8,9 @@
 #include <cstring>
 #include <limits>
 #include <nlohmann/json.hpp>
-#include <sstream>
+#include <ostream>
 #include <stdexcept>
+#include <streambuf>
 #include <string_view>
 #include <vector>
 
@@ -271,6 +272,42 @@ std::string meshMtl(const TreeMesh& mesh, const MeshLook* look, const std::strin
 
 namespace {
 
+// A stream buffer appending to a string reserved beforehand: tinygltf's GLB goes straight into
+// the string returned (an ostringstream grew by copies and copied its whole contents out).
+class AppendBuf : public std::streambuf {
+  public:
+    explicit AppendBuf(std::string& out) : out_(out) {}
+
+  protected:
+    std::streamsize xsputn(const char* s, std::streamsize n) override {
+        out_.append(s, static_cast<size_t>(n));
+        return n;
+    }
+    int_type overflow(int_type c) override {
+        if (!traits_type::eq_int_type(c, traits_type::eof())) out_.push_back(static_cast<char>(c));
+        return traits_type::not_eof(c);
+    }
+
+  private:
+    std::string& out_;
+};
+
+// The model as GLB bytes (tinygltf; `who` names the writer in the error).
+std::string serialiseGlb(tinygltf::Model& model, const char* who) {
+    std::string out;
+    size_t bytes = 4096;  // the JSON chunk, generously
+    for (const tinygltf::Buffer& b : model.buffers) bytes += b.data.size() + 8;
+    out.reserve(bytes);
+    AppendBuf buf(out);
+    std::ostream stream(&buf);
+    tinygltf::TinyGLTF gltf;
+    if (!gltf.WriteGltfSceneToStream(&model, stream, /*prettyPrint=*/false,
+                                     /*writeBinary=*/true)) {
+        throw std::runtime_error(std::string(who) + ": tinygltf could not serialise the model");
+    }
+    return out;
+}
+
 // Appends raw little-endian bytes of `values` to the buffer (4-byte aligned: every element
 // written here is 4 bytes) and returns a new buffer view over them.
 template <typename T>
@@ -436,6 +473,15 @@ std::string meshGlb(const TreeMesh& mesh, const MeshLook* look) {
     model.scenes[0].name = "tree";
     model.defaultScene = 0;
     int barkMaterial = -1;
+    // The buffer's size before the image: position, normal, UV, order (and colour, RGB for
+    // the leaves) per vertex and the indices, reserved so that appending copies nothing twice.
+    size_t bufferBytes = 0;
+    for (const Part& part : parts(mesh)) {
+        const bool leaves = part.mesh == &mesh.leaves;
+        bufferBytes += 4 * (part.mesh->vertexCount() * (9 + (leaves ? 1 + (look ? 3 : 0) : 0)) +
+                            part.mesh->indices.size());
+    }
+    model.buffers[0].data.reserve(bufferBytes);
     for (const Part& part : parts(mesh)) {
         if (part.mesh->empty()) continue;  // neither an empty accessor nor an unused material
         model.materials.push_back(material(partMaterial(part, look)));
@@ -451,13 +497,7 @@ std::string meshGlb(const TreeMesh& mesh, const MeshLook* look) {
     if (look && barkMaterial >= 0) addBarkTexture(model, barkMaterial, *look);
     if (model.buffers[0].data.empty()) model.buffers.clear();  // no zero-length buffer
 
-    std::ostringstream stream;
-    tinygltf::TinyGLTF gltf;
-    if (!gltf.WriteGltfSceneToStream(&model, stream, /*prettyPrint=*/false,
-                                     /*writeBinary=*/true)) {
-        throw std::runtime_error("meshGlb: tinygltf could not serialise the model");
-    }
-    return std::move(stream).str();
+    return serialiseGlb(model, "meshGlb");
 }
 
 namespace {
@@ -597,13 +637,7 @@ std::string sceneGlb(const PlotScene& scene) {
     }
     if (model.buffers[0].data.empty()) model.buffers.clear();
 
-    std::ostringstream stream;
-    tinygltf::TinyGLTF gltf;
-    if (!gltf.WriteGltfSceneToStream(&model, stream, /*prettyPrint=*/false,
-                                     /*writeBinary=*/true)) {
-        throw std::runtime_error("sceneGlb: tinygltf could not serialise the model");
-    }
-    return std::move(stream).str();
+    return serialiseGlb(model, "sceneGlb");
 }
 
 // --- streamed scene writers ----------------------------------------------------------------
