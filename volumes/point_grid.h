@@ -114,6 +114,24 @@ class PackedPointGrid {
             }
         });
     }
+    // Calls f(id, position) for every point in the cells the box [lo, hi] touches (a superset
+    // of the points inside it): cell by cell, z slowest, each row of cells one packed run.
+    template <class F>
+    void forEachInBox(const Vec3& lo, const Vec3& hi, F&& f) const {
+        if (ids_.empty()) return;
+        int l[3], h[3];
+        for (int a = 0; a < 3; ++a) {
+            l[a] = cells_.coord(lo[a], a);
+            h[a] = cells_.coord(hi[a], a);
+        }
+        for (int z = l[2]; z <= h[2]; ++z)
+            for (int y = l[1]; y <= h[1]; ++y) {
+                const size_t row = cells_.index(0, y, z);
+                for (int32_t s = start_[row + l[0]], end = start_[row + h[0] + 1]; s < end; ++s) {
+                    f(ids_[s], pos_[s]);
+                }
+            }
+    }
     // Every pair (i, j) with i < j, i < iEnd and |p_i − p_j| < radius, as (i, j) in `out`:
     // by i ascending and, for each i, in the order forEachWithin(p_i, radius) visits the j —
     // what calling it for each i would list, found with one pass over pairs of neighbouring

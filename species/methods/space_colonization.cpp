@@ -65,6 +65,7 @@
 #include <vector>
 
 #include "species/methods/space_colonization_detail.h"
+#include "volumes/point_grid.h"
 
 namespace sylva {
 
@@ -107,6 +108,16 @@ class HashGrid {
         });
     }
 
+    // The cell coordinate of v in a grid of cells 1 / inv wide, and a key that orders cells
+    // by x, then y, then z.
+    static int64_t coordOf(double v, double inv) {
+        const double c = std::floor(v * inv);
+        return static_cast<int64_t>(std::clamp(c, double(-kHalf), double(kHalf - 1)));
+    }
+    static uint64_t orderKey(int64_t x, int64_t y, int64_t z) {
+        return uint64_t(z + kHalf) | uint64_t(y + kHalf) << 21 | uint64_t(x + kHalf) << 42;
+    }
+
     // True as soon as hit(index) is true for a point in a cell the ball touches.
     template <class F>
     bool anyNear(const Vec3& p, double radius, F&& hit) const {
@@ -115,21 +126,9 @@ class HashGrid {
         });
     }
 
-    // Drops every index for which drop(index) is true from the cells the ball touches.
-    template <class P>
-    void eraseNear(const Vec3& p, double radius, P&& drop) {
-        visitCells(*this, p, radius, [&](std::vector<int32_t>& cell) {
-            cell.erase(std::remove_if(cell.begin(), cell.end(), drop), cell.end());
-            return false;
-        });
-    }
-
   private:
     static constexpr int64_t kHalf = int64_t(1) << 20;  // 21 bits per axis
-    int64_t coord(double v) const {
-        const double c = std::floor(v * inv_);
-        return static_cast<int64_t>(std::clamp(c, double(-kHalf), double(kHalf - 1)));
-    }
+    int64_t coord(double v) const { return coordOf(v, inv_); }
     static uint64_t key(int64_t x, int64_t y, int64_t z) {
         return uint64_t(x + kHalf) | uint64_t(y + kHalf) << 21 | uint64_t(z + kHalf) << 42;
     }
@@ -157,19 +156,32 @@ class HashGrid {
 };
 
 // Persistent markers: the guides (indices [0, guides)), then, in the baseline, the crown's.
+// All are added before the first query; then seal() packs them by cells half of `cell` wide
+// (a narrow perception cone touches few of them), and markers die in place (alive = 0).
+// perceive lists them in the order of a grid of `cell`: cell by cell (x, then y, then z), by
+// index within a cell, which is what sums over the lists depend on.
 struct MarkerSet {
+    static constexpr double kFine = 2.0;
     std::vector<Vec3> position;
     std::vector<Vec3> pull;  // weight · direction of a directional guide marker, else zero
     std::vector<uint8_t> alive;
-    HashGrid grid;
-    explicit MarkerSet(double cell) : grid(cell) {}
+    double cell;
+    double orderInv;  // 1 / cell
+    PackedPointGrid grid;
+    bool sealed = false;
+    explicit MarkerSet(double cell_) : cell(cell_), orderInv(1.0 / cell_) {}
     int32_t add(const Vec3& p, const Vec3& pull_) {
+        if (sealed) throw std::logic_error("MarkerSet::add after seal");
         const auto i = static_cast<int32_t>(position.size());
         position.push_back(p);
         pull.push_back(pull_);
         alive.push_back(1);
-        grid.insert(i, p);
         return i;
+    }
+    void seal() {
+        if (sealed) return;
+        grid.assign(position, cell / kFine);
+        sealed = true;
     }
 };
 
@@ -185,16 +197,56 @@ inline bool inCone(const Vec3& v, double d2, const Vec3& direction, double cosAn
     return d2 > 0.0 && dot(v, direction) >= cosAngle * std::sqrt(d2);
 }
 
+// The bounding box of the perception volume: the apex and, per axis, the farthest reach of
+// the cone's directions (1 when the axis lies inside the cone, else cos(α − θ) for an axis α
+// from the cone's axis), times the radius; the whole ball's box for a cone wider than a
+// half-space. Widened by a margin far above rounding.
+void perceptionBox(const Vec3& at, const Vec3& direction, double radius, double cosAngle, Vec3& lo,
+                   Vec3& hi) {
+    const double margin =
+        1e-9 * (radius + std::abs(at.x) + std::abs(at.y) + std::abs(at.z)) + 1e-12;
+    const double sinAngle = std::sqrt(std::max(0.0, 1.0 - cosAngle * cosAngle));
+    for (int a = 0; a < 3; ++a) {
+        double up = 1.0, down = -1.0;
+        if (cosAngle >= 0.0) {
+            const double c = std::clamp(direction[a], -1.0, 1.0);
+            const double s = std::sqrt(std::max(0.0, 1.0 - c * c));
+            up = c >= cosAngle ? 1.0 : c * cosAngle + s * sinAngle;
+            down = -c >= cosAngle ? -1.0 : -(-c * cosAngle + s * sinAngle);
+        }
+        lo[a] = at[a] + radius * std::min(0.0, down) - margin;
+        hi[a] = at[a] + radius * std::max(0.0, up) + margin;
+    }
+}
+
 std::vector<Perceived> perceive(const MarkerSet& set, const Vec3& at, const Vec3& direction,
                                 double radius, double cosAngle) {
     std::vector<Perceived> out;
     const double r2 = radius * radius;
-    set.grid.forEachNear(at, radius, [&](int32_t m) {
+    Vec3 lo, hi;
+    perceptionBox(at, direction, radius, cosAngle, lo, hi);
+    set.grid.forEachInBox(lo, hi, [&](int32_t m, const Vec3& position) {
         if (!set.alive[m]) return;
-        const Vec3 v = set.position[m] - at;
+        const Vec3 v = position - at;
         const double d2 = length2(v);
         if (d2 <= r2 && inCone(v, d2, direction, cosAngle)) out.push_back({m, d2});
     });
+    if (out.size() > 1) {
+        std::vector<std::pair<uint64_t, size_t>> order(out.size());
+        for (size_t k = 0; k < out.size(); ++k) {
+            const Vec3& p = set.position[out[k].marker];
+            order[k] = {HashGrid::orderKey(HashGrid::coordOf(p.x, set.orderInv),
+                                           HashGrid::coordOf(p.y, set.orderInv),
+                                           HashGrid::coordOf(p.z, set.orderInv)),
+                        static_cast<size_t>(out[k].marker)};
+        }
+        std::vector<size_t> idx(out.size());
+        for (size_t k = 0; k < idx.size(); ++k) idx[k] = k;
+        std::sort(idx.begin(), idx.end(), [&](size_t a, size_t b) { return order[a] < order[b]; });
+        std::vector<Perceived> sorted(out.size());
+        for (size_t k = 0; k < idx.size(); ++k) sorted[k] = out[idx[k]];
+        out.swap(sorted);
+    }
     return out;
 }
 
@@ -390,11 +442,12 @@ int32_t Grower::addNode(const Vec3& p, int32_t parent, int32_t order, int32_t le
     if (shadow_) shadow_->cast(p, +1);
     // The new node's occupancy zone: persistent markers within ρ are gone for good.
     const double rho2 = rho_ * rho_;
-    persistent_.grid.eraseNear(p, rho_, [&](int32_t m) {
-        if (distance2(persistent_.position[m], p) > rho2) return false;
+    const double reach = rho_ * (1 + 1e-9) + 1e-12;  // the box around the ball, with a margin
+    const Vec3 pad{reach, reach, reach};
+    persistent_.grid.forEachInBox(p - pad, p + pad, [&](int32_t m, const Vec3& q) {
+        if (!persistent_.alive[m] || distance2(q, p) > rho2) return;
         persistent_.alive[m] = 0;
         removed_ += 1;
-        return true;
     });
     return index;
 }
@@ -792,6 +845,7 @@ void Grower::addMarkers() {
 
 void Grower::plant() {
     const bool improved = o_.variant == ColonizationVariant::kImproved;
+    persistent_.seal();  // every tree's markers are in (a plot's trees add theirs first)
     // Root and trunk; their occupancy zones clear the markers around them.
     addNode(world({0, 0, 0}), -1, 0, 0);
     const int trunk =
@@ -1201,6 +1255,7 @@ std::vector<int32_t> closestPerceivingBud(const std::vector<PerceivingBud>& buds
                                           double angle, bool threaded) {
     MarkerSet set(radius);
     for (const Vec3& m : markers) set.add(m, {0, 0, 0});
+    set.seal();
     std::vector<std::vector<Perceived>> lists(buds.size());
     const double cosAngle = std::cos(angle);
     forEachIndex(buds.size(), threaded, [&](size_t i) {

@@ -180,6 +180,47 @@ TEST(PointGrid, QueriesMatchBruteForce) {
     }
 }
 
+TEST(PackedPointGrid, BoxQueriesVisitEveryPointInsideOnce) {
+    Rng rng(13);
+    std::vector<Vec3> pts;
+    for (int i = 0; i < 3000; ++i) {
+        pts.push_back({rng.uniform(-1, 5), rng.uniform(0, 2), rng.uniform(-1, 4)});
+    }
+    PackedPointGrid grid;
+    grid.assign(pts, 0.25);
+    for (int k = 0; k < 200; ++k) {
+        // Boxes inside, across and outside the points' bounds (clamped to the border cells).
+        const Vec3 a{rng.uniform(-3, 7), rng.uniform(-2, 4), rng.uniform(-3, 6)};
+        const Vec3 lo = a, hi = a + Vec3{rng.uniform(0, 2), rng.uniform(0, 1), rng.uniform(0, 2)};
+        std::vector<int> seen(pts.size(), 0);
+        grid.forEachInBox(lo, hi, [&](int32_t id, const Vec3& p) {
+            ++seen[id];
+            EXPECT_EQ(p, pts[id]);
+        });
+        for (size_t i = 0; i < pts.size(); ++i) {
+            const Vec3& p = pts[i];
+            const bool inside = p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y &&
+                                p.z >= lo.z && p.z <= hi.z;
+            if (inside) EXPECT_EQ(seen[i], 1) << i;
+            EXPECT_LE(seen[i], 1);
+            // Only the cells the box touches: nothing beyond a cell from it, for boxes within
+            // the points' bounds (outside, the border cells answer for everything beyond).
+            const bool within =
+                lo.x >= -1 && hi.x <= 5 && lo.y >= 0 && hi.y <= 2 && lo.z >= -1 && hi.z <= 4;
+            if (seen[i] && within) {
+                EXPECT_TRUE(p.x >= lo.x - 0.26 && p.x <= hi.x + 0.26 && p.y >= lo.y - 0.26 &&
+                            p.y <= hi.y + 0.26 && p.z >= lo.z - 0.26 && p.z <= hi.z + 0.26)
+                    << i;
+            }
+        }
+    }
+    PackedPointGrid empty;
+    empty.assign({}, 0.25);
+    int n = 0;
+    empty.forEachInBox({0, 0, 0}, {1, 1, 1}, [&](int32_t, const Vec3&) { ++n; });
+    EXPECT_EQ(n, 0);
+}
+
 TEST(PointGrid, HugeBoundsTinyCellStaysSmall) {
     // 10⁴ m box at 1 mm cells would be 10²¹ cells; the grid caps its cell count instead.
     PointGrid grid({{-5000, -5000, -5000}, {5000, 5000, 5000}}, 0.001);
