@@ -150,6 +150,29 @@ std::string encodeRunsPng(int width, int height, const uint8_t* pixels) {
 }
 
 // OpenEXR RLE of n bytes (see the header): appends to out, returns the encoded size.
+// The first j in [from, limit) where three equal bytes start (in[j] = in[j + 1] = in[j + 2],
+// j + 2 < n), or limit. Eight starts at a time on little-endian hosts: the bytes of
+// (x ^ y) | (y ^ z) over the words at j, j + 1, j + 2 are zero where a triple starts, and the
+// lowest zero byte is found exactly by the borrow trick (false hits lie only above it).
+size_t nextTriple(const uint8_t* in, size_t from, size_t limit, size_t n) {
+    size_t j = from;
+    if (isLittleEndian()) {
+        constexpr uint64_t kOnes = 0x0101010101010101ull, kHighs = 0x8080808080808080ull;
+        while (j + 8 <= limit && j + 10 <= n) {
+            uint64_t x, y, z;
+            std::memcpy(&x, in + j, 8);
+            std::memcpy(&y, in + j + 1, 8);
+            std::memcpy(&z, in + j + 2, 8);
+            const uint64_t v = (x ^ y) | (y ^ z);
+            const uint64_t zero = (v - kOnes) & ~v & kHighs;
+            if (zero) return j + static_cast<size_t>(__builtin_ctzll(zero) >> 3);
+            j += 8;
+        }
+    }
+    while (j < limit && !(j + 2 < n && in[j] == in[j + 1] && in[j + 1] == in[j + 2])) ++j;
+    return j;
+}
+
 size_t rleEncode(const uint8_t* in, size_t n, std::vector<uint8_t>& out) {
     constexpr size_t kMaxRun = 128, kMinRun = 3;
     out.clear();
@@ -163,11 +186,7 @@ size_t rleEncode(const uint8_t* in, size_t n, std::vector<uint8_t>& out) {
             continue;
         }
         // A literal stretch: up to the next run of kMinRun equal bytes, at most kMaxRun.
-        size_t j = i + run;
-        while (j < n && j - i < kMaxRun &&
-               !(j + 2 < n && in[j] == in[j + 1] && in[j + 1] == in[j + 2])) {
-            ++j;
-        }
+        const size_t j = nextTriple(in, i + run, std::min(n, i + kMaxRun), n);
         out.push_back(static_cast<uint8_t>(-static_cast<int>(j - i)));
         out.insert(out.end(), in + i, in + j);
         i = j;
