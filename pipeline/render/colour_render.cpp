@@ -11,6 +11,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "pipeline/render/embree_scene.h"
 #include "pipeline/render/sky_grid.h"
 #include "species/model/leaf_shape.h"
 
@@ -150,24 +151,7 @@ struct ColourScene::Impl {
     }
 
     void addGeometry(const float* positions, size_t nv, const uint32_t* indices, size_t nt) {
-        RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                              RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                              std::max<size_t>(nv, 1)));
-        auto* t = static_cast<unsigned*>(
-            rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                    3 * sizeof(unsigned), std::max<size_t>(nt, 1)));
-        if (!v || !t) throw std::runtime_error("Embree: rtcSetNewGeometryBuffer failed");
-        if (nt == 0) {  // an empty part: one degenerate triangle keeps the geometry ids fixed
-            std::memset(v, 0, 3 * sizeof(float));
-            std::memset(t, 0, 3 * sizeof(unsigned));
-        } else {
-            std::memcpy(v, positions, nv * 3 * sizeof(float));
-            std::memcpy(t, indices, nt * 3 * sizeof(unsigned));
-        }
-        rtcCommitGeometry(g);
-        rtcAttachGeometry(scene, g);
-        rtcReleaseGeometry(g);
+        attachTriangles(device, scene, positions, nv, indices, nt);
     }
 
     // A ray from `o` along `d`, from `tnear` to infinity.
@@ -405,11 +389,8 @@ struct ColourScene::Impl {
 
 ColourScene::ColourScene() : impl_(std::make_unique<Impl>()) {
     Impl& m = *impl_;
-    m.device = rtcNewDevice(nullptr);
-    if (!m.device) throw std::runtime_error("Embree: rtcNewDevice failed");
-    m.scene = rtcNewScene(m.device);
-    rtcSetSceneFlags(m.scene, RTC_SCENE_FLAG_ROBUST);  // watertight edges: few centre misses
-    rtcSetSceneBuildQuality(m.scene, RTC_BUILD_QUALITY_MEDIUM);
+    m.device = newEmbreeDevice();
+    m.scene = newRobustScene(m.device);
 }
 
 ColourScene::ColourScene(const Tree& tree, const Mesh& wood, const Mesh& leaves, const Look& look,

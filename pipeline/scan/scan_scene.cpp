@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "pipeline/render/embree_scene.h"
 #include "pipeline/render/plot_render.h"
 #include "pipeline/scan/scan_scene_impl.h"
 #include "species/model/leaf_shape.h"
@@ -91,42 +92,11 @@ bool monitorMemory(void* user, ssize_t bytes, bool /*post*/) {
     return true;
 }
 
-void check(RTCDevice device, const char* what) {
-    const RTCError e = rtcGetDeviceError(device);
-    if (e != RTC_ERROR_NONE) {
-        throw std::runtime_error(std::string("Embree: ") + what + " failed (error " +
-                                 std::to_string(static_cast<int>(e)) + ")");
-    }
-}
-
-RTCScene newScene(RTCDevice device) {
-    RTCScene s = rtcNewScene(device);
-    check(device, "rtcNewScene");
-    // Robust traversal: rays through the shared edge of two triangles are never lost (a lost
-    // ray would put a point inside a trunk, behind its near surface).
-    rtcSetSceneFlags(s, RTC_SCENE_FLAG_ROBUST);
-    rtcSetSceneBuildQuality(s, RTC_BUILD_QUALITY_MEDIUM);
-    return s;
-}
-
-// Copies `triangles` (indices into mesh) into a new Embree triangle geometry of `scene`.
+// The triangles (indices into mesh) as a new Embree geometry of `scene`.
 unsigned attachTriangles(RTCDevice device, RTCScene scene, const Mesh& mesh,
                          const std::vector<uint32_t>& indices) {
-    RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    check(device, "rtcNewGeometry");
-    const size_t nv = mesh.vertexCount(), nt = indices.size() / 3;
-    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
-        g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
-    auto* t = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-        g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), nt));
-    check(device, "rtcSetNewGeometryBuffer");
-    std::memcpy(v, mesh.positions.data(), nv * 3 * sizeof(float));
-    std::memcpy(t, indices.data(), nt * 3 * sizeof(unsigned));
-    rtcCommitGeometry(g);
-    const unsigned id = rtcAttachGeometry(scene, g);
-    rtcReleaseGeometry(g);
-    check(device, "rtcAttachGeometry");
-    return id;
+    return sylva::attachTriangles(device, scene, mesh.positions.data(), mesh.vertexCount(),
+                                  indices.data(), indices.size() / 3);
 }
 
 // Per skeleton node: its wood part, order and whether it or a node above it bears a leaf.
@@ -225,10 +195,9 @@ std::vector<MeshPiece> treePieces(const ScanTreeInput& in) {
 }  // namespace
 
 ScanScene::ScanScene() : impl_(std::make_unique<Impl>()) {
-    impl_->device = rtcNewDevice(nullptr);
-    if (!impl_->device) throw std::runtime_error("Embree: rtcNewDevice failed");
+    impl_->device = newEmbreeDevice();
     rtcSetDeviceMemoryMonitorFunction(impl_->device, monitorMemory, &impl_->bytes);
-    impl_->scene = newScene(impl_->device);
+    impl_->scene = newRobustScene(impl_->device);
 }
 
 ScanScene::~ScanScene() = default;
@@ -274,7 +243,7 @@ int ScanScene::addPrototype(const ScanTreeInput& tree) {
     Impl& s = *impl_;
     if (s.committed) throw std::logic_error("ScanScene: objects added after commit");
     ScanPrototype p;
-    p.scene = newScene(s.device);
+    p.scene = newRobustScene(s.device);
     for (MeshPiece& piece : treePieces(tree)) {
         if (piece.indices.empty()) continue;
         const unsigned id = attachTriangles(s.device, p.scene, *piece.mesh, piece.indices);
@@ -283,7 +252,7 @@ int ScanScene::addPrototype(const ScanTreeInput& tree) {
         p.geometries[id] = std::move(piece.geometry);
     }
     rtcCommitScene(p.scene);
-    check(s.device, "rtcCommitScene (prototype)");
+    checkEmbree(s.device, "rtcCommitScene (prototype)");
     s.storedTriangles += p.triangles;
     s.prototypes.push_back(std::move(p));
     return static_cast<int>(s.prototypes.size()) - 1;
@@ -317,7 +286,7 @@ void ScanScene::addInstance(int prototype, const Vec3& base, double rotationY, i
     rtcCommitGeometry(g);
     const unsigned id = rtcAttachGeometry(s.scene, g);
     rtcReleaseGeometry(g);
-    check(s.device, "instance");
+    checkEmbree(s.device, "instance");
     if (s.geometries.size() <= id) s.geometries.resize(id + 1), s.instanceOf.resize(id + 1, -1);
     ScanInstance inst;
     inst.prototype = prototype;
@@ -344,7 +313,7 @@ void ScanScene::commit() {
     Impl& s = *impl_;
     if (s.committed) return;
     rtcCommitScene(s.scene);
-    check(s.device, "rtcCommitScene");
+    checkEmbree(s.device, "rtcCommitScene");
     s.committed = true;
 }
 
