@@ -8,6 +8,7 @@
 #include "pipeline/formats/skeleton_writers.h"
 #include "pipeline/formats/stats_json.h"
 #include "pipeline/formats/view_writers.h"
+#include "species/geometry/tube_mesh.h"
 #include "species/spec/species.h"
 
 namespace sylva {
@@ -33,11 +34,15 @@ GrowOneResult growOne(const std::string& speciesPath, uint64_t seed, const fs::p
     r.stats = computeStats(g.tree);
     writeFileAtomic(r.dir / "skeleton.ply", skeletonPly(g.tree));
     writeFileAtomic(r.dir / "skeleton.swc", skeletonSwc(g.tree));
-    writeLabelPreviewPng(g.tree, r.dir / "preview.png", kGrowPreviewSize);
+    // The tubes once for the three previews (they do not depend on the leaves).
+    std::vector<int32_t> nodes;
+    const Mesh tubes = tubeMesh(g.tree, TubeOptions{}, &nodes);
+    writeLabelPreviewPng(g.tree, tubes, nodes, r.dir / "preview.png", kGrowPreviewSize);
     Tree wood = g.tree;  // the branching, which leaves hide
     wood.leaves.clear();
-    writeLabelPreviewPng(wood, r.dir / "preview_wood.png", kGrowPreviewSize);
-    writeColourPreviewPng(g.tree, *species.look, seed, r.dir / "preview_rgb.png", kGrowPreviewSize);
+    writeLabelPreviewPng(wood, tubes, nodes, r.dir / "preview_wood.png", kGrowPreviewSize);
+    writeColourPreviewPng(g.tree, tubes, nodes, *species.look, seed, r.dir / "preview_rgb.png",
+                          kGrowPreviewSize);
     nlohmann::json j = toJson(r.stats);
     for (const auto& [k, v] : g.methodStats) j[k] = v;
     const nlohmann::json rec = {{"species", species.name},

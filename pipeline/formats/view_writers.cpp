@@ -511,13 +511,12 @@ void writePreviewPng(const Tree& tree, const fs::path& path, int sizePixels) {
     writeFileAtomic(path, encodeGreyPng(sizePixels, sizePixels, pixels.data()));
 }
 
-void writeColourPreviewPng(const Tree& tree, const Look& look, uint64_t seed, const fs::path& path,
-                           int size) {
+void writeColourPreviewPng(const Tree& tree, const Mesh& wood,
+                           const std::vector<int32_t>& woodNodes, const Look& look, uint64_t seed,
+                           const fs::path& path, int size) {
     const Camera camera = previewCamera(tree, size);
-    std::vector<int32_t> nodes;
-    const Mesh wood = tubeMesh(tree, TubeOptions{}, &nodes);
     const Mesh leaves = leafMesh(tree);
-    const ViewImage v = renderView(tree, wood, nodes, camera, false, false);
+    const ViewImage v = renderView(tree, wood, woodNodes, camera, false, false);
     const ColourScene scene(tree, wood, leaves, look, seed);
     ColourOptions co;
     co.enabled = true;
@@ -526,9 +525,16 @@ void writeColourPreviewPng(const Tree& tree, const Look& look, uint64_t seed, co
     writeFileAtomic(path, encodeRgbPng(size, size, rgbOf(img).data()));
 }
 
-void writeLabelPreviewPng(const Tree& tree, const fs::path& path, int size) {
-    const ViewImage v = renderView(tree, previewCamera(tree, size), false, true);
+void writeLabelPreviewPng(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+                          const fs::path& path, int size) {
+    const ViewImage v = renderView(tree, wood, woodNodes, previewCamera(tree, size), false, true);
     writeFileAtomic(path, encodeRgbPng(size, size, colourLabels(v.labels).data()));
+}
+
+void writeLabelPreviewPng(const Tree& tree, const fs::path& path, int size) {
+    std::vector<int32_t> nodes;
+    const Mesh wood = tubeMesh(tree, TubeOptions{}, &nodes);
+    writeLabelPreviewPng(tree, wood, nodes, path, size);
 }
 
 }  // namespace sylva

@@ -86,13 +86,18 @@ void writeSpeciesSheet(const std::filesystem::path& path,
 
 // One view of the tree in label colours (render.h labelColour), an RGB PNG of size × size
 // pixels: a perspective camera at azimuth 0 (looking along −z), 10° above the horizon,
-// framing the tree as the dataset views do (`sylva grow`'s preview).
+// framing the tree as the dataset views do (`sylva grow`'s preview). `wood` and `woodNodes`:
+// the tree's tubes as tubeMesh (tube_mesh.h) makes them with default options, when the caller
+// has them (`sylva grow` draws three previews from one mesh); the first form makes them.
 void writeLabelPreviewPng(const Tree& tree, const std::filesystem::path& path, int size);
+void writeLabelPreviewPng(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
+                          const std::filesystem::path& path, int size);
 
 // The same view as a colour picture (colour_render.h) of the tree in `look`, over white, the
 // exposure metering the tree, 4 samples per pixel, its light drawn from `seed`: an RGB PNG of
 // size × size pixels (`sylva grow`'s preview_rgb.png).
-void writeColourPreviewPng(const Tree& tree, const Look& look, uint64_t seed,
+void writeColourPreviewPng(const Tree& tree, const Mesh& wood,
+                           const std::vector<int32_t>& woodNodes, const Look& look, uint64_t seed,
                            const std::filesystem::path& path, int size);
 
 // renderPreview() (pipeline/render/preview.h) written as an 8-bit greyscale PNG, atomically
