@@ -3,8 +3,9 @@
 
 #include <algorithm>
 #include <array>
-#include <cstring>
 #include <vector>
+
+#include "pipeline/formats/little_endian.h"
 
 namespace sylva {
 
@@ -142,12 +143,7 @@ class BitWriter {
         acc_ |= static_cast<uint64_t>(bits) << used_;
         used_ += count;
         while (used_ >= 32) {
-            const uint32_t low = static_cast<uint32_t>(acc_);
-            const char bytes[4] = {
-                static_cast<char>(low & 0xff), static_cast<char>((low >> 8) & 0xff),
-                static_cast<char>((low >> 16) & 0xff), static_cast<char>(low >> 24)};
-            std::memcpy(out_, bytes, 4);
-            out_ += 4;
+            out_ = storeU32(out_, static_cast<uint32_t>(acc_));
             acc_ >>= 32;
             used_ -= 32;
         }
@@ -180,24 +176,7 @@ class RunList {
         size_t i = 0;
         while (i < size) {
             const uint8_t v = data[i];
-            // The bytes equal to v, eight at a time while they can be.
-            size_t j = i + 1;
-            const uint64_t pattern = 0x0101010101010101ull * v;
-            for (;;) {
-                if (j + 8 > size) {
-                    while (j < size && data[j] == v) ++j;
-                    break;
-                }
-                uint64_t word;
-                std::memcpy(&word, data + j, 8);
-                const uint64_t differ = word ^ pattern;
-                if (differ != 0) {
-                    // The first differing byte: the lowest nonzero byte of a little-endian load.
-                    j += static_cast<size_t>(__builtin_ctzll(differ)) / 8;
-                    break;
-                }
-                j += 8;
-            }
+            const size_t j = runEnd(data, i + 1, size, v);
             add(v, j - i);
             i = j;
         }
@@ -342,9 +321,7 @@ std::string deflateRuns(const std::vector<Run>& runs) {
     }
     bits.put(litCode[kEndOfBlock], litLen[kEndOfBlock]);
     char* end = bits.finish();
-    const uint32_t adler = static_cast<uint32_t>((b << 16) | a);
-    for (int shift = 24; shift >= 0; shift -= 8)
-        *end++ = static_cast<char>((adler >> shift) & 0xff);
+    end = storeU32BigEndian(end, static_cast<uint32_t>((b << 16) | a));
     z.resize(static_cast<size_t>(end - z.data()));
     return z;
 }

@@ -102,24 +102,13 @@ void putBox(std::string& out, const char* name, int width, int height) {
 
 // Length of the run of bytes equal to in[i] starting at i, at most `cap` and n − i.
 size_t runLength(const uint8_t* in, size_t i, size_t n, size_t cap) {
-    const size_t end = std::min(n, i + cap);
-    const uint8_t b = in[i];
-    size_t j = i + 1;
-    // Eight bytes at a time while they all equal b (most of a depth map is background).
-    const uint64_t pattern = 0x0101010101010101ull * b;
-    while (j + 8 <= end) {
-        uint64_t word;
-        std::memcpy(&word, in + j, 8);
-        if (word != pattern) break;
-        j += 8;
-    }
-    while (j < end && in[j] == b) ++j;
-    return j - i;
+    return runEnd(in, i + 1, std::min(n, i + cap), in[i]) - i;
 }
 
 void putU32BigEndian(std::string& out, uint32_t v) {
-    for (int shift = 24; shift >= 0; shift -= 8)
-        out.push_back(static_cast<char>((v >> shift) & 0xff));
+    char bytes[4];
+    storeU32BigEndian(bytes, v);
+    out.append(bytes, 4);
 }
 
 // A PNG chunk: length, type, data, CRC-32 of type and data (PNG §5.3).
@@ -149,7 +138,6 @@ std::string encodeRunsPng(int width, int height, const uint8_t* pixels) {
     return out;
 }
 
-// OpenEXR RLE of n bytes (see the header): appends to out, returns the encoded size.
 // The first j in [from, limit) where three equal bytes start (in[j] = in[j + 1] = in[j + 2],
 // j + 2 < n), or limit. Eight starts at a time on little-endian hosts: the bytes of
 // (x ^ y) | (y ^ z) over the words at j, j + 1, j + 2 are zero where a triple starts, and the
@@ -173,6 +161,7 @@ size_t nextTriple(const uint8_t* in, size_t from, size_t limit, size_t n) {
     return j;
 }
 
+// OpenEXR RLE of n bytes (see the header): appends to out, returns the encoded size.
 size_t rleEncode(const uint8_t* in, size_t n, std::vector<uint8_t>& out) {
     constexpr size_t kMaxRun = 128, kMinRun = 3;
     out.clear();

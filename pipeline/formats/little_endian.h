@@ -1,7 +1,9 @@
-// Little-endian binary appends and stores for the PLY and EXR writers: explicit byte order, so
-// every file is identical on any host.
+// Binary appends and stores in an explicit byte order (little-endian for the PLY, EXR and GLB
+// writers; big-endian where PNG and zlib want it), so every file is identical on any host, and
+// the byte-run scan the run-length coders share.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <string>
@@ -32,6 +34,32 @@ inline char* storeFloat(char* p, double v) {
     uint32_t bits;
     std::memcpy(&bits, &f, 4);
     return storeU32(p, bits);
+}
+
+// The same most significant byte first (PNG's lengths and CRCs, zlib's Adler-32).
+inline char* storeU32BigEndian(char* p, uint32_t v) {
+    for (int i = 0; i < 4; ++i) p[i] = static_cast<char>((v >> (24 - 8 * i)) & 0xff);
+    return p + 4;
+}
+
+// The end of the run of bytes equal to b from `from`: the first index in [from, end) whose
+// byte differs, or end. Eight bytes at a time; on a little-endian host the first differing
+// byte of a word is the lowest nonzero byte of its XOR with the pattern.
+inline size_t runEnd(const uint8_t* in, size_t from, size_t end, uint8_t b) {
+    const uint64_t pattern = 0x0101010101010101ull * b;
+    size_t j = from;
+    while (j + 8 <= end) {
+        uint64_t word;
+        std::memcpy(&word, in + j, 8);
+        const uint64_t differ = word ^ pattern;
+        if (differ != 0) {
+            if (!isLittleEndian()) break;
+            return j + static_cast<size_t>(__builtin_ctzll(differ)) / 8;
+        }
+        j += 8;
+    }
+    while (j < end && in[j] == b) ++j;
+    return j;
 }
 
 inline void putU32(std::string& out, uint32_t v) {
