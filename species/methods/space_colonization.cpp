@@ -108,13 +108,13 @@ class HashGrid {
         });
     }
 
-    // The cell coordinate of v in a grid of cells 1 / inv wide, and a key that orders cells
-    // by x, then y, then z.
+    // The cell coordinate of v in a grid of cells 1 / inv wide, and the cell's key, which
+    // orders cells by x, then y, then z.
     static int64_t coordOf(double v, double inv) {
         const double c = std::floor(v * inv);
         return static_cast<int64_t>(std::clamp(c, double(-kHalf), double(kHalf - 1)));
     }
-    static uint64_t orderKey(int64_t x, int64_t y, int64_t z) {
+    static uint64_t key(int64_t x, int64_t y, int64_t z) {
         return uint64_t(z + kHalf) | uint64_t(y + kHalf) << 21 | uint64_t(x + kHalf) << 42;
     }
 
@@ -129,9 +129,6 @@ class HashGrid {
   private:
     static constexpr int64_t kHalf = int64_t(1) << 20;  // 21 bits per axis
     int64_t coord(double v) const { return coordOf(v, inv_); }
-    static uint64_t key(int64_t x, int64_t y, int64_t z) {
-        return uint64_t(x + kHalf) | uint64_t(y + kHalf) << 21 | uint64_t(z + kHalf) << 42;
-    }
 
     // visit(cell) for every non-empty cell the ball touches, x then y then z ascending, until
     // visit returns true (then true). Self is HashGrid or const HashGrid.
@@ -166,10 +163,9 @@ struct MarkerSet {
     std::vector<Vec3> pull;  // weight · direction of a directional guide marker, else zero
     std::vector<uint8_t> alive;
     double cell;
-    double orderInv;  // 1 / cell
     PackedPointGrid grid;
     bool sealed = false;
-    explicit MarkerSet(double cell_) : cell(cell_), orderInv(1.0 / cell_) {}
+    explicit MarkerSet(double cell_) : cell(cell_) {}
     int32_t add(const Vec3& p, const Vec3& pull_) {
         if (sealed) throw std::logic_error("MarkerSet::add after seal");
         const auto i = static_cast<int32_t>(position.size());
@@ -231,21 +227,19 @@ std::vector<Perceived> perceive(const MarkerSet& set, const Vec3& at, const Vec3
         const double d2 = length2(v);
         if (d2 <= r2 && inCone(v, d2, direction, cosAngle)) out.push_back({m, d2});
     });
-    if (out.size() > 1) {
-        std::vector<std::pair<uint64_t, size_t>> order(out.size());
+    if (out.size() > 1) {  // into the order of a HashGrid of `set.cell`
+        const double inv = 1.0 / set.cell;
+        std::vector<std::pair<uint64_t, Perceived>> keyed(out.size());
         for (size_t k = 0; k < out.size(); ++k) {
             const Vec3& p = set.position[out[k].marker];
-            order[k] = {HashGrid::orderKey(HashGrid::coordOf(p.x, set.orderInv),
-                                           HashGrid::coordOf(p.y, set.orderInv),
-                                           HashGrid::coordOf(p.z, set.orderInv)),
-                        static_cast<size_t>(out[k].marker)};
+            keyed[k] = {HashGrid::key(HashGrid::coordOf(p.x, inv), HashGrid::coordOf(p.y, inv),
+                                      HashGrid::coordOf(p.z, inv)),
+                        out[k]};
         }
-        std::vector<size_t> idx(out.size());
-        for (size_t k = 0; k < idx.size(); ++k) idx[k] = k;
-        std::sort(idx.begin(), idx.end(), [&](size_t a, size_t b) { return order[a] < order[b]; });
-        std::vector<Perceived> sorted(out.size());
-        for (size_t k = 0; k < idx.size(); ++k) sorted[k] = out[idx[k]];
-        out.swap(sorted);
+        std::sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) {
+            return a.first != b.first ? a.first < b.first : a.second.marker < b.second.marker;
+        });
+        for (size_t k = 0; k < out.size(); ++k) out[k] = keyed[k].second;
     }
     return out;
 }

@@ -201,7 +201,9 @@ TEST(PackedPointGrid, BoxQueriesVisitEveryPointInsideOnce) {
             const Vec3& p = pts[i];
             const bool inside = p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y &&
                                 p.z >= lo.z && p.z <= hi.z;
-            if (inside) EXPECT_EQ(seen[i], 1) << i;
+            if (inside) {
+                EXPECT_EQ(seen[i], 1) << i;
+            }
             EXPECT_LE(seen[i], 1);
             // Only the cells the box touches: nothing beyond a cell from it, for boxes within
             // the points' bounds (outside, the border cells answer for everything beyond).
