@@ -80,16 +80,33 @@ class SegmentGrid {
     }
 
     // The distance from q to the nearest capsule. `hint` is the distance to one of them (a
-    // leaf's own segment), an upper bound. q's own cell is searched first; then only segments
-    // nearer than the best so far matter, and their padded boxes overlap the box q ± best, so
-    // when that box spans a few cells those cells are all that is searched; otherwise rings of
-    // cells grow until nothing unsearched can be nearer. The minimum is over the same values
-    // either way: the result is the same to the bit with or without the hint.
+    // leaf's own segment), an upper bound. q's own cell is searched first (ring 0). Then only
+    // segments nearer than the best so far matter, and their padded boxes overlap the box
+    // q ± best, so when that box spans a few cells those cells are all that is searched;
+    // otherwise rings of cells grow until nothing unsearched can be nearer. The minimum is over
+    // the same values either way: the result is the same to the bit with or without the hint.
     double distanceTo(const Vec3& q, double hint = kInf) const {
         if (segments_.empty()) return kInf;
         if (!(hint < kInf)) hint = kInf;  // NaN: no hint
         const auto c = cellOf(q);
         double best = std::min(hint, nearestInCell(q, c[0], c[1], c[2]));
+        // Cells outside the grid hold nothing: the rings start from the nearest cell.
+        const double outside = std::max(0.0, distanceToBox(q));
+        // Inside the grid, an unsearched segment after ring r lies beyond the searched block
+        // of cells: at least r cells plus q's distance to its own cell's nearest face away.
+        double inCell = 0.0;
+        if (outside == 0.0) {
+            inCell = kInf;
+            for (int a = 0; a < 3; ++a) {
+                const double lo = bounds_.lo[a] + c[a] * cell_;
+                inCell = std::min({inCell, q[a] - lo, lo + cell_ - q[a]});
+            }
+            inCell = std::max(0.0, inCell);
+        }
+        // Every segment not yet seen lies in cells at least `ring` cells from q's cell (the
+        // bounding boxes include the radii).
+        auto done = [&](int ring) { return best <= std::max(outside, ring * cell_ + inCell); };
+        if (done(0)) return best;
         if (best < kInf) {
             const Vec3 pad{best, best, best};
             const auto lo = cellOf(q - pad), hi = cellOf(q + pad);
@@ -106,21 +123,8 @@ class SegmentGrid {
                 return best;
             }
         }
-        // Cells outside the grid hold nothing: start the rings from the nearest cell.
         const int maxRing = std::max({dims_[0], dims_[1], dims_[2]});
-        const double outside = std::max(0.0, distanceToBox(q));
-        // Inside the grid, an unsearched segment after ring r lies beyond the searched block
-        // of cells: at least r cells plus q's distance to its own cell's nearest face away.
-        double inCell = 0.0;
-        if (outside == 0.0) {
-            inCell = kInf;
-            for (int a = 0; a < 3; ++a) {
-                const double lo = bounds_.lo[a] + c[a] * cell_;
-                inCell = std::min({inCell, q[a] - lo, lo + cell_ - q[a]});
-            }
-            inCell = std::max(0.0, inCell);
-        }
-        for (int ring = 0; ring <= maxRing; ++ring) {
+        for (int ring = 1; ring <= maxRing && !done(ring - 1); ++ring) {
             // The cells of the ring (Chebyshev distance `ring` from c) inside the grid: whole
             // rows where y or z is on the ring's face, else only the two x ends.
             for (int z = std::max(0, c[2] - ring); z <= std::min(dims_[2] - 1, c[2] + ring); ++z) {
@@ -134,9 +138,6 @@ class SegmentGrid {
                     }
                 }
             }
-            // Every segment not yet seen lies in cells at least `ring` cells from q's cell
-            // (the bounding boxes include the radii).
-            if (best <= std::max(outside, ring * cell_ + inCell)) break;
         }
         return best;
     }
