@@ -197,10 +197,6 @@ ImageFile readWithOiio(const std::string& path) {
     return img;
 }
 
-}  // namespace
-
-namespace {
-
 // Opens `path` for reading, refusing what is not a regular file (a FIFO would block fopen, a
 // device never end), and reads the first 33 bytes (the signature and IHDR) into `header`.
 std::unique_ptr<std::FILE, FileCloser> openImage(const std::string& path, unsigned char* header,
@@ -219,7 +215,7 @@ std::unique_ptr<std::FILE, FileCloser> openPngBytes(const std::string& bytes,
                                                     const std::string& name,
                                                     unsigned char* header) {
     if (bytes.empty()) fail(name, "the file is empty");
-    if (bytes.size() < 8 || std::memcmp(bytes.data(), kPngSignature, 8) != 0) {
+    if (!hasPngSignature(bytes)) {
         fail(name, "not a PNG file (it does not start with the PNG signature)");
     }
     if (bytes.size() < 33) fail(name, "truncated: the file ends inside the PNG header");
@@ -242,6 +238,10 @@ Image8 toImage8(PngRows&& png) {
 }
 
 }  // namespace
+
+bool hasPngSignature(const std::string& bytes) {
+    return bytes.size() >= 8 && std::memcmp(bytes.data(), kPngSignature, 8) == 0;
+}
 
 ImageFile readImageFile(const std::string& path) {
     unsigned char header[33] = {0};

@@ -68,5 +68,7 @@ struct Image8 {
 };
 Image8 readPng8File(const std::string& path, const ImageLimits& limits);
 Image8 readPng8Bytes(const std::string& bytes, const std::string& name, const ImageLimits& limits);
+// True when `bytes` start with the PNG signature.
+bool hasPngSignature(const std::string& bytes);
 
 }  // namespace sylva

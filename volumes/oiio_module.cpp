@@ -15,36 +15,29 @@ constexpr const char* kModuleName = "libsylva_oiio.so";
 constexpr const char* kEntryPoint = "sylva_oiio_module";
 
 const OiioModule* load() {
-    std::vector<std::string> tried;
-    std::vector<std::string> candidates;
+    // SYLVA_OIIO_MODULE when set, else the module beside the running executable.
+    std::string path;
     if (const char* env = std::getenv("SYLVA_OIIO_MODULE"); env && *env) {
-        candidates.push_back(env);
+        path = env;
     } else {
         std::error_code ec;
         const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-        if (!ec) candidates.push_back((exe.parent_path() / kModuleName).string());
+        if (!ec) path = (exe.parent_path() / kModuleName).string();
     }
-    for (const std::string& path : candidates) {
+    std::string why = "nothing";
+    if (!path.empty()) {
         // RTLD_LOCAL: OpenImageIO's symbols stay out of the executable's global scope.
-        void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-        if (!handle) {
-            const char* why = dlerror();
-            tried.push_back(path + " (" + (why ? why : "?") + ")");
-            continue;
+        if (void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL)) {
+            using Entry = const OiioModule* (*)();
+            if (auto entry = reinterpret_cast<Entry>(dlsym(handle, kEntryPoint))) return entry();
+            why = path + " (no " + kEntryPoint + ")";
+        } else {
+            const char* error = dlerror();
+            why = path + " (" + (error ? error : "?") + ")";
         }
-        using Entry = const OiioModule* (*)();
-        auto entry = reinterpret_cast<Entry>(dlsym(handle, kEntryPoint));
-        if (!entry) {
-            tried.push_back(path + " (no " + kEntryPoint + ")");
-            continue;
-        }
-        return entry();
     }
-    std::string list;
-    for (const std::string& t : tried) list += (list.empty() ? "" : "; ") + t;
     throw std::runtime_error(std::string("cannot load ") + kModuleName +
-                             " (OpenImageIO, for images other than PNG): tried " +
-                             (list.empty() ? "nothing" : list) +
+                             " (OpenImageIO, for images other than PNG): tried " + why +
                              "; keep it beside the sylva executable or set SYLVA_OIIO_MODULE");
 }
 

@@ -147,9 +147,8 @@ struct Sheet {
 // JPEG) through OpenImageIO's module (oiio_module.h). imageChannels: the image's own count.
 std::vector<uint8_t> decodeImage(const std::string& bytes, const std::string& name, int channels,
                                  uint8_t fill, int& w, int& h, int& imageChannels) {
-    static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     std::vector<uint8_t> px;
-    if (bytes.size() >= 8 && std::memcmp(bytes.data(), kPng, 8) == 0) {
+    if (hasPngSignature(bytes)) {
         Image8 img = readPng8Bytes(bytes, name, kViewImageLimits);
         w = img.width;
         h = img.height;

@@ -86,7 +86,8 @@ TEST(CliOiioModule, AJpegMaskIsReadThroughTheModuleAndAMissingModuleIsOneLine) {
 }
 
 // A view larger than the species images image_file.h reads (16384 × 1025 > 4096² pixels): the
-// species sheet decodes it through OpenImageIO's module instead of libpng and the build succeeds.
+// species sheet decodes it with the views' own limits (readPng8Bytes, kViewImageLimits) and the
+// build succeeds.
 TEST(CliSpeciesSheet, ViewsLargerThanSpeciesImageLimitsStillMakeTheSheet) {
     TempDir t;
     std::ofstream(t / "wide.toml")
