@@ -122,4 +122,34 @@ Vec3 inclinedLeafNormal(LeafOrientation o, Rng& rng) {
     return {std::sin(theta) * std::cos(phi), std::cos(theta), std::sin(theta) * std::sin(phi)};
 }
 
+void applySeason(Tree& tree, const SeasonPalette& palette, const Rng& rng) {
+    if (palette.asGrown && palette.density >= 1.0) return;
+    const int classes = static_cast<int>(palette.classes.size());
+    if (!palette.asGrown && classes == 0) {
+        tree.leaves.clear();
+        return;
+    }
+    double yLo = 1e300, yHi = -1e300;
+    for (const SkeletonNode& n : tree.nodes) {
+        if (n.part != kShootPart) continue;
+        yLo = std::min(yLo, n.position.y);
+        yHi = std::max(yHi, n.position.y);
+    }
+    const double ySpan = std::max(1e-9, yHi - yLo);
+    size_t kept = 0;
+    for (size_t i = 0; i < tree.leaves.size(); ++i) {
+        Rng lr = rng.derive(static_cast<uint64_t>(i));
+        if (lr.uniform() >= palette.density) continue;
+        Leaf leaf = tree.leaves[i];
+        if (!palette.asGrown) {
+            const double h = std::clamp((leaf.position.y - yLo) / ySpan, 0.0, 1.0);
+            const int ci = std::clamp(
+                static_cast<int>(std::floor(h * classes - 0.5 + lr.uniform())), 0, classes - 1);
+            leaf.colour = palette.classes[ci];
+        }
+        tree.leaves[kept++] = leaf;
+    }
+    tree.leaves.resize(kept);
+}
+
 }  // namespace sylva

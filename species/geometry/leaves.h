@@ -5,6 +5,7 @@
 
 #include "core/budget.h"
 #include "core/rng.h"
+#include "species/model/season.h"
 #include "species/model/tree.h"
 
 namespace sylva {
@@ -59,5 +60,14 @@ struct LeafOptions : LeafCardOptions {
 // BudgetExceeded before placing any when tips × per_tip is over `guard`'s max_leaves.
 void placeLeaves(Tree& tree, const LeafOptions& options, Rng& rng,
                  const GrowthGuard& guard = GrowthGuard::unlimited());
+
+// The season of a tree whose method coloured its own leaves: each leaf is kept when its first
+// draw from `rng` (a stream of its own, leaf by leaf) is below the palette's density, so a
+// sparser season's leaves are a subset of a denser one's; unless the palette is as grown, a
+// kept leaf takes the grammar's rule (Jain et al. 2021 §3.2): of k classes, entry
+// ⌊h·k − 0.5 + u⌋ (clamped), h its height in the span of the shoot's nodes (0 lowest), u its
+// second draw — dark low, light high, neighbours mixing between. No leaves kept when the
+// palette has no classes (and is not as grown).
+void applySeason(Tree& tree, const SeasonPalette& palette, const Rng& rng);
 
 }  // namespace sylva

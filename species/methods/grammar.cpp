@@ -65,15 +65,6 @@ double latticeValue(int64_t x, int64_t y, int64_t z, uint64_t seed) {
 
 }  // namespace
 
-std::array<GrammarSeason, 4> defaultSeasons() {
-    std::array<GrammarSeason, 4> s;
-    s[static_cast<int>(Season::kSpring)] = {{1, 2, 3}, 0.6};
-    s[static_cast<int>(Season::kSummer)] = {{0, 1, 2, 3}, 1.0};
-    s[static_cast<int>(Season::kAutumn)] = {{4, 5, 6, 7}, 0.8};
-    s[static_cast<int>(Season::kWinter)] = {{}, 0.0};
-    return s;
-}
-
 int GrammarOptions::state(const std::string& name) {
     for (size_t i = 0; i < states.size(); ++i) {
         if (states[i] == name) return static_cast<int>(i);
@@ -563,7 +554,7 @@ void emitParticles(Derivation& d, size_t si, const HeightRange& y) {
     const GrammarStem& st = d.stems[si];
     const StemCurve& sc = d.curves[si];
     const GrammarParticles& pp = d.o.particles[st.state];
-    const GrammarSeason& season = d.o.seasons[static_cast<int>(d.o.season)];
+    const SeasonPalette& season = d.o.seasons[static_cast<int>(d.o.season)];
     const int classes = static_cast<int>(season.classes.size());
     if (!(pp.enabled && st.level >= pp.minLevel && classes > 0 && season.density > 0)) return;
     const Rng stream = d.rng.derive(hashCombine(st.key, kLeafTag));

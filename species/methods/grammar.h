@@ -54,12 +54,11 @@
 
 #include "core/budget.h"
 #include "core/rng.h"
+#include "species/model/season.h"
 #include "species/model/tree.h"
 #include "volumes/volume.h"
 
 namespace sylva {
-
-enum class Season { kSpring = 0, kSummer = 1, kAutumn = 2, kWinter = 3 };
 
 // Geometry of one transition α → β (Jain §3.1.2). Angles radians, lengths metres.
 struct GrammarGeometry {
@@ -132,14 +131,6 @@ struct GrammarFruit {
     std::array<bool, 4> seasons{true, true, true, false};  // indexed by Season
 };
 
-struct GrammarSeason {
-    std::vector<uint8_t> classes;  // darkest (lowest) first
-    double density = 1.0;
-};
-
-// Built-in palettes (see the format comment).
-std::array<GrammarSeason, 4> defaultSeasons();
-
 struct GrammarOptions {
     std::vector<std::string> states;  // state names; index = state id
     int start = 0;
@@ -174,7 +165,7 @@ struct GrammarOptions {
     // Empty: none.
     std::vector<ShyBound> shyBounds;
     Season season = Season::kSummer;
-    std::array<GrammarSeason, 4> seasons = defaultSeasons();
+    std::array<SeasonPalette, 4> seasons = grammarSeasons();
 
     GrammarGeometry fallback;                                   // when no table matches
     std::map<std::pair<int, int>, GrammarGeometry> transition;  // (from, to) → geometry

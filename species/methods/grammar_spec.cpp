@@ -101,8 +101,6 @@ void apply(const GeometryTable& t, GrammarGeometry& g) {
     if (t.controlPoints) g.controlPoints = *t.controlPoints;
 }
 
-const std::vector<std::string> kSeasonNames = {"spring", "summer", "autumn", "winter"};
-
 // "name" or "name*N" → (name, N).
 std::pair<std::string, int> parseOutput(Params& alt, const std::string& item) {
     const size_t star = item.find('*');
@@ -118,25 +116,10 @@ std::pair<std::string, int> parseOutput(Params& alt, const std::string& item) {
     return {name, static_cast<int>(n)};
 }
 
-std::vector<uint8_t> readClasses(Params& p, std::string_view key) {
-    std::vector<uint8_t> out;
-    const toml::node* n = p.raw(key);
-    if (!n) return out;
-    const toml::array* a = n->as_array();
-    if (!a) p.fail(key, "expected an array of colour classes (integers 0–255)");
-    for (const toml::node& e : *a) {
-        auto i = e.as_integer();
-        if (!i || i->get() < 0 || i->get() > 255) {
-            p.fail(key, "expected an array of colour classes (integers 0–255)");
-        }
-        out.push_back(static_cast<uint8_t>(i->get()));
-    }
-    return out;
-}
-
 class GrammarMethod : public GrowthMethod {
   public:
     explicit GrammarMethod(GrammarOptions o) : o_(std::move(o)) {}
+    bool hasOwnSeasons() const override { return true; }
     Tree grow(Rng& rng, bool, std::map<std::string, double>& stats,
               const GrowthGuard& guard) const override {
         GrammarStats s;
@@ -215,11 +198,7 @@ void readGrammarTable(Params& sp, GrammarOptions& o) {
         o.groundClearance = g->number("ground_clearance", o.groundClearance, Range::nonNegative());
         o.straightLeader = g->boolean("straight_leader", o.straightLeader);
         o.maxStems = static_cast<int>(g->integer("max_stems", o.maxStems, Range::closed(1, 1e7)));
-        o.season = g->choice("season", o.season,
-                             {{"spring", Season::kSpring},
-                              {"summer", Season::kSummer},
-                              {"autumn", Season::kAutumn},
-                              {"winter", Season::kWinter}});
+        o.season = readSeason(*g, "season", o.season);
     }
     auto failGrammar = [&](const char* key, const std::string& msg) {
         if (g && g->has(key)) g->fail(key, msg);
@@ -479,12 +458,13 @@ void readFruit(Params& sp, const std::set<std::string>& known, GrammarOptions& o
         if (p.has("seasons")) {
             f.seasons = {false, false, false, false};
             for (const std::string& sn : p.stringArray("seasons")) {
-                auto it = std::find(kSeasonNames.begin(), kSeasonNames.end(), sn);
-                if (it == kSeasonNames.end()) {
+                const std::vector<std::string>& known = seasonNames();
+                auto it = std::find(known.begin(), known.end(), sn);
+                if (it == known.end()) {
                     p.fail("seasons", "unknown season \"" + sn +
                                           "\" (expected spring, summer, autumn, winter)");
                 }
-                f.seasons[it - kSeasonNames.begin()] = true;
+                f.seasons[it - known.begin()] = true;
             }
         }
         p.finish();
@@ -514,26 +494,6 @@ void readRoots(Params& sp, const std::set<std::string>& known, GrammarOptions& o
     roots.finish();
 }
 
-// [seasons.<season>]: overrides of the built-in season palettes.
-void readSeasons(Params& sp, GrammarOptions& o) {
-    if (!sp.has("seasons")) return;
-    const std::vector<std::string> names = keysOf(sp, "seasons");
-    Params seasons = sp.table("seasons");
-    seasons.keysAreUserNames();  // season names
-    for (const std::string& name : names) {
-        auto it = std::find(kSeasonNames.begin(), kSeasonNames.end(), name);
-        if (it == kSeasonNames.end()) {
-            seasons.fail(name, "unknown season (expected spring, summer, autumn, winter)");
-        }
-        Params p = seasons.table(name);
-        GrammarSeason& s = o.seasons[it - kSeasonNames.begin()];
-        if (p.has("classes")) s.classes = readClasses(p, "classes");
-        s.density = p.number("density", s.density, Range::closed(0, 1));
-        p.finish();
-    }
-    seasons.finish();
-}
-
 // Lower bounds of every tree's sizes (core/budget.h) from the smallest derivation: every rule
 // takes its alternative (of p > 0) that makes the least, to depth D. Every stem drawn has at
 // least ⌈t_l / segment_length⌉ skeleton nodes (t_l from its transition's shortest base length;
@@ -545,7 +505,7 @@ SizeEstimate estimateGrammar(const GrammarOptions& o, Params& sp) {
     const int depth = o.maxDepth > 0 ? o.maxDepth : GrammarOptions::kMaxLevels;
     bool anyRoots = false;
     for (const GrammarRoots& r : o.roots) anyRoots = anyRoots || r.enabled;
-    const GrammarSeason& season = o.seasons[static_cast<int>(o.season)];
+    const SeasonPalette& season = o.seasons[static_cast<int>(o.season)];
     auto capped = [](double v) { return std::min(v, 1e300); };
     auto stemNodes = [&](int from, int to, int c) {
         if (anyRoots) return 1.0;
@@ -637,7 +597,7 @@ std::unique_ptr<GrowthMethod> makeGrammarMethod(Params& sp) {
     readParticles(sp, known, o);
     readFruit(sp, known, o);
     readRoots(sp, known, o);
-    readSeasons(sp, o);
+    readSeasonPalettes(sp, o.seasons, false);
     SizeEstimate sizes = estimateGrammar(o, sp);
     auto method = std::make_unique<GrammarMethod>(std::move(o));
     method->sizes = std::move(sizes);

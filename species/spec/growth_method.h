@@ -53,6 +53,9 @@ class GrowthMethod {
     // True when the method reads the species' [leaves] table itself (its own keys) and
     // places its leaves; the shared [leaves] reader (species/geometry/leaves.h) is then skipped.
     virtual bool placesOwnLeaves() const { return false; }
+    // True when the method reads the species' season itself and places its leaves by it (the
+    // grammar); otherwise the species' `season` and [seasons] are applied to its grown leaves.
+    virtual bool hasOwnSeasons() const { return false; }
 
     // Lower bounds of the sizes of this species' trees, with the keys that make them: the
     // reader states them from the parameters (core/budget.h), before anything grows.

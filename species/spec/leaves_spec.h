@@ -5,6 +5,7 @@
 
 #include "core/params.h"
 #include "species/geometry/leaves.h"
+#include "species/model/season.h"
 
 namespace sylva {
 
@@ -18,5 +19,17 @@ LeafShape readLeafShape(Params& leaves, LeafShape fallback);
 
 // The species' [leaves] table (disabled options when it has none).
 LeafOptions readLeaves(Params& species);
+
+// An array of leaf colour classes (integers 0–255) under `key`; empty when absent.
+std::vector<uint8_t> readColourClasses(Params& table, std::string_view key);
+
+// The season under `key` ("spring", "summer", "autumn", "winter"), `fallback` when absent.
+Season readSeason(Params& table, std::string_view key, Season fallback);
+
+// The species' [seasons.<season>] tables (`classes`, `density`): overrides of `palettes`.
+// With `asGrownAllowed` (the methods that colour their own leaves) a season's `classes` may
+// also be "as-grown": the leaves keep their method's colours.
+void readSeasonPalettes(Params& species, std::array<SeasonPalette, 4>& palettes,
+                        bool asGrownAllowed);
 
 }  // namespace sylva

@@ -1,5 +1,6 @@
 #include "species/spec/species.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <mutex>
@@ -35,6 +36,7 @@ struct SpeciesCache {
         LeafOptions leaves;
         FormOptions form;
         BudgetTable budget;
+        SeasonPalette season;
     };
     std::mutex mutex;
     std::map<std::string, Entry> entries;  // keyed by the sweep point's overrides, as text
@@ -90,7 +92,8 @@ SpeciesFile withOwnCache(SpeciesFile species) {
 
 std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
                                                  const Overrides* overrides, LeafOptions* leaves,
-                                                 FormOptions* form, BudgetTable* budget) {
+                                                 FormOptions* form, BudgetTable* budget,
+                                                 SeasonPalette* season) {
     Params p(*species.table, species.path, "", &draw, overrides);
     p.documentAs("species");
     p.string("name", "");
@@ -104,6 +107,28 @@ std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, Dra
     }
     LeafOptions l = m->placesOwnLeaves() ? LeafOptions{} : readLeaves(p);
     if (leaves) *leaves = l;
+    SeasonPalette palette;
+    palette.asGrown = true;
+    if (!m->hasOwnSeasons()) {
+        // The other methods' seasons: the leaves as grown, then kept and coloured by the
+        // season's palette (species/model/season.h).
+        std::array<SeasonPalette, 4> palettes = grownSeasons();
+        const Season chosen = readSeason(p, "season", Season::kSummer);
+        readSeasonPalettes(p, palettes, true);
+        palette = palettes[static_cast<int>(chosen)];
+        // A season that drops leaves makes the leaves' triangle bounds too high: a leaf
+        // placed is no longer certainly meshed.
+        if (palette.density < 1.0 || (!palette.asGrown && palette.classes.empty())) {
+            auto& bounds = m->sizes.bounds;
+            bounds.erase(std::remove_if(bounds.begin(), bounds.end(),
+                                        [](const SizeBound& b) {
+                                            return b.kind == BudgetKind::kTriangles &&
+                                                   b.keyPath.rfind("leaves.", 0) == 0;
+                                        }),
+                         bounds.end());
+        }
+    }
+    if (season) *season = palette;
     const FormOptions f = readForm(p);
     if (form) *form = f;
     BudgetTable b;
@@ -138,6 +163,7 @@ PreparedTree prepareSpecies(const SpeciesFile& species, uint64_t seed, const Ove
     auto leaves = std::make_shared<LeafOptions>();
     auto form = std::make_shared<FormOptions>();
     BudgetTable budget;
+    SeasonPalette season;
     PreparedTree p;
     p.seed = seed;
     GrownTree& out = p.out;
@@ -149,6 +175,7 @@ PreparedTree prepareSpecies(const SpeciesFile& species, uint64_t seed, const Ove
             *leaves = it->second.leaves;
             *form = it->second.form;
             budget = it->second.budget;
+            season = it->second.season;
             ++species.cache->counts.hits;
         } else {
             ++species.cache->counts.misses;
@@ -157,13 +184,15 @@ PreparedTree prepareSpecies(const SpeciesFile& species, uint64_t seed, const Ove
     if (!method) {
         DrawContext draw;
         draw.seed = hashCombine(seed, 0x9a7a);  // parameter draws: their own stream
-        method = instantiateSpecies(species, draw, overrides, leaves.get(), form.get(), &budget);
+        method = instantiateSpecies(species, draw, overrides, leaves.get(), form.get(), &budget,
+                                    &season);
         out.sampled = std::move(draw.sampled);
         // Nothing drawn: every instance of this sweep point parses to the same method.
         if (out.sampled.empty() && !draw.perInstance && species.cache) {
             std::lock_guard<std::mutex> lock(species.cache->mutex);
-            species.cache->entries.emplace(overridesKey(overrides),
-                                           SpeciesCache::Entry{method, *leaves, *form, budget});
+            species.cache->entries.emplace(
+                overridesKey(overrides),
+                SpeciesCache::Entry{method, *leaves, *form, budget, season});
         }
     }
     out.budget = effectiveBudget(budget, datasetBudget);
@@ -174,6 +203,7 @@ PreparedTree prepareSpecies(const SpeciesFile& species, uint64_t seed, const Ove
     p.method = std::move(method);
     p.leaves = std::move(leaves);
     p.form = std::move(form);
+    p.season = std::move(season);
     return p;
 }
 
@@ -188,6 +218,7 @@ GrownTree finishSpecies(PreparedTree& prepared, Tree tree, const GrowthGuard& gu
         Rng leafRng = Rng(seed).derive("leaves");  // its own stream: leaves never move branches
         placeLeaves(out.tree, *prepared.leaves, leafRng, guard);
     }
+    applySeason(out.tree, prepared.season, Rng(seed).derive("season"));
     guard.leaves(static_cast<int64_t>(out.tree.leaves.size()));
     guard.time();
     return out;

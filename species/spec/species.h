@@ -11,6 +11,7 @@
 
 #include "core/params.h"
 #include "species/model/look.h"
+#include "species/model/season.h"
 #include "species/model/tree.h"
 #include "species/spec/growth_method.h"
 
@@ -52,14 +53,16 @@ struct GrownTree {
 
 // The method for one instance: distributions drawn from `seed` (or, with draw = false, their
 // centres, for validation), `overrides` applied. Every key is checked. Throws SpecError.
-// `budget`: the species' [budget] table.
+// `budget`: the species' [budget] table. `season`: the palette of the species' `season` (as
+// grown for a method that has seasons of its own, the grammar's).
 struct LeafOptions;
 struct FormOptions;
 std::unique_ptr<GrowthMethod> instantiateSpecies(const SpeciesFile& species, DrawContext& draw,
                                                  const Overrides* overrides,
                                                  LeafOptions* leaves = nullptr,
                                                  FormOptions* form = nullptr,
-                                                 BudgetTable* budget = nullptr);
+                                                 BudgetTable* budget = nullptr,
+                                                 SeasonPalette* season = nullptr);
 
 // How often growSpecies took a species' method from its cache (hits: a species without
 // distributions, per sweep point) or parsed it (misses).
@@ -84,6 +87,7 @@ struct PreparedTree {
     std::shared_ptr<const GrowthMethod> method;
     std::shared_ptr<const LeafOptions> leaves;
     std::shared_ptr<const FormOptions> form;
+    SeasonPalette season;  // applied after the leaves (as grown: nothing changes)
     uint64_t seed = 0;
     GrownTree out;  // budget and sampled parameters so far (methodStats: the grower's)
 };
