@@ -79,8 +79,12 @@ TEST(Season, ClassesRunDarkLowToLightHighAsTheGrammarsDo) {
         const double h = l.position.y / 10.0;
         ASSERT_GE(l.colour, 4);
         ASSERT_LE(l.colour, 7);
-        if (h < 0.125) EXPECT_EQ(l.colour, 4) << h;
-        if (h > 0.875) EXPECT_EQ(l.colour, 7) << h;
+        if (h < 0.125) {
+            EXPECT_EQ(l.colour, 4) << h;
+        }
+        if (h > 0.875) {
+            EXPECT_EQ(l.colour, 7) << h;
+        }
         if (h > 0.125 && h < 0.375) {
             EXPECT_TRUE(l.colour == 4 || l.colour == 5) << h;
             ++lowMix[l.colour - 4];
