@@ -70,9 +70,21 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
     if (meshes || scanned || colour) {  // [scan] and the colour pictures see the scene's meshes
         scene = makePlotScene(plot, o.tubes, /*leafMeshes=*/true, o.leafOutlines);
     }
+    // Each tree in its species' look, keyed by the seed its colour pictures use (below), so
+    // the textured meshes show the colours the pictures show; [outputs] textures.
+    const Look plainLook;
+    SceneLooks looks;
+    for (const PlotTree& t : plot.trees) {
+        const size_t si = static_cast<size_t>(std::max(0, t.stem.species));
+        const bool known = plot.spec && si < plot.spec->species.size();
+        looks.trees.push_back({known ? plot.spec->species[si].species.look.get() : &plainLook,
+                               hashCombine(plot.seed, static_cast<uint64_t>(t.stem.id))});
+        looks.names.push_back(known ? plot.spec->species[si].species.name : "tree");
+    }
+    const SceneLooks* textured = o.textures ? &looks : nullptr;
     if (meshes) {
         const fs::path glb = rel / "scene.glb", ply = rel / "scene.ply";
-        bytes += writeSceneGlb(scene, out / glb);
+        bytes += writeSceneGlb(scene, out / glb, textured);
         files["scene_glb"] = glb.generic_string();
         bytes += writeScenePly(scene, out / ply);
         files["scene_ply"] = ply.generic_string();
@@ -86,11 +98,14 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
         if (o.swc) put("", dir / "skeleton.swc", skeletonSwc(t.grown.tree));
         for (const std::string& f : o.meshFormats) {
             const TreeMesh& m = scene.trees[k].mesh;
+            const MeshLook* ml = textured ? &looks.trees[k] : nullptr;
             if (f == "obj") {
-                put("", dir / "mesh.mtl", meshMtl(m));
-                put("", dir / "mesh.obj", meshObj(m, "mesh.mtl"));
+                const bool bark = ml && !m.wood.empty();
+                if (bark) put("", dir / "mesh_bark.png", objBarkPng(*ml));
+                put("", dir / "mesh.mtl", meshMtl(m, ml, bark ? "mesh_bark.png" : ""));
+                put("", dir / "mesh.obj", meshObj(m, "mesh.mtl", ml));
             } else {
-                put("", dir / ("mesh." + f), meshBytes(m, f, nullptr, o.meshopt));
+                put("", dir / ("mesh." + f), meshBytes(m, f, ml, o.meshopt));
             }
         }
         nlohmann::json st = toJson(computeStats(atOrigin(t.grown.tree, t.stem.base)));
@@ -133,13 +148,8 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
             ColourScene cs;
             for (size_t k = 0; k < plot.trees.size(); ++k) {
                 const PlotTree& t = plot.trees[k];
-                const size_t si = static_cast<size_t>(std::max(0, t.stem.species));
-                const Look look = plot.spec && si < plot.spec->species.size()
-                                      ? *plot.spec->species[si].species.look
-                                      : Look{};
-                cs.addTree(t.grown.tree, scene.trees[k].mesh.wood, scene.trees[k].mesh.leaves, look,
-                           hashCombine(plot.seed, static_cast<uint64_t>(t.stem.id)),
-                           !o.leafOutlines);
+                cs.addTree(t.grown.tree, scene.trees[k].mesh.wood, scene.trees[k].mesh.leaves,
+                           *looks.trees[k].look, looks.trees[k].treeSeed, !o.leafOutlines);
             }
             cs.addGround(scene.terrain, scene.groundCover);
             cs.commit();

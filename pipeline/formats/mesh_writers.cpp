@@ -413,9 +413,9 @@ void addPart(tinygltf::Model& model, const Mesh& m, const std::string& name, int
     model.scenes[0].nodes.push_back(static_cast<int>(model.nodes.size() - 1));
 }
 
-tinygltf::Material material(const PartMaterial& m) {
+tinygltf::Material material(const PartMaterial& m, const std::string& name) {
     tinygltf::Material mat;
-    mat.name = m.name;
+    mat.name = name;
     mat.pbrMetallicRoughness.baseColorFactor = {m.rgb[0], m.rgb[1], m.rgb[2], 1.0};
     mat.pbrMetallicRoughness.metallicFactor = 0.0;
     mat.pbrMetallicRoughness.roughnessFactor = m.roughness;
@@ -436,12 +436,14 @@ int addBytesView(tinygltf::Model& model, const std::string& bytes) {
     return static_cast<int>(model.bufferViews.size() - 1);
 }
 
-// The bark tile as material `material`'s base colour texture: image, sampler and texture.
-void addBarkTexture(tinygltf::Model& model, int material, const MeshLook& look) {
+// A bark tile (`png`, barkPng's bytes) as material `material`'s base colour texture: image,
+// sampler and texture, the image and texture named `name`.
+void addBarkTexture(tinygltf::Model& model, int material, const std::string& name,
+                    const std::string& png) {
     tinygltf::Image image;
-    image.name = "bark";
+    image.name = name;
     image.mimeType = "image/png";
-    image.bufferView = addBytesView(model, barkPng(look));
+    image.bufferView = addBytesView(model, png);
     model.images.push_back(std::move(image));
     // Magnified as the renderer samples it (BarkTile::sample: bilinear, wrapping); minified
     // through mipmaps, as a viewer drawing a twig a pixel wide must (the renderer averages
@@ -453,7 +455,7 @@ void addBarkTexture(tinygltf::Model& model, int material, const MeshLook& look) 
     sampler.wrapT = TINYGLTF_TEXTURE_WRAP_REPEAT;
     model.samplers.push_back(std::move(sampler));
     tinygltf::Texture texture;
-    texture.name = "bark";
+    texture.name = name;
     texture.sampler = static_cast<int>(model.samplers.size() - 1);
     texture.source = static_cast<int>(model.images.size() - 1);
     model.textures.push_back(std::move(texture));
@@ -484,7 +486,7 @@ std::string meshGlb(const TreeMesh& mesh, const MeshLook* look) {
     model.buffers[0].data.reserve(bufferBytes);
     for (const Part& part : parts(mesh)) {
         if (part.mesh->empty()) continue;  // neither an empty accessor nor an unused material
-        model.materials.push_back(material(partMaterial(part, look)));
+        model.materials.push_back(material(partMaterial(part, look), part.material->name));
         const int index = static_cast<int>(model.materials.size() - 1);
         const bool leaves = part.mesh == &mesh.leaves;
         std::vector<float> rgb;
@@ -494,7 +496,7 @@ std::string meshGlb(const TreeMesh& mesh, const MeshLook* look) {
         if (!leaves) barkMaterial = index;
     }
     // The image last: every vertex attribute before it stays 4-byte aligned.
-    if (look && barkMaterial >= 0) addBarkTexture(model, barkMaterial, *look);
+    if (look && barkMaterial >= 0) addBarkTexture(model, barkMaterial, "bark", barkPng(*look));
     if (model.buffers[0].data.empty()) model.buffers.clear();  // no zero-length buffer
 
     return serialiseGlb(model, "meshGlb");
@@ -504,6 +506,46 @@ namespace {
 
 constexpr PartMaterial kGround = {"ground", {0.35, 0.28, 0.18}, 0.95, false};
 constexpr PartMaterial kLowVegetation = {"low-vegetation", {0.25, 0.40, 0.12}, 0.7, true};
+
+// A scene's materials in first-use order, each once by name: the plain ones, and with looks a
+// bark and a leaf material per species ("bark-<species>", "leaf-<species>"), the bark's
+// carrying its species' tile.
+struct SceneMaterial {
+    std::string name;
+    PartMaterial part;
+    const MeshLook* bark = nullptr;  // a textured bark's look
+};
+class SceneMaterials {
+  public:
+    explicit SceneMaterials(const SceneLooks* looks) : looks_(looks) {}
+    // The index of a part's material: tree `tree`'s (−1: terrain, ground cover).
+    int index(const PartMaterial& plain, int tree) {
+        const MeshLook* look = looks_ && tree >= 0 && (&plain == &kBark || &plain == &kLeaf)
+                                   ? &looks_->trees[tree]
+                                   : nullptr;
+        std::string name = plain.name;
+        if (look) name += "-" + looks_->names[tree];
+        for (size_t k = 0; k < list_.size(); ++k) {
+            if (list_[k].name == name) return static_cast<int>(k);
+        }
+        const Part part{nullptr, "", &plain};
+        list_.push_back({name, partMaterial(part, look), &plain == &kBark ? look : nullptr});
+        return static_cast<int>(list_.size() - 1);
+    }
+    const std::vector<SceneMaterial>& list() const { return list_; }
+
+  private:
+    const SceneLooks* looks_;
+    std::vector<SceneMaterial> list_;
+};
+
+void checkSceneLooks(const PlotScene& scene, const SceneLooks* looks, const char* who) {
+    if (!looks) return;
+    if (looks->trees.size() != scene.trees.size() || looks->names.size() != scene.trees.size()) {
+        throw std::invalid_argument(std::string(who) + ": one look and one name per scene tree");
+    }
+    for (const MeshLook& l : looks->trees) requireLook(l, who);
+}
 
 // The pieces of a scene's PLY in file order: terrain, ground cover, then per tree its wood
 // and its leaves.
@@ -592,7 +634,8 @@ std::string scenePly(const PlotScene& scene) {
     return out;
 }
 
-std::string sceneGlb(const PlotScene& scene) {
+std::string sceneGlb(const PlotScene& scene, const SceneLooks* looks) {
+    checkSceneLooks(scene, looks, "sceneGlb");
     tinygltf::Model model;
     model.asset.version = "2.0";
     model.asset.generator = "sylva";
@@ -600,24 +643,29 @@ std::string sceneGlb(const PlotScene& scene) {
     model.scenes.resize(1);
     model.scenes[0].name = "plot";
     model.defaultScene = 0;
-    std::vector<std::pair<const PartMaterial*, int>> used;
-    auto materialIndex = [&](const PartMaterial& m) {
-        for (const auto& [mat, index] : used) {
-            if (mat == &m) return index;
+    SceneMaterials materials(looks);
+    auto materialIndex = [&](const PartMaterial& m, int tree) {
+        const int index = materials.index(m, tree);
+        if (static_cast<size_t>(index) == model.materials.size()) {
+            const SceneMaterial& sm = materials.list().back();
+            model.materials.push_back(material(sm.part, sm.name));
         }
-        model.materials.push_back(material(m));
-        used.push_back({&m, static_cast<int>(model.materials.size() - 1)});
-        return used.back().second;
+        return index;
     };
     // A node with one mesh of the given parts (those with triangles); none when all are empty.
-    auto addNode = [&](const std::string& name, int32_t treeId,
+    // `tree`: the scene tree's index (−1: terrain, ground cover).
+    auto addNode = [&](const std::string& name, int32_t treeId, int tree,
                        std::initializer_list<std::pair<const Mesh*, const PartMaterial*>> parts) {
         tinygltf::Mesh gm;
         gm.name = name;
         for (const auto& [mesh, mat] : parts) {
             if (mesh->empty()) continue;
-            gm.primitives.push_back(makePrimitive(model, *mesh, materialIndex(*mat),
-                                                  /*withColour=*/mat == &kLeaf));
+            std::vector<float> rgb;
+            if (looks && tree >= 0 && mat == &kLeaf)
+                rgb = leafVertexColours(*mesh, looks->trees[tree]);
+            gm.primitives.push_back(makePrimitive(model, *mesh, materialIndex(*mat, tree),
+                                                  /*withColour=*/mat == &kLeaf,
+                                                  rgb.empty() ? nullptr : &rgb));
         }
         if (gm.primitives.empty()) return;
         model.meshes.push_back(std::move(gm));
@@ -630,10 +678,18 @@ std::string sceneGlb(const PlotScene& scene) {
         model.nodes.push_back(std::move(node));
         model.scenes[0].nodes.push_back(static_cast<int>(model.nodes.size() - 1));
     };
-    addNode("terrain", 0, {{&scene.terrain, &kGround}});
-    addNode("ground-cover", 0, {{&scene.groundCover, &kLowVegetation}});
-    for (const PlotSceneTree& t : scene.trees) {
-        addNode(t.name, t.id, {{&t.mesh.wood, &kBark}, {&t.mesh.leaves, &kLeaf}});
+    addNode("terrain", 0, -1, {{&scene.terrain, &kGround}});
+    addNode("ground-cover", 0, -1, {{&scene.groundCover, &kLowVegetation}});
+    for (size_t k = 0; k < scene.trees.size(); ++k) {
+        const PlotSceneTree& t = scene.trees[k];
+        addNode(t.name, t.id, static_cast<int>(k),
+                {{&t.mesh.wood, &kBark}, {&t.mesh.leaves, &kLeaf}});
+    }
+    // The tiles last, in the materials' order: every vertex attribute before them stays
+    // 4-byte aligned.
+    for (size_t k = 0; k < materials.list().size(); ++k) {
+        const SceneMaterial& sm = materials.list()[k];
+        if (sm.bark) addBarkTexture(model, static_cast<int>(k), sm.name, barkPng(*sm.bark));
     }
     if (model.buffers[0].data.empty()) model.buffers.clear();
 
@@ -681,38 +737,27 @@ uint64_t writeScenePly(const PlotScene& scene, const std::filesystem::path& path
 // scene itself), every file byte-identical; the whole hectare passed 14 GB through tinygltf.
 // The JSON is built as tinygltf builds it (nlohmann::json, keys sorted, defaults left out), so
 // the bytes are the same (MeshWriters.StreamedSceneFilesEqualInMemoryOnes).
-uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path) {
+uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path,
+                       const SceneLooks* looks) {
     using nlohmann::json;
+    checkSceneLooks(scene, looks, "writeSceneGlb");
     struct View {
-        enum Kind { kPositions, kNormals, kUvs, kOrder, kColour, kIndices } kind;
+        enum Kind { kPositions, kNormals, kUvs, kOrder, kColour, kRgb, kIndices, kImage } kind;
         const Mesh* mesh;
+        size_t item;  // kRgb: the scene tree; kImage: the tile in `tiles`
     };
     std::vector<View> views;  // buffer views in BIN order
     uint64_t binBytes = 0;
-    json accessors = json::array(), bufferViews = json::array(), materials = json::array(),
-         meshes = json::array(), nodes = json::array(), sceneNodes = json::array();
-    std::vector<const PartMaterial*> used;
-    auto materialIndex = [&](const PartMaterial& m) {
-        for (size_t k = 0; k < used.size(); ++k) {
-            if (used[k] == &m) return static_cast<int>(k);
-        }
-        json mat;
-        mat["name"] = m.name;
-        mat["pbrMetallicRoughness"] = {{"baseColorFactor", {m.rgb[0], m.rgb[1], m.rgb[2], 1.0}},
-                                       {"metallicFactor", 0.0},
-                                       {"roughnessFactor", m.roughness}};
-        if (m.doubleSided) mat["doubleSided"] = true;
-        materials.push_back(std::move(mat));
-        used.push_back(&m);
-        return static_cast<int>(used.size() - 1);
-    };
+    json accessors = json::array(), bufferViews = json::array(), meshes = json::array(),
+         nodes = json::array(), sceneNodes = json::array();
+    SceneMaterials materials(looks);
     // A buffer view and its accessor; returns the accessor's index.
     auto add = [&](View::Kind kind, const Mesh& m, int componentType, const char* type,
-                   size_t count, size_t bytes, int target) {
+                   size_t count, size_t bytes, int target, size_t item = 0) {
         json view = {{"buffer", 0}, {"byteLength", bytes}, {"target", target}};
         if (binBytes > 0) view["byteOffset"] = binBytes;
         bufferViews.push_back(std::move(view));
-        views.push_back({kind, &m});
+        views.push_back({kind, &m, item});
         binBytes += bytes;
         json acc = {{"bufferView", bufferViews.size() - 1},
                     {"componentType", componentType},
@@ -724,7 +769,7 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
     constexpr int kFloat = TINYGLTF_COMPONENT_TYPE_FLOAT,
                   kUint = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
     constexpr int kArray = TINYGLTF_TARGET_ARRAY_BUFFER;
-    auto primitive = [&](const Mesh& m, int material, bool withColour) {
+    auto primitive = [&](const Mesh& m, int material, bool withColour, int tree) {
         const size_t n = m.vertexCount();
         json attributes;
         const int pos = add(View::kPositions, m, kFloat, "VEC3", n, 12 * n, kArray);
@@ -748,6 +793,10 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
         if (withColour) {
             attributes["_COLOUR"] = add(View::kColour, m, kFloat, "SCALAR", n, 4 * n, kArray);
         }
+        if (withColour && looks && tree >= 0) {
+            attributes["COLOR_0"] =
+                add(View::kRgb, m, kFloat, "VEC3", n, 12 * n, kArray, static_cast<size_t>(tree));
+        }
         const int indices = add(View::kIndices, m, kUint, "SCALAR", m.indices.size(),
                                 4 * m.indices.size(), TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
         return json{{"attributes", std::move(attributes)},
@@ -755,12 +804,13 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
                     {"material", material},
                     {"mode", TINYGLTF_MODE_TRIANGLES}};
     };
-    auto addNode = [&](const std::string& name, int32_t treeId,
+    auto addNode = [&](const std::string& name, int32_t treeId, int tree,
                        std::initializer_list<std::pair<const Mesh*, const PartMaterial*>> parts) {
         json primitives = json::array();
         for (const auto& [mesh, mat] : parts) {
             if (mesh->empty()) continue;
-            primitives.push_back(primitive(*mesh, materialIndex(*mat), mat == &kLeaf));
+            primitives.push_back(
+                primitive(*mesh, materials.index(*mat, tree), mat == &kLeaf, tree));
         }
         if (primitives.empty()) return;
         meshes.push_back({{"name", name}, {"primitives", std::move(primitives)}});
@@ -768,18 +818,59 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
             {{"extras", {{"tree_id", treeId}}}, {"mesh", meshes.size() - 1}, {"name", name}});
         sceneNodes.push_back(nodes.size() - 1);
     };
-    addNode("terrain", 0, {{&scene.terrain, &kGround}});
-    addNode("ground-cover", 0, {{&scene.groundCover, &kLowVegetation}});
-    for (const PlotSceneTree& t : scene.trees) {
-        addNode(t.name, t.id, {{&t.mesh.wood, &kBark}, {&t.mesh.leaves, &kLeaf}});
+    addNode("terrain", 0, -1, {{&scene.terrain, &kGround}});
+    addNode("ground-cover", 0, -1, {{&scene.groundCover, &kLowVegetation}});
+    for (size_t k = 0; k < scene.trees.size(); ++k) {
+        const PlotSceneTree& t = scene.trees[k];
+        addNode(t.name, t.id, static_cast<int>(k),
+                {{&t.mesh.wood, &kBark}, {&t.mesh.leaves, &kLeaf}});
     }
+    // The materials as tinygltf writes them (a white base colour is its default, left out),
+    // and after every vertex attribute the bark tiles, as sceneGlb adds them.
+    json materialList = json::array(), images = json::array(), samplers = json::array(),
+         textures = json::array();
+    std::vector<std::string> tiles;
+    for (const SceneMaterial& sm : materials.list()) {
+        const PartMaterial& m = sm.part;
+        json pbr = {{"metallicFactor", 0.0}, {"roughnessFactor", m.roughness}};
+        if (!(m.rgb[0] == 1.0 && m.rgb[1] == 1.0 && m.rgb[2] == 1.0)) {
+            pbr["baseColorFactor"] = {m.rgb[0], m.rgb[1], m.rgb[2], 1.0};
+        }
+        if (sm.bark) {
+            tiles.push_back(barkPng(*sm.bark));
+            json view = {{"buffer", 0}, {"byteLength", tiles.back().size()}};
+            if (binBytes > 0) view["byteOffset"] = binBytes;
+            bufferViews.push_back(std::move(view));
+            views.push_back({View::kImage, nullptr, tiles.size() - 1});
+            binBytes += tiles.back().size();
+            images.push_back({{"bufferView", bufferViews.size() - 1},
+                              {"mimeType", "image/png"},
+                              {"name", sm.name}});
+            samplers.push_back({{"magFilter", TINYGLTF_TEXTURE_FILTER_LINEAR},
+                                {"minFilter", TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR},
+                                {"wrapS", TINYGLTF_TEXTURE_WRAP_REPEAT},
+                                {"wrapT", TINYGLTF_TEXTURE_WRAP_REPEAT}});
+            textures.push_back({{"name", sm.name},
+                                {"sampler", samplers.size() - 1},
+                                {"source", images.size() - 1}});
+            pbr["baseColorTexture"] = {{"index", textures.size() - 1}};
+        }
+        json mat = {{"name", sm.name}, {"pbrMetallicRoughness", std::move(pbr)}};
+        if (m.doubleSided) mat["doubleSided"] = true;
+        materialList.push_back(std::move(mat));
+    }
+    // The BIN chunk padded to 4 bytes (a tile's length is any); the buffer keeps its own.
+    const uint64_t binPadding = (4 - binBytes % 4) % 4;
 
     json doc;
     doc["asset"] = {{"generator", "sylva"}, {"version", "2.0"}};
     if (!accessors.empty()) doc["accessors"] = std::move(accessors);
     if (!bufferViews.empty()) doc["bufferViews"] = std::move(bufferViews);
     if (binBytes > 0) doc["buffers"] = json::array({{{"byteLength", binBytes}}});
-    if (!materials.empty()) doc["materials"] = std::move(materials);
+    if (!images.empty()) doc["images"] = std::move(images);
+    if (!samplers.empty()) doc["samplers"] = std::move(samplers);
+    if (!textures.empty()) doc["textures"] = std::move(textures);
+    if (!materialList.empty()) doc["materials"] = std::move(materialList);
     if (!meshes.empty()) doc["meshes"] = std::move(meshes);
     if (!nodes.empty()) doc["nodes"] = std::move(nodes);
     doc["scene"] = 0;
@@ -788,8 +879,7 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
     doc["scenes"] = json::array({std::move(plotScene)});
     std::string content = doc.dump();
     content.append((4 - content.size() % 4) % 4, ' ');  // chunks start on 4-byte boundaries
-    // Every element in the BIN chunk is 4 bytes, so it needs no padding.
-    const uint64_t total = 12 + 8 + content.size() + (binBytes > 0 ? 8 + binBytes : 0);
+    const uint64_t total = 12 + 8 + content.size() + (binBytes > 0 ? 8 + binBytes + binPadding : 0);
     if (total > std::numeric_limits<uint32_t>::max()) {
         throw std::runtime_error("cannot write '" + path.string() + "': the scene's " +
                                  std::to_string(total) + " bytes exceed GLB's 4 GiB limit");
@@ -806,7 +896,7 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
     file.write(content);
     content = std::string();
     if (binBytes > 0) {
-        storeU32(head, static_cast<uint32_t>(binBytes));
+        storeU32(head, static_cast<uint32_t>(binBytes + binPadding));
         std::memcpy(head + 4, "BIN\0", 4);
         file.write({head, 8});
     }
@@ -819,6 +909,10 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
         }
     };
     for (const View& v : views) {
+        if (v.kind == View::kImage) {
+            file.write(tiles[v.item]);
+            continue;
+        }
         const Mesh& m = *v.mesh;
         const size_t n = m.vertexCount();
         switch (v.kind) {
@@ -845,12 +939,20 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
                     return storeFloat(p, m.colour.empty() ? 0.0f : float(m.colour[i]));
                 });
                 break;
+            case View::kRgb: {
+                const std::vector<float> rgb = leafVertexColours(m, looks->trees[v.item]);
+                values(rgb.size(), [&](char* p, size_t i) { return storeFloat(p, rgb[i]); });
+                break;
+            }
             case View::kIndices:
                 values(m.indices.size(),
                        [&](char* p, size_t i) { return storeU32(p, m.indices[i]); });
                 break;
+            case View::kImage:  // (above)
+                break;
         }
     }
+    if (binBytes > 0) file.write(std::string(binPadding, '\0'));
     const uint64_t bytes = file.bytesWritten();
     file.commit();
     return bytes;

@@ -97,10 +97,20 @@ std::string scenePly(const PlotScene& scene);
 // whose mesh of the same name has a wood primitive ("bark") and a leaf primitive ("leaf"),
 // attributes as meshGlb's. Every node's extras hold {"tree_id": id} (0: terrain, ground cover).
 // Empty parts and nodes are left out; materials only when used.
+// With `looks` (one MeshLook and species name per scene tree, in scene order) the trees are
+// textured as meshGlb textures one tree: per species a material "bark-<species>" (white, its
+// bark tile as baseColorTexture, the tile an image "bark-<species>" at the end of the BIN chunk
+// in the materials' order) and "leaf-<species>" (white, single-sided), and every tree's leaves
+// carry COLOR_0 under its own MeshLook (leafVertexColours: its seed keys each leaf's
+// lightness); terrain and ground cover stay plain.
 // Both build the whole file in memory (sceneGlb through tinygltf, which copies the scene into
 // its model, then into a stream): for small scenes and as the reference of the streamed
 // writers below, which the build uses.
-std::string sceneGlb(const PlotScene& scene);
+struct SceneLooks {
+    std::vector<MeshLook> trees;     // per scene tree
+    std::vector<std::string> names;  // per scene tree: its species' name (names its materials)
+};
+std::string sceneGlb(const PlotScene& scene, const SceneLooks* looks = nullptr);
 
 // scenePly and sceneGlb streamed into `path` (temp + rename, pipeline/formats/atomic_file.h
 // AtomicFileWriter): the same bytes, written piece by piece from the scene — counts, offsets and
@@ -109,6 +119,7 @@ std::string sceneGlb(const PlotScene& scene);
 // larger than its format's 4 GiB limit (a 32-bit length) throws std::runtime_error naming the
 // path before anything is written.
 uint64_t writeScenePly(const PlotScene& scene, const std::filesystem::path& path);
-uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path);
+uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path,
+                       const SceneLooks* looks = nullptr);
 
 }  // namespace sylva

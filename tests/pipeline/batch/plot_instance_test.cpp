@@ -211,6 +211,15 @@ TEST(PlotOutputs, WritesPresetPlotForReaders) {
         }
     }
     EXPECT_EQ(rec["trees"], n);
+    // The same plot textured ([outputs] textures), meshes only, beside it for the readers.
+    OutputOptions t = o;
+    t.textures = true;
+    t.meshFormats = {"glb", "obj"};
+    t.views.count = 0;
+    writePlot(plot, t, out / "textured", "presets-0");
+    const fs::path textured = out / "textured" / "plots" / "presets" / "presets-0";
+    EXPECT_TRUE(fs::exists(textured / "scene.glb"));
+    EXPECT_TRUE(fs::exists(textured / "trees" / "tree-0001" / "mesh_bark.png"));
 }
 
 }  // namespace

@@ -371,6 +371,28 @@ TEST(MeshWriters, StreamedSceneFilesEqualInMemoryOnes) {
     };
     EXPECT_EQ(json(test::slurp(tmp / "scene.glb")), json(glb));
 
+    // Textured: two species over the four trees (one tree without leaves), the tiles of odd
+    // lengths at the BIN chunk's end.
+    Look birch;
+    birch.pattern = BarkPattern::kBanded;
+    const Look oak;
+    SceneLooks looks;
+    for (size_t k = 0; k < scene.trees.size(); ++k) {
+        looks.trees.push_back({k % 2 ? &birch : &oak, 100 + k, 64});
+        looks.names.push_back(k % 2 ? "birch" : "oak");
+    }
+    const std::string textured = sceneGlb(scene, &looks);
+    EXPECT_EQ(writeSceneGlb(scene, tmp / "textured.glb", &looks), textured.size());
+    EXPECT_TRUE(test::slurp(tmp / "textured.glb") == textured);
+    EXPECT_EQ(json(test::slurp(tmp / "textured.glb")), json(textured));
+    const std::string head = json(textured);
+    for (const char* name : {"\"bark-oak\"", "\"bark-birch\"", "\"leaf-oak\"", "\"leaf-birch\"",
+                             "COLOR_0", "image/png"}) {
+        EXPECT_NE(head.find(name), std::string::npos) << name;
+    }
+    looks.names.pop_back();
+    EXPECT_THROW(sceneGlb(scene, &looks), std::invalid_argument);
+
     const PlotScene empty;
     EXPECT_EQ(writeScenePly(empty, tmp / "empty.ply"), scenePly(empty).size());
     EXPECT_EQ(test::slurp(tmp / "empty.ply"), scenePly(empty));
