@@ -72,7 +72,8 @@ void checkWatertightEstimate(const GrownTree& g, const WatertightOptions& o) {
 
 std::string meshBytes(const TreeMesh& m, const std::string& format, const MeshLook* look,
                       bool meshopt) {
-    if (format == "glb") return meshopt ? compressGlbMeshopt(meshGlb(m, look)) : meshGlb(m, look);
+    if (format == "glb")
+        return meshopt ? compressGlbMeshopt(meshGlbParts(m, look)) : meshGlb(m, look);
     return meshPly(m);
 }
 

@@ -48,6 +48,11 @@ struct View {
     bool indices = false;
 };
 
+// The compression of a GLB's document and its buffer views' bytes (`source`, one per buffer
+// view); `bytesBefore`: the plain file's size, for the report.
+std::string compress(json doc, const std::vector<std::string_view>& source, size_t bytesBefore,
+                     GlbCompression* report);
+
 }  // namespace
 
 std::string compressGlbMeshopt(const std::string& glb, GlbCompression* report) {
@@ -66,15 +71,37 @@ std::string compressGlbMeshopt(const std::string& glb, GlbCompression* report) {
         }
         bin = std::string_view(glb).substr(at + 8, binLength);
     }
-    json& views = doc["bufferViews"];
-    json& accessors = doc["accessors"];
-    if (!views.is_array() || !accessors.is_array()) refuse("no buffer views or accessors");
-    auto raw = [&](const json& view) {
+    const json& views = doc["bufferViews"];
+    if (!views.is_array()) refuse("no buffer views or accessors");
+    std::vector<std::string_view> source;
+    for (const json& view : views) {
         if (view.value("buffer", -1) != 0) refuse("a buffer view outside the BIN chunk");
         const size_t off = view.value("byteOffset", size_t(0)), len = view.at("byteLength");
         if (off + len > bin.size()) refuse("a buffer view past the BIN chunk");
-        return bin.substr(off, len);
-    };
+        source.push_back(bin.substr(off, len));
+    }
+    return compress(std::move(doc), source, glb.size(), report);
+}
+
+std::string compressGlbMeshopt(const GlbParts& parts, GlbCompression* report) {
+    json doc = json::parse(parts.json);
+    if (!doc["bufferViews"].is_array() || doc["bufferViews"].size() != parts.views.size()) {
+        refuse("parts whose views are not the document's");
+    }
+    size_t bin = 0;
+    for (std::string_view v : parts.views) bin += v.size();
+    const size_t before =
+        12 + 8 + (parts.json.size() + 3) / 4 * 4 + (bin > 0 ? 8 + (bin + 3) / 4 * 4 : 0);
+    return compress(std::move(doc), parts.views, before, report);
+}
+
+namespace {
+
+std::string compress(json doc, const std::vector<std::string_view>& source, size_t bytesBefore,
+                     GlbCompression* report) {
+    json& views = doc["bufferViews"];
+    json& accessors = doc["accessors"];
+    if (!views.is_array() || !accessors.is_array()) refuse("no buffer views or accessors");
 
     // Which accessor reads each view, and what it is.
     std::vector<int> accessorOf(views.size(), -1);
@@ -118,7 +145,7 @@ std::string compressGlbMeshopt(const std::string& glb, GlbCompression* report) {
     std::vector<View> out(views.size());
     for (size_t v = 0; v < views.size(); ++v) {
         json& view = views[v];
-        const std::string_view src = raw(view);
+        const std::string_view src = source[v];
         View& o = out[v];
         if (accessorOf[v] < 0) {  // an image: as it is
             o.bytes.assign(src.begin(), src.end());
@@ -292,11 +319,13 @@ std::string compressGlbMeshopt(const std::string& glb, GlbCompression* report) {
     putU32(file, 0x004E4942u);
     file += newBin;
     if (report) {
-        report->bytesBefore = glb.size();
+        report->bytesBefore = bytesBefore;
         report->bytesAfter = file.size();
         report->positionError = 0.5 * scale;
     }
     return file;
 }
+
+}  // namespace
 
 }  // namespace sylva

@@ -28,6 +28,8 @@
 #include <cstdint>
 #include <string>
 
+#include "pipeline/formats/mesh_writers.h"
+
 namespace sylva {
 
 struct GlbCompression {
@@ -38,5 +40,9 @@ struct GlbCompression {
 // Throws std::invalid_argument for a GLB it cannot take (not GLB 2.0, sparse or shared
 // accessors, a node with a transform of its own).
 std::string compressGlbMeshopt(const std::string& glb, GlbCompression* report = nullptr);
+
+// The same from meshGlb's parts (mesh_writers.h meshGlbParts), without writing the plain file
+// and reading it back: the same bytes as compressGlbMeshopt(glbFromParts(parts)).
+std::string compressGlbMeshopt(const GlbParts& parts, GlbCompression* report = nullptr);
 
 }  // namespace sylva

@@ -463,7 +463,178 @@ void addBarkTexture(tinygltf::Model& model, int material, const std::string& nam
         static_cast<int>(model.textures.size() - 1);
 }
 
+// A material as tinygltf writes it (material() above): the defaults — a white base colour, a
+// roughness of 1, single-sided — left out.
+nlohmann::json materialJson(const PartMaterial& m, const std::string& name) {
+    nlohmann::json pbr = {{"metallicFactor", 0.0}};
+    if (m.roughness != 1.0) pbr["roughnessFactor"] = m.roughness;
+    if (!(m.rgb[0] == 1.0 && m.rgb[1] == 1.0 && m.rgb[2] == 1.0)) {
+        pbr["baseColorFactor"] = {m.rgb[0], m.rgb[1], m.rgb[2], 1.0};
+    }
+    nlohmann::json mat = {{"name", name}, {"pbrMetallicRoughness", std::move(pbr)}};
+    if (m.doubleSided) mat["doubleSided"] = true;
+    return mat;
+}
+
+// The sampler and texture of a bark tile (addBarkTexture's) as JSON.
+nlohmann::json barkSamplerJson() {
+    return {{"magFilter", TINYGLTF_TEXTURE_FILTER_LINEAR},
+            {"minFilter", TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR},
+            {"wrapS", TINYGLTF_TEXTURE_WRAP_REPEAT},
+            {"wrapT", TINYGLTF_TEXTURE_WRAP_REPEAT}};
+}
+
 }  // namespace
+
+GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look) {
+    using nlohmann::json;
+    if (look) requireLook(*look, "meshGlbParts");
+    GlbParts out;
+    // Room for every array made here up front: the views point into them.
+    out.floats.reserve(2 * 5);
+    out.bytes.reserve(2 * 7 + 1);
+    json accessors = json::array(), bufferViews = json::array(), materials = json::array(),
+         meshes = json::array(), nodes = json::array(), sceneNodes = json::array();
+    size_t binBytes = 0;
+    auto view = [&](std::string_view bytes, int target) {
+        json v = {{"buffer", 0}, {"byteLength", bytes.size()}};
+        if (binBytes > 0) v["byteOffset"] = binBytes;
+        if (target != 0) v["target"] = target;
+        bufferViews.push_back(std::move(v));
+        out.views.push_back(bytes);
+        binBytes += bytes.size();
+        return bufferViews.size() - 1;
+    };
+    // 4-byte values as the file stores them: as they are on a little-endian host, else a
+    // byte-swapped copy.
+    auto asStored = [&](const void* data, size_t count) {
+        std::string_view raw(static_cast<const char*>(data), 4 * count);
+        if (isLittleEndian()) return raw;
+        std::string& swapped = out.bytes.emplace_back(raw);
+        for (size_t k = 0; k < swapped.size(); k += 4) std::reverse(&swapped[k], &swapped[k + 4]);
+        return std::string_view(swapped);
+    };
+    auto floats = [&](const float* data, size_t count) { return asStored(data, count); };
+    auto made = [&](std::vector<float> values) {
+        out.floats.push_back(std::move(values));
+        return floats(out.floats.back().data(), out.floats.back().size());
+    };
+    auto accessor = [&](size_t bufferView, int componentType, const char* type, size_t count) {
+        accessors.push_back({{"bufferView", bufferView},
+                             {"componentType", componentType},
+                             {"count", count},
+                             {"type", type}});
+        return accessors.size() - 1;
+    };
+    constexpr int kFloat = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    constexpr int kArray = TINYGLTF_TARGET_ARRAY_BUFFER;
+    int barkMaterial = -1;
+    for (const Part& part : parts(mesh)) {
+        const Mesh& m = *part.mesh;
+        if (m.empty()) continue;
+        materials.push_back(materialJson(partMaterial(part, look), part.material->name));
+        const size_t material = materials.size() - 1;
+        const bool leaves = part.mesh == &mesh.leaves;
+        if (!leaves) barkMaterial = static_cast<int>(material);
+        const size_t n = m.vertexCount();
+        json attributes;
+        const size_t pos =
+            accessor(view(floats(m.positions.data(), 3 * n), kArray), kFloat, "VEC3", n);
+        double lo[3], hi[3];
+        for (int c = 0; c < 3; ++c) {
+            lo[c] = std::numeric_limits<double>::infinity();
+            hi[c] = -std::numeric_limits<double>::infinity();
+        }
+        for (size_t i = 0; i < n; ++i) {
+            for (int c = 0; c < 3; ++c) {
+                lo[c] = std::min(lo[c], double(m.positions[3 * i + c]));
+                hi[c] = std::max(hi[c], double(m.positions[3 * i + c]));
+            }
+        }
+        accessors[pos]["max"] = {hi[0], hi[1], hi[2]};
+        accessors[pos]["min"] = {lo[0], lo[1], lo[2]};
+        attributes["POSITION"] = pos;
+        attributes["NORMAL"] = accessor(view(m.normals.empty() ? made(std::vector<float>(3 * n))
+                                                               : floats(m.normals.data(), 3 * n),
+                                             kArray),
+                                        kFloat, "VEC3", n);
+        attributes["TEXCOORD_0"] = accessor(
+            view(m.uvs.empty() ? made(std::vector<float>(2 * n)) : floats(m.uvs.data(), 2 * n),
+                 kArray),
+            kFloat, "VEC2", n);
+        std::vector<float> values(n);
+        for (size_t i = 0; i < n; ++i) values[i] = m.order.empty() ? 0.0f : float(m.order[i]);
+        attributes["_ORDER"] = accessor(view(made(std::move(values)), kArray), kFloat, "SCALAR", n);
+        if (leaves) {
+            std::vector<float> classes(n);
+            for (size_t i = 0; i < n; ++i)
+                classes[i] = m.colour.empty() ? 0.0f : float(m.colour[i]);
+            attributes["_COLOUR"] =
+                accessor(view(made(std::move(classes)), kArray), kFloat, "SCALAR", n);
+            if (look) {
+                attributes["COLOR_0"] =
+                    accessor(view(made(leafVertexColours(m, *look)), kArray), kFloat, "VEC3", n);
+            }
+        }
+        const size_t indices =
+            accessor(view(asStored(m.indices.data(), m.indices.size()),
+                          TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
+                     TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, "SCALAR", m.indices.size());
+        json primitive = {{"attributes", std::move(attributes)},
+                          {"indices", indices},
+                          {"material", material},
+                          {"mode", TINYGLTF_MODE_TRIANGLES}};
+        meshes.push_back({{"name", part.object}, {"primitives", json::array({primitive})}});
+        nodes.push_back({{"mesh", meshes.size() - 1}, {"name", part.object}});
+        sceneNodes.push_back(nodes.size() - 1);
+    }
+    json doc;
+    if (look && barkMaterial >= 0) {  // the tile last, as meshGlb adds it
+        out.bytes.push_back(barkPng(*look));
+        doc["images"] = json::array({{{"bufferView", view(out.bytes.back(), 0)},
+                                      {"mimeType", "image/png"},
+                                      {"name", "bark"}}});
+        doc["samplers"] = json::array({barkSamplerJson()});
+        doc["textures"] = json::array({{{"name", "bark"}, {"sampler", 0}, {"source", 0}}});
+        materials[barkMaterial]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    }
+    doc["asset"] = {{"generator", "sylva"}, {"version", "2.0"}};
+    if (!accessors.empty()) doc["accessors"] = std::move(accessors);
+    if (!bufferViews.empty()) doc["bufferViews"] = std::move(bufferViews);
+    if (binBytes > 0) doc["buffers"] = json::array({{{"byteLength", binBytes}}});
+    if (!materials.empty()) doc["materials"] = std::move(materials);
+    if (!meshes.empty()) doc["meshes"] = std::move(meshes);
+    if (!nodes.empty()) doc["nodes"] = std::move(nodes);
+    doc["scene"] = 0;
+    json treeScene = {{"name", "tree"}};
+    if (!sceneNodes.empty()) treeScene["nodes"] = std::move(sceneNodes);
+    doc["scenes"] = json::array({std::move(treeScene)});
+    out.json = doc.dump();
+    return out;
+}
+
+std::string glbFromParts(const GlbParts& parts) {
+    std::string content = parts.json;
+    content.append((4 - content.size() % 4) % 4, ' ');
+    size_t bin = 0;
+    for (std::string_view v : parts.views) bin += v.size();
+    const size_t padding = (4 - bin % 4) % 4;
+    std::string out;
+    out.reserve(12 + 8 + content.size() + 8 + bin + padding);
+    putU32(out, 0x46546C67u);  // "glTF"
+    putU32(out, 2);
+    putU32(out, static_cast<uint32_t>(12 + 8 + content.size() + (bin > 0 ? 8 + bin + padding : 0)));
+    putU32(out, static_cast<uint32_t>(content.size()));
+    putU32(out, 0x4E4F534Au);  // "JSON"
+    out += content;
+    if (bin > 0) {
+        putU32(out, static_cast<uint32_t>(bin + padding));
+        putU32(out, 0x004E4942u);  // "BIN\0"
+        for (std::string_view v : parts.views) out.append(v.data(), v.size());
+        out.append(padding, '\0');
+    }
+    return out;
+}
 
 std::string meshGlb(const TreeMesh& mesh, const MeshLook* look) {
     if (look) requireLook(*look, "meshGlb");
@@ -831,11 +1002,7 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
          textures = json::array();
     std::vector<std::string> tiles;
     for (const SceneMaterial& sm : materials.list()) {
-        const PartMaterial& m = sm.part;
-        json pbr = {{"metallicFactor", 0.0}, {"roughnessFactor", m.roughness}};
-        if (!(m.rgb[0] == 1.0 && m.rgb[1] == 1.0 && m.rgb[2] == 1.0)) {
-            pbr["baseColorFactor"] = {m.rgb[0], m.rgb[1], m.rgb[2], 1.0};
-        }
+        json mat = materialJson(sm.part, sm.name);
         if (sm.bark) {
             tiles.push_back(barkPng(*sm.bark));
             json view = {{"buffer", 0}, {"byteLength", tiles.back().size()}};
@@ -846,17 +1013,12 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
             images.push_back({{"bufferView", bufferViews.size() - 1},
                               {"mimeType", "image/png"},
                               {"name", sm.name}});
-            samplers.push_back({{"magFilter", TINYGLTF_TEXTURE_FILTER_LINEAR},
-                                {"minFilter", TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR},
-                                {"wrapS", TINYGLTF_TEXTURE_WRAP_REPEAT},
-                                {"wrapT", TINYGLTF_TEXTURE_WRAP_REPEAT}});
+            samplers.push_back(barkSamplerJson());
             textures.push_back({{"name", sm.name},
                                 {"sampler", samplers.size() - 1},
                                 {"source", images.size() - 1}});
-            pbr["baseColorTexture"] = {{"index", textures.size() - 1}};
+            mat["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", textures.size() - 1}};
         }
-        json mat = {{"name", sm.name}, {"pbrMetallicRoughness", std::move(pbr)}};
-        if (m.doubleSided) mat["doubleSided"] = true;
         materialList.push_back(std::move(mat));
     }
     // The BIN chunk padded to 4 bytes (a tile's length is any); the buffer keeps its own.

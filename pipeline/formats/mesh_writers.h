@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "pipeline/render/plot_render.h"
@@ -83,6 +84,21 @@ std::string meshMtl(const TreeMesh& mesh, const MeshLook* look = nullptr,
 // REPEAT both ways, LINEAR magnification and LINEAR_MIPMAP_LINEAR minification; the leaves
 // have COLOR_0 (VEC3 float, linear: leafVertexColours); both materials' base colour is white.
 std::string meshGlb(const TreeMesh& mesh, const MeshLook* look = nullptr);
+
+// meshGlb's file in parts, before it is written: its JSON chunk's text (without the padding)
+// and its buffer views' bytes in BIN order — the mesh's own arrays where they are the file's
+// bytes (positions, normals, UVs and indices on a little-endian host), the rest made here and
+// held in `floats` and `bytes`. glbFromParts writes them as meshGlb does (the same bytes,
+// MeshWriters.GlbPartsAreMeshGlb); compressGlbMeshopt takes them without the file
+// (glb_meshopt.h). The views point into `mesh` and into the parts: keep both.
+struct GlbParts {
+    std::string json;
+    std::vector<std::string_view> views;
+    std::vector<std::vector<float>> floats;
+    std::vector<std::string> bytes;
+};
+GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look = nullptr);
+std::string glbFromParts(const GlbParts& parts);
 
 // A plot's scene (pipeline/render/plot_render.h) as one binary little-endian PLY: the
 // terrain, the ground cover, then per tree its wood and its leaves, faces in the same order;

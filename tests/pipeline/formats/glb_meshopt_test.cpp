@@ -189,5 +189,33 @@ TEST(GlbMeshopt, RefusesWhatItCannotTake) {
     EXPECT_THROW(compressGlbMeshopt(bad), std::invalid_argument);
 }
 
+// The build compresses meshGlb's parts without writing the plain file: the parts are that
+// file, byte for byte, and compress to the same bytes, plain or textured, with empty parts.
+TEST(GlbMeshopt, PartsAreThePlainFileAndCompressAlike) {
+    const TreeMesh full = sampleMesh();
+    TreeMesh wood = full, leaves = full;
+    wood.leaves = Mesh{};
+    leaves.wood = Mesh{};
+    const TreeMesh woodOnly = wood, leavesOnly = leaves, none;
+    Look birch;
+    birch.pattern = BarkPattern::kBanded;
+    birch.barkRoughness = 1.0;  // the default roughness, which a writer leaves out
+    const MeshLook look{&birch, 42, 64};
+    for (const TreeMesh* m : {&full, &woodOnly, &leavesOnly, &none}) {
+        for (const MeshLook* ml : {static_cast<const MeshLook*>(nullptr), &look}) {
+            const std::string plain = meshGlb(*m, ml);
+            const GlbParts parts = meshGlbParts(*m, ml);
+            EXPECT_TRUE(glbFromParts(parts) == plain)
+                << m->wood.empty() << m->leaves.empty() << !!ml;
+            if (m->wood.empty() && m->leaves.empty()) continue;  // (nothing to compress)
+            GlbCompression a, b;
+            EXPECT_TRUE(compressGlbMeshopt(parts, &a) == compressGlbMeshopt(plain, &b));
+            EXPECT_EQ(a.bytesBefore, b.bytesBefore);
+            EXPECT_EQ(a.bytesAfter, b.bytesAfter);
+            EXPECT_EQ(a.positionError, b.positionError);
+        }
+    }
+}
+
 }  // namespace
 }  // namespace sylva

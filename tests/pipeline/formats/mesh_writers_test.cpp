@@ -375,6 +375,7 @@ TEST(MeshWriters, StreamedSceneFilesEqualInMemoryOnes) {
     // lengths at the BIN chunk's end.
     Look birch;
     birch.pattern = BarkPattern::kBanded;
+    birch.barkRoughness = 1.0;  // glTF's default roughness, which tinygltf leaves out
     const Look oak;
     SceneLooks looks;
     for (size_t k = 0; k < scene.trees.size(); ++k) {
