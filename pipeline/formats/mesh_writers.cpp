@@ -349,6 +349,20 @@ std::vector<float> orZeros(const std::vector<float>& a, size_t n) {
     return a.empty() ? std::vector<float>(n, 0.0f) : a;
 }
 
+// The bounds of a mesh's positions, which POSITION must carry (glTF 2.0 §5.1.1).
+void positionBounds(const Mesh& m, double lo[3], double hi[3]) {
+    for (int c = 0; c < 3; ++c) {
+        lo[c] = std::numeric_limits<double>::infinity();
+        hi[c] = -std::numeric_limits<double>::infinity();
+    }
+    for (size_t i = 0; i < m.vertexCount(); ++i) {
+        for (int c = 0; c < 3; ++c) {
+            lo[c] = std::min(lo[c], double(m.positions[3 * i + c]));
+            hi[c] = std::max(hi[c], double(m.positions[3 * i + c]));
+        }
+    }
+}
+
 tinygltf::Primitive makePrimitive(tinygltf::Model& model, const Mesh& m, int material,
                                   bool withColour, const std::vector<float>* rgb = nullptr) {
     const size_t n = m.vertexCount();
@@ -358,17 +372,10 @@ tinygltf::Primitive makePrimitive(tinygltf::Model& model, const Mesh& m, int mat
 
     const int pos = addAccessor(model, addView(model, m.positions, TINYGLTF_TARGET_ARRAY_BUFFER),
                                 TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
-    // POSITION must carry its bounds (glTF 2.0 §5.1.1).
-    std::vector<double> lo(3, std::numeric_limits<double>::infinity());
-    std::vector<double> hi(3, -std::numeric_limits<double>::infinity());
-    for (size_t i = 0; i < n; ++i) {
-        for (int c = 0; c < 3; ++c) {
-            lo[c] = std::min(lo[c], double(m.positions[3 * i + c]));
-            hi[c] = std::max(hi[c], double(m.positions[3 * i + c]));
-        }
-    }
-    model.accessors[pos].minValues = lo;
-    model.accessors[pos].maxValues = hi;
+    double lo[3], hi[3];
+    positionBounds(m, lo, hi);
+    model.accessors[pos].minValues = {lo[0], lo[1], lo[2]};
+    model.accessors[pos].maxValues = {hi[0], hi[1], hi[2]};
     prim.attributes["POSITION"] = pos;
     prim.attributes["NORMAL"] =
         addAccessor(model, addView(model, orZeros(m.normals, 3 * n), TINYGLTF_TARGET_ARRAY_BUFFER),
@@ -541,16 +548,7 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look) {
         const size_t pos =
             accessor(view(floats(m.positions.data(), 3 * n), kArray), kFloat, "VEC3", n);
         double lo[3], hi[3];
-        for (int c = 0; c < 3; ++c) {
-            lo[c] = std::numeric_limits<double>::infinity();
-            hi[c] = -std::numeric_limits<double>::infinity();
-        }
-        for (size_t i = 0; i < n; ++i) {
-            for (int c = 0; c < 3; ++c) {
-                lo[c] = std::min(lo[c], double(m.positions[3 * i + c]));
-                hi[c] = std::max(hi[c], double(m.positions[3 * i + c]));
-            }
-        }
+        positionBounds(m, lo, hi);
         accessors[pos]["max"] = {hi[0], hi[1], hi[2]};
         accessors[pos]["min"] = {lo[0], lo[1], lo[2]};
         attributes["POSITION"] = pos;
@@ -945,16 +943,7 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
         json attributes;
         const int pos = add(View::kPositions, m, kFloat, "VEC3", n, 12 * n, kArray);
         double lo[3], hi[3];
-        for (int c = 0; c < 3; ++c) {
-            lo[c] = std::numeric_limits<double>::infinity();
-            hi[c] = -std::numeric_limits<double>::infinity();
-        }
-        for (size_t i = 0; i < n; ++i) {
-            for (int c = 0; c < 3; ++c) {
-                lo[c] = std::min(lo[c], double(m.positions[3 * i + c]));
-                hi[c] = std::max(hi[c], double(m.positions[3 * i + c]));
-            }
-        }
+        positionBounds(m, lo, hi);
         accessors[pos]["min"] = {lo[0], lo[1], lo[2]};
         accessors[pos]["max"] = {hi[0], hi[1], hi[2]};
         attributes["POSITION"] = pos;

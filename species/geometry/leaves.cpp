@@ -5,6 +5,21 @@
 
 namespace sylva {
 
+namespace {
+// The lowest height of the tree's shoot nodes and their span (at least 1e-9 m): where a leaf's
+// relative height is measured from.
+void shootHeights(const Tree& tree, double& lo, double& span) {
+    double hi = -1e300;
+    lo = 1e300;
+    for (const SkeletonNode& n : tree.nodes) {
+        if (n.part != kShootPart) continue;
+        lo = std::min(lo, n.position.y);
+        hi = std::max(hi, n.position.y);
+    }
+    span = std::max(1e-9, hi - lo);
+}
+}  // namespace
+
 void placeLeaves(Tree& tree, const LeafOptions& o, Rng& rng, const GrowthGuard& guard) {
     if (!o.enabled || tree.nodes.size() < 2) return;
     const ChildIndex children(tree);
@@ -15,13 +30,8 @@ void placeLeaves(Tree& tree, const LeafOptions& o, Rng& rng, const GrowthGuard& 
     guard.leaves(static_cast<int64_t>(tree.leaves.size()) + tips * o.perTip,
                  " ([leaves] per_tip = " + std::to_string(o.perTip) + " at " +
                      std::to_string(tips) + " tips)");
-    double yLo = 1e300, yHi = -1e300;
-    for (const SkeletonNode& n : tree.nodes) {
-        if (n.part != kShootPart) continue;
-        yLo = std::min(yLo, n.position.y);
-        yHi = std::max(yHi, n.position.y);
-    }
-    const double ySpan = std::max(1e-9, yHi - yLo);
+    double yLo, ySpan;
+    shootHeights(tree, yLo, ySpan);
     const Vec3 sun = normalize(o.sun);
     std::vector<int32_t> path;
     std::vector<double> along;  // path length from the tip at each path node
@@ -129,13 +139,8 @@ void applySeason(Tree& tree, const SeasonPalette& palette, const Rng& rng) {
         tree.leaves.clear();
         return;
     }
-    double yLo = 1e300, yHi = -1e300;
-    for (const SkeletonNode& n : tree.nodes) {
-        if (n.part != kShootPart) continue;
-        yLo = std::min(yLo, n.position.y);
-        yHi = std::max(yHi, n.position.y);
-    }
-    const double ySpan = std::max(1e-9, yHi - yLo);
+    double yLo, ySpan;
+    shootHeights(tree, yLo, ySpan);
     size_t kept = 0;
     for (size_t i = 0; i < tree.leaves.size(); ++i) {
         Rng lr = rng.derive(static_cast<uint64_t>(i));
