@@ -491,6 +491,36 @@ nlohmann::json barkSamplerJson() {
             {"wrapT", TINYGLTF_TEXTURE_WRAP_REPEAT}};
 }
 
+// A glTF document as tinygltf writes one: its lists (empty ones left out), one buffer of
+// `binBytes` (none when 0) and one scene named `sceneName` holding `sceneNodes`.
+struct GltfLists {
+    nlohmann::json accessors = nlohmann::json::array(), bufferViews = nlohmann::json::array(),
+                   images = nlohmann::json::array(), samplers = nlohmann::json::array(),
+                   textures = nlohmann::json::array(), materials = nlohmann::json::array(),
+                   meshes = nlohmann::json::array(), nodes = nlohmann::json::array(),
+                   sceneNodes = nlohmann::json::array();
+};
+nlohmann::json gltfDocument(GltfLists l, uint64_t binBytes, const char* sceneName) {
+    nlohmann::json doc;
+    doc["asset"] = {{"generator", "sylva"}, {"version", "2.0"}};
+    if (binBytes > 0) doc["buffers"] = nlohmann::json::array({{{"byteLength", binBytes}}});
+    for (auto [key, list] : {std::pair{"accessors", &l.accessors},
+                             {"bufferViews", &l.bufferViews},
+                             {"images", &l.images},
+                             {"samplers", &l.samplers},
+                             {"textures", &l.textures},
+                             {"materials", &l.materials},
+                             {"meshes", &l.meshes},
+                             {"nodes", &l.nodes}}) {
+        if (!list->empty()) doc[key] = std::move(*list);
+    }
+    doc["scene"] = 0;
+    nlohmann::json scene = {{"name", sceneName}};
+    if (!l.sceneNodes.empty()) scene["nodes"] = std::move(l.sceneNodes);
+    doc["scenes"] = nlohmann::json::array({std::move(scene)});
+    return doc;
+}
+
 }  // namespace
 
 GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look) {
@@ -500,8 +530,10 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look) {
     // Room for every array made here up front: the views point into them.
     out.floats.reserve(2 * 5);
     out.bytes.reserve(2 * 7 + 1);
-    json accessors = json::array(), bufferViews = json::array(), materials = json::array(),
-         meshes = json::array(), nodes = json::array(), sceneNodes = json::array();
+    GltfLists lists;
+    json &accessors = lists.accessors, &bufferViews = lists.bufferViews,
+         &materials = lists.materials, &meshes = lists.meshes, &nodes = lists.nodes,
+         &sceneNodes = lists.sceneNodes;
     size_t binBytes = 0;
     auto view = [&](std::string_view bytes, int target) {
         json v = {{"buffer", 0}, {"byteLength", bytes.size()}};
@@ -586,28 +618,16 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look) {
         nodes.push_back({{"mesh", meshes.size() - 1}, {"name", part.object}});
         sceneNodes.push_back(nodes.size() - 1);
     }
-    json doc;
     if (look && barkMaterial >= 0) {  // the tile last, as meshGlb adds it
         out.bytes.push_back(barkPng(*look));
-        doc["images"] = json::array({{{"bufferView", view(out.bytes.back(), 0)},
-                                      {"mimeType", "image/png"},
-                                      {"name", "bark"}}});
-        doc["samplers"] = json::array({barkSamplerJson()});
-        doc["textures"] = json::array({{{"name", "bark"}, {"sampler", 0}, {"source", 0}}});
+        lists.images.push_back({{"bufferView", view(out.bytes.back(), 0)},
+                                {"mimeType", "image/png"},
+                                {"name", "bark"}});
+        lists.samplers.push_back(barkSamplerJson());
+        lists.textures.push_back({{"name", "bark"}, {"sampler", 0}, {"source", 0}});
         materials[barkMaterial]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
     }
-    doc["asset"] = {{"generator", "sylva"}, {"version", "2.0"}};
-    if (!accessors.empty()) doc["accessors"] = std::move(accessors);
-    if (!bufferViews.empty()) doc["bufferViews"] = std::move(bufferViews);
-    if (binBytes > 0) doc["buffers"] = json::array({{{"byteLength", binBytes}}});
-    if (!materials.empty()) doc["materials"] = std::move(materials);
-    if (!meshes.empty()) doc["meshes"] = std::move(meshes);
-    if (!nodes.empty()) doc["nodes"] = std::move(nodes);
-    doc["scene"] = 0;
-    json treeScene = {{"name", "tree"}};
-    if (!sceneNodes.empty()) treeScene["nodes"] = std::move(sceneNodes);
-    doc["scenes"] = json::array({std::move(treeScene)});
-    out.json = doc.dump();
+    out.json = gltfDocument(std::move(lists), binBytes, "tree").dump();
     return out;
 }
 
@@ -707,6 +727,19 @@ class SceneMaterials {
     const SceneLooks* looks_;
     std::vector<SceneMaterial> list_;
 };
+
+// A scene GLB's nodes in file order, each as addNode(name, tree_id, tree index (−1: none),
+// its parts with their materials): terrain, ground cover, then the trees.
+template <typename AddNode>
+void forEachSceneNode(const PlotScene& scene, AddNode& addNode) {
+    addNode("terrain", 0, -1, {{&scene.terrain, &kGround}});
+    addNode("ground-cover", 0, -1, {{&scene.groundCover, &kLowVegetation}});
+    for (size_t k = 0; k < scene.trees.size(); ++k) {
+        const PlotSceneTree& t = scene.trees[k];
+        addNode(t.name, t.id, static_cast<int>(k),
+                {{&t.mesh.wood, &kBark}, {&t.mesh.leaves, &kLeaf}});
+    }
+}
 
 void checkSceneLooks(const PlotScene& scene, const SceneLooks* looks, const char* who) {
     if (!looks) return;
@@ -847,13 +880,7 @@ std::string sceneGlb(const PlotScene& scene, const SceneLooks* looks) {
         model.nodes.push_back(std::move(node));
         model.scenes[0].nodes.push_back(static_cast<int>(model.nodes.size() - 1));
     };
-    addNode("terrain", 0, -1, {{&scene.terrain, &kGround}});
-    addNode("ground-cover", 0, -1, {{&scene.groundCover, &kLowVegetation}});
-    for (size_t k = 0; k < scene.trees.size(); ++k) {
-        const PlotSceneTree& t = scene.trees[k];
-        addNode(t.name, t.id, static_cast<int>(k),
-                {{&t.mesh.wood, &kBark}, {&t.mesh.leaves, &kLeaf}});
-    }
+    forEachSceneNode(scene, addNode);
     // The tiles last, in the materials' order: every vertex attribute before them stays
     // 4-byte aligned.
     for (size_t k = 0; k < materials.list().size(); ++k) {
@@ -917,8 +944,9 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
     };
     std::vector<View> views;  // buffer views in BIN order
     uint64_t binBytes = 0;
-    json accessors = json::array(), bufferViews = json::array(), meshes = json::array(),
-         nodes = json::array(), sceneNodes = json::array();
+    GltfLists lists;
+    json &accessors = lists.accessors, &bufferViews = lists.bufferViews, &meshes = lists.meshes,
+         &nodes = lists.nodes, &sceneNodes = lists.sceneNodes;
     SceneMaterials materials(looks);
     // A buffer view and its accessor; returns the accessor's index.
     auto add = [&](View::Kind kind, const Mesh& m, int componentType, const char* type,
@@ -978,17 +1006,11 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
             {{"extras", {{"tree_id", treeId}}}, {"mesh", meshes.size() - 1}, {"name", name}});
         sceneNodes.push_back(nodes.size() - 1);
     };
-    addNode("terrain", 0, -1, {{&scene.terrain, &kGround}});
-    addNode("ground-cover", 0, -1, {{&scene.groundCover, &kLowVegetation}});
-    for (size_t k = 0; k < scene.trees.size(); ++k) {
-        const PlotSceneTree& t = scene.trees[k];
-        addNode(t.name, t.id, static_cast<int>(k),
-                {{&t.mesh.wood, &kBark}, {&t.mesh.leaves, &kLeaf}});
-    }
+    forEachSceneNode(scene, addNode);
     // The materials as tinygltf writes them (a white base colour is its default, left out),
     // and after every vertex attribute the bark tiles, as sceneGlb adds them.
-    json materialList = json::array(), images = json::array(), samplers = json::array(),
-         textures = json::array();
+    json &materialList = lists.materials, &images = lists.images, &samplers = lists.samplers,
+         &textures = lists.textures;
     std::vector<std::string> tiles;
     for (const SceneMaterial& sm : materials.list()) {
         json mat = materialJson(sm.part, sm.name);
@@ -1013,22 +1035,7 @@ uint64_t writeSceneGlb(const PlotScene& scene, const std::filesystem::path& path
     // The BIN chunk padded to 4 bytes (a tile's length is any); the buffer keeps its own.
     const uint64_t binPadding = (4 - binBytes % 4) % 4;
 
-    json doc;
-    doc["asset"] = {{"generator", "sylva"}, {"version", "2.0"}};
-    if (!accessors.empty()) doc["accessors"] = std::move(accessors);
-    if (!bufferViews.empty()) doc["bufferViews"] = std::move(bufferViews);
-    if (binBytes > 0) doc["buffers"] = json::array({{{"byteLength", binBytes}}});
-    if (!images.empty()) doc["images"] = std::move(images);
-    if (!samplers.empty()) doc["samplers"] = std::move(samplers);
-    if (!textures.empty()) doc["textures"] = std::move(textures);
-    if (!materialList.empty()) doc["materials"] = std::move(materialList);
-    if (!meshes.empty()) doc["meshes"] = std::move(meshes);
-    if (!nodes.empty()) doc["nodes"] = std::move(nodes);
-    doc["scene"] = 0;
-    json plotScene = {{"name", "plot"}};
-    if (!sceneNodes.empty()) plotScene["nodes"] = std::move(sceneNodes);
-    doc["scenes"] = json::array({std::move(plotScene)});
-    std::string content = doc.dump();
+    std::string content = gltfDocument(std::move(lists), binBytes, "plot").dump();
     content.append((4 - content.size() % 4) % 4, ' ');  // chunks start on 4-byte boundaries
     const uint64_t total = 12 + 8 + content.size() + (binBytes > 0 ? 8 + binBytes + binPadding : 0);
     if (total > std::numeric_limits<uint32_t>::max()) {
