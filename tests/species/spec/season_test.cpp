@@ -162,6 +162,24 @@ TEST(Season, ASpeciesSeasonChangesItsLeavesNeverItsWood) {
     expectSameWood(cSummer, cWinter);
 }
 
+// A canopy tree's leaves are certainly meshed — unless its season drops some: the bound of its
+// leaves' triangles then no longer holds, and a budget below it no longer refuses the species.
+TEST(Season, ASeasonThatDropsLeavesLiftsTheirTriangleBound) {
+    test::TempDir dir;
+    auto validate = [&](const std::string& season) {
+        const auto path = dir / ("c-" + season + ".toml");
+        std::ofstream(path) << "method = \"canopy\"\nseason = \"" << season << "\"\n"
+                            << "[canopy]\nradii = [1, 1, 1]\nposition = [0, 2, 0]\n"
+                               "[[templates]]\naxiom = \"F\"\niterations = 1\n"
+                               "[leaves]\ncount = 40\ncluster = 2\n[budget]\nmax_triangles = 100\n";
+        validateSpecies(loadSpecies(path.string()), nullptr, nullptr, /*meshed=*/true);
+    };
+    // 80 leaves, both faces of 2 triangles each: 320 > 100.
+    EXPECT_THROW(validate("summer"), SpecError);
+    EXPECT_NO_THROW(validate("autumn"));  // 0.8 of them
+    EXPECT_NO_THROW(validate("winter"));  // none
+}
+
 std::string errorOf(const test::TempDir& dir, const std::string& name, const std::string& body) {
     try {
         grow(dir, name, body);
