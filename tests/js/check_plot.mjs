@@ -12,7 +12,8 @@
 // GLTFLoader every tree's wood has a material "bark-<species>" (its species in trees.csv)
 // whose map is a decoded 256 × 256 image, its leaves a material "leaf-<species>" with vertex
 // colours in [0, 1] (COLOR_0), trees of one species sharing the materials; terrain and ground
-// cover untextured. (No scene.ply is read: the textured plot writes none.)
+// cover untextured; every tree's own mesh.glb valid with its bark image. (No scene.ply is read:
+// the textured plot writes none.)
 //
 // Usage: node tests/js/check_plot.mjs [--textured] PLOT_DIR   (the directory holding scene.glb
 // and trees.csv)
@@ -131,6 +132,22 @@ function checkLook(node) {
     });
 }
 if (textured) {
+    // Each tree's own textured mesh.glb (the single-tree writer under the tree's look): the
+    // validator as above, with an image.
+    for (const name of trees.values()) {
+        const rel = `trees/${name}/mesh.glb`;
+        const bytes = new Uint8Array(fs.readFileSync(path.join(dir, rel)));
+        const length = new DataView(bytes.buffer, bytes.byteOffset).getUint32(12, true);
+        const doc = JSON.parse(new TextDecoder().decode(bytes.subarray(20, 20 + length)));
+        if ((doc.images ?? []).length !== 1) fail(`${rel}: ${(doc.images ?? []).length} images`);
+        const r = await validator.validateBytes(bytes, { uri: rel, maxIssues: 0 });
+        for (const m of r.issues.messages) {
+            const uvs = /\/attributes\/TEXCOORD_0$/.test(m.pointer ?? '');
+            if (m.severity <= 1 || (m.code === 'UNUSED_OBJECT' && !uvs)) {
+                fail(`${rel}: validator ${m.code} at ${m.pointer ?? ''}: ${m.message}`);
+            }
+        }
+    }
     if (barkMaps.size < 2) fail(`textured: bark maps of ${barkMaps.size} species`);
     for (const [species, mats] of barkMaps) {
         // Materials are per species: one object however many trees (GLTFLoader caches them).
