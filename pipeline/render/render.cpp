@@ -388,7 +388,7 @@ struct Scene {
     const uint8_t* leafTriLabels = nullptr;
     const uint16_t* leafTriIds = nullptr;
     size_t woodTriangles = 0;
-    std::vector<Vec3> leafPoints;           // leaf outline points in camera space
+    const float* leafWorld = nullptr;       // leaf outline points in the world (TreePrep's)
     const uint32_t* leafIndices = nullptr;  // into corners
     size_t indexedTriangles = 0;            // woodTriangles + leaf triangles
     std::vector<Triangle> clipped;
@@ -427,8 +427,8 @@ inline uint16_t idOf(const Scene& s, size_t id) {
 // Camera-space position of corner v (wood vertices recomputed from the mesh).
 inline Vec3 cameraPoint(const Scene& s, const View& view, uint32_t v) {
     const size_t nWood = s.wood->vertexCount();
-    if (v >= nWood) return s.leafPoints[v - nWood];
-    const float* p = &s.wood->positions[3 * static_cast<size_t>(v)];
+    const float* p = v >= nWood ? &s.leafWorld[3 * static_cast<size_t>(v - nWood)]
+                                : &s.wood->positions[3 * static_cast<size_t>(v)];
     return view.toCamera({p[0], p[1], p[2]});
 }
 
@@ -499,25 +499,19 @@ Scene buildScene(const TreePrep& prep, const View& view, const RenderOptions& op
         scene.leafTriIds = prep.leafTriIds.data();
     }
 
-    // Vertices: the tubes' (in parallel), then every leaf's outline points.
+    // Vertices, in parallel: the tubes', then every leaf's outline points.
     const size_t nWood = wood.vertexCount();
     const size_t nLeafPoints = prep.leafWorld.size() / 3;
+    scene.leafWorld = prep.leafWorld.data();
     scene.corners.reset(new Corner[nWood + nLeafPoints]);  // (uninitialised: all written below)
     Corner* corners = scene.corners.get();
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, nWood, 4096),
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nWood + nLeafPoints, 4096),
                       [&](const tbb::blocked_range<size_t>& r) {
                           for (size_t i = r.begin(); i != r.end(); ++i) {
-                              const float* p = &wood.positions[3 * i];
-                              corners[i] = project(view, view.toCamera({p[0], p[1], p[2]}));
+                              corners[i] =
+                                  project(view, cameraPoint(scene, view, static_cast<uint32_t>(i)));
                           }
                       });
-    scene.leafPoints.resize(nLeafPoints);
-    for (size_t k = 0; k < nLeafPoints; ++k) {
-        const float* p = &prep.leafWorld[3 * k];
-        const Vec3 c = view.toCamera({p[0], p[1], p[2]});
-        corners[nWood + k] = project(view, c);
-        scene.leafPoints[k] = c;
-    }
     scene.indexedTriangles = scene.woodTriangles + prep.leafIndices.size() / 3;
 
     // Triangles, chunk by chunk in parallel: small ones straight to fragments, the others set
