@@ -527,9 +527,6 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look) {
     using nlohmann::json;
     if (look) requireLook(*look, "meshGlbParts");
     GlbParts out;
-    // Room for every array made here up front: the views point into them.
-    out.floats.reserve(2 * 5);
-    out.bytes.reserve(2 * 7 + 1);
     GltfLists lists;
     json &accessors = lists.accessors, &bufferViews = lists.bufferViews,
          &materials = lists.materials, &meshes = lists.meshes, &nodes = lists.nodes,

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -94,8 +95,8 @@ std::string meshGlb(const TreeMesh& mesh, const MeshLook* look = nullptr);
 struct GlbParts {
     std::string json;
     std::vector<std::string_view> views;
-    std::vector<std::vector<float>> floats;
-    std::vector<std::string> bytes;
+    std::deque<std::vector<float>> floats;  // (deques: their elements never move)
+    std::deque<std::string> bytes;
 };
 GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look = nullptr);
 std::string glbFromParts(const GlbParts& parts);

@@ -458,13 +458,12 @@ void readFruit(Params& sp, const std::set<std::string>& known, GrammarOptions& o
         if (p.has("seasons")) {
             f.seasons = {false, false, false, false};
             for (const std::string& sn : p.stringArray("seasons")) {
-                const std::vector<std::string>& known = seasonNames();
-                auto it = std::find(known.begin(), known.end(), sn);
-                if (it == known.end()) {
+                const int index = seasonIndex(sn);
+                if (index < 0) {
                     p.fail("seasons", "unknown season \"" + sn +
                                           "\" (expected spring, summer, autumn, winter)");
                 }
-                f.seasons[it - known.begin()] = true;
+                f.seasons[index] = true;
             }
         }
         p.finish();

@@ -1,10 +1,18 @@
 #include "species/model/season.h"
 
+#include <algorithm>
+
 namespace sylva {
 
 const std::vector<std::string>& seasonNames() {
     static const std::vector<std::string> names = {"spring", "summer", "autumn", "winter"};
     return names;
+}
+
+int seasonIndex(const std::string& name) {
+    const std::vector<std::string>& names = seasonNames();
+    const auto it = std::find(names.begin(), names.end(), name);
+    return it == names.end() ? -1 : static_cast<int>(it - names.begin());
 }
 
 std::array<SeasonPalette, 4> grammarSeasons() {

@@ -15,6 +15,8 @@ enum class Season { kSpring = 0, kSummer = 1, kAutumn = 2, kWinter = 3 };
 
 // "spring", "summer", "autumn", "winter", indexed by Season.
 const std::vector<std::string>& seasonNames();
+// The index (as Season) of a season's name, −1 for another word.
+int seasonIndex(const std::string& name);
 
 // One season's leaves: colour classes darkest (lowest on the tree) first, and the fraction of
 // the leaves kept. `asGrown`: the leaves keep the colours their method gave them (`classes`

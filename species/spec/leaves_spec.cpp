@@ -77,14 +77,13 @@ void readSeasonPalettes(Params& sp, std::array<SeasonPalette, 4>& palettes, bool
     for (const auto& [k, v] : *table) names.emplace_back(k.str());
     Params seasons = sp.table("seasons");
     seasons.keysAreUserNames();  // season names
-    const std::vector<std::string>& known = seasonNames();
     for (const std::string& name : names) {
-        auto it = std::find(known.begin(), known.end(), name);
-        if (it == known.end()) {
+        const int index = seasonIndex(name);
+        if (index < 0) {
             seasons.fail(name, "unknown season (expected spring, summer, autumn, winter)");
         }
         Params p = seasons.table(name);
-        SeasonPalette& s = palettes[it - known.begin()];
+        SeasonPalette& s = palettes[index];
         if (const toml::node* c = p.raw("classes"); c && c->is_string()) {
             if (!asGrownAllowed || p.string("classes") != "as-grown") {
                 p.fail("classes", asGrownAllowed
