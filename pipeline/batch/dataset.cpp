@@ -336,6 +336,10 @@ void readOutputs(Params& o, OutputOptions& out) {
     if (out.meshopt && !has("glb")) {
         o.fail("mesh_compression", "compresses GLB meshes: set mesh = [\"glb\"] as well");
     }
+    out.leafInstances = o.boolean("leaf_instances", out.leafInstances);
+    if (out.leafInstances && !has("glb")) {
+        o.fail("leaf_instances", "instances the leaves of GLB meshes: set mesh = [\"glb\"] as well");
+    }
     out.speciesSheet =
         static_cast<int>(o.integer("species_sheet", out.speciesSheet, Range::closed(0, 10000)));
     const bool tar = o.choice("pack", std::string("none"), {"none", "tar"}) == "tar";

@@ -84,6 +84,9 @@ struct OutputOptions {
     // Leaves meshed and drawn as their shapes' outlines (true), or every leaf as its card, one
     // quad (false): a plot's level of detail (a compound leaf's outline is ~100 triangles).
     bool leafOutlines = true;
+    // leaf_instances: the leaves of every tree's mesh.glb as GPU instances of one leaf per
+    // shape and colour class (EXT_mesh_gpu_instancing; mesh_writers.h meshGlb).
+    bool leafInstances = false;
     TubeOptions tubes;        // level of detail of branch tubes
     bool watertight = false;  // watertight.<format> (union of capsules)
     WatertightOptions watertightOptions;

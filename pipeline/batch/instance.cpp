@@ -71,9 +71,11 @@ void checkWatertightEstimate(const GrownTree& g, const WatertightOptions& o) {
 }  // namespace
 
 std::string meshBytes(const TreeMesh& m, const std::string& format, const MeshLook* look,
-                      bool meshopt) {
-    if (format == "glb")
-        return meshopt ? compressGlbMeshopt(meshGlbParts(m, look)) : meshGlb(m, look);
+                      bool meshopt, const std::vector<Leaf>* instances) {
+    if (format == "glb") {
+        return meshopt ? compressGlbMeshopt(meshGlbParts(m, look, instances))
+                       : meshGlb(m, look, instances);
+    }
     return meshPly(m);
 }
 
@@ -230,23 +232,24 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     // species' look on mesh.* (not on the watertight mesh, which has no UVs).
     const MeshLook look{species.look.get(), job.seed};
     auto putMesh = [&](const std::string& stem, const TreeMesh& m, const std::string& f,
-                       const MeshLook* ml) {
+                       const MeshLook* ml, const std::vector<Leaf>* instances) {
         if (f == "obj") {
             const bool bark = ml && !m.wood.empty();
             if (bark) put(stem + "_bark_png", stem + "_bark.png", objBarkPng(*ml));
             put(stem + "_mtl", stem + ".mtl", meshMtl(m, ml, bark ? stem + "_bark.png" : ""));
             put(stem + "_obj", stem + ".obj", meshObj(m, stem + ".mtl", ml));
         } else {
-            put(stem + "_" + f, stem + "." + f, meshBytes(m, f, ml, o.meshopt));
+            put(stem + "_" + f, stem + "." + f, meshBytes(m, f, ml, o.meshopt, instances));
         }
     };
     for (const std::string& f : o.meshFormats) {
-        putMesh("mesh", w.mesh, f, o.textures && species.look ? &look : nullptr);
+        putMesh("mesh", w.mesh, f, o.textures && species.look ? &look : nullptr,
+                o.leafInstances ? &w.grown.tree.leaves : nullptr);
     }
     if (o.watertight) {
         TreeMesh wt;
         wt.wood = w.watertight;
-        for (const std::string& f : o.meshFormats) putMesh("watertight", wt, f, nullptr);
+        for (const std::string& f : o.meshFormats) putMesh("watertight", wt, f, nullptr, nullptr);
         if (o.vdb) noteFile("watertight_vdb", rel / "watertight.vdb");
     }
     if (w.scan) writeScanFiles(*w.scan, o.scan, out, rel, files, bytes);

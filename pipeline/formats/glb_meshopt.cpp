@@ -46,7 +46,16 @@ struct View {
     size_t count = 0;   // elements (vertices, indices)
     size_t stride = 0;  // bytes per element; 0: not compressed (an image)
     bool indices = false;
+    const char* filter = nullptr;  // meshoptimizer's filter the bytes went through, if any
 };
+
+// Bits of the instances' filtered values (EXT_meshopt_compression's filters): translations a
+// 16-bit mantissa under the largest coordinate of each (about the positions' grid: a
+// coordinate off by ≤ its magnitude / 2^16), rotations 12 bits a component (≈ 0.03°), scales
+// a 12-bit mantissa (≤ 1/4096 of the leaf's size).
+constexpr int kTranslationBits = 16, kRotationBits = 12, kScaleBits = 12;
+// Instance colours (the leaves' lightness, a factor about 1) a 10-bit mantissa: ≤ 0.1 %.
+constexpr int kInstanceColourBits = 10;
 
 // The compression of a GLB's document and its buffer views' bytes (`source`, one per buffer
 // view); `bytesBefore`: the plain file's size, for the report.
@@ -106,10 +115,27 @@ std::string compress(json doc, const std::vector<std::string_view>& source, size
     // Which accessor reads each view, and what it is.
     std::vector<int> accessorOf(views.size(), -1);
     std::vector<std::string> semanticOf(accessors.size());
-    for (const json& mesh : doc.value("meshes", json::array())) {
-        for (const json& prim : mesh.at("primitives")) {
+    // Meshes drawn as GPU instances (EXT_mesh_gpu_instancing): their positions are in the
+    // instance's own frame, kept as floats off the grid; the instances' attributes are
+    // "#instance:<name>".
+    std::vector<bool> instancedMesh(doc.value("meshes", json::array()).size(), false);
+    for (const json& node : doc.value("nodes", json::array())) {
+        const json* inst = nullptr;
+        if (node.contains("extensions") && node["extensions"].contains("EXT_mesh_gpu_instancing")) {
+            inst = &node["extensions"]["EXT_mesh_gpu_instancing"];
+        }
+        if (!inst) continue;
+        if (!node.contains("mesh")) refuse("an instancing node without a mesh");
+        instancedMesh.at(node["mesh"].get<size_t>()) = true;
+        for (const auto& [name, index] : inst->at("attributes").items()) {
+            semanticOf.at(index.get<size_t>()) = "#instance:" + name;
+        }
+    }
+    for (size_t m = 0; m < instancedMesh.size(); ++m) {
+        for (const json& prim : doc["meshes"][m].at("primitives")) {
             for (const auto& [name, index] : prim.at("attributes").items()) {
-                semanticOf.at(index.get<size_t>()) = name;
+                semanticOf.at(index.get<size_t>()) =
+                    instancedMesh[m] && name == "POSITION" ? "#card-position" : name;
             }
             if (prim.contains("indices")) semanticOf.at(prim["indices"].get<size_t>()) = "#indices";
         }
@@ -141,6 +167,7 @@ std::string compress(json doc, const std::vector<std::string_view>& source, size
         }
     }
     const double scale = half > 0 ? half / 32767.0 : 1.0;
+    double translationError = 0.0;
 
     std::vector<View> out(views.size());
     for (size_t v = 0; v < views.size(); ++v) {
@@ -174,6 +201,53 @@ std::string compress(json doc, const std::vector<std::string_view>& source, size
             std::memcpy(&f, src.data() + 4 * (n * i + c), 4);
             return f;
         };
+        if (semantic == "#instance:TRANSLATION" || semantic == "#instance:SCALE" ||
+            semantic == "#instance:_COLOR_0") {
+            // Floats through the exponential filter (a shared exponent per vector), the
+            // translations relative to the grid's centre (the node's translation).
+            if (n != 3) refuse("an instance " + semantic.substr(10) + " not of VEC3");
+            const bool translation = semantic == "#instance:TRANSLATION";
+            const int bits = translation                      ? kTranslationBits
+                             : semantic == "#instance:SCALE" ? kScaleBits
+                                                             : kInstanceColourBits;
+            std::vector<float> values(3 * count);
+            for (size_t i = 0; i < count; ++i) {
+                for (int c = 0; c < 3; ++c) {
+                    values[3 * i + c] = translation ? float(value(i, c) - centre[c]) : value(i, c);
+                }
+            }
+            o.stride = 12;
+            o.bytes.assign(12 * count, 0);
+            meshopt_encodeFilterExp(o.bytes.data(), count, 12, bits, values.data());
+            o.filter = "EXPONENTIAL";
+            if (translation && count > 0) {  // the largest error, decoded as a reader decodes
+                std::vector<unsigned char> decoded = o.bytes;
+                meshopt_decodeFilterExp(decoded.data(), count, 12);
+                for (size_t k = 0; k < 3 * count; ++k) {
+                    float f;
+                    std::memcpy(&f, &decoded[4 * k], 4);
+                    translationError = std::max(translationError,
+                                                std::abs(double(f) - double(values[k])));
+                }
+            }
+            view["byteStride"] = o.stride;
+            continue;
+        }
+        if (semantic == "#instance:ROTATION") {  // unit quaternions through the filter
+            if (n != 4) refuse("an instance ROTATION not of VEC4");
+            std::vector<float> values(4 * count);
+            for (size_t i = 0; i < count; ++i) {
+                for (int c = 0; c < 4; ++c) values[4 * i + c] = value(i, c);
+            }
+            o.stride = 8;
+            o.bytes.assign(8 * count, 0);
+            meshopt_encodeFilterQuat(o.bytes.data(), count, 8, kRotationBits, values.data());
+            o.filter = "QUATERNION";
+            acc["componentType"] = kShort;
+            acc["normalized"] = true;
+            view["byteStride"] = o.stride;
+            continue;
+        }
         if (semantic == "POSITION" || semantic == "NORMAL") {
             const bool position = semantic == "POSITION";
             o.stride = position ? 8 : 4;
@@ -274,6 +348,7 @@ std::string compress(json doc, const std::vector<std::string_view>& source, size
         json ext = {{"buffer", 0},        {"byteOffset", newBin.size()},
                     {"byteLength", size}, {"byteStride", o.stride},
                     {"count", o.count},   {"mode", o.indices ? "TRIANGLES" : "ATTRIBUTES"}};
+        if (o.filter) ext["filter"] = o.filter;
         newBin.append(reinterpret_cast<const char*>(packed.data()), size);
         while (fallback % 4) ++fallback;
         view["buffer"] = 1;
@@ -288,15 +363,21 @@ std::string compress(json doc, const std::vector<std::string_view>& source, size
     doc["buffers"].push_back({{"byteLength", std::max<size_t>(fallback, 4)},
                               {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}});
 
-    // Every node with a mesh: the grid's translation and scale.
+    // Every node with a mesh: the grid's translation and scale; an instancing node the
+    // translation alone (its instances' translations are relative to it, its mesh unscaled).
     for (json& node : doc["nodes"]) {
         if (!node.contains("mesh")) continue;
         if (node.contains("matrix") || node.contains("translation") || node.contains("scale") ||
             node.contains("rotation")) {
             refuse("a node with a transform of its own");
         }
+        const bool instancing =
+            node.contains("extensions") && node["extensions"].contains("EXT_mesh_gpu_instancing");
+        if (instancing != instancedMesh.at(node["mesh"].get<size_t>())) {
+            refuse("a mesh drawn both as instances and alone");
+        }
         node["translation"] = {centre[0], centre[1], centre[2]};
-        node["scale"] = {scale, scale, scale};
+        if (!instancedMesh.at(node["mesh"].get<size_t>())) node["scale"] = {scale, scale, scale};
     }
     for (const char* list : {"extensionsUsed", "extensionsRequired"}) {
         json& names = doc[list];
@@ -321,7 +402,7 @@ std::string compress(json doc, const std::vector<std::string_view>& source, size
     if (report) {
         report->bytesBefore = bytesBefore;
         report->bytesAfter = file.size();
-        report->positionError = 0.5 * scale;
+        report->positionError = std::max(0.5 * scale, translationError);
     }
     return file;
 }

@@ -20,6 +20,14 @@
 //   the rest  (_ORDER, _COLOUR) as they were, floats.
 //   indices   UNSIGNED_INT, meshoptimizer's triangle codec (version 1): the same triangles in
 //             the same order, each possibly rotated (a, b, c → b, c, a; the winding kept).
+// GPU instances (EXT_mesh_gpu_instancing: meshGlb's instanced leaves): the instanced mesh's
+// POSITION stays float (its own small frame, off the grid) and its node takes the grid's
+// translation only; the instances' TRANSLATION (then relative to that centre) and SCALE go
+// through meshoptimizer's exponential filter (a 16-bit mantissa under each translation's
+// largest coordinate, a 12-bit one under each scale's: report.positionError includes the
+// translations' largest error), ROTATION through its quaternion filter (SHORT normalised,
+// 12 bits a component, ≈ 0.03°); _COLOR_0 through the exponential filter too (10 bits,
+// ≤ 0.1 % of the lightness); other instance attributes (_LEAF) stay floats.
 // Buffer 0 (the BIN chunk) holds the compressed views and any image (the bark texture: already
 // PNG, kept as it is); buffer 1 is EXT_meshopt_compression's fallback buffer — no bytes, only
 // its length, the decoded views' home.

@@ -3,6 +3,7 @@
 #include <tiny_gltf.h>  // compiled library (Debian libtinygltf): no TINYGLTF_IMPLEMENTATION here
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -18,6 +19,7 @@
 #include "pipeline/formats/image_codecs.h"
 #include "pipeline/formats/little_endian.h"
 #include "species/geometry/leaf_mesh.h"
+#include "species/model/leaf_shape.h"
 
 namespace sylva {
 
@@ -523,9 +525,57 @@ nlohmann::json gltfDocument(GltfLists l, uint64_t binBytes, const char* sceneNam
 
 }  // namespace
 
-GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look) {
+namespace {
+
+// A leaf's frame (tangent, across, normal: the columns of a rotation) as a unit quaternion
+// (x, y, z, w), w ≥ 0 (Shepperd's method: the largest of the four first, for accuracy).
+std::array<double, 4> leafQuaternion(const LeafFrame& f) {
+    const Vec3 &c0 = f.tangent, &c1 = f.across, &c2 = f.normal;
+    const double trace = c0.x + c1.y + c2.z;
+    std::array<double, 4> q;
+    if (trace > 0) {
+        const double s = 2.0 * std::sqrt(1.0 + trace);
+        q = {(c1.z - c2.y) / s, (c2.x - c0.z) / s, (c0.y - c1.x) / s, 0.25 * s};
+    } else if (c0.x > c1.y && c0.x > c2.z) {
+        const double s = 2.0 * std::sqrt(1.0 + c0.x - c1.y - c2.z);
+        q = {0.25 * s, (c1.x + c0.y) / s, (c2.x + c0.z) / s, (c1.z - c2.y) / s};
+    } else if (c1.y > c2.z) {
+        const double s = 2.0 * std::sqrt(1.0 + c1.y - c0.x - c2.z);
+        q = {(c1.x + c0.y) / s, 0.25 * s, (c2.y + c1.z) / s, (c2.x - c0.z) / s};
+    } else {
+        const double s = 2.0 * std::sqrt(1.0 + c2.z - c0.x - c1.y);
+        q = {(c2.x + c0.z) / s, (c2.y + c1.z) / s, 0.25 * s, (c0.y - c1.x) / s};
+    }
+    const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    const double sign = q[3] < 0 ? -1.0 : 1.0;
+    for (double& v : q) v *= sign / norm;
+    return q;
+}
+
+// The leaves given for instancing are those `leaves` (leafMesh's) was made from: the same
+// vertex and index counts, and few enough that each index is exact as a float (_LEAF).
+void checkLeafInstances(const Mesh& leaves, const std::vector<Leaf>& instances) {
+    size_t nv = 0, ni = 0;
+    for (const Leaf& leaf : instances) {
+        const LeafOutline& o = leafOutline(leaf.shape);
+        nv += 2 * o.points.size();
+        ni += 2 * o.triangles.size();
+    }
+    if (nv != leaves.vertexCount() || ni != leaves.indices.size()) {
+        throw std::invalid_argument("meshGlbParts: the leaves to instance are not the leaf mesh's");
+    }
+    if (instances.size() > (size_t(1) << 24)) {
+        throw std::invalid_argument("meshGlbParts: more than 2^24 leaves to instance");
+    }
+}
+
+}  // namespace
+
+GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look,
+                      const std::vector<Leaf>* instances) {
     using nlohmann::json;
     if (look) requireLook(*look, "meshGlbParts");
+    if (instances) checkLeafInstances(mesh.leaves, *instances);
     GlbParts out;
     GltfLists lists;
     json &accessors = lists.accessors, &bufferViews = lists.bufferViews,
@@ -564,7 +614,113 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look) {
     };
     constexpr int kFloat = TINYGLTF_COMPONENT_TYPE_FLOAT;
     constexpr int kArray = TINYGLTF_TARGET_ARRAY_BUFFER;
+    // The leaves as instances of one mesh per (shape, colour class), in that order: the
+    // shape's outline on the unit card, both faces as leafMesh lays out one leaf, drawn by
+    // every leaf of the group at its translation, rotation and scale.
+    auto addLeafInstances = [&](const std::vector<Leaf>& leaves, size_t material) {
+        std::vector<uint32_t> order(leaves.size());
+        for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+        auto key = [&](uint32_t i) {
+            return static_cast<int>(leaves[i].shape) * 256 + leaves[i].colour;
+        };
+        std::stable_sort(order.begin(), order.end(),
+                         [&](uint32_t a, uint32_t b) { return key(a) < key(b); });
+        bool used = false;
+        for (size_t g0 = 0; g0 < order.size();) {
+            size_t g1 = g0;
+            while (g1 < order.size() && key(order[g1]) == key(order[g0])) ++g1;
+            const Leaf& first = leaves[order[g0]];
+            const LeafOutline& outline = leafOutline(first.shape);
+            const size_t np = outline.points.size(), n = 2 * np;
+            std::vector<float> pos, nrm, uv, rgb;
+            for (int side = 0; side < 2; ++side) {
+                for (const Vec2& p : outline.points) {
+                    pos.insert(pos.end(), {float(p.x), float(p.y), 0.0f});
+                    nrm.insert(nrm.end(), {0.0f, 0.0f, side == 0 ? 1.0f : -1.0f});
+                    uv.insert(uv.end(), {float(p.x + 0.5), float(p.y + 0.5)});
+                    if (look) {
+                        const LinearRgb c = side == 0 ? look->look->leafFront(first.colour)
+                                                      : look->look->leafUnderside(first.colour);
+                        rgb.insert(rgb.end(), {float(c.r), float(c.g), float(c.b)});
+                    }
+                }
+            }
+            std::vector<uint32_t> tri;
+            const std::vector<uint32_t>& t = outline.triangles;
+            const uint32_t b = static_cast<uint32_t>(np);
+            for (size_t k = 0; k < t.size(); k += 3) tri.insert(tri.end(), {t[k], t[k + 1], t[k + 2]});
+            for (size_t k = 0; k < t.size(); k += 3) {
+                tri.insert(tri.end(), {b + t[k], b + t[k + 2], b + t[k + 1]});
+            }
+            json attributes;
+            const size_t p = accessor(view(made(pos), kArray), kFloat, "VEC3", n);
+            double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+            for (size_t i = 0; i < n; ++i) {
+                for (int c = 0; c < 3; ++c) {
+                    lo[c] = std::min(lo[c], double(pos[3 * i + c]));
+                    hi[c] = std::max(hi[c], double(pos[3 * i + c]));
+                }
+            }
+            accessors[p]["max"] = {hi[0], hi[1], hi[2]};
+            accessors[p]["min"] = {lo[0], lo[1], lo[2]};
+            attributes["POSITION"] = p;
+            attributes["NORMAL"] = accessor(view(made(nrm), kArray), kFloat, "VEC3", n);
+            attributes["TEXCOORD_0"] = accessor(view(made(uv), kArray), kFloat, "VEC2", n);
+            attributes["_ORDER"] =
+                accessor(view(made(std::vector<float>(n, -1.0f)), kArray), kFloat, "SCALAR", n);
+            attributes["_COLOUR"] = accessor(
+                view(made(std::vector<float>(n, float(first.colour))), kArray), kFloat, "SCALAR",
+                n);
+            if (look) attributes["COLOR_0"] = accessor(view(made(rgb), kArray), kFloat, "VEC3", n);
+            out.bytes.emplace_back(reinterpret_cast<const char*>(tri.data()), 4 * tri.size());
+            const size_t indices = accessor(
+                view(asStored(out.bytes.back().data(), tri.size()),
+                     TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
+                TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, "SCALAR", tri.size());
+            json primitive = {{"attributes", std::move(attributes)},
+                              {"indices", indices},
+                              {"material", material},
+                              {"mode", TINYGLTF_MODE_TRIANGLES}};
+            meshes.push_back({{"name", "leaves"}, {"primitives", json::array({primitive})}});
+            // Per instance: where, how turned, how large (x along the leaf, y across it, z
+            // along its normal: size, size · aspect, size), its lightness and its index.
+            const size_t count = g1 - g0;
+            std::vector<float> tr, rot, sc, light, index;
+            tr.reserve(3 * count), rot.reserve(4 * count), sc.reserve(3 * count);
+            for (size_t k = g0; k < g1; ++k) {
+                const Leaf& leaf = leaves[order[k]];
+                const std::array<double, 4> q = leafQuaternion(leafFrame(leaf));
+                tr.insert(tr.end(), {float(leaf.position.x), float(leaf.position.y),
+                                     float(leaf.position.z)});
+                rot.insert(rot.end(), {float(q[0]), float(q[1]), float(q[2]), float(q[3])});
+                sc.insert(sc.end(), {float(leaf.size), float(leaf.size * leaf.aspect),
+                                     float(leaf.size)});
+                if (look) {
+                    const float f = static_cast<float>(
+                        leafLightness(look->treeSeed, order[k], look->look->leafVariation));
+                    light.insert(light.end(), {f, f, f});
+                }
+                index.push_back(static_cast<float>(order[k]));
+            }
+            json inst;
+            inst["TRANSLATION"] = accessor(view(made(std::move(tr)), 0), kFloat, "VEC3", count);
+            inst["ROTATION"] = accessor(view(made(std::move(rot)), 0), kFloat, "VEC4", count);
+            inst["SCALE"] = accessor(view(made(std::move(sc)), 0), kFloat, "VEC3", count);
+            if (look) {
+                inst["_COLOR_0"] = accessor(view(made(std::move(light)), 0), kFloat, "VEC3", count);
+            }
+            inst["_LEAF"] = accessor(view(made(std::move(index)), 0), kFloat, "SCALAR", count);
+            nodes.push_back({{"mesh", meshes.size() - 1},
+                             {"name", "leaves"},
+                             {"extensions", {{"EXT_mesh_gpu_instancing", {{"attributes", inst}}}}}});
+            sceneNodes.push_back(nodes.size() - 1);
+            used = true;
+            g0 = g1;
+        }
+        return used;
+    };
     int barkMaterial = -1;
+    bool instanced = false;
     for (const Part& part : parts(mesh)) {
         const Mesh& m = *part.mesh;
         if (m.empty()) continue;
@@ -572,6 +728,10 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look) {
         const size_t material = materials.size() - 1;
         const bool leaves = part.mesh == &mesh.leaves;
         if (!leaves) barkMaterial = static_cast<int>(material);
+        if (leaves && instances) {
+            instanced = addLeafInstances(*instances, material);
+            continue;
+        }
         const size_t n = m.vertexCount();
         json attributes;
         const size_t pos =
@@ -624,7 +784,12 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look) {
         lists.textures.push_back({{"name", "bark"}, {"sampler", 0}, {"source", 0}});
         materials[barkMaterial]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
     }
-    out.json = gltfDocument(std::move(lists), binBytes, "tree").dump();
+    json doc = gltfDocument(std::move(lists), binBytes, "tree");
+    if (instanced) {
+        doc["extensionsUsed"] = json::array({"EXT_mesh_gpu_instancing"});
+        doc["extensionsRequired"] = json::array({"EXT_mesh_gpu_instancing"});
+    }
+    out.json = doc.dump();
     return out;
 }
 
@@ -651,7 +816,9 @@ std::string glbFromParts(const GlbParts& parts) {
     return out;
 }
 
-std::string meshGlb(const TreeMesh& mesh, const MeshLook* look) {
+std::string meshGlb(const TreeMesh& mesh, const MeshLook* look,
+                    const std::vector<Leaf>* instances) {
+    if (instances) return glbFromParts(meshGlbParts(mesh, look, instances));
     if (look) requireLook(*look, "meshGlb");
     tinygltf::Model model;
     model.asset.version = "2.0";

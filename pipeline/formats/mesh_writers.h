@@ -25,6 +25,7 @@
 #include "pipeline/render/plot_render.h"
 #include "species/geometry/mesh.h"
 #include "species/model/look.h"
+#include "species/model/tree.h"
 
 namespace sylva {
 
@@ -84,7 +85,21 @@ std::string meshMtl(const TreeMesh& mesh, const MeshLook* look = nullptr,
 // chunk after the vertex data (a buffer view and an image of mimeType image/png), sampled with
 // REPEAT both ways, LINEAR magnification and LINEAR_MIPMAP_LINEAR minification; the leaves
 // have COLOR_0 (VEC3 float, linear: leafVertexColours); both materials' base colour is white.
-std::string meshGlb(const TreeMesh& mesh, const MeshLook* look = nullptr);
+//
+// With `instances` (the tree's leaves that mesh.leaves was made from: leafMesh(tree); else
+// std::invalid_argument) the leaves are GPU instances (EXT_mesh_gpu_instancing, used and
+// required): per (shape, colour class), in that order, a mesh "leaves" of one leaf — the
+// shape's outline on the unit card (x along the leaf, y across it, in [−0.5, 0.5]; z = 0),
+// both faces as leafMesh lays them out, the same attributes, and with a look COLOR_0 the
+// class's front and underside colours — and a node "leaves" drawing it once per leaf of the
+// group, in tree order: TRANSLATION (the leaf's position), ROTATION (its frame: tangent,
+// across, normal as x, y, z; a unit quaternion, w ≥ 0), SCALE (size, size · aspect, size),
+// all floats, with a look _COLOR_0 (VEC3: its lightness, multiplying the mesh's colours —
+// unclamped, where the plain file holds the product to [0, 1]) and _LEAF (SCALAR float: the
+// leaf's index in the tree). Instance k of a group draws exactly the plain file's vertices of
+// leaf _LEAF[k] (up to float rounding), at a few tens of bytes a leaf instead of 2n vertices.
+std::string meshGlb(const TreeMesh& mesh, const MeshLook* look = nullptr,
+                    const std::vector<Leaf>* instances = nullptr);
 
 // meshGlb's file in parts, before it is written: its JSON chunk's text (without the padding)
 // and its buffer views' bytes in BIN order — the mesh's own arrays where they are the file's
@@ -98,7 +113,8 @@ struct GlbParts {
     std::deque<std::vector<float>> floats;  // (deques: their elements never move)
     std::deque<std::string> bytes;
 };
-GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look = nullptr);
+GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look = nullptr,
+                      const std::vector<Leaf>* instances = nullptr);
 std::string glbFromParts(const GlbParts& parts);
 
 // A plot's scene (pipeline/render/plot_render.h) as one binary little-endian PLY: the

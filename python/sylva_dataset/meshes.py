@@ -136,47 +136,120 @@ def _node_matrix(node):
     return m
 
 
+def _quat_matrices(q):
+    """Rotation matrices (K, 3, 3) of unit quaternions (K, 4) as x, y, z, w."""
+    x, y, z, w = (q[:, k] for k in range(4))
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=1)],
+        axis=1)
+
+
+def _instances(gltf, binary, node, path):
+    """A node's EXT_mesh_gpu_instancing transforms as matrices (K, 4, 4) and its _LEAF ids (or
+    None)."""
+    a = node["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]
+
+    def get(name, width):
+        if name not in a:
+            return None
+        v = _accessor(gltf, binary, a[name], path).astype(np.float64).reshape(-1, width)
+        acc = gltf["accessors"][a[name]]
+        if acc.get("normalized") and acc["componentType"] != 5126:  # normalised integers
+            info = np.iinfo(_GLTF_COMPONENTS[acc["componentType"]])
+            v = np.maximum(v / info.max, -1.0)
+        return v
+
+    t, r, s = get("TRANSLATION", 3), get("ROTATION", 4), get("SCALE", 3)
+    count = next(len(v) for v in (t, r, s, np.zeros((0, 1))) if v is not None)
+    m = np.tile(np.eye(4), (count, 1, 1))
+    if r is not None:
+        m[:, :3, :3] = _quat_matrices(r)
+    if s is not None:
+        m[:, :3, :3] *= s[:, None, :]
+    if t is not None:
+        m[:, :3, 3] = t
+    ids = _accessor(gltf, binary, a["_LEAF"], path) if "_LEAF" in a else None
+    return m, ids
+
+
 def read_glb(source, name=None):
     """Reads the triangle primitives of a GLB's default scene (node transforms applied) into one
     Mesh, in node order; vertex arrays missing from some primitive are None. source: a path or
-    the file's bytes; name: what error messages call it."""
+    the file's bytes; name: what error messages call it. Leaves written as GPU instances
+    ([outputs] leaf_instances: EXT_mesh_gpu_instancing) are drawn out, one copy of the node's
+    mesh per instance, in the order of their _LEAF ids: the same vertices, in the same order, as
+    the plain file's leaves (up to float rounding). A compressed file (EXT_meshopt_compression)
+    is not read."""
     data, path = read_source(source, name)
     gltf, binary = _glb_chunks(data, path)
+    if "EXT_meshopt_compression" in gltf.get("extensionsUsed", []):
+        raise ValueError("%s: EXT_meshopt_compression is not read here (three.js, gltfpack, "
+                         "Blender read it); write the plain GLB to read it with numpy" % path)
     scenes = gltf.get("scenes", [])
     roots = scenes[gltf.get("scene", 0)].get("nodes", []) if scenes else range(len(gltf.get("nodes", [])))
     parts = []
+    groups = []  # instanced leaves: (ids, per-instance arrays of one primitive)
+
+    def primitives(node):
+        mesh = gltf["meshes"][node["mesh"]]
+        part = 1 if mesh.get("name", node.get("name")) == "leaves" else 0
+        for prim in mesh["primitives"]:
+            if prim.get("mode", 4) != 4:
+                raise ValueError("%s: primitive mode %d: only triangles are read" % (path, prim["mode"]))
+            a = prim["attributes"]
+
+            def get(name):
+                return _accessor(gltf, binary, a[name], path) if name in a else None
+
+            pos = get("POSITION")
+            n = len(pos)
+            idx = (_accessor(gltf, binary, prim["indices"], path) if "indices" in prim
+                   else np.arange(n))
+            yield dict(positions=pos, faces=idx.reshape(-1, 3), normals=get("NORMAL"),
+                       uvs=get("TEXCOORD_0"), order=get("_ORDER"), colour=get("_COLOUR"),
+                       part=np.full(n, part))
+
+    def transformed(p, m):
+        """p's positions and normals through m (K, 4, 4) or (4, 4): arrays (K, n, 3) or (n, 3)."""
+        lin = m[..., :3, :3]
+        pos = np.einsum("...ij,nj->...ni", lin, p["positions"]) + m[..., None, :3, 3]
+        normals = p["normals"]
+        if normals is not None:
+            inv_t = np.swapaxes(np.linalg.inv(lin), -1, -2)  # normals: the inverse transpose
+            normals = np.einsum("...ij,nj->...ni", inv_t, normals)
+            normals /= np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-30)
+        return pos, normals
 
     def visit(index, parent):
         node = gltf["nodes"][index]
         m = parent @ _node_matrix(node)
-        if "mesh" in node:
-            mesh = gltf["meshes"][node["mesh"]]
-            part = 1 if mesh.get("name", node.get("name")) == "leaves" else 0
-            for prim in mesh["primitives"]:
-                if prim.get("mode", 4) != 4:
-                    raise ValueError("%s: primitive mode %d: only triangles are read" % (path, prim["mode"]))
-                a = prim["attributes"]
-
-                def get(name):
-                    return _accessor(gltf, binary, a[name], path) if name in a else None
-
-                pos, normals = get("POSITION"), get("NORMAL")
-                n = len(pos)
-                idx = (_accessor(gltf, binary, prim["indices"], path) if "indices" in prim
-                       else np.arange(n))
+        if "mesh" in node and "EXT_mesh_gpu_instancing" in node.get("extensions", {}):
+            mats, ids = _instances(gltf, binary, node, path)
+            world = m @ mats
+            for p in primitives(node):
+                pos, normals = transformed(p, world)
+                groups.append((ids, p, pos, normals))
+        elif "mesh" in node:
+            for p in primitives(node):
                 if not np.array_equal(m, np.eye(4)):  # sylva's nodes have no transform
-                    pos = pos @ m[:3, :3].T + m[:3, 3]
-                    if normals is not None:
-                        normals = normals @ np.linalg.inv(m[:3, :3])  # inverse transpose
-                        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
-                parts.append(dict(positions=pos, faces=idx.reshape(-1, 3),
-                                  normals=normals, uvs=get("TEXCOORD_0"), order=get("_ORDER"),
-                                  colour=get("_COLOUR"), part=np.full(n, part)))
+                    p["positions"], p["normals"] = transformed(p, m)
+                parts.append(p)
         for child in node.get("children", []):
             visit(child, m)
 
     for r in roots:
         visit(r, np.eye(4))
+    # Every instance a part of its own, in the order of the leaves' ids (their order in the
+    # tree), else in file order.
+    drawn = []
+    for g, (ids, p, pos, normals) in enumerate(groups):
+        for k in range(len(pos)):
+            drawn.append((ids[k] if ids is not None else len(drawn), g, k))
+    for _, g, k in sorted(drawn):
+        ids, p, pos, normals = groups[g]
+        parts.append(dict(p, positions=pos[k], normals=None if normals is None else normals[k]))
     return _concatenate(parts)
 
 

@@ -18,8 +18,8 @@ parent column; the GLB and OBJ of each mesh against its PLY; depth views bit for
 OpenImageIO and equal to OpenCV's read; depth, cameras and the point cloud against each other
 (each point, projected with its view's transform_matrix and intrinsics, lands on a pixel centre
 at the depth the map holds);
-the EXR reader on files OpenImageIO writes with every compression; the PyTorch datasets through
-a DataLoader.
+the EXR reader on files OpenImageIO writes with every compression; GLBs whose leaves are GPU
+instances against the plain GLBs of the same trees; the PyTorch datasets through a DataLoader.
 
 A missing dependency (numpy, OpenImageIO, OpenCV, torch, venv, setuptools, wheel) is a failure, not a skip:
 `scripts/setup --tests` (run by scripts/test) installs them all, and a skip would hide a broken
@@ -461,6 +461,37 @@ def test_plot_dataset(np, sd, exe, src, tmp):
     check(os.path.dirname(inst.path("scan_las")) == inst.dir, "scan.las in the plot's directory")
 
 
+def test_leaf_instances(np, sd, exe, src, tmp):
+    """read_glb on GLBs whose leaves are GPU instances ([outputs] leaf_instances,
+    tests/data/keys/dataset-leaf-instances.toml) gives each tree's plain GLB (the same spec
+    without leaf_instances): the same vertices in the same order, faces, UVs and attributes."""
+    keys = os.path.join(src, "tests", "data", "keys")
+    spec = os.path.join(keys, "dataset-leaf-instances.toml")
+    inst, plain = os.path.join(tmp, "inst_ds"), os.path.join(tmp, "inst_plain_ds")
+    run([exe, "build", spec, "--out", inst])
+    with open(spec) as f:
+        text = f.read()
+    plain_spec = os.path.join(tmp, "inst_plain.toml")
+    with open(plain_spec, "w") as f:
+        f.write(text.replace("leaf_instances = true\n", "")
+                .replace('file = "', 'file = "%s/' % keys))
+    run([exe, "build", plain_spec, "--out", plain])
+    meshes = 0
+    for inst_i, plain_i in zip(sd.Dataset(inst), sd.Dataset(plain)):
+        a, b = inst_i.mesh("glb"), plain_i.mesh("glb")
+        meshes += 1
+        check(a.positions.shape == b.positions.shape and
+              np.abs(a.positions - b.positions).max() < 2e-5,
+              "%s: instanced leaves' positions" % inst_i.id)
+        check(np.array_equal(a.faces, b.faces), "%s: instanced leaves' faces" % inst_i.id)
+        check(np.abs(a.normals - b.normals).max() < 1e-5, "%s: normals" % inst_i.id)
+        for field in ("uvs", "order", "part", "colour"):
+            check(np.array_equal(getattr(a, field), getattr(b, field)),
+                  "%s: instanced leaves' %s" % (inst_i.id, field))
+        check((a.part == 1).sum() > 0, "%s: has leaves" % inst_i.id)
+    check(meshes == 3, "three instanced meshes read: %d" % meshes)
+
+
 def test_torch(np, sd, out):
     import torch
     from sylva_dataset.pytorch import TreeDataset, ViewDataset
@@ -526,6 +557,7 @@ def checks(exe, src, out, tmp, torch):
     test_glb_transform(np, sd, tmp)
     test_dataset(np, sd, oiio, cv2, out)
     test_plot_dataset(np, sd, exe, src, tmp)
+    test_leaf_instances(np, sd, exe, src, tmp)
     if torch == "torch":
         test_torch(np, sd, out)
     else:
