@@ -8,11 +8,14 @@
 #include <algorithm>
 #include <charconv>
 #include <cstring>
+#include <cmath>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
+#include "species/model/leaf_shape.h"
 #include "tests/gltf_support.h"
 #include "tests/plot_fixture.h"
 #include "tests/test_support.h"
@@ -22,7 +25,7 @@ namespace {
 
 using test::addNode;
 
-TreeMesh sampleMesh() {
+Tree sampleTree() {
     Tree t;
     auto add = [&](int32_t parent, Vec3 p, double r, int32_t order) {
         addNode(t, parent, p, r, order);
@@ -45,6 +48,11 @@ TreeMesh sampleMesh() {
     Leaf d = a;
     d.shape = LeafShape::kPalmate;
     t.leaves = {a, b, c, d};
+    return t;
+}
+
+TreeMesh sampleMesh() {
+    const Tree t = sampleTree();
     TreeMesh m;
     m.wood = tubeMesh(t, TubeOptions{});
     m.leaves = leafMesh(t);
@@ -196,6 +204,96 @@ TEST(MeshWriters, GlbReadsBackWithTinyGltf) {
         EXPECT_EQ(idx.count, m.indices.size());
         EXPECT_EQ(accessorData<uint32_t>(model, prim.indices), m.indices);
     }
+}
+
+// The instanced leaves drawn out by hand from the GLB's own arrays (x' = t + R (s ⊙ x), R
+// from the unit quaternion) are leafMesh's vertices of the leaf each instance names, in order.
+TEST(MeshWriters, InstancedLeavesDrawTheLeafMesh) {
+    const Tree tree = sampleTree();
+    const TreeMesh tm = sampleMesh();
+    const std::string glb = meshGlb(tm, nullptr, &tree.leaves);
+    size_t at = 12;
+    const size_t jsonLength = readU32(glb, at);
+    const nlohmann::json doc = nlohmann::json::parse(glb.substr(20, jsonLength));
+    EXPECT_EQ(doc.at("extensionsRequired"), nlohmann::json::array({"EXT_mesh_gpu_instancing"}));
+    const std::string_view bin = std::string_view(glb).substr(20 + jsonLength + 8);
+    auto floats = [&](size_t accessor) {
+        const nlohmann::json& acc = doc["accessors"][accessor];
+        const nlohmann::json& view = doc["bufferViews"][acc["bufferView"].get<size_t>()];
+        std::vector<float> out(view["byteLength"].get<size_t>() / 4);
+        std::memcpy(out.data(), bin.data() + view.value("byteOffset", size_t(0)), 4 * out.size());
+        return out;
+    };
+    // leafMesh's vertices per leaf: 2 × the outline's points.
+    std::vector<size_t> first(tree.leaves.size() + 1, 0);
+    for (size_t k = 0; k < tree.leaves.size(); ++k) {
+        first[k + 1] = first[k] + 2 * leafOutline(tree.leaves[k].shape).points.size();
+    }
+    std::vector<int> drawn(tree.leaves.size(), 0);
+    int groups = 0;
+    for (const nlohmann::json& node : doc["nodes"]) {
+        if (!node.contains("extensions")) continue;
+        ++groups;
+        EXPECT_EQ(node["name"], "leaves");
+        const nlohmann::json& a = node["extensions"]["EXT_mesh_gpu_instancing"]["attributes"];
+        const std::vector<float> t = floats(a["TRANSLATION"]), r = floats(a["ROTATION"]),
+                                 sc = floats(a["SCALE"]), ids = floats(a["_LEAF"]);
+        const nlohmann::json& prim = doc["meshes"][node["mesh"].get<size_t>()]["primitives"][0];
+        const std::vector<float> pos = floats(prim["attributes"]["POSITION"]);
+        const std::vector<float> colour = floats(prim["attributes"]["_COLOUR"]);
+        for (size_t i = 0; i < ids.size(); ++i) {
+            const size_t leaf = static_cast<size_t>(ids[i]);
+            ASSERT_LT(leaf, tree.leaves.size());
+            ++drawn[leaf];
+            ASSERT_EQ(pos.size() / 3, first[leaf + 1] - first[leaf]);
+            EXPECT_EQ(colour[0], float(tree.leaves[leaf].colour));
+            const double x = r[4 * i], y = r[4 * i + 1], z = r[4 * i + 2], w = r[4 * i + 3];
+            EXPECT_NEAR(x * x + y * y + z * z + w * w, 1.0, 1e-6);
+            EXPECT_GE(w, 0.0);
+            const double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                                    {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                                    {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+            for (size_t v = 0; v < pos.size() / 3; ++v) {
+                for (int c = 0; c < 3; ++c) {
+                    double world = t[3 * i + c];
+                    for (int k = 0; k < 3; ++k) world += R[c][k] * sc[3 * i + k] * pos[3 * v + k];
+                    EXPECT_NEAR(world, tm.leaves.positions[3 * (first[leaf] + v) + c], 1e-6);
+                }
+            }
+        }
+    }
+    EXPECT_EQ(groups, 4);  // (shape, class): card 1, card 3, compound 1, palmate 3
+    EXPECT_EQ(drawn, std::vector<int>(tree.leaves.size(), 1));
+}
+
+// Leaf b faces +z with its tangent along +y: across = normal × tangent = −x, so its rotation
+// takes x to +y, y to −x, z to z — a quarter turn about z, q = (0, 0, sin 45°, cos 45°).
+TEST(MeshWriters, InstancedLeafRotationIsItsFrame) {
+    Tree tree;
+    Leaf b;
+    b.normal = {0, 0, 1};
+    b.tangent = {0, 1, 0};
+    tree.leaves = {b};
+    TreeMesh tm;
+    tm.leaves = leafMesh(tree);
+    const std::string glb = meshGlb(tm, nullptr, &tree.leaves);
+    size_t at = 12;
+    const size_t jsonLength = readU32(glb, at);
+    const nlohmann::json doc = nlohmann::json::parse(glb.substr(20, jsonLength));
+    const size_t rot =
+        doc["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["ROTATION"];
+    const nlohmann::json& view = doc["bufferViews"][doc["accessors"][rot]["bufferView"].get<size_t>()];
+    size_t pos = 20 + jsonLength + 8 + view.value("byteOffset", size_t(0));
+    const float q[4] = {readFloat(glb, pos), readFloat(glb, pos), readFloat(glb, pos),
+                        readFloat(glb, pos)};
+    EXPECT_NEAR(q[0], 0.0, 1e-7);
+    EXPECT_NEAR(q[1], 0.0, 1e-7);
+    EXPECT_NEAR(q[2], std::sqrt(0.5), 1e-7);
+    EXPECT_NEAR(q[3], std::sqrt(0.5), 1e-7);
+    // Leaves that are not the mesh's are refused.
+    Tree other = tree;
+    other.leaves.push_back(b);
+    EXPECT_THROW(meshGlb(tm, nullptr, &other.leaves), std::invalid_argument);
 }
 
 TEST(MeshWriters, GlbLeavesOutEmptyParts) {
