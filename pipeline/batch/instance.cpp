@@ -1,5 +1,6 @@
 #include "pipeline/batch/instance.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -116,7 +117,13 @@ void meshStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     if (!o.meshFormats.empty() || o.scan.enabled) {  // the scan sees the mesh
         checkMeshTriangles(w.grown, o.tubes);
         w.mesh.wood = tubeMesh(w.grown.tree, o.tubes, &w.woodNodes);
-        w.mesh.leaves = leafMesh(w.grown.tree);
+        // The leaves' triangles, unless only an instanced GLB would take them (it draws the
+        // tree's leaves themselves).
+        const bool onlyInstanced =
+            o.leafInstances && !o.scan.enabled && !o.colour.enabled &&
+            std::all_of(o.meshFormats.begin(), o.meshFormats.end(),
+                        [](const std::string& f) { return f == "glb"; });
+        if (!onlyInstanced) w.mesh.leaves = leafMesh(w.grown.tree);
     }
     if (o.watertight) {
         std::string vdb = o.vdb ? (out / instanceDir(w.job) / "watertight.vdb").string() : "";
@@ -316,11 +323,17 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     nlohmann::json st = toJson(stats);
     for (const auto& [k, v] : w.grown.methodStats) st[k] = v;
     st["leaves"] = w.grown.tree.leaves.size();
-    if (!o.meshFormats.empty()) {
-        st["mesh_vertices"] = w.mesh.wood.vertexCount() + w.mesh.leaves.vertexCount();
-        st["mesh_triangles"] = w.mesh.wood.triangleCount() + w.mesh.leaves.triangleCount();
+    if (!o.meshFormats.empty()) {  // the leaves' as leafMesh makes them, made or not
+        size_t leafVertices = 0, leafTriangles = 0;
+        for (const Leaf& leaf : w.grown.tree.leaves) {
+            const LeafOutline& outline = leafOutline(leaf.shape);
+            leafVertices += 2 * outline.points.size();
+            leafTriangles += 2 * outline.triangleCount();
+        }
+        st["mesh_vertices"] = w.mesh.wood.vertexCount() + leafVertices;
+        st["mesh_triangles"] = w.mesh.wood.triangleCount() + leafTriangles;
         st["wood_triangles"] = w.mesh.wood.triangleCount();
-        st["leaf_triangles"] = w.mesh.leaves.triangleCount();
+        st["leaf_triangles"] = leafTriangles;
     }
     if (o.watertight) {
         st["watertight_vertices"] = w.watertight.vertexCount();

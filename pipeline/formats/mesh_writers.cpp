@@ -552,8 +552,9 @@ std::array<double, 4> leafQuaternion(const LeafFrame& f) {
     return q;
 }
 
-// The leaves given for instancing are those `leaves` (leafMesh's) was made from: the same
-// vertex and index counts, and few enough that each index is exact as a float (_LEAF).
+// The leaves given for instancing are those `leaves` (leafMesh's, or empty: not made) was made
+// from: the same vertex and index counts; and few enough that each index is exact as a float
+// (_LEAF).
 void checkLeafInstances(const Mesh& leaves, const std::vector<Leaf>& instances) {
     size_t nv = 0, ni = 0;
     for (const Leaf& leaf : instances) {
@@ -561,7 +562,7 @@ void checkLeafInstances(const Mesh& leaves, const std::vector<Leaf>& instances) 
         nv += 2 * o.points.size();
         ni += 2 * o.triangles.size();
     }
-    if (nv != leaves.vertexCount() || ni != leaves.indices.size()) {
+    if (!leaves.empty() && (nv != leaves.vertexCount() || ni != leaves.indices.size())) {
         throw std::invalid_argument("meshGlbParts: the leaves to instance are not the leaf mesh's");
     }
     if (instances.size() > (size_t(1) << 24)) {
@@ -723,10 +724,10 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look,
     bool instanced = false;
     for (const Part& part : parts(mesh)) {
         const Mesh& m = *part.mesh;
-        if (m.empty()) continue;
+        const bool leaves = part.mesh == &mesh.leaves;
+        if (m.empty() && !(leaves && instances && !instances->empty())) continue;
         materials.push_back(materialJson(partMaterial(part, look), part.material->name));
         const size_t material = materials.size() - 1;
-        const bool leaves = part.mesh == &mesh.leaves;
         if (!leaves) barkMaterial = static_cast<int>(material);
         if (leaves && instances) {
             instanced = addLeafInstances(*instances, material);

@@ -86,8 +86,9 @@ std::string meshMtl(const TreeMesh& mesh, const MeshLook* look = nullptr,
 // REPEAT both ways, LINEAR magnification and LINEAR_MIPMAP_LINEAR minification; the leaves
 // have COLOR_0 (VEC3 float, linear: leafVertexColours); both materials' base colour is white.
 //
-// With `instances` (the tree's leaves that mesh.leaves was made from: leafMesh(tree); else
-// std::invalid_argument) the leaves are GPU instances (EXT_mesh_gpu_instancing, used and
+// With `instances` (the tree's leaves that mesh.leaves was made from: leafMesh(tree), or
+// empty: the leaves need not be meshed first; else std::invalid_argument) the leaves are GPU
+// instances (EXT_mesh_gpu_instancing, used and
 // required): per (shape, colour class), in that order, a mesh "leaves" of one leaf — the
 // shape's outline on the unit card (x along the leaf, y across it, in [−0.5, 0.5]; z = 0),
 // both faces as leafMesh lays them out, the same attributes, and with a look COLOR_0 the

@@ -264,6 +264,10 @@ TEST(MeshWriters, InstancedLeavesDrawTheLeafMesh) {
     }
     EXPECT_EQ(groups, 4);  // (shape, class): card 1, card 3, compound 1, palmate 3
     EXPECT_EQ(drawn, std::vector<int>(tree.leaves.size(), 1));
+    // The leaves need not be meshed first: the same file from the tree's leaves alone.
+    TreeMesh woodOnly;
+    woodOnly.wood = tm.wood;
+    EXPECT_EQ(meshGlb(woodOnly, nullptr, &tree.leaves), glb);
 }
 
 // Leaf b faces +z with its tangent along +y: across = normal × tangent = −x, so its rotation
