@@ -379,7 +379,7 @@ TreePrep prepareTree(const Tree& tree, const Mesh& wood, const std::vector<int32
 // (almost all of a tree's: twigs are thinner than a pixel) are resolved into fragments while
 // binning; the others, clipped triangles and lines are binned by id and drawn per band.
 struct Scene {
-    std::unique_ptr<Corner[]> corners;  // tube vertices, then leaf outline points
+    Corner* corners = nullptr;  // tube vertices, then leaf outline points (Scratch's)
     const Mesh* wood = nullptr;
     const int32_t* woodNodes = nullptr;
     const uint8_t* nodeLabels = nullptr;  // segmentLabel per skeleton node (or the caller's)
@@ -481,7 +481,22 @@ void addLines(const Tree& tree, const View& view, double radius, Scene& scene) {
     }
 }
 
-Scene buildScene(const TreePrep& prep, const View& view, const RenderOptions& options) {
+// Memory the views of one tree reuse: the projected corners (tens of megabytes for a tree of
+// compound leaves, which a fresh allocation per view would page in anew each time).
+struct Scratch {
+    std::unique_ptr<Corner[]> corners;
+    size_t capacity = 0;
+    Corner* cornersFor(size_t n) {
+        if (n > capacity) {
+            corners.reset(new Corner[n]);  // (uninitialised: every one used is written first)
+            capacity = n;
+        }
+        return corners.get();
+    }
+};
+
+Scene buildScene(const TreePrep& prep, const View& view, const RenderOptions& options,
+                 Scratch& scratch) {
     const Tree& tree = *prep.tree;
     const Mesh& wood = *prep.wood;
     Scene scene;
@@ -503,8 +518,8 @@ Scene buildScene(const TreePrep& prep, const View& view, const RenderOptions& op
     const size_t nWood = wood.vertexCount();
     const size_t nLeafPoints = prep.leafWorld.size() / 3;
     scene.leafWorld = prep.leafWorld.data();
-    scene.corners.reset(new Corner[nWood + nLeafPoints]);  // (uninitialised: all written below)
-    Corner* corners = scene.corners.get();
+    scene.corners = scratch.cornersFor(nWood + nLeafPoints);  // (all written below)
+    Corner* corners = scene.corners;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, nWood + nLeafPoints, 4096),
                       [&](const tbb::blocked_range<size_t>& r) {
                           for (size_t i = r.begin(); i != r.end(); ++i) {
@@ -711,11 +726,11 @@ void checkImageSize(const Camera& camera) {
 
 // One object's pass into the z-buffer (ids: the id buffer, or null for a tree's own views).
 void drawInto(const TreePrep& prep, const View& view, const RenderOptions& options, float* zbuf,
-              uint8_t* lbuf, uint16_t* ids) {
+              uint8_t* lbuf, uint16_t* ids, Scratch& scratch) {
     const Tree& tree = *prep.tree;
     if (!(view.f > 0 && std::isfinite(view.f))) return;
     const int w = view.width, h = view.height;
-    const Scene scene = buildScene(prep, view, options);
+    const Scene scene = buildScene(prep, view, options, scratch);
     const size_t firstClipped = scene.indexedTriangles;
     const size_t firstLine = firstClipped + scene.clipped.size();
     const int bands = static_cast<int>(scene.bins.size());
@@ -773,14 +788,15 @@ ViewImage finishImage(int w, int h, std::vector<float>& zbuf, std::vector<uint8_
 }
 
 ViewImage renderImpl(const TreePrep& prep, const Camera& camera, bool wantDepth, bool wantLabels,
-                     bool wantIds, const RenderOptions& options) {
+                     bool wantIds, const RenderOptions& options, Scratch& scratch) {
     checkImageSize(camera);
     const View view(camera);
     const size_t n = static_cast<size_t>(camera.width) * camera.height;
     std::vector<float> zbuf(n, std::numeric_limits<float>::infinity());
     std::vector<uint8_t> lbuf(n, kLabelBackground);
     std::vector<uint16_t> ibuf(prep.labels ? n : 0, 0);
-    drawInto(prep, view, options, zbuf.data(), lbuf.data(), prep.labels ? ibuf.data() : nullptr);
+    drawInto(prep, view, options, zbuf.data(), lbuf.data(), prep.labels ? ibuf.data() : nullptr,
+             scratch);
     return finishImage(camera.width, camera.height, zbuf, lbuf, ibuf, wantDepth, wantLabels,
                        wantIds);
 }
@@ -799,8 +815,9 @@ SceneCanvas::SceneCanvas(const Camera& camera, const RenderOptions& options)
 void SceneCanvas::draw(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
                        const SceneLabels& labels) {
     if (zbuf_.empty()) throw std::logic_error("SceneCanvas: draw after finish");
+    Scratch scratch;
     drawInto(prepareTree(tree, wood, woodNodes, &labels), View(camera_), options_, zbuf_.data(),
-             lbuf_.data(), ibuf_.data());
+             lbuf_.data(), ibuf_.data(), scratch);
 }
 
 ViewImage SceneCanvas::finish(bool wantDepth, bool wantLabels, bool wantIds) {
@@ -815,8 +832,9 @@ ViewImage SceneCanvas::finish(bool wantDepth, bool wantLabels, bool wantIds) {
 ViewImage renderView(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
                      const Camera& camera, bool wantDepth, bool wantLabels,
                      const RenderOptions& options) {
+    Scratch scratch;
     return renderImpl(prepareTree(tree, wood, woodNodes, nullptr), camera, wantDepth, wantLabels,
-                      false, options);
+                      false, options, scratch);
 }
 
 std::vector<ViewImage> renderViews(const Tree& tree, const Mesh& wood,
@@ -826,8 +844,9 @@ std::vector<ViewImage> renderViews(const Tree& tree, const Mesh& wood,
     const TreePrep prep = prepareTree(tree, wood, woodNodes, nullptr);
     std::vector<ViewImage> views;
     views.reserve(cameras.size());
+    Scratch scratch;
     for (const Camera& c : cameras) {
-        views.push_back(renderImpl(prep, c, wantDepth, wantLabels, false, options));
+        views.push_back(renderImpl(prep, c, wantDepth, wantLabels, false, options, scratch));
     }
     return views;
 }
@@ -835,8 +854,9 @@ std::vector<ViewImage> renderViews(const Tree& tree, const Mesh& wood,
 ViewImage renderScene(const Tree& tree, const Mesh& wood, const std::vector<int32_t>& woodNodes,
                       const SceneLabels& labels, const Camera& camera, bool wantDepth,
                       bool wantLabels, bool wantIds, const RenderOptions& options) {
+    Scratch scratch;
     return renderImpl(prepareTree(tree, wood, woodNodes, &labels), camera, wantDepth, wantLabels,
-                      wantIds, options);
+                      wantIds, options, scratch);
 }
 
 ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, bool wantLabels,
