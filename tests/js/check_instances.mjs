@@ -22,9 +22,7 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { createRequire } from 'node:module';
 import { Matrix3, Matrix4, Vector3 } from 'three';
-import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
-import { decodePng } from './png.mjs';
+import { decodeImagesWithPng, filesUnder, parseGlb } from './gltf_node.mjs';
 
 const validator = createRequire(import.meta.url)('gltf-validator');
 
@@ -36,23 +34,7 @@ if (!instRoot || !plainRoot) {
 
 const failures = [];
 const fail = (file, what) => failures.push(`${file}: ${what}`);
-
-// Node has no image decoding (see check_meshes.mjs).
-globalThis.self ??= globalThis;
-globalThis.createImageBitmap ??= async (blob) => {
-    const img = decodePng(new Uint8Array(await blob.arrayBuffer()));
-    return { ...img, close() {} };
-};
-
-function meshFiles(dir) {
-    const out = [];
-    for (const e of fs.readdirSync(dir, { withFileTypes: true })) {
-        const p = path.join(dir, e.name);
-        if (e.isDirectory()) out.push(...meshFiles(p));
-        else if (e.name === 'mesh.glb') out.push(p);
-    }
-    return out.sort();
-}
+decodeImagesWithPng();
 
 function glbJson(bytes) {
     const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
@@ -61,13 +43,8 @@ function glbJson(bytes) {
 }
 
 async function load(bytes) {
-    const loader = new GLTFLoader();
-    loader.setMeshoptDecoder(MeshoptDecoder);
-    const buffer = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
-    const gltf = await new Promise((resolve, reject) => loader.parse(buffer, '', resolve, reject));
-    gltf.scene.updateMatrixWorld(true);
     const meshes = [];
-    gltf.scene.traverse((o) => { if (o.isMesh) meshes.push(o); });
+    (await parseGlb(bytes, true)).scene.traverse((o) => { if (o.isMesh) meshes.push(o); });
     return meshes;
 }
 
@@ -77,9 +54,8 @@ function triangle(a) {
     return `${a[k]},${a[(k + 1) % 3]},${a[(k + 2) % 3]}`;
 }
 
-await MeshoptDecoder.ready;
 let files = 0, leavesChecked = 0, bytesPlain = 0, bytesInst = 0;
-for (const file of meshFiles(instRoot)) {
+for (const file of filesUnder(instRoot, (name) => name === 'mesh.glb')) {
     const rel = path.relative(instRoot, file);
     const plainFile = path.join(plainRoot, rel);
     if (!fs.existsSync(plainFile)) {

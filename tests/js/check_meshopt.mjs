@@ -18,9 +18,7 @@
 import fs from 'node:fs';
 import path from 'node:path';
 import { createRequire } from 'node:module';
-import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
-import { decodePng } from './png.mjs';
+import { decodeImagesWithPng, filesUnder, parseGlb } from './gltf_node.mjs';
 
 const validator = createRequire(import.meta.url)('gltf-validator');
 
@@ -32,30 +30,10 @@ if (!packedRoot || !plainRoot) {
 
 const failures = [];
 const fail = (file, what) => failures.push(`${file}: ${what}`);
-
-// Node has no image decoding (see check_meshes.mjs).
-globalThis.self ??= globalThis;
-globalThis.createImageBitmap ??= async (blob) => {
-    const img = decodePng(new Uint8Array(await blob.arrayBuffer()));
-    return { ...img, close() {} };
-};
-
-function glbFiles(dir) {
-    const out = [];
-    for (const e of fs.readdirSync(dir, { withFileTypes: true })) {
-        const p = path.join(dir, e.name);
-        if (e.isDirectory()) out.push(...glbFiles(p));
-        else if (e.name.endsWith('.glb')) out.push(p);
-    }
-    return out.sort();
-}
+decodeImagesWithPng();
 
 async function load(bytes, decoder) {
-    const loader = new GLTFLoader();
-    if (decoder) loader.setMeshoptDecoder(MeshoptDecoder);
-    const buffer = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
-    const gltf = await new Promise((resolve, reject) => loader.parse(buffer, '', resolve, reject));
-    gltf.scene.updateMatrixWorld(true);
+    const gltf = await parseGlb(bytes, decoder);
     const meshes = new Map();
     gltf.scene.traverse((o) => { if (o.isMesh) meshes.set(o.name, o); });
     return meshes;
@@ -68,9 +46,8 @@ function triangle(index, t) {
     return `${a[k]},${a[(k + 1) % 3]},${a[(k + 2) % 3]}`;
 }
 
-await MeshoptDecoder.ready;
 let files = 0, bytesPlain = 0, bytesPacked = 0;
-for (const file of glbFiles(packedRoot)) {
+for (const file of filesUnder(packedRoot, (name) => name.endsWith('.glb'))) {
     const rel = path.relative(packedRoot, file);
     const plainFile = path.join(plainRoot, rel);
     if (!fs.existsSync(plainFile)) {

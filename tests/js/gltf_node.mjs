@@ -1,0 +1,43 @@
+// What the GLB checks share in Node.js: images decoded for three.js's GLTFLoader, the files of
+// a dataset by name, and a GLB parsed by GLTFLoader (with three's MeshoptDecoder for
+// EXT_meshopt_compression), its world matrices up to date.
+import fs from 'node:fs';
+import path from 'node:path';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { MeshoptDecoder } from 'three/addons/libs/meshopt_decoder.module.js';
+import { decodePng } from './png.mjs';
+
+// Node has no image decoding: GLTFLoader's ImageBitmapLoader fetches the image's blob URL
+// (made with self.URL: Node's URL) and hands the blob to createImageBitmap, here a PNG decoder
+// of our own (png.mjs).
+export function decodeImagesWithPng() {
+    globalThis.self ??= globalThis;
+    globalThis.createImageBitmap ??= async (blob) => {
+        const img = decodePng(new Uint8Array(await blob.arrayBuffer()));
+        return { ...img, close() {} };
+    };
+}
+
+// The files under `dir` whose name `keep` accepts, sorted.
+export function filesUnder(dir, keep) {
+    const out = [];
+    for (const e of fs.readdirSync(dir, { withFileTypes: true })) {
+        const p = path.join(dir, e.name);
+        if (e.isDirectory()) out.push(...filesUnder(p, keep));
+        else if (keep(e.name)) out.push(p);
+    }
+    return out.sort();
+}
+
+// The glTF of a GLB's bytes as GLTFLoader makes it.
+export async function parseGlb(bytes, meshopt) {
+    const loader = new GLTFLoader();
+    if (meshopt) {
+        await MeshoptDecoder.ready;
+        loader.setMeshoptDecoder(MeshoptDecoder);
+    }
+    const buffer = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
+    const gltf = await new Promise((resolve, reject) => loader.parse(buffer, '', resolve, reject));
+    gltf.scene.updateMatrixWorld(true);
+    return gltf;
+}
