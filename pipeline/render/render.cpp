@@ -100,6 +100,13 @@ int lastCentreAtOrBefore(double v, int n) {
     return i > c ? i - 1 : i;
 }
 
+// Whether a pixel centre of the image (n pixels across) lies in [lo, hi]: pixelBox's test along
+// one axis.
+inline bool centreBetween(double lo, double hi, int n) {
+    if (!(lo <= hi) || hi < 0.0 || lo > n) return false;  // (NaN: false)
+    return std::max(0, firstCentreAtOrAfter(lo, n)) <= std::min(n - 1, lastCentreAtOrBefore(hi, n));
+}
+
 // Pixels whose centres fall in the continuous box, clipped to the image.
 bool pixelBox(double lox, double hix, double loy, double hiy, int w, int h, Box& box) {
     if (!(lox <= hix && loy <= hiy)) return false;  // also rejects NaN
@@ -544,6 +551,13 @@ Scene buildScene(const TreePrep& prep, const View& view, const RenderOptions& op
             const Corner &a = corners[v[0]], &b = corners[v[1]], &d = corners[v[2]];
             if (!(a.depth >= kNear && b.depth >= kNear && d.depth >= kNear)) {
                 chunk.cut.push_back(static_cast<uint32_t>(id));
+                continue;
+            }
+            // Most of a tree's triangles are smaller than a pixel and hold no pixel centre:
+            // those are settled by their extent alone, before the set-up (which would find
+            // the same: pixelBox is these two tests).
+            if (!centreBetween(std::min({a.x, b.x, d.x}), std::max({a.x, b.x, d.x}), w) ||
+                !centreBetween(std::min({a.y, b.y, d.y}), std::max({a.y, b.y, d.y}), h)) {
                 continue;
             }
             Triangle t;
