@@ -338,7 +338,8 @@ void readOutputs(Params& o, OutputOptions& out) {
     }
     out.leafInstances = o.boolean("leaf_instances", out.leafInstances);
     if (out.leafInstances && !has("glb")) {
-        o.fail("leaf_instances", "instances the leaves of GLB meshes: set mesh = [\"glb\"] as well");
+        o.fail("leaf_instances",
+               "instances the leaves of GLB meshes: set mesh = [\"glb\"] as well");
     }
     out.speciesSheet =
         static_cast<int>(o.integer("species_sheet", out.speciesSheet, Range::closed(0, 10000)));

@@ -119,10 +119,9 @@ void meshStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
         w.mesh.wood = tubeMesh(w.grown.tree, o.tubes, &w.woodNodes);
         // The leaves' triangles, unless only an instanced GLB would take them (it draws the
         // tree's leaves themselves).
-        const bool onlyInstanced =
-            o.leafInstances && !o.scan.enabled && !o.colour.enabled &&
-            std::all_of(o.meshFormats.begin(), o.meshFormats.end(),
-                        [](const std::string& f) { return f == "glb"; });
+        const bool onlyInstanced = o.leafInstances && !o.scan.enabled && !o.colour.enabled &&
+                                   std::all_of(o.meshFormats.begin(), o.meshFormats.end(),
+                                               [](const std::string& f) { return f == "glb"; });
         if (!onlyInstanced) w.mesh.leaves = leafMesh(w.grown.tree);
     }
     if (o.watertight) {

@@ -207,7 +207,7 @@ std::string compress(json doc, const std::vector<std::string_view>& source, size
             // translations relative to the grid's centre (the node's translation).
             if (n != 3) refuse("an instance " + semantic.substr(10) + " not of VEC3");
             const bool translation = semantic == "#instance:TRANSLATION";
-            const int bits = translation                      ? kTranslationBits
+            const int bits = translation                     ? kTranslationBits
                              : semantic == "#instance:SCALE" ? kScaleBits
                                                              : kInstanceColourBits;
             std::vector<float> values(3 * count);
@@ -226,8 +226,8 @@ std::string compress(json doc, const std::vector<std::string_view>& source, size
                 for (size_t k = 0; k < 3 * count; ++k) {
                     float f;
                     std::memcpy(&f, &decoded[4 * k], 4);
-                    translationError = std::max(translationError,
-                                                std::abs(double(f) - double(values[k])));
+                    translationError =
+                        std::max(translationError, std::abs(double(f) - double(values[k])));
                 }
             }
             view["byteStride"] = o.stride;

@@ -649,7 +649,8 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look,
             std::vector<uint32_t> tri;
             const std::vector<uint32_t>& t = outline.triangles;
             const uint32_t b = static_cast<uint32_t>(np);
-            for (size_t k = 0; k < t.size(); k += 3) tri.insert(tri.end(), {t[k], t[k + 1], t[k + 2]});
+            for (size_t k = 0; k < t.size(); k += 3)
+                tri.insert(tri.end(), {t[k], t[k + 1], t[k + 2]});
             for (size_t k = 0; k < t.size(); k += 3) {
                 tri.insert(tri.end(), {b + t[k], b + t[k + 2], b + t[k + 1]});
             }
@@ -669,15 +670,15 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look,
             attributes["TEXCOORD_0"] = accessor(view(made(uv), kArray), kFloat, "VEC2", n);
             attributes["_ORDER"] =
                 accessor(view(made(std::vector<float>(n, -1.0f)), kArray), kFloat, "SCALAR", n);
-            attributes["_COLOUR"] = accessor(
-                view(made(std::vector<float>(n, float(first.colour))), kArray), kFloat, "SCALAR",
-                n);
+            attributes["_COLOUR"] =
+                accessor(view(made(std::vector<float>(n, float(first.colour))), kArray), kFloat,
+                         "SCALAR", n);
             if (look) attributes["COLOR_0"] = accessor(view(made(rgb), kArray), kFloat, "VEC3", n);
             out.bytes.emplace_back(reinterpret_cast<const char*>(tri.data()), 4 * tri.size());
-            const size_t indices = accessor(
-                view(asStored(out.bytes.back().data(), tri.size()),
-                     TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
-                TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, "SCALAR", tri.size());
+            const size_t indices =
+                accessor(view(asStored(out.bytes.back().data(), tri.size()),
+                              TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
+                         TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, "SCALAR", tri.size());
             json primitive = {{"attributes", std::move(attributes)},
                               {"indices", indices},
                               {"material", material},
@@ -691,11 +692,11 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look,
             for (size_t k = g0; k < g1; ++k) {
                 const Leaf& leaf = leaves[order[k]];
                 const std::array<double, 4> q = leafQuaternion(leafFrame(leaf));
-                tr.insert(tr.end(), {float(leaf.position.x), float(leaf.position.y),
-                                     float(leaf.position.z)});
+                tr.insert(tr.end(),
+                          {float(leaf.position.x), float(leaf.position.y), float(leaf.position.z)});
                 rot.insert(rot.end(), {float(q[0]), float(q[1]), float(q[2]), float(q[3])});
-                sc.insert(sc.end(), {float(leaf.size), float(leaf.size * leaf.aspect),
-                                     float(leaf.size)});
+                sc.insert(sc.end(),
+                          {float(leaf.size), float(leaf.size * leaf.aspect), float(leaf.size)});
                 if (look) {
                     const float f = static_cast<float>(
                         leafLightness(look->treeSeed, order[k], look->look->leafVariation));
@@ -711,9 +712,10 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look,
                 inst["_COLOR_0"] = accessor(view(made(std::move(light)), 0), kFloat, "VEC3", count);
             }
             inst["_LEAF"] = accessor(view(made(std::move(index)), 0), kFloat, "SCALAR", count);
-            nodes.push_back({{"mesh", meshes.size() - 1},
-                             {"name", "leaves"},
-                             {"extensions", {{"EXT_mesh_gpu_instancing", {{"attributes", inst}}}}}});
+            nodes.push_back(
+                {{"mesh", meshes.size() - 1},
+                 {"name", "leaves"},
+                 {"extensions", {{"EXT_mesh_gpu_instancing", {{"attributes", inst}}}}}});
             sceneNodes.push_back(nodes.size() - 1);
             used = true;
             g0 = g1;

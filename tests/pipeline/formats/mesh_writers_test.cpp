@@ -7,8 +7,8 @@
 
 #include <algorithm>
 #include <charconv>
-#include <cstring>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -250,9 +250,10 @@ TEST(MeshWriters, InstancedLeavesDrawTheLeafMesh) {
             const double x = r[4 * i], y = r[4 * i + 1], z = r[4 * i + 2], w = r[4 * i + 3];
             EXPECT_NEAR(x * x + y * y + z * z + w * w, 1.0, 1e-6);
             EXPECT_GE(w, 0.0);
-            const double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
-                                    {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
-                                    {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+            const double R[3][3] = {
+                {1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
             for (size_t v = 0; v < pos.size() / 3; ++v) {
                 for (int c = 0; c < 3; ++c) {
                     double world = t[3 * i + c];
@@ -286,7 +287,8 @@ TEST(MeshWriters, InstancedLeafRotationIsItsFrame) {
     const nlohmann::json doc = nlohmann::json::parse(glb.substr(20, jsonLength));
     const size_t rot =
         doc["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["ROTATION"];
-    const nlohmann::json& view = doc["bufferViews"][doc["accessors"][rot]["bufferView"].get<size_t>()];
+    const nlohmann::json& view =
+        doc["bufferViews"][doc["accessors"][rot]["bufferView"].get<size_t>()];
     size_t pos = 20 + jsonLength + 8 + view.value("byteOffset", size_t(0));
     const float q[4] = {readFloat(glb, pos), readFloat(glb, pos), readFloat(glb, pos),
                         readFloat(glb, pos)};
