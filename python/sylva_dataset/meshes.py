@@ -174,6 +174,54 @@ def _instances(gltf, binary, node, path):
     return m, ids
 
 
+def _instances_in_order(groups):
+    """One part of every instance drawn out, in the order of their _LEAF ids (the leaves' order
+    in the tree; without ids, file order): each group's arrays scattered to its instances'
+    places at once. groups: (ids or None, the mesh's arrays, positions (K, n, 3), normals)."""
+    ids = [np.asarray(g[0], np.int64) if g[0] is not None else None for g in groups]
+    if any(i is None for i in ids):  # no ids: file order
+        start = 0
+        for k, g in enumerate(groups):
+            ids[k] = np.arange(start, start + len(g[2]))
+            start += len(g[2])
+    count = sum(len(i) for i in ids)
+    verts = np.zeros(count, np.int64)  # per leaf: its vertices, then its triangles
+    tris = np.zeros(count, np.int64)
+    for i, (_, p, pos, _) in zip(ids, groups):
+        verts[i] = pos.shape[1]
+        tris[i] = len(p["faces"])
+    vstart = np.concatenate([[0], np.cumsum(verts)])
+    tstart = np.concatenate([[0], np.cumsum(tris)])
+    out = {}
+
+    def put(key, per_leaf, values, i, width):
+        """Scatters `values` ((K, m, width) or the mesh's (m, width), repeated) to the rows of
+        the instances `i`."""
+        start = vstart if per_leaf == "v" else tstart
+        m = values.shape[-2]
+        rows = (start[i][:, None] + np.arange(m)[None, :]).ravel()
+        if key not in out:
+            total = vstart[-1] if per_leaf == "v" else tstart[-1]
+            out[key] = np.zeros((total, width), values.dtype)
+        out[key][rows] = np.broadcast_to(values, (len(i), m, width)).reshape(-1, width)
+
+    for i, (_, p, pos, normals) in zip(ids, groups):
+        put("positions", "v", pos, i, 3)
+        if normals is not None:
+            put("normals", "v", normals, i, 3)
+        for key, width in (("uvs", 2), ("order", 1), ("colour", 1), ("part", 1)):
+            if p[key] is not None:
+                put(key, "v", np.asarray(p[key]).reshape(-1, width), i, width)
+        put("faces", "t", np.asarray(p["faces"], np.int64), i, 3)
+    # Each leaf's faces index its own vertices: shift by the leaf's first vertex.
+    leaf_of_tri = np.repeat(np.arange(count), tris)
+    out["faces"] += vstart[:-1][leaf_of_tri][:, None]
+    part = {k: (v[:, 0] if k in ("order", "colour", "part") else v) for k, v in out.items()}
+    for key in ("normals", "uvs", "order", "colour"):
+        part.setdefault(key, None)
+    return part
+
+
 def read_glb(source, name=None):
     """Reads the triangle primitives of a GLB's default scene (node transforms applied) into one
     Mesh, in node order; vertex arrays missing from some primitive are None. source: a path or
@@ -241,15 +289,8 @@ def read_glb(source, name=None):
 
     for r in roots:
         visit(r, np.eye(4))
-    # Every instance a part of its own, in the order of the leaves' ids (their order in the
-    # tree), else in file order.
-    drawn = []
-    for g, (ids, p, pos, normals) in enumerate(groups):
-        for k in range(len(pos)):
-            drawn.append((ids[k] if ids is not None else len(drawn), g, k))
-    for _, g, k in sorted(drawn):
-        ids, p, pos, normals = groups[g]
-        parts.append(dict(p, positions=pos[k], normals=None if normals is None else normals[k]))
+    if groups:
+        parts.append(_instances_in_order(groups))
     return _concatenate(parts)
 
 
