@@ -17,7 +17,6 @@
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
 #include "species/geometry/watertight.h"
-#include "species/model/leaf_shape.h"
 #include "species/model/tree_stats.h"
 #include "species/plot/layout.h"
 #include "species/plot/plot_growth.h"
@@ -39,10 +38,7 @@ std::string hex64(uint64_t v) {
 // The mesh's triangles (tubes and both faces of every leaf), counted before it is made and
 // held to the tree's max_triangles (BudgetExceeded): the views draw the same tubes.
 void checkMeshTriangles(const GrownTree& g, const TubeOptions& tubes) {
-    int64_t leaves = 0;
-    for (const Leaf& leaf : g.tree.leaves) {
-        leaves += 2 * static_cast<int64_t>(leafOutline(leaf.shape).triangleCount());
-    }
+    const auto leaves = static_cast<int64_t>(leafMeshSize(g.tree.leaves).triangles);
     GrowthGuard(g.budget).triangles(tubeTriangleCount(g.tree, tubes) + leaves,
                                     " in the mesh (tubes and leaves)");
 }
@@ -323,16 +319,11 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     for (const auto& [k, v] : w.grown.methodStats) st[k] = v;
     st["leaves"] = w.grown.tree.leaves.size();
     if (!o.meshFormats.empty()) {  // the leaves' as leafMesh makes them, made or not
-        size_t leafVertices = 0, leafTriangles = 0;
-        for (const Leaf& leaf : w.grown.tree.leaves) {
-            const LeafOutline& outline = leafOutline(leaf.shape);
-            leafVertices += 2 * outline.points.size();
-            leafTriangles += 2 * outline.triangleCount();
-        }
-        st["mesh_vertices"] = w.mesh.wood.vertexCount() + leafVertices;
-        st["mesh_triangles"] = w.mesh.wood.triangleCount() + leafTriangles;
+        const LeafMeshSize leaves = leafMeshSize(w.grown.tree.leaves);
+        st["mesh_vertices"] = w.mesh.wood.vertexCount() + leaves.vertices;
+        st["mesh_triangles"] = w.mesh.wood.triangleCount() + leaves.triangles;
         st["wood_triangles"] = w.mesh.wood.triangleCount();
-        st["leaf_triangles"] = leafTriangles;
+        st["leaf_triangles"] = leaves.triangles;
     }
     if (o.watertight) {
         st["watertight_vertices"] = w.watertight.vertexCount();

@@ -96,15 +96,16 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
         const fs::path dir = fs::path("trees") / treeName(t.stem.id);
         if (o.ply) put("", dir / "skeleton.ply", skeletonPly(t.grown.tree));
         if (o.swc) put("", dir / "skeleton.swc", skeletonSwc(t.grown.tree));
-        // [outputs] leaf_instances: the leaves the scene meshed (as cards when leaf_outlines
-        // is false).
-        std::vector<Leaf> instanced;
-        if (o.leafInstances) {
-            instanced = t.grown.tree.leaves;
-            if (!o.leafOutlines) {
-                for (Leaf& l : instanced) l.shape = LeafShape::kCard;
-            }
+        // [outputs] leaf_instances: the leaves the scene meshed (copied as cards when
+        // leaf_outlines is false).
+        std::vector<Leaf> cards;
+        if (o.leafInstances && !o.leafOutlines) {
+            cards = t.grown.tree.leaves;
+            for (Leaf& l : cards) l.shape = LeafShape::kCard;
         }
+        const std::vector<Leaf>* instanced = !o.leafInstances ? nullptr
+                                             : o.leafOutlines ? &t.grown.tree.leaves
+                                                              : &cards;
         for (const std::string& f : o.meshFormats) {
             const TreeMesh& m = scene.trees[k].mesh;
             const MeshLook* ml = textured ? &looks.trees[k] : nullptr;
@@ -114,8 +115,7 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
                 put("", dir / "mesh.mtl", meshMtl(m, ml, bark ? "mesh_bark.png" : ""));
                 put("", dir / "mesh.obj", meshObj(m, "mesh.mtl", ml));
             } else {
-                put("", dir / ("mesh." + f),
-                    meshBytes(m, f, ml, o.meshopt, o.leafInstances ? &instanced : nullptr));
+                put("", dir / ("mesh." + f), meshBytes(m, f, ml, o.meshopt, instanced));
             }
         }
         nlohmann::json st = toJson(computeStats(atOrigin(t.grown.tree, t.stem.base)));

@@ -57,6 +57,14 @@ constexpr int kTranslationBits = 16, kRotationBits = 12, kScaleBits = 12;
 // Instance colours (the leaves' lightness, a factor about 1) a 10-bit mantissa: ≤ 0.1 %.
 constexpr int kInstanceColourBits = 10;
 
+// A node's EXT_mesh_gpu_instancing object, or null.
+const json* instancingOf(const json& node) {
+    const auto ext = node.find("extensions");
+    if (ext == node.end()) return nullptr;
+    const auto inst = ext->find("EXT_mesh_gpu_instancing");
+    return inst == ext->end() ? nullptr : &*inst;
+}
+
 // The compression of a GLB's document and its buffer views' bytes (`source`, one per buffer
 // view); `bytesBefore`: the plain file's size, for the report.
 std::string compress(json doc, const std::vector<std::string_view>& source, size_t bytesBefore,
@@ -120,10 +128,7 @@ std::string compress(json doc, const std::vector<std::string_view>& source, size
     // "#instance:<name>".
     std::vector<bool> instancedMesh(doc.value("meshes", json::array()).size(), false);
     for (const json& node : doc.value("nodes", json::array())) {
-        const json* inst = nullptr;
-        if (node.contains("extensions") && node["extensions"].contains("EXT_mesh_gpu_instancing")) {
-            inst = &node["extensions"]["EXT_mesh_gpu_instancing"];
-        }
+        const json* inst = instancingOf(node);
         if (!inst) continue;
         if (!node.contains("mesh")) refuse("an instancing node without a mesh");
         instancedMesh.at(node["mesh"].get<size_t>()) = true;
@@ -371,9 +376,7 @@ std::string compress(json doc, const std::vector<std::string_view>& source, size
             node.contains("rotation")) {
             refuse("a node with a transform of its own");
         }
-        const bool instancing =
-            node.contains("extensions") && node["extensions"].contains("EXT_mesh_gpu_instancing");
-        if (instancing != instancedMesh.at(node["mesh"].get<size_t>())) {
+        if ((instancingOf(node) != nullptr) != instancedMesh.at(node["mesh"].get<size_t>())) {
             refuse("a mesh drawn both as instances and alone");
         }
         node["translation"] = {centre[0], centre[1], centre[2]};

@@ -556,13 +556,9 @@ std::array<double, 4> leafQuaternion(const LeafFrame& f) {
 // from: the same vertex and index counts; and few enough that each index is exact as a float
 // (_LEAF).
 void checkLeafInstances(const Mesh& leaves, const std::vector<Leaf>& instances) {
-    size_t nv = 0, ni = 0;
-    for (const Leaf& leaf : instances) {
-        const LeafOutline& o = leafOutline(leaf.shape);
-        nv += 2 * o.points.size();
-        ni += 2 * o.triangles.size();
-    }
-    if (!leaves.empty() && (nv != leaves.vertexCount() || ni != leaves.indices.size())) {
+    const LeafMeshSize size = leafMeshSize(instances);
+    if (!leaves.empty() &&
+        (size.vertices != leaves.vertexCount() || size.triangles != leaves.triangleCount())) {
         throw std::invalid_argument("meshGlbParts: the leaves to instance are not the leaf mesh's");
     }
     if (instances.size() > (size_t(1) << 24)) {
@@ -615,6 +611,56 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look,
     };
     constexpr int kFloat = TINYGLTF_COMPONENT_TYPE_FLOAT;
     constexpr int kArray = TINYGLTF_TARGET_ARRAY_BUFFER;
+    // One triangle primitive of `m` (the leaves' with _COLOUR and, coloured by `colours`,
+    // COLOR_0).
+    auto primitive = [&](const Mesh& m, bool leaves, size_t material, const MeshLook* colours) {
+        const size_t n = m.vertexCount();
+        json attributes;
+        const size_t pos =
+            accessor(view(floats(m.positions.data(), 3 * n), kArray), kFloat, "VEC3", n);
+        double lo[3], hi[3];
+        positionBounds(m, lo, hi);
+        accessors[pos]["max"] = {hi[0], hi[1], hi[2]};
+        accessors[pos]["min"] = {lo[0], lo[1], lo[2]};
+        attributes["POSITION"] = pos;
+        attributes["NORMAL"] = accessor(view(m.normals.empty() ? made(std::vector<float>(3 * n))
+                                                               : floats(m.normals.data(), 3 * n),
+                                             kArray),
+                                        kFloat, "VEC3", n);
+        attributes["TEXCOORD_0"] = accessor(
+            view(m.uvs.empty() ? made(std::vector<float>(2 * n)) : floats(m.uvs.data(), 2 * n),
+                 kArray),
+            kFloat, "VEC2", n);
+        std::vector<float> values(n);
+        for (size_t i = 0; i < n; ++i) values[i] = m.order.empty() ? 0.0f : float(m.order[i]);
+        attributes["_ORDER"] = accessor(view(made(std::move(values)), kArray), kFloat, "SCALAR", n);
+        if (leaves) {
+            std::vector<float> classes(n);
+            for (size_t i = 0; i < n; ++i)
+                classes[i] = m.colour.empty() ? 0.0f : float(m.colour[i]);
+            attributes["_COLOUR"] =
+                accessor(view(made(std::move(classes)), kArray), kFloat, "SCALAR", n);
+            if (colours) {
+                attributes["COLOR_0"] =
+                    accessor(view(made(leafVertexColours(m, *colours)), kArray), kFloat, "VEC3", n);
+            }
+        }
+        const size_t indices =
+            accessor(view(asStored(m.indices.data(), m.indices.size()),
+                          TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
+                     TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, "SCALAR", m.indices.size());
+        return json{{"attributes", std::move(attributes)},
+                    {"indices", indices},
+                    {"material", material},
+                    {"mode", TINYGLTF_MODE_TRIANGLES}};
+    };
+    // The class colours without the per-leaf lightness (the instances carry it).
+    Look flatLook;
+    if (look) {
+        flatLook = *look->look;
+        flatLook.leafVariation = 0.0;
+    }
+    const MeshLook flat{&flatLook, look ? look->treeSeed : 0, look ? look->barkTextureSize : 256};
     // The leaves as instances of one mesh per (shape, colour class), in that order: the
     // shape's outline on the unit card, both faces as leafMesh lays out one leaf, drawn by
     // every leaf of the group at its translation, rotation and scale.
@@ -630,60 +676,19 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look,
         for (size_t g0 = 0; g0 < order.size();) {
             size_t g1 = g0;
             while (g1 < order.size() && key(order[g1]) == key(order[g0])) ++g1;
-            const Leaf& first = leaves[order[g0]];
-            const LeafOutline& outline = leafOutline(first.shape);
-            const size_t np = outline.points.size(), n = 2 * np;
-            std::vector<float> pos, nrm, uv, rgb;
-            for (int side = 0; side < 2; ++side) {
-                for (const Vec2& p : outline.points) {
-                    pos.insert(pos.end(), {float(p.x), float(p.y), 0.0f});
-                    nrm.insert(nrm.end(), {0.0f, 0.0f, side == 0 ? 1.0f : -1.0f});
-                    uv.insert(uv.end(), {float(p.x + 0.5), float(p.y + 0.5)});
-                    if (look) {
-                        const LinearRgb c = side == 0 ? look->look->leafFront(first.colour)
-                                                      : look->look->leafUnderside(first.colour);
-                        rgb.insert(rgb.end(), {float(c.r), float(c.g), float(c.b)});
-                    }
-                }
-            }
-            std::vector<uint32_t> tri;
-            const std::vector<uint32_t>& t = outline.triangles;
-            const uint32_t b = static_cast<uint32_t>(np);
-            for (size_t k = 0; k < t.size(); k += 3)
-                tri.insert(tri.end(), {t[k], t[k + 1], t[k + 2]});
-            for (size_t k = 0; k < t.size(); k += 3) {
-                tri.insert(tri.end(), {b + t[k], b + t[k + 2], b + t[k + 1]});
-            }
-            json attributes;
-            const size_t p = accessor(view(made(pos), kArray), kFloat, "VEC3", n);
-            double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
-            for (size_t i = 0; i < n; ++i) {
-                for (int c = 0; c < 3; ++c) {
-                    lo[c] = std::min(lo[c], double(pos[3 * i + c]));
-                    hi[c] = std::max(hi[c], double(pos[3 * i + c]));
-                }
-            }
-            accessors[p]["max"] = {hi[0], hi[1], hi[2]};
-            accessors[p]["min"] = {lo[0], lo[1], lo[2]};
-            attributes["POSITION"] = p;
-            attributes["NORMAL"] = accessor(view(made(nrm), kArray), kFloat, "VEC3", n);
-            attributes["TEXCOORD_0"] = accessor(view(made(uv), kArray), kFloat, "VEC2", n);
-            attributes["_ORDER"] =
-                accessor(view(made(std::vector<float>(n, -1.0f)), kArray), kFloat, "SCALAR", n);
-            attributes["_COLOUR"] =
-                accessor(view(made(std::vector<float>(n, float(first.colour))), kArray), kFloat,
-                         "SCALAR", n);
-            if (look) attributes["COLOR_0"] = accessor(view(made(rgb), kArray), kFloat, "VEC3", n);
-            out.bytes.emplace_back(reinterpret_cast<const char*>(tri.data()), 4 * tri.size());
-            const size_t indices =
-                accessor(view(asStored(out.bytes.back().data(), tri.size()),
-                              TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
-                         TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, "SCALAR", tri.size());
-            json primitive = {{"attributes", std::move(attributes)},
-                              {"indices", indices},
-                              {"material", material},
-                              {"mode", TINYGLTF_MODE_TRIANGLES}};
-            meshes.push_back({{"name", "leaves"}, {"primitives", json::array({primitive})}});
+            // The group's mesh: leafMesh's of one leaf of its shape and class on the unit
+            // card (size 1, aspect 1, at the origin, facing +z, its tip toward +x).
+            Tree unit;
+            Leaf& one = unit.leaves.emplace_back();
+            one.position = {0, 0, 0};
+            one.normal = {0, 0, 1};
+            one.tangent = {1, 0, 0};
+            one.size = one.aspect = 1.0;
+            one.shape = leaves[order[g0]].shape;
+            one.colour = leaves[order[g0]].colour;
+            const Mesh& card = out.meshes.emplace_back(leafMesh(unit));
+            const json cardPrimitive = primitive(card, true, material, look ? &flat : nullptr);
+            meshes.push_back({{"name", "leaves"}, {"primitives", json::array({cardPrimitive})}});
             // Per instance: where, how turned, how large (x along the leaf, y across it, z
             // along its normal: size, size · aspect, size), its lightness and its index.
             const size_t count = g1 - g0;
@@ -735,46 +740,8 @@ GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look,
             instanced = addLeafInstances(*instances, material);
             continue;
         }
-        const size_t n = m.vertexCount();
-        json attributes;
-        const size_t pos =
-            accessor(view(floats(m.positions.data(), 3 * n), kArray), kFloat, "VEC3", n);
-        double lo[3], hi[3];
-        positionBounds(m, lo, hi);
-        accessors[pos]["max"] = {hi[0], hi[1], hi[2]};
-        accessors[pos]["min"] = {lo[0], lo[1], lo[2]};
-        attributes["POSITION"] = pos;
-        attributes["NORMAL"] = accessor(view(m.normals.empty() ? made(std::vector<float>(3 * n))
-                                                               : floats(m.normals.data(), 3 * n),
-                                             kArray),
-                                        kFloat, "VEC3", n);
-        attributes["TEXCOORD_0"] = accessor(
-            view(m.uvs.empty() ? made(std::vector<float>(2 * n)) : floats(m.uvs.data(), 2 * n),
-                 kArray),
-            kFloat, "VEC2", n);
-        std::vector<float> values(n);
-        for (size_t i = 0; i < n; ++i) values[i] = m.order.empty() ? 0.0f : float(m.order[i]);
-        attributes["_ORDER"] = accessor(view(made(std::move(values)), kArray), kFloat, "SCALAR", n);
-        if (leaves) {
-            std::vector<float> classes(n);
-            for (size_t i = 0; i < n; ++i)
-                classes[i] = m.colour.empty() ? 0.0f : float(m.colour[i]);
-            attributes["_COLOUR"] =
-                accessor(view(made(std::move(classes)), kArray), kFloat, "SCALAR", n);
-            if (look) {
-                attributes["COLOR_0"] =
-                    accessor(view(made(leafVertexColours(m, *look)), kArray), kFloat, "VEC3", n);
-            }
-        }
-        const size_t indices =
-            accessor(view(asStored(m.indices.data(), m.indices.size()),
-                          TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
-                     TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, "SCALAR", m.indices.size());
-        json primitive = {{"attributes", std::move(attributes)},
-                          {"indices", indices},
-                          {"material", material},
-                          {"mode", TINYGLTF_MODE_TRIANGLES}};
-        meshes.push_back({{"name", part.object}, {"primitives", json::array({primitive})}});
+        meshes.push_back({{"name", part.object},
+                          {"primitives", json::array({primitive(m, leaves, material, look)})}});
         nodes.push_back({{"mesh", meshes.size() - 1}, {"name", part.object}});
         sceneNodes.push_back(nodes.size() - 1);
     }

@@ -113,6 +113,7 @@ struct GlbParts {
     std::vector<std::string_view> views;
     std::deque<std::vector<float>> floats;  // (deques: their elements never move)
     std::deque<std::string> bytes;
+    std::deque<Mesh> meshes;  // the instanced leaves' unit-card meshes
 };
 GlbParts meshGlbParts(const TreeMesh& mesh, const MeshLook* look = nullptr,
                       const std::vector<Leaf>* instances = nullptr);

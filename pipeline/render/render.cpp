@@ -100,22 +100,18 @@ int lastCentreAtOrBefore(double v, int n) {
     return i > c ? i - 1 : i;
 }
 
-// Whether a pixel centre of the image (n pixels across) lies in [lo, hi]: pixelBox's test along
-// one axis.
-inline bool centreBetween(double lo, double hi, int n) {
-    if (!(lo <= hi) || hi < 0.0 || lo > n) return false;  // (NaN: false)
-    return std::max(0, firstCentreAtOrAfter(lo, n)) <= std::min(n - 1, lastCentreAtOrBefore(hi, n));
+// The pixel centres of one axis of the image (n pixels) that lie in [lo, hi]: first … last;
+// false when there are none (also for NaN).
+inline bool centreSpan(double lo, double hi, int n, int& first, int& last) {
+    if (!(lo <= hi) || hi < 0.0 || lo > n) return false;
+    first = std::max(0, firstCentreAtOrAfter(lo, n));
+    last = std::min(n - 1, lastCentreAtOrBefore(hi, n));
+    return first <= last;
 }
 
 // Pixels whose centres fall in the continuous box, clipped to the image.
 bool pixelBox(double lox, double hix, double loy, double hiy, int w, int h, Box& box) {
-    if (!(lox <= hix && loy <= hiy)) return false;  // also rejects NaN
-    if (hix < 0.0 || hiy < 0.0 || lox > w || loy > h) return false;
-    box.x0 = std::max(0, firstCentreAtOrAfter(lox, w));
-    box.x1 = std::min(w - 1, lastCentreAtOrBefore(hix, w));
-    box.y0 = std::max(0, firstCentreAtOrAfter(loy, h));
-    box.y1 = std::min(h - 1, lastCentreAtOrBefore(hiy, h));
-    return box.x0 <= box.x1 && box.y0 <= box.y1;
+    return centreSpan(lox, hix, w, box.x0, box.x1) && centreSpan(loy, hiy, h, box.y0, box.y1);
 }
 
 // A projected vertex: screen position, depth (metres along the view axis) and the term
@@ -556,8 +552,9 @@ Scene buildScene(const TreePrep& prep, const View& view, const RenderOptions& op
             // Most of a tree's triangles are smaller than a pixel and hold no pixel centre:
             // those are settled by their extent alone, before the set-up (which would find
             // the same: pixelBox is these two tests).
-            if (!centreBetween(std::min({a.x, b.x, d.x}), std::max({a.x, b.x, d.x}), w) ||
-                !centreBetween(std::min({a.y, b.y, d.y}), std::max({a.y, b.y, d.y}), h)) {
+            int first, last;
+            if (!centreSpan(std::min({a.x, b.x, d.x}), std::max({a.x, b.x, d.x}), w, first, last) ||
+                !centreSpan(std::min({a.y, b.y, d.y}), std::max({a.y, b.y, d.y}), h, first, last)) {
                 continue;
             }
             Triangle t;

@@ -17,14 +17,20 @@
 
 namespace sylva {
 
+LeafMeshSize leafMeshSize(const std::vector<Leaf>& leaves) {
+    LeafMeshSize size;
+    for (const Leaf& leaf : leaves) {
+        const LeafOutline& o = leafOutline(leaf.shape);
+        size.vertices += 2 * o.points.size();
+        size.triangles += 2 * o.triangleCount();
+    }
+    return size;
+}
+
 Mesh leafMesh(const Tree& tree) {
     Mesh mesh;
-    size_t nv = 0, ni = 0;
-    for (const Leaf& leaf : tree.leaves) {
-        const LeafOutline& o = leafOutline(leaf.shape);
-        nv += 2 * o.points.size();
-        ni += 2 * o.triangles.size();
-    }
+    const LeafMeshSize size = leafMeshSize(tree.leaves);
+    const size_t nv = size.vertices, ni = 3 * size.triangles;
     mesh.positions.reserve(nv * 3);
     mesh.normals.reserve(nv * 3);
     mesh.uvs.reserve(nv * 2);

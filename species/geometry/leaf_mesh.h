@@ -2,6 +2,7 @@
 // faces. Frame: +y up, metres.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -15,6 +16,14 @@ namespace sylva {
 // points twice (front normal +leaf.normal, back −leaf.normal) and its triangles twice (the
 // back ones reversed). The renderer draws the same triangles (leafPoints).
 Mesh leafMesh(const Tree& tree);
+
+// The size of leafMesh's mesh of these leaves, without making it: 2 × the outlines' points
+// (vertices) and 2 × their triangles.
+struct LeafMeshSize {
+    size_t vertices = 0;
+    size_t triangles = 0;
+};
+LeafMeshSize leafMeshSize(const std::vector<Leaf>& leaves);
 
 // One leaf of a leafMesh: its front face is vertices [first, first + count), its back face the
 // next `count` (same positions, normal negated).
