@@ -1041,9 +1041,13 @@ TEST(SpaceColonizationPresets, EveryPresetGrowsARootedTreeInItsCrown) {
         }
         const double internode =
             species.table->get("internode") ? *(*species.table)["internode"].value<double>() : 0.1;
-        const GrownTree g = growSpecies(species, 1, nullptr, true);
+        // The tree as colonization grew it: the form stage then moves branches on purpose
+        // (a crown width per tree, wider insertion angles, bends), beyond any crown's reach.
+        PreparedTree prepared = prepareSpecies(species, 1, nullptr);
+        const GrowthGuard guard(prepared.out.budget);
+        Rng rng(1);
+        const Tree t = prepared.method->grow(rng, true, prepared.out.methodStats, guard);
         ++grown;
-        const Tree& t = g.tree;
         ASSERT_GT(t.nodes.size(), 100u);
         EXPECT_EQ(t.nodes[0].parent, -1);
         // A bole that stops short of the crown starts colonization outside it: allow for that.
