@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "core/rng.h"
 #include "pipeline/formats/stats_json.h"
 #include "species/model/leaf_shape.h"
 #include "species/model/tree_stats.h"
@@ -225,6 +226,41 @@ TEST(TreeMetrics, RadiusExponentBisection) {
     // Roots outside [0.5, 6] clamp to the ends.
     EXPECT_EQ(radiusExponent(1, {0.9, 0.9}), 6.0);
     EXPECT_EQ(radiusExponent(1, {0.1, 0.1}), 0.5);
+}
+
+// The exponent skips the bisection's evaluations away from the root (decided by a Newton
+// estimate confirmed on both sides); its result must be the plain bisection's to the bit.
+TEST(TreeMetrics, RadiusExponentIsThePlainBisectionToTheBit) {
+    auto plain = [](double rp, const std::vector<double>& rc) {
+        auto f = [&](double n) {
+            double sum = 0;
+            for (double r : rc) sum += std::pow(r / rp, n);
+            return sum - 1.0;
+        };
+        double lo = 0.5, hi = 6.0;
+        if (f(lo) <= 0) return lo;
+        if (f(hi) >= 0) return hi;
+        for (int it = 0; it < 100 && hi - lo > 1e-13; ++it) {
+            const double mid = 0.5 * (lo + hi);
+            (f(mid) > 0 ? lo : hi) = mid;
+        }
+        return 0.5 * (lo + hi);
+    };
+    Rng rng(7);
+    int inside = 0;
+    for (int k = 0; k < 20000; ++k) {
+        const int children = 2 + k % 9;  // 2 … 10: past the fast path's 8 too
+        const double rp = rng.uniform(0.001, 1.0);
+        std::vector<double> rc;
+        for (int c = 0; c < children; ++c) {
+            // Mostly plausible forks; every tenth with a child at a hair below the parent.
+            rc.push_back(k % 10 == 0 && c == 0 ? rp * (1 - 1e-12) : rp * rng.uniform(0.02, 0.99));
+        }
+        const double e = radiusExponent(rp, rc);
+        ASSERT_EQ(e, plain(rp, rc)) << k;
+        inside += e > 0.5 && e < 6.0;
+    }
+    EXPECT_GT(inside, 10000);  // most of them solved, not clamped to an end
 }
 
 TEST(TreeMetrics, QuantileInterpolates) {
