@@ -179,6 +179,37 @@ struct MarkerSet {
         grid.assign(position, cell / kFine);
         sealed = true;
     }
+
+    // The grid's ids are marker indices until compact() drops the dead: then gridMarker maps.
+    std::vector<int32_t> gridMarker;
+    int64_t deadInGrid = 0;
+    int32_t markerOf(int32_t gridId) const {
+        return gridMarker.empty() ? gridId : gridMarker[gridId];
+    }
+    void kill(int32_t m) {
+        alive[m] = 0;
+        ++deadInGrid;
+    }
+    // Packs the grid anew with the living markers only, once the dead are most of it: late in
+    // growth the queries scanned mostly markers the shoots had taken (the perception scan
+    // was 7% of a library build's CPU). Which markers a query visits is a superset of those
+    // in its box either way, and perceive orders what it keeps by itself, so no result
+    // depends on when this runs. Call it where no query runs.
+    void compact() {
+        if (!sealed || grid.size() < 4096 || 2 * deadInGrid <= static_cast<int64_t>(grid.size())) {
+            return;
+        }
+        std::vector<Vec3> living;
+        std::vector<int32_t> ids;
+        for (size_t m = 0; m < position.size(); ++m) {
+            if (!alive[m]) continue;
+            living.push_back(position[m]);
+            ids.push_back(static_cast<int32_t>(m));
+        }
+        grid.assign(living, cell / kFine);
+        gridMarker = std::move(ids);
+        deadInGrid = 0;
+    }
 };
 
 // A marker in a bud's perception volume, with its squared distance to the bud.
@@ -221,7 +252,8 @@ std::vector<Perceived> perceive(const MarkerSet& set, const Vec3& at, const Vec3
     const double r2 = radius * radius;
     Vec3 lo, hi;
     perceptionBox(at, direction, radius, cosAngle, lo, hi);
-    set.grid.forEachInBox(lo, hi, [&](int32_t m, const Vec3& position) {
+    set.grid.forEachInBox(lo, hi, [&](int32_t g, const Vec3& position) {
+        const int32_t m = set.markerOf(g);
         if (!set.alive[m]) return;
         const Vec3 v = position - at;
         const double d2 = length2(v);
@@ -438,9 +470,10 @@ int32_t Grower::addNode(const Vec3& p, int32_t parent, int32_t order, int32_t le
     const double rho2 = rho_ * rho_;
     const double reach = rho_ * (1 + 1e-9) + 1e-12;  // the box around the ball, with a margin
     const Vec3 pad{reach, reach, reach};
-    persistent_.grid.forEachInBox(p - pad, p + pad, [&](int32_t m, const Vec3& q) {
+    persistent_.grid.forEachInBox(p - pad, p + pad, [&](int32_t g, const Vec3& q) {
+        const int32_t m = persistent_.markerOf(g);
         if (!persistent_.alive[m] || distance2(q, p) > rho2) return;
-        persistent_.alive[m] = 0;
+        persistent_.kill(m);
         removed_ += 1;
     });
     return index;
@@ -540,6 +573,7 @@ std::vector<Step> Grower::stepsFrom(const std::vector<std::vector<Perceived>>& l
 // competition serially, then each bud's direction v = norm(Σ unit vectors to its markers)
 // plus Σ ω·v_stroke over the guide markers it perceives (Liu 2020 §4.3).
 std::vector<Step> Grower::baselineSteps() {
+    if (&persistent_ == &own_) persistent_.compact();  // (a plot's shared set: its loop does)
     const std::vector<std::vector<Perceived>> lists = perceiveBuds();
     owner_.resize(persistent_.position.size(), -1);
     best_.resize(persistent_.position.size(), 0.0);
@@ -1037,6 +1071,7 @@ void growSpaceColonizationTogether(std::vector<ColonizingTree>& trees, bool thre
         }
         if (!any) break;
         // Perception: each tree reads the shared markers only.
+        shared.compact();
         eachTree([&](size_t t) {
             lists[t].clear();
             if (active[t]) lists[t] = growers[t]->perceiveBuds();
@@ -1242,6 +1277,28 @@ double ShadowGrid::exposure(const Vec3& p) const {
     if (!index(p, i, j, k)) return 1.0;
     const double s = shade_[static_cast<size_t>((i * ny_ + j) * nz_ + k)];
     return std::clamp(1.0 - s + strength_, 0.0, 1.0);
+}
+
+std::vector<std::vector<std::pair<int32_t, double>>> perceivedMarkers(
+    const std::vector<PerceivingBud>& buds, const std::vector<Vec3>& markers,
+    const std::vector<char>& dead, double radius, double angle, bool compacted, size_t* gridSize) {
+    MarkerSet set(radius);
+    for (const Vec3& m : markers) set.add(m, {0, 0, 0});
+    set.seal();
+    for (size_t m = 0; m < markers.size() && m < dead.size(); ++m) {
+        if (dead[m]) set.kill(static_cast<int32_t>(m));
+    }
+    if (compacted) set.compact();
+    if (gridSize) *gridSize = set.grid.size();
+    std::vector<std::vector<std::pair<int32_t, double>>> out;
+    for (const PerceivingBud& b : buds) {
+        out.emplace_back();
+        for (const Perceived& p :
+             perceive(set, b.position, normalize(b.direction), radius, std::cos(angle))) {
+            out.back().push_back({p.marker, p.d2});
+        }
+    }
+    return out;
 }
 
 std::vector<int32_t> closestPerceivingBud(const std::vector<PerceivingBud>& buds,

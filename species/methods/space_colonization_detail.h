@@ -26,6 +26,15 @@ std::vector<int32_t> closestPerceivingBud(const std::vector<PerceivingBud>& buds
                                           const std::vector<Vec3>& markers, double radius,
                                           double angle, bool threaded = false);
 
+// What each bud perceives of `markers` after those flagged in `dead` died: (marker index,
+// squared distance) in the order growth sums them; `compacted`: with the marker grid packed
+// anew from the living markers first, as growth does once the dead are most of it (the lists
+// must not change). `gridSize` (optional): the markers the grid then holds.
+std::vector<std::vector<std::pair<int32_t, double>>> perceivedMarkers(
+    const std::vector<PerceivingBud>& buds, const std::vector<Vec3>& markers,
+    const std::vector<char>& dead, double radius, double angle, bool compacted,
+    size_t* gridSize = nullptr);
+
 // A Binomial(n, p) draw, exact and deterministic for a given rng. The improved variant
 // draws how many of a bud's markers fall within the radius where they can matter.
 int64_t binomial(Rng& rng, int64_t n, double p);

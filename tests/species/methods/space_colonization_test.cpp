@@ -207,6 +207,47 @@ std::vector<int32_t> bruteOwners(const std::vector<detail::PerceivingBud>& buds,
     return owner;
 }
 
+// Growth packs the marker grid anew from the living markers once most have died; what a bud
+// perceives, and in which order (sums over it depend on the order), must not change.
+TEST(SpaceColonizationCompetition, PerceptionIsTheSameAfterTheDeadAreDropped) {
+    Rng rng(5);
+    std::vector<detail::PerceivingBud> buds;
+    for (int i = 0; i < 200; ++i)
+        buds.push_back({rng.inBox({{0, 0, 0}, {3, 3, 3}}), rng.unitVector()});
+    std::vector<Vec3> markers;
+    std::vector<char> dead;
+    for (int i = 0; i < 20000; ++i) {
+        markers.push_back(rng.inBox({{0, 0, 0}, {3, 3, 3}}));
+        dead.push_back(rng.uniform() < 0.7);
+    }
+    const double radius = 0.35, angle = 70 * kDeg;
+    size_t full = 0, packed = 0;
+    const auto before = detail::perceivedMarkers(buds, markers, dead, radius, angle, false, &full);
+    const auto after = detail::perceivedMarkers(buds, markers, dead, radius, angle, true, &packed);
+    EXPECT_EQ(after, before);
+    EXPECT_EQ(full, markers.size());
+    EXPECT_EQ(packed, static_cast<size_t>(std::count(dead.begin(), dead.end(), 0)));
+    size_t seen = 0;
+    for (size_t b = 0; b < buds.size(); ++b) {
+        for (const auto& [m, d2] : after[b]) {
+            ASSERT_FALSE(dead[m]);
+            EXPECT_EQ(d2, length2(markers[m] - buds[b].position));
+            ++seen;
+        }
+        // Every living marker in the bud's perception volume is listed.
+        size_t expected = 0;
+        const Vec3 dir = normalize(buds[b].direction);
+        for (size_t m = 0; m < markers.size(); ++m) {
+            const Vec3 v = markers[m] - buds[b].position;
+            const double d2 = length2(v);
+            expected += !dead[m] && d2 > 0 && d2 <= radius * radius &&
+                        dot(v, dir) >= std::cos(angle) * std::sqrt(d2);
+        }
+        EXPECT_EQ(after[b].size(), expected) << b;
+    }
+    EXPECT_GT(seen, 1000u);
+}
+
 TEST(SpaceColonizationCompetition, SharedMarkerGoesToTheCloserBud) {
     using detail::PerceivingBud;
     // Two buds facing each other along x, 0.5 m apart; r = 0.4 m, θ = 75°.
