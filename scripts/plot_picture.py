@@ -5,7 +5,7 @@ and the top view by tree (OpenCV and NumPy: Debian's python3-opencv).
 usage: scripts/plot_picture.py PLOT_DIR OUT.png [PANEL_PX]
 PLOT_DIR is one plot instance (plots/<name>/<id>/, built with [views] labels = true); each
 1024² label or id image is averaged down to PANEL_PX (default 384). Parts: terrain grey-brown,
-stem dark brown, branches orange, leaves green, roots red, ground cover pale, sky pale blue;
+stem dark brown, branches orange, leaves green, roots red, ground cover pale green, sky pale blue;
 trees: a colour per id from its hash, terrain and sky grey.
 """
 import sys
@@ -13,8 +13,8 @@ import sys
 import cv2
 import numpy as np
 
-PARTS = {0: (120, 110, 95), 1: (60, 35, 20), 2: (214, 120, 34), 3: (40, 140, 40),
-         4: (150, 30, 30), 5: (190, 180, 120), 255: (235, 240, 250)}
+PARTS = {0: (120, 110, 95), 1: (60, 35, 20), 2: (200, 120, 40), 3: (40, 140, 40),
+         4: (150, 30, 30), 5: (150, 190, 90), 255: (235, 240, 250)}
 
 
 def by_part(labels):
