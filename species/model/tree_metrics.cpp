@@ -4,6 +4,7 @@
 #include "species/model/tree_metrics.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -70,36 +71,28 @@ double radiusExponent(double parentRadius, const std::vector<double>& childRadii
     // decisions are. (The forks' exponents were 2% of a library build's CPU.)
     constexpr double kMargin = 1e-10;
     double near = std::nan("");
-    {
-        double logs[8];
-        if (childRadii.size() <= 8) {
-            for (size_t i = 0; i < childRadii.size(); ++i)
-                logs[i] = std::log(childRadii[i] / parentRadius);
-            double x = lo;
-            for (int it = 0; it < 60; ++it) {
-                double g = -1.0, dg = 0.0;
-                for (size_t i = 0; i < childRadii.size(); ++i) {
-                    const double e = std::exp(x * logs[i]);
-                    g += e;
-                    dg += logs[i] * e;
-                }
-                if (!(dg < 0)) break;
-                const double next = x - g / dg;
-                if (!(next > x) || next >= hi) {
-                    if (next <= x) near = x;  // converged (or a rounding step back)
-                    break;
-                }
-                if (next - x < 1e-15 * next) {
-                    near = next;
-                    break;
-                }
-                x = next;
+    std::array<double, 8> logs;
+    if (childRadii.size() <= logs.size()) {
+        for (size_t i = 0; i < childRadii.size(); ++i)
+            logs[i] = std::log(childRadii[i] / parentRadius);
+        double x = lo;
+        for (int it = 0; it < 60; ++it) {
+            double g = -1.0, dg = 0.0;
+            for (size_t i = 0; i < childRadii.size(); ++i) {
+                const double e = std::exp(x * logs[i]);
+                g += e;
+                dg += logs[i] * e;
             }
+            if (!(dg < 0)) break;
+            const double step = g / dg;
+            x -= step;
+            if (!(std::abs(step) > 1e-15 * x)) break;
         }
-        if (!(near > lo + kMargin && near < hi - kMargin && f(near - kMargin) > 0 &&
-              !(f(near + kMargin) > 0))) {
-            near = std::nan("");  // unconfirmed: every step evaluates f
-        }
+        near = x;  // whatever it is, f must confirm it below
+    }
+    if (!(near > lo + kMargin && near < hi - kMargin && f(near - kMargin) > 0 &&
+          !(f(near + kMargin) > 0))) {
+        near = std::nan("");  // unconfirmed: every step evaluates f
     }
     for (int it = 0; it < 100 && hi - lo > 1e-13; ++it) {
         double mid = 0.5 * (lo + hi);
