@@ -24,12 +24,14 @@ def by_part(labels):
     return rgb
 
 
-def by_tree(ids):
-    h = (ids.astype(np.uint64) * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
+def by_tree(ids, zero=(90, 90, 90)):
+    """A colour per tree id, from the renderer's hash (colourIds: Knuth's multiplicative hash,
+    a byte per channel); id 0 (terrain, sky) in `zero`."""
+    h = (np.asarray(ids).astype(np.uint64) * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
     h ^= h >> np.uint64(15)
-    rgb = np.stack([(60 + (h >> np.uint64(s)) % np.uint64(190)).astype(np.uint8)
+    rgb = np.stack([(60 + ((h >> np.uint64(s)) & np.uint64(0xFF)) % np.uint64(190)).astype(np.uint8)
                     for s in (0, 8, 16)], axis=-1)
-    rgb[ids == 0] = (90, 90, 90)
+    rgb[np.asarray(ids) == 0] = zero
     return rgb
 
 

@@ -15,14 +15,16 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
 from sylva_dataset.las import read_las  # noqa: E402
+from plot_picture import by_tree  # noqa: E402  (this directory)
 
 # LAS classification (sylva's FOR-instance codes in ASPRS slots, docs/scanning.md) → colour.
 CLASSES = {1: (154, 160, 60), 2: (139, 115, 85), 4: (110, 60, 30), 5: (34, 139, 34),
            6: (230, 140, 30)}
 
 
-def splat(u, v, key, colour_of, lo, hi, px):
-    """u right, v up in metres; [lo, hi] the square drawn; key per point (class or tree)."""
+def splat(u, v, key, colours_of, lo, hi, px):
+    """u right, v up in metres; [lo, hi] the square drawn; key per point (class or tree);
+    colours_of(keys) -> an (n, 3) array of RGB."""
     scale = px / (hi - lo)
     i = np.clip(((hi - v) * scale).astype(int), 0, px - 1)
     j = np.clip(((u - lo) * scale).astype(int), 0, px - 1)
@@ -41,18 +43,10 @@ def splat(u, v, key, colour_of, lo, hi, px):
     img = np.full((px * px, 3), 255.0)
     c, k = rc[best][first], rk[best][first]
     a = 1.0 - 0.4 ** total[c]
-    colours = np.array([colour_of(x) for x in k], float)
+    colours = np.asarray(colours_of(k), float)
     img[c] = (1 - a)[:, None] * 255.0 + a[:, None] * colours
     # Each point 2 × 2 pixels (the darker colour wins where they touch), as points are seen.
     return cv2.erode(img.reshape(px, px, 3).astype(np.uint8), np.ones((2, 2), np.uint8))
-
-
-def tree_colour(t):
-    if t == 0:
-        return (160, 160, 160)
-    h = (int(t) * 2654435761) & 0xFFFFFFFF
-    h ^= h >> 15
-    return (60 + (h & 0xFF) % 190, 60 + ((h >> 8) & 0xFF) % 190, 60 + ((h >> 16) & 0xFF) % 190)
 
 
 def main():
@@ -64,11 +58,11 @@ def main():
     cls = las.fields["classification"]
     tree = las.fields["treeID"].astype(np.int64)
     half = max(np.abs(x).max(), np.abs(y).max())
-    cc = lambda k: CLASSES.get(int(k), (120, 120, 120))
+    cc = lambda keys: [CLASSES.get(int(k), (120, 120, 120)) for k in keys]
     slab = np.abs(y) < 2.0
     side = splat(x[slab], z[slab] - z.min() - half, cls[slab], cc, -half, half, px)  # ground at the foot
     top = splat(x, y, cls, cc, -half, half, px)
-    ids = splat(x, y, tree, tree_colour, -half, half, px)
+    ids = splat(x, y, tree, lambda t: by_tree(t, zero=(160, 160, 160)), -half, half, px)
     cv2.imwrite(sys.argv[2], cv2.cvtColor(np.hstack([side, top, ids]), cv2.COLOR_RGB2BGR),
                 [cv2.IMWRITE_PNG_COMPRESSION, 9])
 
