@@ -96,7 +96,10 @@ bool Camera::project(const Vec3& world, double& px, double& py, double& depth) c
 }
 
 Vec3 Camera::unproject(double px, double py, double depth) const {
-    const double f = fx();
+    return unproject(px, py, depth, fx());
+}
+
+Vec3 Camera::unproject(double px, double py, double depth, double f) const {
     double xc = (px - cx()) / f;
     double yc = (cy() - py) / f;
     if (!orthographic) {

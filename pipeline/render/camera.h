@@ -48,6 +48,8 @@ struct Camera {
     bool project(const Vec3& world, double& px, double& py, double& depth) const;
     // Pixel + depth along the view axis → world point.
     Vec3 unproject(double px, double py, double depth) const;
+    // The same with fx() given: for many points of one camera (fx() takes a tangent).
+    Vec3 unproject(double px, double py, double depth, double focal) const;
 };
 
 // Cameras around the tree: evenly spaced azimuths (+ offset), elevations per options, all

@@ -9,6 +9,8 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
+#include <mutex>
 #include <stdexcept>
 
 #include "pipeline/render/embree_scene.h"
@@ -89,6 +91,10 @@ constexpr int kSkyGridCells = 48;
 constexpr double kClumping = 0.5;
 constexpr double kNearReachCells = 0.5;
 
+// A leaf whose corners all lie within this of its centre (metres) is lit as one: one sun and one
+// near-sky estimate for the whole leaf. Larger leaves (a palm's fronds) are lit point by point.
+constexpr double kSharedLeaf = 0.15;
+
 // The linear luminance the auto-exposure brings a tree's log-average to: below middle grey
 // (0.18), as foliage, darker than the grey card, photographs.
 constexpr double kMeterKey = 0.08;
@@ -106,10 +112,37 @@ struct ColourObject {
     ObjectKind kind = ObjectKind::kWood;
     const Mesh* mesh = nullptr;
     int look = 0;                      // index into the scene's looks (wood, leaves)
+    uint64_t seed = 0;                 // the tree's: keys its near sky rays
     std::vector<uint32_t> leafFront;   // leaves: front-face triangles of `mesh`, 3 per triangle
     std::vector<uint32_t> leafOf;      // per front triangle, its leaf's index
+    std::vector<uint32_t> leafFirst;   // per leaf, its first front triangle; one more at the end
+    std::vector<uint8_t> leafShared;   // per leaf: small enough to be lit as one (kSharedLeaf)
     std::vector<uint8_t> leafClass;    // per leaf
     std::vector<float> leafLightness;  // per leaf
+};
+
+// The near sky rays' open share (NearSky), computed the first time a view needs it and kept for
+// the scene's other views: per leaf and side, and per wood vertex. Each value is a function of
+// its leaf or vertex alone (its rays keyed by it), so it does not matter which pixel or thread
+// computes it first: the images stay the same bytes on any thread count.
+class OpenCache {
+  public:
+    explicit OpenCache(size_t n) : open_(new std::atomic<float>[n]) {
+        for (size_t i = 0; i < n; ++i) open_[i].store(kUnknown, std::memory_order_relaxed);
+    }
+    template <class F>
+    float get(size_t i, F&& compute) const {
+        float v = open_[i].load(std::memory_order_relaxed);
+        if (v == kUnknown) {
+            v = static_cast<float>(compute());
+            open_[i].store(v, std::memory_order_relaxed);
+        }
+        return v;
+    }
+
+  private:
+    static constexpr float kUnknown = -1.0f;
+    std::unique_ptr<std::atomic<float>[]> open_;
 };
 
 // Low vegetation and bare ground: a grass-green and an earth brown (sRGB #4f6b2c, #6b5a44).
@@ -138,6 +171,10 @@ struct ColourScene::Impl {
     double groundY = 0.0;
     bool hasGroundPlane = false;       // a tree alone: the sky background's ground plane
     std::unique_ptr<SkyGrid> skyGrid;  // the occluders' transmittance: sky light
+    // Per object and near-ray count: the open shares (OpenCache) of its leaves' sides or its
+    // wood's vertices, made on first use.
+    mutable std::mutex openMutex;
+    mutable std::map<std::pair<size_t, int>, std::unique_ptr<OpenCache>> openCaches_;
 
     int addLook(const Look& look) {
         looks.push_back(look);
@@ -197,9 +234,18 @@ struct ColourScene::Impl {
     // 0.63–0.66 (ColourViews.TheSkyGridAgreesWithTracedSkyLight).
     Colour skyIrradiance(const Vec3& p, const Vec3& n, const Colour* skyRadiance, int nearRays,
                          Rng& rng) const {
-        const double reach = kNearReachCells * skyGrid->cellSize();
+        const double open = nearRays > 0 ? openShare(p, n, nearRays, nearReach(), rng) : 1.0;
+        return gridSky(p, n, skyRadiance) * open;
+    }
+
+    // The near rays' length: half a sky-grid cell.
+    double nearReach() const { return kNearReachCells * skyGrid->cellSize(); }
+
+    // skyIrradiance before the near rays: the sky through the grid's transmittance from
+    // nearReach() out along `n`.
+    Colour gridSky(const Vec3& p, const Vec3& n, const Colour* skyRadiance) const {
         float t[SkyGrid::kDirections];
-        skyGrid->transmittance(p + n * reach, t);
+        skyGrid->transmittance(p + n * nearReach(), t);
         Colour sum;
         double weights = 0.0;
         for (int k = 0; k < SkyGrid::kDirections; ++k) {
@@ -209,8 +255,132 @@ struct ColourScene::Impl {
             weights += w;
         }
         if (weights <= 0) return {};
-        const double open = nearRays > 0 ? openShare(p, n, nearRays, reach, rng) : 1.0;
-        return sum * (kPi * open / weights);
+        return sum * (kPi / weights);
+    }
+
+    // A leaf's centre (the mean of its front triangles' corners) and its front's normal.
+    static Vec3 leafCentre(const ColourObject& obj, uint32_t leaf) {
+        const Mesh& mesh = *obj.mesh;
+        Vec3 centre{0, 0, 0};
+        const uint32_t first = obj.leafFirst[leaf], end = obj.leafFirst[leaf + 1];
+        for (uint32_t t = first; t < end; ++t) {
+            for (int c = 0; c < 3; ++c) {
+                const uint32_t v = obj.leafFront[3 * size_t(t) + c];
+                centre += Vec3{mesh.positions[3 * v], mesh.positions[3 * v + 1],
+                               mesh.positions[3 * v + 2]};
+            }
+        }
+        return centre / (3.0 * std::max(1u, end - first));
+    }
+    static Vec3 leafNormal(const ColourObject& obj, uint32_t leaf) {
+        const Mesh& mesh = *obj.mesh;
+        const uint32_t v = obj.leafFront[3 * size_t(obj.leafFirst[leaf])];
+        return Vec3{mesh.normals[3 * v], mesh.normals[3 * v + 1], mesh.normals[3 * v + 2]};
+    }
+
+    // What the pixels of one view share beyond their own: per object, the near sky's cache
+    // (openCaches) and, for leaves, whether the sun reaches each leaf — one shadow ray per leaf
+    // and view, cast from the leaf's centre on the sun's side (a leaf is a few centimetres
+    // across; within it, a shadow's edge is finer than the pixels that show it). Each leaf's
+    // answer is a function of the leaf and the sun alone, so whichever pixel asks first, on
+    // whichever thread, the images are the same bytes.
+    struct ViewShare {
+        std::vector<const OpenCache*> open;
+        std::vector<std::unique_ptr<std::atomic<uint8_t>[]>> leafSun;  // 0 unknown, 1 no, 2 yes
+    };
+
+    ViewShare viewShare(int rays) const {
+        ViewShare v;
+        v.open = openCaches(rays);
+        v.leafSun.resize(objects.size());
+        for (size_t g = 0; g < objects.size(); ++g) {
+            if (objects[g].kind != ObjectKind::kLeaves) continue;
+            const size_t n = objects[g].leafClass.size();
+            v.leafSun[g].reset(new std::atomic<uint8_t>[n]);
+            for (size_t k = 0; k < n; ++k) v.leafSun[g][k].store(0, std::memory_order_relaxed);
+        }
+        return v;
+    }
+
+    bool leafSunLit(const ViewShare& vs, unsigned geom, uint32_t leaf, const Vec3& sun) const {
+        std::atomic<uint8_t>& slot = vs.leafSun[geom][leaf];
+        uint8_t state = slot.load(std::memory_order_relaxed);
+        if (state == 0) {
+            const ColourObject& obj = objects[geom];
+            const Vec3 front = leafNormal(obj, leaf);
+            const Vec3 sunSide = dot(front, sun) >= 0 ? front : -front;
+            state = occluded(leafCentre(obj, leaf) + sunSide * (1e-4 * radius), sun, 0) ? 1 : 2;
+            slot.store(state, std::memory_order_relaxed);
+        }
+        return state == 2;
+    }
+
+    // Per object, the open shares of `rays` near rays (OpenCache): one per leaf side, or one
+    // per wood vertex where the wood has normals; none for the ground.
+    std::vector<const OpenCache*> openCaches(int rays) const {
+        std::vector<const OpenCache*> out(objects.size(), nullptr);
+        if (rays <= 0) return out;
+        const std::lock_guard<std::mutex> lock(openMutex);
+        for (size_t g = 0; g < objects.size(); ++g) {
+            const ColourObject& obj = objects[g];
+            size_t n = 0;
+            if (obj.kind == ObjectKind::kLeaves) {
+                n = 2 * obj.leafClass.size();
+            } else if (obj.kind == ObjectKind::kWood &&
+                       obj.mesh->normals.size() == 3 * obj.mesh->vertexCount()) {
+                n = obj.mesh->vertexCount();
+            }
+            if (n == 0) continue;
+            std::unique_ptr<OpenCache>& cache = openCaches_[{g, rays}];
+            if (!cache) cache = std::make_unique<OpenCache>(n);
+            out[g] = cache.get();
+        }
+        return out;
+    }
+
+    // The share of the near sky rays that escape, for a hit on `obj` seen from the side `n`
+    // faces: a small leaf's (its centre, one value per side) and the wood's (its triangle's
+    // vertices', interpolated) from the cache, each cast once for all the scene's views — such a
+    // leaf is a few centimetres across, and the open share varies little over it or between a
+    // tube's vertices; a large leaf's and the ground's from the point itself with the pixel's
+    // stream.
+    double nearOpen(const OpenCache* cache, const ColourObject& obj, const RTCRayHit& rh,
+                    uint32_t leaf, bool seenFront, const Vec3& above, const Vec3& n, int rays,
+                    Rng& rng) const {
+        const double reach = nearReach(), eps = 1e-4 * radius;
+        const Mesh& mesh = *obj.mesh;
+        auto vertex = [&](uint32_t v) {
+            return Vec3{mesh.positions[3 * v], mesh.positions[3 * v + 1],
+                        mesh.positions[3 * v + 2]};
+        };
+        auto normal = [&](uint32_t v) {
+            return Vec3{mesh.normals[3 * v], mesh.normals[3 * v + 1], mesh.normals[3 * v + 2]};
+        };
+        if (!cache || (obj.kind == ObjectKind::kLeaves && !obj.leafShared[leaf])) {
+            return openShare(above, n, rays, reach, rng);
+        }
+        if (obj.kind == ObjectKind::kLeaves) {
+            const int side = seenFront ? 0 : 1;
+            return cache->get(2 * size_t(leaf) + side, [&] {
+                const Vec3 centre = leafCentre(obj, leaf), front = leafNormal(obj, leaf);
+                const Vec3 sideNormal = seenFront ? front : -front;
+                Rng leafRng =
+                    Rng(obj.seed).derive("near-sky-leaf").derive(2 * uint64_t(leaf) + side);
+                return openShare(centre + sideNormal * eps, sideNormal, rays, reach, leafRng);
+            });
+        }
+        const uint32_t* tri = &mesh.indices[3 * size_t(rh.hit.primID)];
+        const double w[3] = {1.0 - rh.hit.u - rh.hit.v, rh.hit.u, rh.hit.v};
+        double open = 0.0;
+        for (int c = 0; c < 3; ++c) {
+            const uint32_t v = tri[c];
+            open += w[c] * cache->get(v, [&] {
+                const Vec3 nv = normalize(normal(v));
+                Rng vertexRng = Rng(obj.seed).derive("near-sky-wood").derive(uint64_t(v));
+                return openShare(vertex(v) + nv * eps, nv, rays, reach, vertexRng);
+            });
+        }
+        return open;
     }
 
     // The share of `rays` cosine-distributed rays about `n` from `p` that meet nothing within
@@ -224,11 +394,11 @@ struct ColourScene::Impl {
         return double(escaped) / std::max(1, rays);
     }
 
-    // What a pixel's samples share: its sky irradiance, estimated at its first shaded sample
-    // with all the pixel's sky rays, and the sun's visibility, cast from the first sample that
-    // meets a surface and reused by the later samples on the same surface — the same leaf, or the
-    // same wood or ground object at a depth within 2 % (within a pixel, one surface is in or out
-    // of the sun but at a shadow's edge).
+    // What a pixel's samples share: its sky irradiance, estimated at its first shaded sample,
+    // and the sun's visibility, cast from the first sample that meets a surface and reused by the
+    // later samples on the same surface — the same leaf, or the same wood or ground object at a
+    // depth within 2 % (within a pixel, one surface is in or out of the sun but at a shadow's
+    // edge). Small leaves share theirs over the whole view (ViewShare).
     struct PixelShare {
         Colour sky;
         bool haveSky = false;
@@ -258,7 +428,7 @@ struct ColourScene::Impl {
 
     // The radiance leaving a tree hit towards the camera (`share`: see PixelShare).
     Colour shade(const RTCRayHit& rh, const Vec3& dir, const Light& light,
-                 const Colour* skyRadiance, const ColourOptions& o, Rng& rng,
+                 const Colour* skyRadiance, const ViewShare& vs, const ColourOptions& o, Rng& rng,
                  PixelShare& share) const {
         const Vec3 view = -dir;
         const double eps = 1e-4 * radius;
@@ -270,6 +440,7 @@ struct ColourScene::Impl {
         Colour albedo;
         Vec3 n;
         uint32_t leafIndex = 0;
+        bool seenFront = true;
         double translucency = 0.0, specular = 0.04, roughness = 0.9;
         const Vec3 ng = normalize(Vec3{rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z});
         const Vec3 facing = dot(ng, view) > 0 ? ng : -ng;
@@ -278,7 +449,7 @@ struct ColourScene::Impl {
             const uint32_t v0 = obj.leafFront[3 * size_t(rh.hit.primID)];
             const Vec3 front{mesh.normals[3 * v0], mesh.normals[3 * v0 + 1],
                              mesh.normals[3 * v0 + 2]};
-            const bool seenFront = dot(front, view) >= 0;
+            seenFront = dot(front, view) >= 0;
             const uint8_t cls = obj.leafClass[leaf];
             albedo = of(seenFront ? look.leafFront(cls) : look.leafUnderside(cls)) *
                      double(obj.leafLightness[leaf]);
@@ -320,8 +491,14 @@ struct ColourScene::Impl {
         const double cosL = dot(n, light.sun);
         const bool isLeaf = obj.kind == ObjectKind::kLeaves;
         const double depth = rh.ray.tfar;
+        const bool sharedLeaf = isLeaf && obj.leafShared[leafIndex];
+        auto lit = [&](const Vec3& from) {
+            return sharedLeaf
+                       ? leafSunLit(vs, rh.hit.geomID, leafIndex, light.sun)
+                       : sunLit(from, light.sun, rh.hit.geomID, leafIndex, isLeaf, depth, share);
+        };
         if (cosL > 0) {
-            if (sunLit(above, light.sun, rh.hit.geomID, leafIndex, isLeaf, depth, share)) {
+            if (lit(above)) {
                 out += albedo * light.sunIrradiance * (cosL / kPi);
                 // Blinn–Phong lobe, normalised, its exponent from the roughness.
                 const double a = std::max(0.05, roughness);
@@ -332,12 +509,14 @@ struct ColourScene::Impl {
                        (specular * (shininess + 2) / (2 * kPi) * std::pow(nh, shininess) * cosL);
             }
         } else if (translucency > 0) {  // sunlight through the leaf from behind
-            if (sunLit(p - n * eps, light.sun, rh.hit.geomID, leafIndex, isLeaf, depth, share)) {
+            if (lit(p - n * eps)) {
                 out += albedo * light.sunIrradiance * (-cosL * translucency / kPi);
             }
         }
         if (!share.haveSky && o.aoRays > 0) {
-            share.sky = skyIrradiance(above, n, skyRadiance, o.aoRays, rng);
+            share.sky = gridSky(above, n, skyRadiance) * nearOpen(vs.open[rh.hit.geomID], obj, rh,
+                                                                  leafIndex, seenFront, above, n,
+                                                                  o.aoRays, rng);
             share.haveSky = true;
         }
         out += albedo * share.sky * (1.0 / kPi);
@@ -410,6 +589,7 @@ void ColourScene::addTree(const Tree& tree, const Mesh& wood, const Mesh& leaves
     w.kind = ObjectKind::kWood;
     w.mesh = &wood;
     w.look = lookIndex;
+    w.seed = treeSeed;
     m.objects.push_back(std::move(w));
     m.addGeometry(wood.positions.data(), wood.vertexCount(), wood.indices.data(),
                   wood.triangleCount());
@@ -430,11 +610,28 @@ void ColourScene::addTree(const Tree& tree, const Mesh& wood, const Mesh& leaves
         }
         l.leafFront.insert(l.leafFront.end(), leaves.indices.begin() + 3 * tri,
                            leaves.indices.begin() + 3 * (tri + t));
+        l.leafFirst.push_back(static_cast<uint32_t>(l.leafOf.size()));
         l.leafOf.insert(l.leafOf.end(), t, static_cast<uint32_t>(i));
         l.leafClass.push_back(leaf.colour);
         l.leafLightness.push_back(static_cast<float>(
             leafLightness(treeSeed, static_cast<uint32_t>(i), look.leafVariation)));
         tri += 2 * t;
+    }
+    l.leafFirst.push_back(static_cast<uint32_t>(l.leafOf.size()));
+    l.seed = treeSeed;
+    l.leafShared.resize(tree.leaves.size());
+    for (size_t i = 0; i < tree.leaves.size(); ++i) {
+        const Vec3 centre = Impl::leafCentre(l, static_cast<uint32_t>(i));
+        double reach = 0.0;
+        for (uint32_t t = l.leafFirst[i]; t < l.leafFirst[i + 1]; ++t) {
+            for (int c = 0; c < 3; ++c) {
+                const uint32_t v = l.leafFront[3 * size_t(t) + c];
+                reach = std::max(reach, distance(centre, Vec3{leaves.positions[3 * v],
+                                                              leaves.positions[3 * v + 1],
+                                                              leaves.positions[3 * v + 2]}));
+            }
+        }
+        l.leafShared[i] = reach <= kSharedLeaf ? 1 : 0;
     }
     m.objects.push_back(std::move(l));
     const ColourObject& added = m.objects.back();
@@ -499,18 +696,20 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
         skyRadiance[k] = light.sky(m.skyGrid->directions()[k]);
     }
     const int samples = std::max(1, options.samples);
+    const Impl::ViewShare viewShare = m.viewShare(options.aoRays);
     const bool opaque = options.background != ColourBackground::kTransparent;
     const Vec3 eye{camera.cameraToWorld[0][3], camera.cameraToWorld[1][3],
                    camera.cameraToWorld[2][3]};
     const Vec3 forward{-camera.cameraToWorld[0][2], -camera.cameraToWorld[1][2],
                        -camera.cameraToWorld[2][2]};
+    const double focal = camera.fx();
     auto ray = [&](double px, double py, Vec3& o, Vec3& d) {
         if (camera.orthographic) {
-            o = camera.unproject(px, py, 0.0);
+            o = camera.unproject(px, py, 0.0, focal);
             d = forward;
         } else {
             o = eye;
-            d = normalize(camera.unproject(px, py, 1.0) - eye);
+            d = normalize(camera.unproject(px, py, 1.0, focal) - eye);
         }
     };
     auto inMask = [&](int x, int y) {
@@ -567,7 +766,7 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
                         continue;
                     }
                     if (hit) {
-                        tree += m.shade(rh, d, light, skyRadiance, options, prng, share);
+                        tree += m.shade(rh, d, light, skyRadiance, viewShare, options, prng, share);
                         ++covered;
                     } else if (opaque) {
                         back += m.background(o, d, light, options);

@@ -39,7 +39,8 @@ enum class ColourBackground : uint8_t {
 struct ColourOptions {
     bool enabled = false;  // colour: an NNN_rgb image per view
     int samples = 4;       // colour_samples: samples per pixel (the centre and samples − 1 more)
-    int aoRays = 4;        // colour_ao_rays: sky rays per pixel (one estimate per pixel)
+    int aoRays = 4;        // colour_ao_rays: near sky rays per estimate (per small leaf side
+                           // and wood vertex, once per scene; per pixel on the rest)
     ColourBackground background = ColourBackground::kTransparent;
     LinearRgb backgroundColour{1, 1, 1};       // colour_background_colour
     double sunElevationDeg[2] = {25.0, 65.0};  // colour_sun_elevation_deg: drawn per view

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <tuple>
 
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
@@ -97,16 +98,19 @@ TEST(ColourViews, EveryColourImageIsRegisteredWithItsMask) {
     }
 }
 
+// Each on a scene of its own, so that the light the scene keeps for its views (the near sky
+// per leaf and wood vertex) is found afresh on one thread and on many.
 TEST(ColourViews, TheSameBytesOnOneThreadAndOnMany) {
     const Grown& g = hawthorn();
-    const ColourScene scene(g.tree, g.wood, g.leaves, g.look, 11);
     ColourOptions o;
     o.background = ColourBackground::kSky;
     std::vector<uint8_t> one, many;
     {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        const ColourScene scene(g.tree, g.wood, g.leaves, g.look, 11);
         one = scene.render(g.cameras[1], g.views[1], o, Rng(9)).rgba;
     }
+    const ColourScene scene(g.tree, g.wood, g.leaves, g.look, 11);
     {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, 8);
         many = scene.render(g.cameras[1], g.views[1], o, Rng(9)).rgba;
@@ -115,6 +119,18 @@ TEST(ColourViews, TheSameBytesOnOneThreadAndOnMany) {
     // Another view stream: another light.
     const ColourImage other = scene.render(g.cameras[1], g.views[1], o, Rng(10));
     EXPECT_NE(other.rgba, one);
+}
+
+// What a scene keeps for its views is a property of the leaves and vertices alone: a view is the
+// same bytes whether the scene rendered others before it or not.
+TEST(ColourViews, AViewIsTheSameWhateverViewsCameBefore) {
+    const Grown& g = hawthorn();
+    ColourOptions o;
+    const ColourScene fresh(g.tree, g.wood, g.leaves, g.look, 11);
+    const std::vector<uint8_t> alone = fresh.render(g.cameras[2], g.views[2], o, Rng(4)).rgba;
+    const ColourScene used(g.tree, g.wood, g.leaves, g.look, 11);
+    for (int k : {0, 1}) (void)used.render(g.cameras[k], g.views[k], o, Rng(k));
+    EXPECT_EQ(used.render(g.cameras[2], g.views[2], o, Rng(4)).rgba, alone);
 }
 
 // A horizontal square leaf (normal +y) 1 m across, at y = 1 over a short stub of wood, seen by
@@ -224,6 +240,46 @@ TEST(ColourViews, ALeafInTheShadowOfAnotherGetsNoSun) {
         } else {
             EXPECT_EQ(seen.r + seen.g + seen.b, 0.0f);
         }
+    }
+}
+
+// A small leaf (corners within 15 cm of its centre) is lit as one: its centre decides. A
+// square leaf 0.2 m across at y = 1 under a zenith sun, seen from below (the sun through it),
+// with a large leaf 0.5 m above that shades its centre and its half at x < 0.05 m: every pixel
+// of the small leaf is dark, those at x > 0.05 m too, which a leaf lit point by point would show
+// in the sun. With the large leaf moved off its centre (shading x < −0.05 m only), all of it is
+// lit — the lit half as brightly as the lone leaf.
+TEST(ColourViews, ASmallLeafIsLitAsOne) {
+    auto scene = [](double blockerX) {
+        Card c;
+        addNode(c.tree, -1, {3, 0, 3}, 0.01);
+        addNode(c.tree, 0, {3, 0.05, 3}, 0.01);
+        for (const auto& [x, y, size] : {std::tuple{0.0, 1.0, 0.2}, {blockerX, 1.5, 1.0}}) {
+            Leaf leaf;
+            leaf.position = {x, y, 0};
+            leaf.normal = {0, 1, 0};
+            leaf.tangent = {1, 0, 0};
+            leaf.size = size;
+            leaf.aspect = 1.0;
+            leaf.colour = 2;
+            c.tree.leaves.push_back(leaf);
+        }
+        c.wood = tubeMesh(c.tree, TubeOptions{}, &c.nodes);
+        c.leaves = leafMesh(c.tree);
+        return c;
+    };
+    const Camera cam = orthoCamera(false);  // 64 px over 2 m: 3.125 cm a pixel, x right
+    auto green = [&](const Card& c, int px) {
+        const ColourScene s(c.tree, c.wood, c.leaves, matte(), 1);
+        const ViewImage v = renderView(c.tree, c.wood, c.nodes, cam, false, false);
+        const ColourImage img = s.render(cam, v, zenithSun(), Rng(1));
+        return srgbToLinear(img.rgba[4 * (size_t(32) * 64 + px) + 1] / 255.0);
+    };
+    const Card shadedCentre = scene(-0.45), litCentre = scene(-0.55);
+    // Pixel centres on the small leaf: 29 at x = −0.078 m, 32 at 0.016, 34 at 0.078.
+    for (int px : {29, 32, 34}) {
+        EXPECT_EQ(green(shadedCentre, px), 0.0) << px;
+        EXPECT_GT(green(litCentre, px), 0.02) << px;
     }
 }
 
