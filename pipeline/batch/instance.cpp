@@ -174,14 +174,16 @@ void scanStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     w.scanMs = msSince(t0);
 }
 
-// An instance to be packed (w.packTar set): its record names the members it will be, and
-// record.json beside its files (the record without `timing`, which is added after) becomes
-// "<id>.json" in the shard.
-static void stageForPacking(InstanceWork& w, const fs::path& out) {
+// An instance to be packed (w.packTar set): its record names the members it will be, and the
+// instance's staged archive (kPackStageFile) holds `staged` and record.json (the record without
+// `timing`, which is added after; "<id>.json" in the shard).
+static void stageForPacking(InstanceWork& w, const fs::path& out,
+                            std::vector<std::pair<std::string, std::string>> staged) {
     if (w.packTar.empty()) return;
     const std::string rel = instanceDir(w.job).generic_string();
     packRecordFiles(w.record, w.job.id, rel, w.packTar);
-    writeFileAtomic(out / rel / kPackRecordFile, w.record.dump());
+    staged.emplace_back(kPackRecordFile, w.record.dump());
+    writePackStage(out / rel, staged);
 }
 
 void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
@@ -201,7 +203,7 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
         if (!job.plot->sweptFrom.empty()) w.record["sweep"] = job.plot->sweep;
         w.record["index"] = job.index;
         w.record["seed"] = hex64(job.seed);
-        stageForPacking(w, out);
+        stageForPacking(w, out, {});
         w.writeMs = msSince(t0);
         // writePlot's timing (the scan's, within write_ms) first, then the stages'.
         w.record["timing"]["grow_ms"] = w.growMs;
@@ -212,10 +214,19 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     const fs::path rel = instanceDir(job);
     nlohmann::json files = nlohmann::json::object();
     uint64_t bytes = 0;
-    auto put = [&](const std::string& key, const std::string& name, const std::string& data) {
-        writeFileAtomic(out / rel / name, data);
-        files[key] = (rel / name).generic_string();
+    // A file of the instance: written, or kept for its staged archive when it is to be packed.
+    std::vector<std::pair<std::string, std::string>> staged;
+    auto emit = [&](const std::string& name, std::string data) {
         bytes += data.size();
+        if (w.packTar.empty()) {
+            writeFileAtomic(out / rel / name, data);
+        } else {
+            staged.emplace_back(name, std::move(data));
+        }
+    };
+    auto put = [&](const std::string& key, const std::string& name, std::string data) {
+        emit(name, std::move(data));
+        files[key] = (rel / name).generic_string();
     };
     auto count = [&](const fs::path& relPath) {  // files written by OIIO / OpenVDB
         std::error_code ec;
@@ -270,31 +281,26 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
             char stem[32];
             std::snprintf(stem, sizeof stem, "views/%03zu", k);
             vf.images.push_back(std::string(stem) + ".png");
-            writeGreyPng(out / rel / vf.images.back(), v.width, v.height, v.silhouette);
-            count(rel / vf.images.back());
+            emit(vf.images.back(), greyPngBytes(v.width, v.height, v.silhouette));
             if (o.views.depth) {
                 vf.depthExr.push_back(std::string(stem) + "_depth.exr");
-                writeDepthExr(out / rel / vf.depthExr.back(), v.width, v.height, v.depth,
-                              o.views.depthHalf);
-                count(rel / vf.depthExr.back());
+                emit(vf.depthExr.back(),
+                     depthExrBytes(v.width, v.height, v.depth, o.views.depthHalf));
             }
             if (o.views.depthPng) {
                 vf.depthPng.push_back(std::string(stem) + "_depth.png");
-                writeDepthPng(out / rel / vf.depthPng.back(), v.width, v.height, v.depth,
-                              vf.integerDepthScale);
-                count(rel / vf.depthPng.back());
+                emit(vf.depthPng.back(),
+                     depthPngBytes(v.width, v.height, v.depth, vf.integerDepthScale));
             }
             if (!w.colours.empty()) {
                 vf.colour.push_back(std::string(stem) + (o.colour.jpeg ? "_rgb.jpg" : "_rgb.png"));
                 vf.lights.push_back(w.colours[k].light);
-                writeColourImage(out / rel / vf.colour.back(), w.colours[k], o.colour.jpeg,
-                                 o.colour.jpegQuality);
-                count(rel / vf.colour.back());
+                emit(vf.colour.back(),
+                     encodeColourImage(w.colours[k], o.colour.jpeg, o.colour.jpegQuality));
             }
             if (o.views.labels) {
                 vf.labels.push_back(std::string(stem) + "_label.png");
-                writeGreyPng(out / rel / vf.labels.back(), v.width, v.height, v.labels);
-                count(rel / vf.labels.back());
+                emit(vf.labels.back(), greyPngBytes(v.width, v.height, v.labels));
             }
             coverage.push_back(silhouetteCoverage(v));
             fractal.push_back(boxCountingDimension(v));
@@ -359,7 +365,7 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
     }
     rec["stats"] = st;
     if (w.scan) rec["scan"] = w.scan->stats;
-    stageForPacking(w, out);
+    stageForPacking(w, out, std::move(staged));
     w.writeMs = msSince(t0);
     // The only fields that differ between identical builds.
     rec["timing"] = {{"grow_ms", w.growMs},

@@ -216,6 +216,30 @@ std::vector<PackSample> readPackSamples(const fs::path& tar) {
     return samples;
 }
 
+void writePackStage(const fs::path& dir,
+                    const std::vector<std::pair<std::string, std::string>>& files) {
+    TarWriter writer(dir / kPackStageFile);
+    for (const auto& [name, bytes] : files) writer.add(name, bytes);
+    writer.commit();
+}
+
+std::vector<std::pair<std::string, std::string>> readInstanceFiles(const fs::path& dir) {
+    std::vector<std::pair<std::string, std::string>> out;
+    for (const std::string& f : filesUnder(dir)) {
+        if (f != kPackStageFile) {
+            out.emplace_back(f, readInputFile(dir / f, kMaxMemberBytes, "an instance file"));
+            continue;
+        }
+        const fs::path staged = dir / f;
+        const std::string archive = readInputFile(staged, kMaxMemberBytes, "a staged instance");
+        for (const TarMember& m : indexTar(staged)) {
+            out.emplace_back(m.name, archive.substr(m.offset, m.size));
+        }
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
 void sealPackShard(const fs::path& out, const DatasetInstances& instances, const PackLayout& layout,
                    int64_t shard, const std::vector<int64_t>& positions) {
     const fs::path tar = out / layout.tarPath(shard);
@@ -238,13 +262,13 @@ void sealPackShard(const fs::path& out, const DatasetInstances& instances, const
             }
             if (fs::exists(dir, ec)) packedDirs.push_back(dir);
         } else if (fs::is_directory(dir, ec)) {
-            const std::vector<std::string> files = filesUnder(dir);
-            const std::set<std::string> fileSet(files.begin(), files.end());
+            std::vector<std::pair<std::string, std::string>> files = readInstanceFiles(dir);
+            std::set<std::string> fileSet;
+            for (const auto& [f, bytes] : files) fileSet.insert(f);
             std::vector<std::pair<std::string, std::string>> named;
-            for (const std::string& f : files) {
-                std::string bytes = readInputFile(dir / f, kMaxMemberBytes, "an instance file");
-                bytes = rewriteReferences(std::move(bytes), job.id, f, fileSet);
-                named.emplace_back(packMemberName(job.id, f), std::move(bytes));
+            for (auto& [f, bytes] : files) {
+                named.emplace_back(packMemberName(job.id, f),
+                                   rewriteReferences(std::move(bytes), job.id, f, fileSet));
             }
             std::sort(named.begin(), named.end());
             for (const auto& [name, bytes] : named) {
@@ -392,6 +416,12 @@ std::optional<std::string> DatasetFiles::readInstanceFile(const std::string& id,
     std::error_code ec;
     const fs::path p = dir_ / instanceDir / relPath;
     if (fs::is_regular_file(p, ec)) return readInputFile(p, kMaxMemberBytes, "an instance file");
+    const fs::path staged = dir_ / instanceDir / kPackStageFile;
+    if (fs::is_regular_file(staged, ec)) {
+        for (const TarMember& m : indexTar(staged)) {
+            if (m.name == relPath) return readTarMember(staged, m);
+        }
+    }
     if (tarPath.empty()) return std::nullopt;
     return member(tarPath, packMemberName(id, relPath));
 }

@@ -1,8 +1,8 @@
 // Packed datasets ([outputs] pack = "tar"): instances in WebDataset tar shards, shard k holding
 // the recorded instances at positions k·M … (k + 1)·M − 1 (M = pack_instances) in position
 // order, so a shard's bytes depend on the spec alone — not on threads, --shard blocks (whole
-// tar shards when packing) or resumed runs. An instance is written unpacked first (its
-// directory, as an unpacked build writes it, plus record.json) and packed when its tar shard is
+// tar shards when packing) or resumed runs. An instance is staged first (its directory holding
+// its files as one archive, kPackStageFile, with record.json) and packed when its tar shard is
 // sealed. Layout and member names: docs/outputs.md "Packed datasets".
 #pragma once
 
@@ -28,6 +28,20 @@ constexpr int64_t kMaxPackInstances = 1'000'000;
 
 // An instance's record without `timing`, staged in its directory and packed as "<id>.json".
 inline constexpr char kPackRecordFile[] = "record.json";
+
+// A packed build's instance waits for its shard as one archive in its directory: its files
+// (record.json among them), each a member named by its path in the directory — one file to
+// create, write and remove per instance where each output was one (28 for 8 views with depth and
+// labels). What writers that take a path write (contact sheets, previews, scans, QSMs, VDB
+// grids) stays beside it as files.
+inline constexpr char kPackStageFile[] = "staged.tar";
+// Writes `files` (path in the instance directory, bytes) as `dir`/staged.tar (temp + rename).
+void writePackStage(const std::filesystem::path& dir,
+                    const std::vector<std::pair<std::string, std::string>>& files);
+// An instance directory's files as paths in it and bytes: the staged archive's members and the
+// files beside it, by path (temp files of interrupted writes left out).
+std::vector<std::pair<std::string, std::string>> readInstanceFiles(
+    const std::filesystem::path& dir);
 
 struct PackLayout {
     int64_t perShard = 0;  // M; 0: unpacked

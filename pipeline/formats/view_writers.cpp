@@ -269,15 +269,23 @@ nlohmann::json transformsJson(const std::vector<Camera>& cameras, const ViewFile
     return j;
 }
 
-void writeGreyPng(const fs::path& path, int width, int height, const std::vector<uint8_t>& pixels) {
+std::string greyPngBytes(int width, int height, const std::vector<uint8_t>& pixels) {
     checkSize(width, height, pixels.size(), "writeGreyPng");
-    writeFileAtomic(path, encodeGreyPng(width, height, pixels.data()));
+    return encodeGreyPng(width, height, pixels.data());
+}
+
+void writeGreyPng(const fs::path& path, int width, int height, const std::vector<uint8_t>& pixels) {
+    writeFileAtomic(path, greyPngBytes(width, height, pixels));
+}
+
+std::string depthExrBytes(int width, int height, const std::vector<float>& depth, bool half) {
+    checkSize(width, height, depth.size(), "writeDepthExr");
+    return encodeFloatExr(width, height, depth.data(), "Y", half);
 }
 
 void writeDepthExr(const fs::path& path, int width, int height, const std::vector<float>& depth,
                    bool half) {
-    checkSize(width, height, depth.size(), "writeDepthExr");
-    writeFileAtomic(path, encodeFloatExr(width, height, depth.data(), "Y", half));
+    writeFileAtomic(path, depthExrBytes(width, height, depth, half));
 }
 
 double integerDepthScale(const std::vector<ViewImage>& views) {
@@ -314,11 +322,15 @@ std::vector<uint16_t> depthToUnits(const std::vector<float>& depth, double scale
     return units;
 }
 
-void writeDepthPng(const fs::path& path, int width, int height, const std::vector<float>& depth,
-                   double scale) {
+std::string depthPngBytes(int width, int height, const std::vector<float>& depth, double scale) {
     checkSize(width, height, depth.size(), "writeDepthPng");
     const std::vector<uint16_t> units = depthToUnits(depth, scale);
-    writeFileAtomic(path, encodeGrey16Png(width, height, units.data()));
+    return encodeGrey16Png(width, height, units.data());
+}
+
+void writeDepthPng(const fs::path& path, int width, int height, const std::vector<float>& depth,
+                   double scale) {
+    writeFileAtomic(path, depthPngBytes(width, height, depth, scale));
 }
 
 std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<ViewImage>& views) {

@@ -37,12 +37,14 @@ struct ViewFiles {
 nlohmann::json transformsJson(const std::vector<Camera>& cameras, const ViewFiles& files,
                               const NgpPlacement& placement);
 
-// Writers (atomic: temp name + rename).
+// Writers (atomic: temp name + rename), and the bytes each writes.
 void writeGreyPng(const std::filesystem::path& path, int width, int height,
                   const std::vector<uint8_t>& pixels);
+std::string greyPngBytes(int width, int height, const std::vector<uint8_t>& pixels);
 // half: the channel as 16-bit half floats (image_codecs.h).
 void writeDepthExr(const std::filesystem::path& path, int width, int height,
                    const std::vector<float>& depth, bool half = false);
+std::string depthExrBytes(int width, int height, const std::vector<float>& depth, bool half);
 
 // A colour picture: an RGBA PNG (sRGB, straight alpha), or with `jpeg` a JPEG of its RGB at
 // `quality` (1–100; opaque backgrounds only: the alpha is dropped).
@@ -64,6 +66,7 @@ double integerDepthScale(const std::vector<ViewImage>& views);
 std::vector<uint16_t> depthToUnits(const std::vector<float>& depth, double scale);
 void writeDepthPng(const std::filesystem::path& path, int width, int height,
                    const std::vector<float>& depth, double scale);
+std::string depthPngBytes(int width, int height, const std::vector<float>& depth, double scale);
 // Depth maps back-projected to world points: binary PLY with float x y z, uchar label,
 // uchar view.
 std::string pointCloudPly(const std::vector<Camera>& cameras, const std::vector<ViewImage>& views);

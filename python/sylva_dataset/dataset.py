@@ -6,6 +6,7 @@ import io
 import json
 import os
 import re
+import tarfile
 from collections import namedtuple
 
 import numpy as np
@@ -91,6 +92,11 @@ class _DirectoryFiles:
         return os.path.join(os.path.dirname(of), name)
 
 
+# What a packed build keeps of an instance until it writes the instance's shard: its files as
+# members of one archive in its directory (pipeline/batch/pack.h kPackStageFile).
+STAGE_FILE = "staged.tar"
+
+
 class _TarFiles:
     """A packed instance's files: names are members of its tar shard, and so are a frame's.
     Until the shard holds them (the build is running, or was killed before it wrote the shard)
@@ -105,9 +111,27 @@ class _TarFiles:
             return self.shards.read(self.tar, name)
         except (FileNotFoundError, KeyError):
             path = self._staged_path(name)
-            if path is None:
+            if path is not None:
+                return path
+            data = self._staged_member(name)
+            if data is None:
                 raise
-            return path
+            return data
+
+    def _staged_member(self, name):
+        """The bytes of a file the instance's staged archive (staged.tar in its directory: the
+        files a packed build keeps until it writes the shard) holds under `name`, its path in
+        the instance directory or its member name; None without one."""
+        if self.staged is None:
+            return None
+        archive = os.path.join(self.staged, STAGE_FILE)
+        if not os.path.isfile(archive):
+            return None
+        with tarfile.open(archive) as t:
+            for m in t.getmembers():
+                if m.isfile() and (m.name == name or member_name(self.key, m.name) == name):
+                    return t.extractfile(m).read()
+        return None
 
     def _staged_path(self, name):
         if self.staged is None:
