@@ -8,7 +8,6 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <tuple>
 
 #include "species/geometry/leaf_mesh.h"
 #include "species/geometry/tube_mesh.h"
@@ -141,16 +140,21 @@ struct Card {
     std::vector<int32_t> nodes;
 };
 
-Card card(std::vector<double> heights) {
+// Square leaves (normal +y) at (x, y, 0), `size` metres across.
+struct CardLeaf {
+    double x = 0, y = 1, size = 1;
+};
+
+Card cards(const std::vector<CardLeaf>& leaves) {
     Card c;
     addNode(c.tree, -1, {3, 0, 3}, 0.01);
     addNode(c.tree, 0, {3, 0.05, 3}, 0.01);
-    for (double h : heights) {
+    for (const CardLeaf& l : leaves) {
         Leaf leaf;
-        leaf.position = {0, h, 0};
+        leaf.position = {l.x, l.y, 0};
         leaf.normal = {0, 1, 0};
         leaf.tangent = {1, 0, 0};
-        leaf.size = 1.0;
+        leaf.size = l.size;
         leaf.aspect = 1.0;
         leaf.colour = 2;
         c.tree.leaves.push_back(leaf);
@@ -158,6 +162,12 @@ Card card(std::vector<double> heights) {
     c.wood = tubeMesh(c.tree, TubeOptions{}, &c.nodes);
     c.leaves = leafMesh(c.tree);
     return c;
+}
+
+Card card(std::vector<double> heights) {
+    std::vector<CardLeaf> leaves;
+    for (double h : heights) leaves.push_back({0.0, h, 1.0});
+    return cards(leaves);
 }
 
 Camera orthoCamera(bool fromAbove) {
@@ -248,26 +258,9 @@ TEST(ColourViews, ALeafInTheShadowOfAnotherGetsNoSun) {
 // with a large leaf 0.5 m above that shades its centre and its half at x < 0.05 m: every pixel
 // of the small leaf is dark, those at x > 0.05 m too, which a leaf lit point by point would show
 // in the sun. With the large leaf moved off its centre (shading x < −0.05 m only), all of it is
-// lit — the lit half as brightly as the lone leaf.
+// lit.
 TEST(ColourViews, ASmallLeafIsLitAsOne) {
-    auto scene = [](double blockerX) {
-        Card c;
-        addNode(c.tree, -1, {3, 0, 3}, 0.01);
-        addNode(c.tree, 0, {3, 0.05, 3}, 0.01);
-        for (const auto& [x, y, size] : {std::tuple{0.0, 1.0, 0.2}, {blockerX, 1.5, 1.0}}) {
-            Leaf leaf;
-            leaf.position = {x, y, 0};
-            leaf.normal = {0, 1, 0};
-            leaf.tangent = {1, 0, 0};
-            leaf.size = size;
-            leaf.aspect = 1.0;
-            leaf.colour = 2;
-            c.tree.leaves.push_back(leaf);
-        }
-        c.wood = tubeMesh(c.tree, TubeOptions{}, &c.nodes);
-        c.leaves = leafMesh(c.tree);
-        return c;
-    };
+    auto scene = [](double blockerX) { return cards({{0.0, 1.0, 0.2}, {blockerX, 1.5, 1.0}}); };
     const Camera cam = orthoCamera(false);  // 64 px over 2 m: 3.125 cm a pixel, x right
     auto green = [&](const Card& c, int px) {
         const ColourScene s(c.tree, c.wood, c.leaves, matte(), 1);
