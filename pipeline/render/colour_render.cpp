@@ -99,6 +99,11 @@ constexpr double kSharedLeaf = 0.15;
 // (0.18), as foliage, darker than the grey card, photographs.
 constexpr double kMeterKey = 0.08;
 
+// Vertex v's triple of a mesh's per-vertex floats (positions, normals).
+Vec3 xyz(const std::vector<float>& a, uint32_t v) {
+    return {a[3 * size_t(v)], a[3 * size_t(v) + 1], a[3 * size_t(v) + 2]};
+}
+
 uint8_t toByte(double linear) {
     return static_cast<uint8_t>(std::lround(linearToSrgb(linear) * 255.0));
 }
@@ -116,6 +121,7 @@ struct ColourObject {
     std::vector<uint32_t> leafFront;   // leaves: front-face triangles of `mesh`, 3 per triangle
     std::vector<uint32_t> leafOf;      // per front triangle, its leaf's index
     std::vector<uint32_t> leafFirst;   // per leaf, its first front triangle; one more at the end
+    std::vector<Vec3> leafCentre;      // per leaf: the mean of its front triangles' corners
     std::vector<uint8_t> leafShared;   // per leaf: small enough to be lit as one (kSharedLeaf)
     std::vector<uint8_t> leafClass;    // per leaf
     std::vector<float> leafLightness;  // per leaf
@@ -258,24 +264,9 @@ struct ColourScene::Impl {
         return sum * (kPi / weights);
     }
 
-    // A leaf's centre (the mean of its front triangles' corners) and its front's normal.
-    static Vec3 leafCentre(const ColourObject& obj, uint32_t leaf) {
-        const Mesh& mesh = *obj.mesh;
-        Vec3 centre{0, 0, 0};
-        const uint32_t first = obj.leafFirst[leaf], end = obj.leafFirst[leaf + 1];
-        for (uint32_t t = first; t < end; ++t) {
-            for (int c = 0; c < 3; ++c) {
-                const uint32_t v = obj.leafFront[3 * size_t(t) + c];
-                centre += Vec3{mesh.positions[3 * v], mesh.positions[3 * v + 1],
-                               mesh.positions[3 * v + 2]};
-            }
-        }
-        return centre / (3.0 * std::max(1u, end - first));
-    }
+    // A leaf's front's normal (its first front corner's).
     static Vec3 leafNormal(const ColourObject& obj, uint32_t leaf) {
-        const Mesh& mesh = *obj.mesh;
-        const uint32_t v = obj.leafFront[3 * size_t(obj.leafFirst[leaf])];
-        return Vec3{mesh.normals[3 * v], mesh.normals[3 * v + 1], mesh.normals[3 * v + 2]};
+        return xyz(obj.mesh->normals, obj.leafFront[3 * size_t(obj.leafFirst[leaf])]);
     }
 
     // What the pixels of one view share beyond their own: per object, the near sky's cache
@@ -309,7 +300,7 @@ struct ColourScene::Impl {
             const ColourObject& obj = objects[geom];
             const Vec3 front = leafNormal(obj, leaf);
             const Vec3 sunSide = dot(front, sun) >= 0 ? front : -front;
-            state = occluded(leafCentre(obj, leaf) + sunSide * (1e-4 * radius), sun, 0) ? 1 : 2;
+            state = occluded(obj.leafCentre[leaf] + sunSide * (1e-4 * radius), sun, 0) ? 1 : 2;
             slot.store(state, std::memory_order_relaxed);
         }
         return state == 2;
@@ -349,20 +340,14 @@ struct ColourScene::Impl {
                     Rng& rng) const {
         const double reach = nearReach(), eps = 1e-4 * radius;
         const Mesh& mesh = *obj.mesh;
-        auto vertex = [&](uint32_t v) {
-            return Vec3{mesh.positions[3 * v], mesh.positions[3 * v + 1],
-                        mesh.positions[3 * v + 2]};
-        };
-        auto normal = [&](uint32_t v) {
-            return Vec3{mesh.normals[3 * v], mesh.normals[3 * v + 1], mesh.normals[3 * v + 2]};
-        };
         if (!cache || (obj.kind == ObjectKind::kLeaves && !obj.leafShared[leaf])) {
             return openShare(above, n, rays, reach, rng);
         }
         if (obj.kind == ObjectKind::kLeaves) {
             const int side = seenFront ? 0 : 1;
             return cache->get(2 * size_t(leaf) + side, [&] {
-                const Vec3 centre = leafCentre(obj, leaf), front = leafNormal(obj, leaf);
+                const Vec3& centre = obj.leafCentre[leaf];
+                const Vec3 front = leafNormal(obj, leaf);
                 const Vec3 sideNormal = seenFront ? front : -front;
                 Rng leafRng =
                     Rng(obj.seed).derive("near-sky-leaf").derive(2 * uint64_t(leaf) + side);
@@ -375,9 +360,9 @@ struct ColourScene::Impl {
         for (int c = 0; c < 3; ++c) {
             const uint32_t v = tri[c];
             open += w[c] * cache->get(v, [&] {
-                const Vec3 nv = normalize(normal(v));
+                const Vec3 nv = normalize(xyz(mesh.normals, v));
                 Rng vertexRng = Rng(obj.seed).derive("near-sky-wood").derive(uint64_t(v));
-                return openShare(vertex(v) + nv * eps, nv, rays, reach, vertexRng);
+                return openShare(xyz(mesh.positions, v) + nv * eps, nv, rays, reach, vertexRng);
             });
         }
         return open;
@@ -447,8 +432,7 @@ struct ColourScene::Impl {
         if (obj.kind == ObjectKind::kLeaves) {
             const uint32_t leaf = leafIndex = obj.leafOf[rh.hit.primID];
             const uint32_t v0 = obj.leafFront[3 * size_t(rh.hit.primID)];
-            const Vec3 front{mesh.normals[3 * v0], mesh.normals[3 * v0 + 1],
-                             mesh.normals[3 * v0 + 2]};
+            const Vec3 front = xyz(mesh.normals, v0);
             seenFront = dot(front, view) >= 0;
             const uint8_t cls = obj.leafClass[leaf];
             albedo = of(seenFront ? look.leafFront(cls) : look.leafUnderside(cls)) *
@@ -536,12 +520,9 @@ struct ColourScene::Impl {
             const std::vector<uint32_t>& idx =
                 obj.kind == ObjectKind::kLeaves ? obj.leafFront : mesh.indices;
             const double g = obj.kind == ObjectKind::kWood ? 0.25 : 0.5;
-            auto vertex = [&](uint32_t v) {
-                return Vec3{mesh.positions[3 * v], mesh.positions[3 * v + 1],
-                            mesh.positions[3 * v + 2]};
-            };
             for (size_t t = 0; t + 2 < idx.size(); t += 3) {
-                const Vec3 a = vertex(idx[t]), bb = vertex(idx[t + 1]), c = vertex(idx[t + 2]);
+                const Vec3 a = xyz(mesh.positions, idx[t]), bb = xyz(mesh.positions, idx[t + 1]),
+                           c = xyz(mesh.positions, idx[t + 2]);
                 const double area = 0.5 * length(cross(bb - a, c - a));
                 skyGrid->addArea((a + bb + c) / 3.0, g * area);
             }
@@ -619,18 +600,20 @@ void ColourScene::addTree(const Tree& tree, const Mesh& wood, const Mesh& leaves
     }
     l.leafFirst.push_back(static_cast<uint32_t>(l.leafOf.size()));
     l.seed = treeSeed;
+    // Each leaf's centre, and whether all its corners lie within kSharedLeaf of it.
+    l.leafCentre.resize(tree.leaves.size());
     l.leafShared.resize(tree.leaves.size());
     for (size_t i = 0; i < tree.leaves.size(); ++i) {
-        const Vec3 centre = Impl::leafCentre(l, static_cast<uint32_t>(i));
+        const uint32_t* first = l.leafFront.data() + 3 * size_t(l.leafFirst[i]);
+        const uint32_t* end = l.leafFront.data() + 3 * size_t(l.leafFirst[i + 1]);
+        Vec3 centre{0, 0, 0};
+        for (const uint32_t* v = first; v != end; ++v) centre += xyz(leaves.positions, *v);
+        centre = centre / double(std::max<ptrdiff_t>(1, end - first));
         double reach = 0.0;
-        for (uint32_t t = l.leafFirst[i]; t < l.leafFirst[i + 1]; ++t) {
-            for (int c = 0; c < 3; ++c) {
-                const uint32_t v = l.leafFront[3 * size_t(t) + c];
-                reach = std::max(reach, distance(centre, Vec3{leaves.positions[3 * v],
-                                                              leaves.positions[3 * v + 1],
-                                                              leaves.positions[3 * v + 2]}));
-            }
+        for (const uint32_t* v = first; v != end; ++v) {
+            reach = std::max(reach, distance(centre, xyz(leaves.positions, *v)));
         }
+        l.leafCentre[i] = centre;
         l.leafShared[i] = reach <= kSharedLeaf ? 1 : 0;
     }
     m.objects.push_back(std::move(l));
