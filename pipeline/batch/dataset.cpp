@@ -331,9 +331,9 @@ void readOutputs(Params& o, OutputOptions& out) {
     if (out.textures && !has("glb") && !has("obj")) {
         o.fail("textures", "needs a textured mesh format: set mesh = [\"glb\"] (or obj)");
     }
-    out.meshopt =
-        o.choice("mesh_compression", std::string("none"), {"none", "meshopt"}) == "meshopt";
-    if (out.meshopt && !has("glb")) {
+    out.meshCompression =
+        o.choice("mesh_compression", std::string("none"), {"none", "meshopt", "draco"});
+    if (out.meshCompression != "none" && !has("glb")) {
         o.fail("mesh_compression", "compresses GLB meshes: set mesh = [\"glb\"] as well");
     }
     out.leafInstances = o.boolean("leaf_instances", out.leafInstances);

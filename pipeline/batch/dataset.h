@@ -78,9 +78,10 @@ struct OutputOptions {
     int previewSize = 512;
     std::vector<std::string> meshFormats;  // of "ply", "glb", "obj"; empty: no mesh
     bool textures = false;  // mesh.glb / mesh.obj textured with the species' look (needs either)
-    // mesh_compression = "meshopt": every GLB quantised and compressed (glb_meshopt.h); "none"
+    // mesh_compression = "meshopt": every GLB quantised and compressed by meshoptimizer;
+    // "draco": its meshes by Draco, its GPU instances by meshoptimizer (glb_meshopt.h); "none"
     // (the default): plain GLBs.
-    bool meshopt = false;
+    std::string meshCompression = "none";
     // Leaves meshed and drawn as their shapes' outlines (true), or every leaf as its card, one
     // quad (false): a plot's level of detail (a compound leaf's outline is ~100 triangles).
     bool leafOutlines = true;

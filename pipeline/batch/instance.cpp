@@ -68,10 +68,11 @@ void checkWatertightEstimate(const GrownTree& g, const WatertightOptions& o) {
 }  // namespace
 
 std::string meshBytes(const TreeMesh& m, const std::string& format, const MeshLook* look,
-                      bool meshopt, const std::vector<Leaf>* instances) {
+                      const std::string& compression, const std::vector<Leaf>* instances) {
     if (format == "glb") {
-        return meshopt ? compressGlbMeshopt(meshGlbParts(m, look, instances))
-                       : meshGlb(m, look, instances);
+        if (compression == "meshopt") return compressGlbMeshopt(meshGlbParts(m, look, instances));
+        if (compression == "draco") return compressGlbDraco(meshGlbParts(m, look, instances));
+        return meshGlb(m, look, instances);
     }
     return meshPly(m);
 }
@@ -252,7 +253,7 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
             put(stem + "_mtl", stem + ".mtl", meshMtl(m, ml, bark ? stem + "_bark.png" : ""));
             put(stem + "_obj", stem + ".obj", meshObj(m, stem + ".mtl", ml));
         } else {
-            put(stem + "_" + f, stem + "." + f, meshBytes(m, f, ml, o.meshopt, instances));
+            put(stem + "_" + f, stem + "." + f, meshBytes(m, f, ml, o.meshCompression, instances));
         }
     };
     for (const std::string& f : o.meshFormats) {

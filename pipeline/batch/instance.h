@@ -48,11 +48,12 @@ void renderStage(InstanceWork& w, const OutputOptions& outputs);
 void scanStage(InstanceWork& w, const OutputOptions& outputs, const std::filesystem::path& out);
 void writeStage(InstanceWork& w, const OutputOptions& outputs, const std::filesystem::path& out);
 
-// A mesh as a "glb" (compressed with meshopt: glb_meshopt.h; textured with `look`; its leaves
-// as GPU instances of `instances`, the leaves m.leaves was made from: mesh_writers.h) or "ply"
-// file's bytes (OBJ, with its MTL beside it, is written by the callers).
+// A mesh as a "glb" (compressed as `compression` says, "none", "meshopt" or "draco":
+// glb_meshopt.h; textured with `look`; its leaves as GPU instances of `instances`, the leaves
+// m.leaves was made from: mesh_writers.h) or "ply" file's bytes (OBJ, with its MTL beside it,
+// is written by the callers).
 std::string meshBytes(const TreeMesh& m, const std::string& format, const MeshLook* look,
-                      bool meshopt, const std::vector<Leaf>* instances = nullptr);
+                      const std::string& compression, const std::vector<Leaf>* instances = nullptr);
 
 // Relative directory of an instance's files: trees/<species>/<id>, or plots/<plot>/<id>.
 std::filesystem::path instanceDir(const InstanceJob& job);

@@ -115,7 +115,7 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
                 put("", dir / "mesh.mtl", meshMtl(m, ml, bark ? "mesh_bark.png" : ""));
                 put("", dir / "mesh.obj", meshObj(m, "mesh.mtl", ml));
             } else {
-                put("", dir / ("mesh." + f), meshBytes(m, f, ml, o.meshopt, instanced));
+                put("", dir / ("mesh." + f), meshBytes(m, f, ml, o.meshCompression, instanced));
             }
         }
         nlohmann::json st = toJson(computeStats(atOrigin(t.grown.tree, t.stem.base)));

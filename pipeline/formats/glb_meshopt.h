@@ -31,6 +31,24 @@
 // Buffer 0 (the BIN chunk) holds the compressed views and any image (the bark texture: already
 // PNG, kept as it is); buffer 1 is EXT_meshopt_compression's fallback buffer — no bytes, only
 // its length, the decoded views' home.
+//
+// compressGlbDraco: the same file with every mesh that is not drawn as instances compressed by
+// Draco (KHR_draco_mesh_compression, Google's Draco as three.js's DRACOLoader, Blender, Babylon.js
+// and glTF Transform decode it), about a quarter of meshoptimizer's bytes for a tree's tubes:
+// Draco codes the connectivity with Edgebreaker and predicts each vertex from its neighbours
+// (parallelogram prediction). Its accessors keep their glTF types (floats) and take the
+// decoded counts (Draco may split a vertex where the surface is not a manifold) and the decoded
+// positions' bounds; they have no buffer view. Quantisation inside the Draco data:
+//   POSITION  one grid for the file: 16 bits over the positions' largest extent, so a
+//             coordinate is off by at most half its step (report.positionError);
+//   NORMAL    8 bits, octahedral (within 1°); COLOR_0 8 bits;
+//   TEXCOORD_0  at least 12 bits and at least 512 steps a unit (a texture's repeat) over the
+//             coordinates' range: off by at most 1/1024;
+//   _ORDER, _COLOUR  whole numbers, so integers (UNSIGNED_BYTE, or SHORT past 255), exact.
+// The vertices and triangles come in Draco's order, not meshGlb's. Nodes keep no transform.
+// The GPU instances and their leaf cards go through meshoptimizer as above (then the file uses
+// EXT_meshopt_compression and KHR_mesh_quantization as well); without instances it uses
+// KHR_draco_mesh_compression alone, required.
 #pragma once
 
 #include <cstdint>
@@ -52,5 +70,10 @@ std::string compressGlbMeshopt(const std::string& glb, GlbCompression* report = 
 // The same from meshGlb's parts (mesh_writers.h meshGlbParts), without writing the plain file
 // and reading it back: the same bytes as compressGlbMeshopt(glbFromParts(parts)).
 std::string compressGlbMeshopt(const GlbParts& parts, GlbCompression* report = nullptr);
+
+// Draco for the meshes, meshoptimizer for GPU instances (above); refuses what
+// compressGlbMeshopt refuses, and primitives that are not indexed triangle lists.
+std::string compressGlbDraco(const std::string& glb, GlbCompression* report = nullptr);
+std::string compressGlbDraco(const GlbParts& parts, GlbCompression* report = nullptr);
 
 }  // namespace sylva
