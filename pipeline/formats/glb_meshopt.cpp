@@ -154,12 +154,12 @@ namespace {
 // Draco's and glTF-Pipeline's defaults; 10 bits made four library trees' files 2–5 % larger);
 // texture coordinates at least 512 steps a unit (a texture's repeat: off by at most 1/1024 of
 // it; 4,096 steps made the files 1–15 % larger) and at least 12 bits over their range; vertex
-// colours 8 bits. Speed 5 of Draco's 0 … 10 (its default): on four library
-// trees its files were smaller than at 0 or 3 (0.6–7 %) and 9–10 (8–22 % larger), and no slower.
+// colours 8 bits. Speed 7 of Draco's 0 (smallest) … 10 (fastest): on one tree of each library
+// species the same bytes as its default 5 (and as 6) in 0.85× the CPU; 8 made them 9 % larger.
 constexpr int kDracoPositionBits = 16, kDracoNormalBits = 8, kDracoColourBits = 8;
 constexpr double kDracoUvSteps = 512;  // per unit
 constexpr int kDracoUvMinBits = 12;
-constexpr int kDracoSpeed = 5;
+constexpr int kDracoSpeed = 7;
 
 // An attribute's Draco type, or refuses it.
 draco::GeometryAttribute::Type dracoType(const std::string& name) {

@@ -228,13 +228,15 @@ def read_glb(source, name=None):
     the file's bytes; name: what error messages call it. Leaves written as GPU instances
     ([outputs] leaf_instances: EXT_mesh_gpu_instancing) are drawn out, one copy of the node's
     mesh per instance, in the order of their _LEAF ids: the same vertices, in the same order, as
-    the plain file's leaves (up to float rounding). A compressed file (EXT_meshopt_compression)
-    is not read."""
+    the plain file's leaves (up to float rounding). A compressed file (EXT_meshopt_compression,
+    KHR_draco_mesh_compression) is not read."""
     data, path = read_source(source, name)
     gltf, binary = _glb_chunks(data, path)
-    if "EXT_meshopt_compression" in gltf.get("extensionsUsed", []):
-        raise ValueError("%s: EXT_meshopt_compression is not read here (three.js, gltfpack, "
-                         "Blender read it); write the plain GLB to read it with numpy" % path)
+    for codec, readers in (("KHR_draco_mesh_compression", "three.js, glTF Transform, Blender"),
+                           ("EXT_meshopt_compression", "three.js, gltfpack, Blender")):
+        if codec in gltf.get("extensionsUsed", []):
+            raise ValueError("%s: %s is not read here (%s read it); write the plain GLB to read "
+                             "it with numpy" % (path, codec, readers))
     scenes = gltf.get("scenes", [])
     roots = scenes[gltf.get("scene", 0)].get("nodes", []) if scenes else range(len(gltf.get("nodes", [])))
     parts = []

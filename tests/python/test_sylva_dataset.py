@@ -302,6 +302,16 @@ def test_glb_transform(np, sd, tmp):
     m = sd.read_glb(p)
     check(m.positions.tolist() == [[1, 2, 3], [3, 2, 3], [1, 4, 3]], "GLB node transforms: %r" % m.positions.tolist())
     check(m.faces.tolist() == [[0, 2, 1]] and m.part.tolist() == [1, 1, 1], "GLB faces (uint16) and part")
+    # A compressed file is refused by name, not misread.
+    for codec in ("KHR_draco_mesh_compression", "EXT_meshopt_compression"):
+        js = json.dumps(dict(gltf, extensionsUsed=[codec])).encode()
+        js += b" " * (-len(js) % 4)
+        body = struct.pack("<I4s", len(js), b"JSON") + js + struct.pack("<I4s", len(binary), b"BIN\0") + binary
+        try:
+            sd.read_glb(struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body, "c.glb")
+            check(False, "a GLB using %s was read" % codec)
+        except ValueError as e:
+            check(codec in str(e) and "c.glb" in str(e), "the refusal names %s: %s" % (codec, e))
 
 
 def ply_vertex_bytes(path):
