@@ -121,30 +121,31 @@ json partsDocument(const GlbParts& parts) {
     return doc;
 }
 
+std::string compressFile(const std::string& glb, bool draco, GlbCompression* report) {
+    tCaller = draco ? "compressGlbDraco" : "compressGlbMeshopt";
+    std::vector<std::string_view> source;
+    json doc = parseGlb(glb, source);
+    return compress(std::move(doc), std::move(source), glb.size(), draco, report);
+}
+
+std::string compressParts(const GlbParts& parts, bool draco, GlbCompression* report) {
+    tCaller = draco ? "compressGlbDraco" : "compressGlbMeshopt";
+    return compress(partsDocument(parts), parts.views, plainSize(parts), draco, report);
+}
+
 }  // namespace
 
 std::string compressGlbMeshopt(const std::string& glb, GlbCompression* report) {
-    tCaller = "compressGlbMeshopt";
-    std::vector<std::string_view> source;
-    json doc = parseGlb(glb, source);
-    return compress(std::move(doc), std::move(source), glb.size(), false, report);
+    return compressFile(glb, false, report);
 }
-
 std::string compressGlbMeshopt(const GlbParts& parts, GlbCompression* report) {
-    tCaller = "compressGlbMeshopt";
-    return compress(partsDocument(parts), parts.views, plainSize(parts), false, report);
+    return compressParts(parts, false, report);
 }
-
 std::string compressGlbDraco(const std::string& glb, GlbCompression* report) {
-    tCaller = "compressGlbDraco";
-    std::vector<std::string_view> source;
-    json doc = parseGlb(glb, source);
-    return compress(std::move(doc), std::move(source), glb.size(), true, report);
+    return compressFile(glb, true, report);
 }
-
 std::string compressGlbDraco(const GlbParts& parts, GlbCompression* report) {
-    tCaller = "compressGlbDraco";
-    return compress(partsDocument(parts), parts.views, plainSize(parts), true, report);
+    return compressParts(parts, true, report);
 }
 
 namespace {

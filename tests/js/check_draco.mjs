@@ -23,14 +23,12 @@
 //   - the compressed file is smaller than the plain one; the sizes are printed.
 //
 // Usage: node tests/js/check_draco.mjs DRACO_DATASET_DIR PLAIN_DATASET_DIR
-import fs from 'node:fs';
-import path from 'node:path';
 import { createRequire } from 'node:module';
 import { NodeIO } from '@gltf-transform/core';
 import { ALL_EXTENSIONS } from '@gltf-transform/extensions';
 import draco3d from 'draco3dgltf';
 import { MeshoptDecoder } from 'meshoptimizer';
-import { filesUnder } from './gltf_node.mjs';
+import { glbJson, pairedFiles } from './gltf_node.mjs';
 
 const validator = createRequire(import.meta.url)('gltf-validator');
 
@@ -48,13 +46,6 @@ const io = new NodeIO().registerExtensions(ALL_EXTENSIONS).registerDependencies(
     'draco3d.decoder': await draco3d.createDecoderModule(),
     'meshopt.decoder': MeshoptDecoder,
 });
-
-// The GLB's JSON chunk.
-function glbJson(bytes) {
-    const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
-    const length = view.getUint32(12, true);
-    return JSON.parse(new TextDecoder().decode(bytes.subarray(20, 20 + length)));
-}
 
 // Node name → { node, mesh, instances } of a glTF Transform document.
 function meshNodes(doc) {
@@ -259,16 +250,8 @@ function compareInstances(rel, name, a, b, nodeA, nodeB) {
 }
 
 let files = 0, bytesPlain = 0, bytesDraco = 0;
-for (const file of filesUnder(dracoRoot, (name) => name.endsWith('.glb'))) {
-    const rel = path.relative(dracoRoot, file);
-    const plainFile = path.join(plainRoot, rel);
-    if (!fs.existsSync(plainFile)) {
-        fail(rel, 'no plain GLB of the same tree');
-        continue;
-    }
+for (const { rel, packed, plain } of pairedFiles(dracoRoot, plainRoot, (n) => n.endsWith('.glb'), fail)) {
     ++files;
-    const packed = new Uint8Array(fs.readFileSync(file));
-    const plain = new Uint8Array(fs.readFileSync(plainFile));
     bytesDraco += packed.length;
     bytesPlain += plain.length;
     if (packed.length >= plain.length) fail(rel, `not smaller: ${packed.length} ≥ ${plain.length}`);

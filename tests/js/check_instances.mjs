@@ -18,11 +18,9 @@
 //     for a tree without leaves, a plot's the leaf area thinned bare).
 //
 // Usage: node tests/js/check_instances.mjs INSTANCED_DATASET_DIR PLAIN_DATASET_DIR
-import fs from 'node:fs';
-import path from 'node:path';
 import { createRequire } from 'node:module';
 import { Matrix3, Matrix4, Vector3 } from 'three';
-import { decodeImagesWithPng, filesUnder, parseGlb } from './gltf_node.mjs';
+import { decodeImagesWithPng, glbJson, pairedFiles, parseGlb } from './gltf_node.mjs';
 
 const validator = createRequire(import.meta.url)('gltf-validator');
 
@@ -35,12 +33,6 @@ if (!instRoot || !plainRoot) {
 const failures = [];
 const fail = (file, what) => failures.push(`${file}: ${what}`);
 decodeImagesWithPng();
-
-function glbJson(bytes) {
-    const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
-    const length = view.getUint32(12, true);
-    return JSON.parse(new TextDecoder().decode(bytes.subarray(20, 20 + length)));
-}
 
 async function load(bytes) {
     const meshes = [];
@@ -55,16 +47,8 @@ function triangle(a) {
 }
 
 let files = 0, leavesChecked = 0, bytesPlain = 0, bytesInst = 0;
-for (const file of filesUnder(instRoot, (name) => name === 'mesh.glb')) {
-    const rel = path.relative(instRoot, file);
-    const plainFile = path.join(plainRoot, rel);
-    if (!fs.existsSync(plainFile)) {
-        fail(rel, 'no plain GLB of the same tree');
-        continue;
-    }
+for (const { rel, packed: inst, plain } of pairedFiles(instRoot, plainRoot, (n) => n === 'mesh.glb', fail)) {
     ++files;
-    const inst = new Uint8Array(fs.readFileSync(file));
-    const plain = new Uint8Array(fs.readFileSync(plainFile));
     bytesInst += inst.length;
     bytesPlain += plain.length;
     const doc = glbJson(inst);

@@ -15,10 +15,8 @@
 //   - the compressed file is smaller than the plain one; the sizes are printed.
 //
 // Usage: node tests/js/check_meshopt.mjs COMPRESSED_DATASET_DIR PLAIN_DATASET_DIR
-import fs from 'node:fs';
-import path from 'node:path';
 import { createRequire } from 'node:module';
-import { decodeImagesWithPng, filesUnder, parseGlb } from './gltf_node.mjs';
+import { decodeImagesWithPng, pairedFiles, parseGlb } from './gltf_node.mjs';
 
 const validator = createRequire(import.meta.url)('gltf-validator');
 
@@ -47,16 +45,8 @@ function triangle(index, t) {
 }
 
 let files = 0, bytesPlain = 0, bytesPacked = 0;
-for (const file of filesUnder(packedRoot, (name) => name.endsWith('.glb'))) {
-    const rel = path.relative(packedRoot, file);
-    const plainFile = path.join(plainRoot, rel);
-    if (!fs.existsSync(plainFile)) {
-        fail(rel, 'no plain GLB of the same tree');
-        continue;
-    }
+for (const { rel, packed, plain } of pairedFiles(packedRoot, plainRoot, (n) => n.endsWith('.glb'), fail)) {
     ++files;
-    const packed = new Uint8Array(fs.readFileSync(file));
-    const plain = new Uint8Array(fs.readFileSync(plainFile));
     bytesPacked += packed.length;
     bytesPlain += plain.length;
     if (packed.length >= plain.length) fail(rel, `not smaller: ${packed.length} ≥ ${plain.length}`);

@@ -1,5 +1,6 @@
 // What the GLB checks share in Node.js: images decoded for three.js's GLTFLoader, the files of
-// a dataset by name, and a GLB parsed by GLTFLoader (with three's MeshoptDecoder for
+// a dataset by name (and paired with a plain dataset's), a GLB's JSON, and a GLB parsed by
+// GLTFLoader (with three's MeshoptDecoder for
 // EXT_meshopt_compression), its world matrices up to date.
 import fs from 'node:fs';
 import path from 'node:path';
@@ -27,6 +28,29 @@ export function filesUnder(dir, keep) {
         else if (keep(e.name)) out.push(p);
     }
     return out.sort();
+}
+
+// The GLBs under `root` (those whose name `keep` accepts) each with the file of the same path
+// under `plainRoot`: { rel, packed, plain } (bytes); a file without its plain twin is reported
+// through `fail(rel, what)` and skipped.
+export function* pairedFiles(root, plainRoot, keep, fail) {
+    for (const file of filesUnder(root, keep)) {
+        const rel = path.relative(root, file);
+        const plainFile = path.join(plainRoot, rel);
+        if (!fs.existsSync(plainFile)) {
+            fail(rel, 'no plain GLB of the same tree');
+            continue;
+        }
+        yield { rel, packed: new Uint8Array(fs.readFileSync(file)),
+                plain: new Uint8Array(fs.readFileSync(plainFile)) };
+    }
+}
+
+// The JSON chunk of a GLB's bytes.
+export function glbJson(bytes) {
+    const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
+    const length = view.getUint32(12, true);
+    return JSON.parse(new TextDecoder().decode(bytes.subarray(20, 20 + length)));
 }
 
 // The glTF of a GLB's bytes as GLTFLoader makes it.
