@@ -20,23 +20,34 @@
 //     cards, through meshoptimizer) and the instances themselves are compared in order: card
 //     positions within 1e-6 m, instance translations in the world within 1 mm, rotations within
 //     0.001 a quaternion component (sign free), scales within 0.1 % of their largest component;
-//   - the compressed file is smaller than the plain one; the sizes are printed.
+//   - the compressed file is smaller than the plain one; the sizes are printed;
+//   - with --render OUT_DIR: three.js (GLTFLoader with its DRACOLoader and MeshoptDecoder, in
+//     headless Chromium: render_glb.mjs) draws the first textured mesh.glb and its plain twin
+//     from one camera, unlit and lit, 512² (the PNGs kept in OUT_DIR): the pictures' coverage
+//     agrees (IoU ≥ kRenderIou) and, over the pixels both cover, the mean colour difference is
+//     at most kRenderMeanDiff of 255 per channel.
 //
-// Usage: node tests/js/check_draco.mjs DRACO_DATASET_DIR PLAIN_DATASET_DIR
+// Usage: node tests/js/check_draco.mjs DRACO_DATASET_DIR PLAIN_DATASET_DIR [--render OUT_DIR]
 import { createRequire } from 'node:module';
 import { NodeIO } from '@gltf-transform/core';
 import { ALL_EXTENSIONS } from '@gltf-transform/extensions';
 import draco3d from 'draco3dgltf';
 import { MeshoptDecoder } from 'meshoptimizer';
+import fs from 'node:fs';
+import path from 'node:path';
 import { glbJson, pairedFiles } from './gltf_node.mjs';
+import { decodePng } from './png.mjs';
+import { renderGlbViews } from './render_glb.mjs';
 
 const validator = createRequire(import.meta.url)('gltf-validator');
 
-const [dracoRoot, plainRoot] = process.argv.slice(2);
-if (!dracoRoot || !plainRoot) {
-    console.error('usage: node check_draco.mjs DRACO_DATASET_DIR PLAIN_DATASET_DIR');
+const [dracoRoot, plainRoot, renderFlag, renderDir] = process.argv.slice(2);
+if (!dracoRoot || !plainRoot || (renderFlag !== undefined && (renderFlag !== '--render' || !renderDir))) {
+    console.error('usage: node check_draco.mjs DRACO_DATASET_DIR PLAIN_DATASET_DIR [--render OUT_DIR]');
     process.exit(2);
 }
+const kRenderIou = 0.995, kRenderMeanDiff = 1.0;
+let rendered = null;  // the pair drawn with --render
 
 const failures = [];
 const fail = (file, what) => failures.push(`${file}: ${what}`);
@@ -309,6 +320,10 @@ for (const { rel, packed, plain } of pairedFiles(dracoRoot, plainRoot, (n) => n.
         }
     }
 
+    if (renderDir && !rendered && rel.endsWith('mesh.glb') &&
+        (json.images ?? []).length > 0) {
+        rendered = { rel, packed, plain };
+    }
     const docA = await io.readBinary(packed), docB = await io.readBinary(plain);
     // The grid: the plain file's positions (meshes not drawn as instances), 65535 steps over
     // their largest extent; half a step, and float rounding of coordinates of tens of metres.
@@ -352,6 +367,67 @@ for (const { rel, packed, plain } of pairedFiles(dracoRoot, plainRoot, (n) => n.
         if (!!a.instances !== !!b.instances) fail(rel, `${name}: instanced in one file only`);
         else if (a.instances) compareInstances(rel, name, a.instances, b.instances, a.node, b.node);
     }
+}
+// Both files drawn by three.js from one camera: on the plain file's bounding sphere's centre,
+// from the side (+z), 2.4 radii away, fov 40°.
+async function compareRendered({ rel, packed, plain }) {
+    const doc = await io.readBinary(plain);
+    const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+    for (const mesh of doc.getRoot().listMeshes()) {
+        for (const prim of mesh.listPrimitives()) {
+            const p = prim.getAttribute('POSITION');
+            const mn = p.getMinNormalized([]), mx = p.getMaxNormalized([]);
+            for (let c = 0; c < 3; ++c) {
+                lo[c] = Math.min(lo[c], mn[c]);
+                hi[c] = Math.max(hi[c], mx[c]);
+            }
+        }
+    }
+    const centre = lo.map((v, c) => (v + hi[c]) / 2);
+    const radius = Math.hypot(...hi.map((v, c) => v - lo[c])) / 2;
+    const matrix = [1, 0, 0, centre[0], 0, 1, 0, centre[1], 0, 0, 1, centre[2] + 2.4 * radius,
+                    0, 0, 0, 1];
+    const camera = { matrix, fovDeg: 40, width: 512, height: 512 };
+    const views = [
+        { camera, unlit: true },
+        { camera, light: { direction: [0.4, 1, 0.6], intensity: Math.PI }, ambient: 0.4 * Math.PI },
+    ];
+    fs.mkdirSync(renderDir, { recursive: true });
+    const log = path.join(renderDir, 'chromium.stderr');
+    const [a, b] = [await renderGlbViews(packed, views, { log }), await renderGlbViews(plain, views, { log })];
+    const notes = [];
+    views.forEach((v, k) => {
+        const name = v.unlit ? 'unlit' : 'lit';
+        fs.writeFileSync(path.join(renderDir, `draco_${name}.png`), a[k].png);
+        fs.writeFileSync(path.join(renderDir, `plain_${name}.png`), b[k].png);
+        const x = decodePng(a[k].png), y = decodePng(b[k].png);
+        let both = 0, either = 0;
+        const diff = [0, 0, 0];
+        for (let i = 0; i < x.width * x.height; ++i) {
+            const ca = x.data[i * x.channels + 3] > 0, cb = y.data[i * y.channels + 3] > 0;
+            either += ca || cb;
+            if (!(ca && cb)) continue;
+            ++both;
+            for (let c = 0; c < 3; ++c) {
+                diff[c] += Math.abs(x.data[i * x.channels + c] - y.data[i * y.channels + c]);
+            }
+        }
+        const iou = both / Math.max(1, either);
+        const mean = diff.map((d) => d / Math.max(1, both));
+        if (both < 1000) fail(rel, `${name}: only ${both} pixels drawn`);
+        if (!(iou >= kRenderIou)) fail(rel, `${name}: coverage IoU ${iou.toFixed(4)} against the plain file's`);
+        if (mean.some((m) => !(m <= kRenderMeanDiff))) {
+            fail(rel, `${name}: mean colour difference ${mean.map((m) => m.toFixed(2))} of 255`);
+        }
+        notes.push(`${name}: ${both} pixels, IoU ${iou.toFixed(4)}, mean difference ` +
+                   `${mean.map((m) => m.toFixed(3))} of 255`);
+    });
+    console.log(`  ${rel} drawn by three.js (${a[0].renderer}), Draco vs plain: ${notes.join('; ')}`);
+}
+
+if (renderDir) {
+    if (rendered) await compareRendered(rendered);
+    else fail(dracoRoot, 'no textured mesh.glb to draw');
 }
 if (files === 0) fail(dracoRoot, 'no GLB');
 if (failures.length) {

@@ -123,8 +123,14 @@ window.addEventListener('unhandledrejection', (e) => post({ error: String(e.reas
 try {
     const THREE = await import('three');
     const { GLTFLoader } = await import('three/addons/loaders/GLTFLoader.js');
+    const { DRACOLoader } = await import('three/addons/loaders/DRACOLoader.js');
+    const { MeshoptDecoder } = await import('three/addons/libs/meshopt_decoder.module.js');
     const { views } = await (await fetch('/params.json')).json();
-    const gltf = await new GLTFLoader().loadAsync('/model.glb');
+    // Compressed files too: three's Draco decoder (WebAssembly, in a worker) and meshopt's.
+    const loader = new GLTFLoader()
+        .setDRACOLoader(new DRACOLoader().setDecoderPath('/three/examples/jsm/libs/draco/gltf/'))
+        .setMeshoptDecoder(MeshoptDecoder);
+    const gltf = await loader.loadAsync('/model.glb');
     const scene = new THREE.Scene();
     scene.add(gltf.scene);
     // Each mesh's own material and its unlit twin (same colour, map, vertex colours, sides).
@@ -209,7 +215,8 @@ try {
 }
 </script></body></html>`;
 
-const kTypes = { '.js': 'text/javascript', '.html': 'text/html', '.json': 'application/json' };
+const kTypes = { '.js': 'text/javascript', '.html': 'text/html', '.json': 'application/json',
+                 '.wasm': 'application/wasm' };
 
 // A view's parameters as the page takes them (the options of renderGlb below).
 function viewParams(options) {
