@@ -261,7 +261,9 @@ function compareInstances(rel, name, a, b, nodeA, nodeB) {
 }
 
 let files = 0, bytesPlain = 0, bytesDraco = 0;
-for (const { rel, packed, plain } of pairedFiles(dracoRoot, plainRoot, (n) => n.endsWith('.glb'), fail)) {
+// (A plot's scene.glb stays plain, with either codec: only its trees' files are compressed.)
+const compressed = (n) => n.endsWith('.glb') && n !== 'scene.glb';
+for (const { rel, packed, plain } of pairedFiles(dracoRoot, plainRoot, compressed, fail)) {
     ++files;
     bytesDraco += packed.length;
     bytesPlain += plain.length;
