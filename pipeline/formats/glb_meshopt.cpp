@@ -6,6 +6,7 @@
 #include <meshoptimizer.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <deque>
@@ -201,6 +202,7 @@ std::vector<bool> dracoPrimitives(json& doc, std::vector<std::string_view>& sour
     auto floatsOf = [&](size_t accessor, int n, size_t& count) -> const float* {
         const json& acc = accessors.at(accessor);
         count = acc.at("count");
+        if (!acc.contains("bufferView")) refuse("an accessor shared by primitives");
         const size_t v = acc.at("bufferView");
         if (acc.at("componentType") != kFloat || components(acc.at("type")) != n ||
             v >= views.size() || views[v].contains("byteStride") ||
@@ -218,6 +220,7 @@ std::vector<bool> dracoPrimitives(json& doc, std::vector<std::string_view>& sour
             }
             const size_t ia = prim["indices"];
             const json& iacc = accessors.at(ia);
+            if (!iacc.contains("bufferView")) refuse("an accessor shared by primitives");
             const size_t iv = iacc.at("bufferView");
             const size_t nIdx = iacc.at("count");
             if (iacc.at("componentType") != kUnsignedInt || nIdx % 3 != 0 ||

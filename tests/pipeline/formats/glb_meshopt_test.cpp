@@ -354,10 +354,8 @@ TEST(GlbDraco, DecodesToThePlainMeshWithinTheStatedQuantisation) {
     }
 }
 
-TEST(GlbDraco, RefusesWhatItCannotTake) {
-    EXPECT_THROW(compressGlbDraco("not a glb at all, not at all"), std::invalid_argument);
-    Glb g = parse(meshGlb(sampleMesh()));
-    g.doc["meshes"][0]["primitives"][0]["mode"] = 1;  // lines
+// The GLB of a parsed document and its BIN chunk.
+std::string glbOf(const Glb& g) {
     std::string text = g.doc.dump();
     while (text.size() % 4) text.push_back(' ');
     std::string glb;
@@ -371,13 +369,28 @@ TEST(GlbDraco, RefusesWhatItCannotTake) {
     u32(static_cast<uint32_t>(g.bin.size()));
     u32(0x004E4942u);
     glb += g.bin;
-    try {
-        compressGlbDraco(glb);
-        ADD_FAILURE() << "a line primitive was taken";
-    } catch (const std::invalid_argument& e) {
-        EXPECT_EQ(std::string(e.what()),
-                  "compressGlbDraco: a primitive that is not an indexed triangle list");
-    }
+    return glb;
+}
+
+TEST(GlbDraco, RefusesWhatItCannotTake) {
+    EXPECT_THROW(compressGlbDraco("not a glb at all, not at all"), std::invalid_argument);
+    const Glb plain = parse(meshGlb(sampleMesh()));
+    auto refusal = [](const Glb& g) {
+        try {
+            compressGlbDraco(glbOf(g));
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string("taken");
+    };
+    Glb lines = plain;
+    lines.doc["meshes"][0]["primitives"][0]["mode"] = 1;
+    EXPECT_EQ(refusal(lines), "compressGlbDraco: a primitive that is not an indexed triangle list");
+    Glb shared = plain;  // the leaves drawn with the wood's positions
+    shared.doc["meshes"][1]["primitives"][0]["attributes"]["POSITION"] =
+        shared.doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"];
+    EXPECT_EQ(refusal(shared), "compressGlbDraco: an accessor shared by primitives");
+    EXPECT_EQ(refusal(plain), "taken");
 }
 
 }  // namespace
