@@ -34,14 +34,15 @@
 //
 // compressGlbDraco: the same file with every mesh that is not drawn as instances compressed by
 // Draco (KHR_draco_mesh_compression, Google's Draco as three.js's DRACOLoader, Blender, Babylon.js
-// and glTF Transform decode it), about a quarter of meshoptimizer's bytes for a tree's tubes:
+// and glTF Transform decode it), about 0.4 of meshoptimizer's bytes for a tree's tubes:
 // Draco codes the connectivity with Edgebreaker and predicts each vertex from its neighbours
 // (parallelogram prediction). Its accessors keep their glTF types (floats) and take the
 // decoded counts (Draco may split a vertex where the surface is not a manifold) and the decoded
 // positions' bounds; they have no buffer view. Quantisation inside the Draco data:
 //   POSITION  one grid for the file: 16 bits over the positions' largest extent, so a
 //             coordinate is off by at most half its step (report.positionError);
-//   NORMAL    8 bits, octahedral (within 1°); COLOR_0 8 bits;
+//   NORMAL    8 bits, octahedral (about 1° at most: half a cell's diagonal seen head-on on an
+//             octahedron face is 0.96°); COLOR_0 8 bits;
 //   TEXCOORD_0  at least 12 bits and at least 512 steps a unit (a texture's repeat) over the
 //             coordinates' range: off by at most 1/1024;
 //   _ORDER, _COLOUR  whole numbers, so integers (UNSIGNED_BYTE, or SHORT past 255), exact.
