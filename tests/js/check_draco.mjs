@@ -81,6 +81,22 @@ function attributes(prim) {
     return out;
 }
 
+// The bounds of the meshes' positions (each mesh in its own frame).
+function bounds(meshes) {
+    const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+    for (const mesh of meshes) {
+        for (const prim of mesh.listPrimitives()) {
+            const p = prim.getAttribute('POSITION');
+            const mn = p.getMinNormalized([]), mx = p.getMaxNormalized([]);
+            for (let c = 0; c < 3; ++c) {
+                lo[c] = Math.min(lo[c], mn[c]);
+                hi[c] = Math.max(hi[c], mx[c]);
+            }
+        }
+    }
+    return { lo, hi };
+}
+
 function indices(prim) {
     const a = prim.getIndices();
     return a ? Array.from(a.getArray()) : null;
@@ -329,19 +345,8 @@ for (const { rel, packed, plain } of pairedFiles(dracoRoot, plainRoot, compresse
     const docA = await io.readBinary(packed), docB = await io.readBinary(plain);
     // The grid: the plain file's positions (meshes not drawn as instances), 65535 steps over
     // their largest extent; half a step, and float rounding of coordinates of tens of metres.
-    const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
     const nodesB = meshNodes(docB);
-    for (const { mesh, instances } of nodesB.values()) {
-        if (instances) continue;
-        for (const prim of mesh.listPrimitives()) {
-            const p = prim.getAttribute('POSITION');
-            const mn = p.getMinNormalized([]), mx = p.getMaxNormalized([]);
-            for (let c = 0; c < 3; ++c) {
-                lo[c] = Math.min(lo[c], mn[c]);
-                hi[c] = Math.max(hi[c], mx[c]);
-            }
-        }
-    }
+    const { lo, hi } = bounds([...nodesB.values()].filter((n) => !n.instances).map((n) => n.mesh));
     const range = Math.max(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
     const posTol = range / 65535 / 2 + 1e-5;
     const nodesA = meshNodes(docA);
@@ -373,18 +378,7 @@ for (const { rel, packed, plain } of pairedFiles(dracoRoot, plainRoot, compresse
 // Both files drawn by three.js from one camera: on the plain file's bounding sphere's centre,
 // from the side (+z), 2.4 radii away, fov 40°.
 async function compareRendered({ rel, packed, plain }) {
-    const doc = await io.readBinary(plain);
-    const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
-    for (const mesh of doc.getRoot().listMeshes()) {
-        for (const prim of mesh.listPrimitives()) {
-            const p = prim.getAttribute('POSITION');
-            const mn = p.getMinNormalized([]), mx = p.getMaxNormalized([]);
-            for (let c = 0; c < 3; ++c) {
-                lo[c] = Math.min(lo[c], mn[c]);
-                hi[c] = Math.max(hi[c], mx[c]);
-            }
-        }
-    }
+    const { lo, hi } = bounds((await io.readBinary(plain)).getRoot().listMeshes());
     const centre = lo.map((v, c) => (v + hi[c]) / 2);
     const radius = Math.hypot(...hi.map((v, c) => v - lo[c])) / 2;
     const matrix = [1, 0, 0, centre[0], 0, 1, 0, centre[1], 0, 0, 1, centre[2] + 2.4 * radius,
