@@ -267,14 +267,12 @@ std::vector<bool> dracoPrimitives(json& doc, std::vector<std::string_view>& sour
                 const draco::GeometryAttribute::Type type = dracoType(name);
                 draco::DataType dt = draco::DT_FLOAT32;
                 int componentType = kFloat;
+                const float* end = f + n * nv;
+                const auto [least, most] = std::minmax_element(f, end);
+                const float vmin = nv > 0 ? *least : 0.0f, vmax = nv > 0 ? *most : 0.0f;
                 if (type == draco::GeometryAttribute::GENERIC) {
-                    bool whole = true;
-                    float vmin = 0, vmax = 0;
-                    for (size_t i = 0; i < n * nv && whole; ++i) {
-                        whole = std::isfinite(f[i]) && f[i] == std::round(f[i]);
-                        vmin = i == 0 ? f[i] : std::min(vmin, f[i]);
-                        vmax = i == 0 ? f[i] : std::max(vmax, f[i]);
-                    }
+                    const bool whole = std::all_of(
+                        f, end, [](float x) { return std::isfinite(x) && x == std::round(x); });
                     if (whole && vmin >= 0 && vmax <= 255) {
                         dt = draco::DT_UINT8;
                         componentType = kUnsignedByte;
@@ -283,12 +281,7 @@ std::vector<bool> dracoPrimitives(json& doc, std::vector<std::string_view>& sour
                         componentType = kShort;
                     }
                 } else if (type == draco::GeometryAttribute::TEX_COORD) {
-                    float umin = 0, umax = 0;
-                    for (size_t i = 0; i < n * nv; ++i) {
-                        umin = i == 0 ? f[i] : std::min(umin, f[i]);
-                        umax = i == 0 ? f[i] : std::max(umax, f[i]);
-                    }
-                    const double span = std::max(1.0, double(umax) - double(umin));
+                    const double span = std::max(1.0, double(vmax) - double(vmin));
                     const int bits =
                         std::clamp(static_cast<int>(std::ceil(std::log2(span * kDracoUvSteps))),
                                    kDracoUvMinBits, 30);

@@ -398,10 +398,6 @@ std::string encodeColourImage(const ColourImage& image, bool jpeg, int quality) 
     return bytes;
 }
 
-void writeColourImage(const fs::path& path, const ColourImage& image, bool jpeg, int quality) {
-    writeFileAtomic(path, encodeColourImage(image, jpeg, quality));
-}
-
 void writeColourContactSheet(const fs::path& path, const std::vector<ColourImage>& images,
                              int columns) {
     if (images.empty()) throw std::invalid_argument("writeColourContactSheet: no images");

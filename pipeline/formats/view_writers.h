@@ -46,10 +46,8 @@ void writeDepthExr(const std::filesystem::path& path, int width, int height,
                    const std::vector<float>& depth, bool half = false);
 std::string depthExrBytes(int width, int height, const std::vector<float>& depth, bool half);
 
-// A colour picture: an RGBA PNG (sRGB, straight alpha), or with `jpeg` a JPEG of its RGB at
-// `quality` (1–100; opaque backgrounds only: the alpha is dropped).
-void writeColourImage(const std::filesystem::path& path, const ColourImage& image, bool jpeg,
-                      int quality);
+// A colour picture's bytes: an RGBA PNG (sRGB, straight alpha), or with `jpeg` a JPEG of its RGB
+// at `quality` (1–100; opaque backgrounds only: the alpha is dropped).
 std::string encodeColourImage(const ColourImage& image, bool jpeg, int quality);
 // All colour views of an instance tiled in a grid, over white (RGB PNG).
 void writeColourContactSheet(const std::filesystem::path& path,
