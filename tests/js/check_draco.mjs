@@ -35,7 +35,7 @@ import draco3d from 'draco3dgltf';
 import { MeshoptDecoder } from 'meshoptimizer';
 import fs from 'node:fs';
 import path from 'node:path';
-import { glbJson, pairedFiles } from './gltf_node.mjs';
+import { glbJson, pairedFiles, triangleKey } from './gltf_node.mjs';
 import { decodePng } from './png.mjs';
 import { renderGlbViews } from './render_glb.mjs';
 
@@ -113,13 +113,6 @@ const angleDeg = (a, b) => {
     return Math.acos(Math.max(-1, Math.min(1, c))) * 180 / Math.PI;
 };
 
-// A triangle's key with its winding: the rotation that puts the smallest index first.
-function key(a, b, c) {
-    if (a <= b && a <= c) return `${a},${b},${c}`;
-    if (b <= a && b <= c) return `${b},${c},${a}`;
-    return `${c},${a},${b}`;
-}
-
 function compareDraco(rel, name, prim, ref, posTol) {
     const A = attributes(prim), B = attributes(ref);
     if (Object.keys(A).sort().join() !== Object.keys(B).sort().join()) {
@@ -183,7 +176,7 @@ function compareDraco(rel, name, prim, ref, posTol) {
     }
     const remaining = new Map();
     for (let t = 0; t < refIdx.length / 3; ++t) {
-        const k = key(refIdx[3 * t], refIdx[3 * t + 1], refIdx[3 * t + 2]);
+        const k = triangleKey([refIdx[3 * t], refIdx[3 * t + 1], refIdx[3 * t + 2]]);
         remaining.set(k, (remaining.get(k) ?? 0) + 1);
     }
     for (let t = 0; t < idx.length / 3; ++t) {
@@ -192,7 +185,7 @@ function compareDraco(rel, name, prim, ref, posTol) {
         for (const x of matches[a]) {
             for (const y of matches[b]) {
                 for (const z of matches[c]) {
-                    const k = key(x, y, z);
+                    const k = triangleKey([x, y, z]);
                     if ((remaining.get(k) ?? 0) > 0) {
                         remaining.set(k, remaining.get(k) - 1);
                         ok = true;
@@ -238,7 +231,8 @@ function compareInOrder(rel, name, prim, ref) {
     if (indices(prim).join() !== indices(ref).join()) {
         const a = indices(prim), b = indices(ref);
         for (let t = 0; t < b.length / 3; ++t) {
-            if (key(a[3 * t], a[3 * t + 1], a[3 * t + 2]) !== key(b[3 * t], b[3 * t + 1], b[3 * t + 2])) {
+            const at = (x) => triangleKey([x[3 * t], x[3 * t + 1], x[3 * t + 2]]);
+            if (at(a) !== at(b)) {
                 fail(rel, `${name}: card triangle ${t} differs`);
                 return;
             }

@@ -20,7 +20,7 @@
 // Usage: node tests/js/check_instances.mjs INSTANCED_DATASET_DIR PLAIN_DATASET_DIR
 import { createRequire } from 'node:module';
 import { Matrix3, Matrix4, Vector3 } from 'three';
-import { decodeImagesWithPng, glbJson, pairedFiles, parseGlb } from './gltf_node.mjs';
+import { decodeImagesWithPng, glbJson, pairedFiles, parseGlb, triangleKey } from './gltf_node.mjs';
 
 const validator = createRequire(import.meta.url)('gltf-validator');
 
@@ -38,12 +38,6 @@ async function load(bytes) {
     const meshes = [];
     (await parseGlb(bytes, true)).scene.traverse((o) => { if (o.isMesh) meshes.push(o); });
     return meshes;
-}
-
-// A triangle as a string, rotated so that its smallest index comes first (winding kept).
-function triangle(a) {
-    const k = a.indexOf(Math.min(...a));
-    return `${a[k]},${a[(k + 1) % 3]},${a[(k + 2) % 3]}`;
 }
 
 let files = 0, leavesChecked = 0, bytesPlain = 0, bytesInst = 0;
@@ -160,8 +154,8 @@ for (const { rel, packed: inst, plain } of pairedFiles(instRoot, plainRoot, (n) 
         }
         const tris = gIdx.count / 3;
         for (let t = 0; t < tris; ++t) {
-            const mine = triangle([0, 1, 2].map((c) => gIdx.getX(3 * t + c) + v0));
-            const theirs = triangle([0, 1, 2].map((c) => pIdx.getX(3 * (t0 + t) + c)));
+            const mine = triangleKey([0, 1, 2].map((c) => gIdx.getX(3 * t + c) + v0));
+            const theirs = triangleKey([0, 1, 2].map((c) => pIdx.getX(3 * (t0 + t) + c)));
             if (mine !== theirs) {
                 fail(rel, `leaf ${leaf}: triangle ${t} ${mine} vs the plain file's ${theirs}`);
                 break;

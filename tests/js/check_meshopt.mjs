@@ -16,7 +16,7 @@
 //
 // Usage: node tests/js/check_meshopt.mjs COMPRESSED_DATASET_DIR PLAIN_DATASET_DIR
 import { createRequire } from 'node:module';
-import { decodeImagesWithPng, pairedFiles, parseGlb } from './gltf_node.mjs';
+import { decodeImagesWithPng, pairedFiles, parseGlb, triangleKey } from './gltf_node.mjs';
 
 const validator = createRequire(import.meta.url)('gltf-validator');
 
@@ -37,11 +37,9 @@ async function load(bytes, decoder) {
     return meshes;
 }
 
-// A triangle as a string, rotated so that its smallest index comes first (winding kept).
+// Triangle t of an index attribute, as triangleKey makes it.
 function triangle(index, t) {
-    const a = [index.getX(3 * t), index.getX(3 * t + 1), index.getX(3 * t + 2)];
-    const k = a.indexOf(Math.min(...a));
-    return `${a[k]},${a[(k + 1) % 3]},${a[(k + 2) % 3]}`;
+    return triangleKey([index.getX(3 * t), index.getX(3 * t + 1), index.getX(3 * t + 2)]);
 }
 
 let files = 0, bytesPlain = 0, bytesPacked = 0;

@@ -46,6 +46,13 @@ export function* pairedFiles(root, plainRoot, keep, fail) {
     }
 }
 
+// A triangle (three vertex indices) as a string, rotated so that its smallest index comes first
+// (winding kept): equal for the same triangle however its corners were rotated.
+export function triangleKey(a) {
+    const k = a.indexOf(Math.min(...a));
+    return `${a[k]},${a[(k + 1) % 3]},${a[(k + 2) % 3]}`;
+}
+
 // The JSON chunk of a GLB's bytes.
 export function glbJson(bytes) {
     const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
