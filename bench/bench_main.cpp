@@ -286,7 +286,8 @@ static void LeafShapeRender(benchmark::State& state) {
 BENCHMARK(LeafShapeRender)->DenseRange(0, 6)->Unit(benchmark::kMillisecond);
 
 // Writing one view's files to a RAM disk (/dev/shm when present): the silhouette PNG, the
-// label PNG, the depth EXR and the 16-bit depth PNG (Arg 0, 1, 2, 3), per file.
+// label PNG, the depth EXR, the 16-bit depth PNG and the depth EXR ZIP-compressed (Arg 0, 1,
+// 2, 3, 4), per file.
 static void WriteViewFile(benchmark::State& state) {
     GrownTree g = demoTree();
     ViewOptions vo;
@@ -307,6 +308,9 @@ static void WriteViewFile(benchmark::State& state) {
             case 2:
                 writeDepthExr(out.string() + ".exr", v.width, v.height, v.depth);
                 break;
+            case 4:
+                writeDepthExr(out.string() + ".exr", v.width, v.height, v.depth, false, true);
+                break;
             default:
                 writeDepthPng(out.string() + ".png", v.width, v.height, v.depth,
                               integerDepthScale({v}));
@@ -316,7 +320,7 @@ static void WriteViewFile(benchmark::State& state) {
     fs::remove(out.string() + ".png");
     fs::remove(out.string() + ".exr");
 }
-BENCHMARK(WriteViewFile)->DenseRange(0, 3)->Unit(benchmark::kMicrosecond);
+BENCHMARK(WriteViewFile)->DenseRange(0, 4)->Unit(benchmark::kMicrosecond);
 
 // Builds `spec` into a fresh `out` on `threads` once per iteration (removing the last build
 // untimed), then calls measure(summary) untimed; removes `out` at the end.

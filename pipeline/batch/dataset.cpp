@@ -437,6 +437,10 @@ void readViews(Params& v, ViewOptions& vo, RenderOptions& ro, ColourOptions& co)
     vo.depth = v.boolean("depth", vo.depth);
     vo.depthHalf = v.boolean("depth_half", vo.depthHalf);
     if (vo.depthHalf && !vo.depth) v.fail("depth_half", "needs depth = true");
+    if (v.has("depth_compression")) {
+        vo.depthZip = v.choice("depth_compression", "rle", {"rle", "zip"}) == "zip";
+        if (!vo.depth) v.fail("depth_compression", "needs depth = true");
+    }
     vo.depthPng = v.boolean("depth_png", vo.depthPng);
     vo.labels = v.boolean("labels", vo.labels);
     vo.pointCloud = v.boolean("point_cloud", vo.pointCloud);

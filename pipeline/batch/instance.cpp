@@ -285,8 +285,8 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
             emit(vf.images.back(), greyPngBytes(v.width, v.height, v.silhouette));
             if (o.views.depth) {
                 vf.depthExr.push_back(std::string(stem) + "_depth.exr");
-                emit(vf.depthExr.back(),
-                     depthExrBytes(v.width, v.height, v.depth, o.views.depthHalf));
+                emit(vf.depthExr.back(), depthExrBytes(v.width, v.height, v.depth,
+                                                       o.views.depthHalf, o.views.depthZip));
             }
             if (o.views.depthPng) {
                 vf.depthPng.push_back(std::string(stem) + "_depth.png");

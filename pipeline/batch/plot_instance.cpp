@@ -182,7 +182,8 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
             if (o.views.depth) {
                 vf.depthExr.push_back(stem + "_depth.exr");
                 put("", vf.depthExr.back(),
-                    encodeFloatExr(v.width, v.height, v.depth.data(), "Y", o.views.depthHalf));
+                    encodeFloatExr(v.width, v.height, v.depth.data(), "Y", o.views.depthHalf,
+                                   o.views.depthZip ? ExrCompression::kZip : ExrCompression::kRle));
             }
             if (o.views.depthPng) {
                 vf.depthPng.push_back(stem + "_depth.png");

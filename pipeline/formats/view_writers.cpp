@@ -278,14 +278,16 @@ void writeGreyPng(const fs::path& path, int width, int height, const std::vector
     writeFileAtomic(path, greyPngBytes(width, height, pixels));
 }
 
-std::string depthExrBytes(int width, int height, const std::vector<float>& depth, bool half) {
+std::string depthExrBytes(int width, int height, const std::vector<float>& depth, bool half,
+                          bool zip) {
     checkSize(width, height, depth.size(), "writeDepthExr");
-    return encodeFloatExr(width, height, depth.data(), "Y", half);
+    return encodeFloatExr(width, height, depth.data(), "Y", half,
+                          zip ? ExrCompression::kZip : ExrCompression::kRle);
 }
 
 void writeDepthExr(const fs::path& path, int width, int height, const std::vector<float>& depth,
-                   bool half) {
-    writeFileAtomic(path, depthExrBytes(width, height, depth, half));
+                   bool half, bool zip) {
+    writeFileAtomic(path, depthExrBytes(width, height, depth, half, zip));
 }
 
 double integerDepthScale(const std::vector<ViewImage>& views) {

@@ -41,10 +41,11 @@ nlohmann::json transformsJson(const std::vector<Camera>& cameras, const ViewFile
 void writeGreyPng(const std::filesystem::path& path, int width, int height,
                   const std::vector<uint8_t>& pixels);
 std::string greyPngBytes(int width, int height, const std::vector<uint8_t>& pixels);
-// half: the channel as 16-bit half floats (image_codecs.h).
+// half: the channel as 16-bit half floats; zip: ZIP compression, else RLE (image_codecs.h).
 void writeDepthExr(const std::filesystem::path& path, int width, int height,
-                   const std::vector<float>& depth, bool half = false);
-std::string depthExrBytes(int width, int height, const std::vector<float>& depth, bool half);
+                   const std::vector<float>& depth, bool half = false, bool zip = false);
+std::string depthExrBytes(int width, int height, const std::vector<float>& depth, bool half,
+                          bool zip = false);
 
 // A colour picture's bytes: an RGBA PNG (sRGB, straight alpha), or with `jpeg` a JPEG of its RGB
 // at `quality` (1–100; opaque backgrounds only: the alpha is dropped).

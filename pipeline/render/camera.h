@@ -24,6 +24,7 @@ struct ViewOptions {
     double margin = 1.05;           // bounding sphere radius × margin fills the frame
     bool depth = false;             // depth EXR per view (float metres; nerfstudio, Blender)
     bool depthHalf = false;         // the depth EXR's channel as 16-bit half floats
+    bool depthZip = false;          // the depth EXR ZIP-compressed (else RLE)
     bool depthPng = false;          // 16-bit depth PNG per view (instant-ngp)
     bool labels = false;            // label PNG per view
     bool pointCloud = false;        // labelled point cloud PLY per instance (needs depth)

@@ -10,6 +10,8 @@ Builds tests/data/nerf_dataset.toml with the given sylva executable, then for ev
   nerfstudio does (origin + depth x R (x/f, -y/f, -1), z-depth) gives the same points, and
   wood pixels (label images) land on the skeleton's tubes, which reading the value as ray
   length would not (checked: it misses);
+- the same build with `depth_compression = "zip"`: every EXR says "zip" to OpenImageIO and
+  OpenCV reads the very bits of the RLE build's;
 - the 16-bit PNG read with OpenCV as uint16 equals round(depth / integer_depth_scale), 0 off
   the tree;
 - transforms.json's keys typed as the readers take them (aabb_scale an int, scale and
@@ -196,6 +198,32 @@ def main():
         check(len(instances) == 3, f"3 instances built (got {len(instances)})")
         for inst in instances:
             check_instance(inst)
+        # ZIP-compressed depth: the same pixels, as OpenCV (nerfstudio's reader) decodes them.
+        with open(os.path.join(src, "tests/data/nerf_dataset.toml")) as f:
+            text = f.read()
+        text = text.replace('file = "tiny.toml"', 'file = "%s"' % os.path.join(src, "tests/data/tiny.toml"))
+        text = text.replace("depth = true\n", 'depth = true\ndepth_compression = "zip"\n', 1)
+        check('depth_compression = "zip"' in text, "the ZIP spec carries the key")
+        zspec = os.path.join(tmp, "zip.toml")
+        with open(zspec, "w") as f:
+            f.write(text)
+        zout = os.path.join(tmp, "zip")
+        subprocess.run([exe, "build", zspec, "--out", zout, "--threads", "2"], check=True,
+                       stdout=subprocess.DEVNULL)
+        exrs = sorted(glob.glob(os.path.join(out, "trees", "*", "*", "views", "*_depth.exr")))
+        check(len(exrs) == 12, f"12 depth maps (got {len(exrs)})")
+        for exr in exrs:
+            other = os.path.join(zout, os.path.relpath(exr, out))
+            a = cv2.imread(exr, cv2.IMREAD_ANYDEPTH)
+            b = cv2.imread(other, cv2.IMREAD_ANYDEPTH)
+            inp = oiio.ImageInput.open(other)
+            compression = inp.spec().get_string_attribute("compression")
+            inp.close()
+            check(compression == "zip", f"{other}: compression {compression!r}")
+            check(a is not None and b is not None and a.shape == b.shape and
+                  np.array_equal(a.view(np.uint32), b.view(np.uint32)) and (a > 0).sum() > 20,
+                  f"{other}: OpenCV reads the RLE build's bits")
+            check(os.path.getsize(other) < os.path.getsize(exr), f"{other}: smaller than RLE")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     if failures:

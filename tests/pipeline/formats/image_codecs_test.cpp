@@ -26,8 +26,10 @@ void writeBytes(const fs::path& p, const std::string& bytes) {
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
 }
 
-// Decodes an EXR through OIIO (OpenEXR) and checks it is one FLOAT channel `channel`.
-std::vector<float> readExr(const fs::path& p, int w, int h, const std::string& channel = "Y") {
+// Decodes an EXR through OIIO (OpenEXR) and checks it is one FLOAT channel `channel`,
+// compressed as `compression` says.
+std::vector<float> readExr(const fs::path& p, int w, int h, const std::string& channel = "Y",
+                           const std::string& compression = "rle") {
     auto in = OIIO::ImageInput::open(p.string());
     EXPECT_TRUE(in) << OIIO::geterror();
     if (!in) return {};
@@ -41,7 +43,7 @@ std::vector<float> readExr(const fs::path& p, int w, int h, const std::string& c
     EXPECT_EQ(spec.nchannels, 1);
     EXPECT_EQ(spec.channelnames.at(0), channel);
     EXPECT_EQ(spec.format, OIIO::TypeDesc::FLOAT);
-    EXPECT_EQ(spec.get_string_attribute("compression"), "rle");
+    EXPECT_EQ(spec.get_string_attribute("compression"), compression);
     std::vector<float> back(static_cast<size_t>(w) * h);
     EXPECT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, back.data())) << in->geterror();
     return back;
@@ -165,6 +167,64 @@ TEST(ImageCodecs, HalfExrRoundTripsAsImathsRoundingInHalfTheBytes) {
     const size_t full = encodeFloatExr(256, 256, depth.data()).size();
     const size_t halfSize = encodeFloatExr(256, 256, depth.data(), "Y", true).size();
     EXPECT_LT(halfSize, full * 6 / 10) << halfSize << " vs " << full;
+}
+
+// ZIP: chunks of 16 lines (the last one shorter), read back bit for bit by OpenEXR (through
+// OIIO) for FLOAT and HALF; incompressible chunks stored raw; a depth map in fewer bytes than
+// RLE's.
+TEST(ImageCodecs, ZipExrRoundTripsBitExactInSixteenLineChunks) {
+    TempDir dir;
+    const int sizes[][2] = {{1, 1}, {3, 5}, {257, 16}, {256, 17}, {1000, 40}, {256, 256}};
+    for (const auto& s : sizes) {
+        const int w = s[0], h = s[1];
+        const std::vector<float> img = awkwardImage(w, h, static_cast<uint32_t>(w * 7 + h));
+        const fs::path p =
+            dir.path() / ("z_" + std::to_string(w) + "x" + std::to_string(h) + ".exr");
+        writeBytes(p, encodeFloatExr(w, h, img.data(), "Y", false, ExrCompression::kZip));
+        EXPECT_TRUE(sameBits(readExr(p, w, h, "Y", "zip"), img)) << w << "x" << h;
+    }
+    // HALF through ZIP: each value as Imath rounds it.
+    const int w = 301, h = 40;
+    std::vector<float> img = awkwardImage(w, h, 23);
+    for (float& v : img) {
+        if (!std::isfinite(v) || std::abs(v) > 60000.0f) v = 3.5f;
+    }
+    const fs::path p = dir.path() / "zh.exr";
+    writeBytes(p, encodeFloatExr(w, h, img.data(), "Y", true, ExrCompression::kZip));
+    auto in = OIIO::ImageInput::open(p.string());
+    ASSERT_TRUE(in) << OIIO::geterror();
+    EXPECT_EQ(in->spec().format, OIIO::TypeDesc::HALF);
+    std::vector<uint16_t> back(static_cast<size_t>(w) * h);
+    ASSERT_TRUE(in->read_image(0, 0, 0, 1, OIIO::TypeDesc::HALF, back.data())) << in->geterror();
+    size_t wrong = 0;
+    for (size_t k = 0; k < img.size(); ++k) wrong += back[k] != Imath::half(img[k]).bits();
+    EXPECT_EQ(wrong, 0u);
+
+    // Noise: every chunk stored raw, 16 lines of 4 w bytes after its (y, size).
+    const int nw = 64, nh = 40;
+    std::vector<float> noise(static_cast<size_t>(nw) * nh);
+    std::mt19937 rng(11);
+    for (float& v : noise) {
+        const uint32_t bits = rng();
+        std::memcpy(&v, &bits, 4);
+    }
+    const std::string raw =
+        encodeFloatExr(nw, nh, noise.data(), "depth", false, ExrCompression::kZip);
+    // 281 header bytes for channel "depth", 3 offsets, chunks of 16, 16 and 8 lines.
+    EXPECT_EQ(raw.size(), 281 + 3 * 8 + 3 * 8 + static_cast<size_t>(nh) * 4 * nw);
+    writeBytes(dir.path() / "zn.exr", raw);
+    EXPECT_TRUE(sameBits(readExr(dir.path() / "zn.exr", nw, nh, "depth", "zip"), noise));
+
+    // A depth map (a disc of smooth depths on background, as half): ZIP below RLE.
+    std::vector<float> depth(256 * 256, 0.0f);
+    for (int y = 0; y < 256; ++y)
+        for (int x = 0; x < 256; ++x)
+            if ((x - 128) * (x - 128) + (y - 128) * (y - 128) < 90 * 90)
+                depth[y * 256 + x] = 20.0f + 0.013f * x - 0.007f * y + 0.3f * ((x * 7 + y * 3) % 5);
+    const size_t rle = encodeFloatExr(256, 256, depth.data(), "Y", true).size();
+    const size_t zip =
+        encodeFloatExr(256, 256, depth.data(), "Y", true, ExrCompression::kZip).size();
+    EXPECT_LT(zip, rle * 8 / 10) << zip << " vs " << rle;
 }
 
 TEST(ImageCodecs, EqualPixelsGiveEqualBytes) {
