@@ -93,7 +93,7 @@ std::string encodeBark(const MeshLook& ml, bool flipRows, const char* who) {
         throw std::invalid_argument(std::string(who) + ": bark texture size " +
                                     std::to_string(size) + " is not a power of 2 in [16, 8192]");
     }
-    std::vector<uint8_t> rgb = barkTexture(look, size);
+    std::vector<uint8_t> rgb = *sharedBarkTexture(look, size);
     if (flipRows) {
         const size_t row = 3 * static_cast<size_t>(size);
         for (int y = 0; y < size / 2; ++y) {

@@ -172,8 +172,8 @@ struct ColourScene::Impl {
     RTCScene scene = nullptr;
     std::vector<ColourObject> objects;  // by Embree geometry id
     std::vector<Look> looks;
-    std::vector<BarkTile> barks;  // per look
-    double radius = 1.0;          // the scene's bounding sphere: ray offsets scale with it
+    std::vector<std::shared_ptr<const BarkTile>> barks;  // per look
+    double radius = 1.0;  // the scene's bounding sphere: ray offsets scale with it
     double groundY = 0.0;
     bool hasGroundPlane = false;       // a tree alone: the sky background's ground plane
     std::unique_ptr<SkyGrid> skyGrid;  // the occluders' transmittance: sky light
@@ -184,7 +184,7 @@ struct ColourScene::Impl {
 
     int addLook(const Look& look) {
         looks.push_back(look);
-        barks.emplace_back(look);
+        barks.push_back(sharedBarkTile(look));
         return static_cast<int>(looks.size() - 1);
     }
 
@@ -453,7 +453,7 @@ struct ColourScene::Impl {
                 if (dot(n, view) <= 0) n = facing;
             }
             if (obj.kind == ObjectKind::kWood) {
-                albedo = of(barks[obj.look].sample(attr(mesh.uvs, 2, 0), attr(mesh.uvs, 2, 1)));
+                albedo = of(barks[obj.look]->sample(attr(mesh.uvs, 2, 0), attr(mesh.uvs, 2, 1)));
                 roughness = look.barkRoughness;
             } else if (obj.kind == ObjectKind::kTerrain) {
                 // Bare earth under a patchy sward: a value-noise mix on a 1.5 m scale.
@@ -759,7 +759,7 @@ ColourImage ColourScene::render(const Camera& camera, const ViewImage& view,
                     misses.fetch_add(1, std::memory_order_relaxed);
                     const int others = covered - 1;
                     // No other sample found it either: the bark's mean colour in half light.
-                    tree += others > 0 ? tree * (1.0 / others) : of(m.barks[0].mean()) * 0.5;
+                    tree += others > 0 ? tree * (1.0 / others) : of(m.barks[0]->mean()) * 0.5;
                 }
                 treeSum[3 * i] = float(tree.r), treeSum[3 * i + 1] = float(tree.g);
                 treeSum[3 * i + 2] = float(tree.b);

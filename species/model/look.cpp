@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <map>
+#include <mutex>
 
 #include "core/rng.h"
 
@@ -261,7 +264,8 @@ std::vector<uint8_t> barkTexture(const Look& look, int size) {
 }
 
 BarkTile::BarkTile(const Look& look, int s) : size(s) {
-    const std::vector<uint8_t> rgb = barkTexture(look, s);
+    const std::shared_ptr<const std::vector<uint8_t>> shared = sharedBarkTexture(look, s);
+    const std::vector<uint8_t>& rgb = *shared;
     texels.resize(static_cast<size_t>(s) * s);
     for (size_t i = 0; i < texels.size(); ++i) {
         texels[i] = {static_cast<float>(srgbToLinear(rgb[3 * i] / 255.0)),
@@ -292,6 +296,53 @@ LinearRgb BarkTile::mean() const {
     }
     const double n = static_cast<double>(std::max<size_t>(1, texels.size()));
     return {static_cast<float>(r / n), static_cast<float>(g / n), static_cast<float>(b / n)};
+}
+
+namespace {
+
+// The bytes a bark tile is a function of.
+std::string barkKey(const Look& look, int size, char kind) {
+    std::string key(1, kind);
+    auto put = [&](const void* p, size_t n) { key.append(static_cast<const char*>(p), n); };
+    put(&look.bark, sizeof look.bark);
+    put(&look.barkDark, sizeof look.barkDark);
+    put(&look.pattern, sizeof look.pattern);
+    put(&look.barkRepeat, sizeof look.barkRepeat);
+    put(&look.barkContrast, sizeof look.barkContrast);
+    put(&size, sizeof size);
+    return key;
+}
+
+// A bounded memo: made outside the lock (two threads asking at once may both make it; either
+// result is the same), kept under it.
+template <class T, class Make>
+std::shared_ptr<const T> memoised(const std::string& key, Make make) {
+    static std::mutex mutex;
+    static std::map<std::string, std::shared_ptr<const void>> kept;
+    constexpr size_t kKeep = 64;
+    {
+        const std::lock_guard<std::mutex> lock(mutex);
+        const auto it = kept.find(key);
+        if (it != kept.end()) return std::static_pointer_cast<const T>(it->second);
+    }
+    std::shared_ptr<const T> made = make();
+    const std::lock_guard<std::mutex> lock(mutex);
+    if (kept.size() >= kKeep) kept.clear();
+    kept.emplace(key, made);
+    return made;
+}
+
+}  // namespace
+
+std::shared_ptr<const std::vector<uint8_t>> sharedBarkTexture(const Look& look, int size) {
+    return memoised<std::vector<uint8_t>>(barkKey(look, size, 'T'), [&] {
+        return std::make_shared<const std::vector<uint8_t>>(barkTexture(look, size));
+    });
+}
+
+std::shared_ptr<const BarkTile> sharedBarkTile(const Look& look, int size) {
+    return memoised<BarkTile>(barkKey(look, size, 'L'),
+                              [&] { return std::make_shared<const BarkTile>(look, size); });
 }
 
 }  // namespace sylva

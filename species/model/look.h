@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -82,5 +83,13 @@ struct BarkTile {
     LinearRgb sample(double u, double v) const;
     LinearRgb mean() const;
 };
+
+// barkTexture and BarkTile made once per bark (the fields the tile depends on: pattern,
+// colours, repeat, contrast, size) and shared by every tree and thread of the process that asks
+// for the same bark — a dataset's trees of one species share one. The same bytes as making them
+// anew (a tile is a function of those fields alone); up to 64 barks are kept, then the memo
+// starts over.
+std::shared_ptr<const std::vector<uint8_t>> sharedBarkTexture(const Look& look, int size);
+std::shared_ptr<const BarkTile> sharedBarkTile(const Look& look, int size = 256);
 
 }  // namespace sylva

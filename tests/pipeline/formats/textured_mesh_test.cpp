@@ -378,5 +378,34 @@ TEST(TexturedMesh, WithoutALookTheBytesArePlain) {
     EXPECT_EQ(loadGlb(meshGlb(tm, &small)).images.at(0).width, 32);
 }
 
+// The shared bark tiles: the bytes barkTexture makes; one tile for one bark whoever asks
+// (however the look differs elsewhere), another for another bark or size.
+TEST(TexturedMesh, SharedBarkTilesAreTheTilesAndOnePerBark) {
+    Look oak;
+    oak.pattern = BarkPattern::kFurrowed;
+    Look oakOtherLeaves = oak;
+    oakOtherLeaves.leafTranslucency = 0.9;
+    oakOtherLeaves.leaf.assign(1, LinearRgb{0.1f, 0.5f, 0.1f});
+    Look birch = oak;
+    birch.pattern = BarkPattern::kBanded;
+    const auto a = sharedBarkTexture(oak, 64);
+    EXPECT_EQ(*a, barkTexture(oak, 64));
+    EXPECT_EQ(sharedBarkTexture(oakOtherLeaves, 64), a);
+    const auto b = sharedBarkTexture(birch, 64);
+    EXPECT_NE(b, a);
+    EXPECT_EQ(*b, barkTexture(birch, 64));
+    EXPECT_NE(*b, *a);
+    EXPECT_EQ(sharedBarkTexture(oak, 32)->size(), 32u * 32u * 3u);
+    // The tile: linear texels of the same bytes, shared likewise.
+    const auto tile = sharedBarkTile(oak, 64);
+    EXPECT_EQ(sharedBarkTile(oakOtherLeaves, 64), tile);
+    const BarkTile fresh(oak, 64);
+    ASSERT_EQ(tile->texels.size(), fresh.texels.size());
+    for (size_t k = 0; k < fresh.texels.size(); ++k) {
+        ASSERT_EQ(tile->texels[k].r, fresh.texels[k].r) << k;
+        ASSERT_EQ(tile->texels[k].b, fresh.texels[k].b) << k;
+    }
+}
+
 }  // namespace
 }  // namespace sylva
