@@ -78,7 +78,9 @@ TEST(ColourViews, EveryColourImageIsRegisteredWithItsMask) {
                     ++full;
                     EXPECT_TRUE(m) << "view " << k << " pixel " << x << "," << y;
                 }
-                if (m) EXPECT_GT(a, 0) << "view " << k << " pixel " << x << "," << y;
+                if (m) {
+                    EXPECT_GT(a, 0) << "view " << k << " pixel " << x << "," << y;
+                }
                 if (a > 0 && a < 255) {
                     ++partial;
                     bool touches = false;
