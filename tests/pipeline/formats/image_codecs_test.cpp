@@ -11,6 +11,8 @@
 #include <fstream>
 #include <limits>
 #include <random>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "tests/test_support.h"
@@ -93,17 +95,23 @@ std::vector<float> awkwardImage(int w, int h, uint32_t seed) {
     return img;
 }
 
-TEST(ImageCodecs, ExrRoundTripsBitExactThroughOpenExr) {
+// Each size's awkward image (seeded by `salt`) written with `compression` and read back through
+// OpenEXR bit for bit, the file saying `word`.
+void expectRoundTrips(const std::vector<std::pair<int, int>>& sizes, ExrCompression compression,
+                      const std::string& word, uint32_t salt) {
     TempDir dir;
-    const int sizes[][2] = {{1, 1}, {3, 5}, {1, 7}, {257, 11}, {256, 256}, {1000, 6}};
-    for (const auto& s : sizes) {
-        const int w = s[0], h = s[1];
-        const std::vector<float> img = awkwardImage(w, h, static_cast<uint32_t>(w * 131 + h));
+    for (const auto& [w, h] : sizes) {
+        const std::vector<float> img = awkwardImage(w, h, static_cast<uint32_t>(w) * salt + h);
         const fs::path p =
             dir.path() / ("img_" + std::to_string(w) + "x" + std::to_string(h) + ".exr");
-        writeBytes(p, encodeFloatExr(w, h, img.data()));
-        EXPECT_TRUE(sameBits(readExr(p, w, h), img)) << w << "x" << h;
+        writeBytes(p, encodeFloatExr(w, h, img.data(), "Y", false, compression));
+        EXPECT_TRUE(sameBits(readExr(p, w, h, "Y", word), img)) << word << " " << w << "x" << h;
     }
+}
+
+TEST(ImageCodecs, ExrRoundTripsBitExactThroughOpenExr) {
+    expectRoundTrips({{1, 1}, {3, 5}, {1, 7}, {257, 11}, {256, 256}, {1000, 6}},
+                     ExrCompression::kRle, "rle", 131);
 }
 
 TEST(ImageCodecs, ExrChannelNameAndCompressionPayOff) {
@@ -173,16 +181,9 @@ TEST(ImageCodecs, HalfExrRoundTripsAsImathsRoundingInHalfTheBytes) {
 // OIIO) for FLOAT and HALF; incompressible chunks stored raw; a depth map in fewer bytes than
 // RLE's.
 TEST(ImageCodecs, ZipExrRoundTripsBitExactInSixteenLineChunks) {
+    expectRoundTrips({{1, 1}, {3, 5}, {257, 16}, {256, 17}, {1000, 40}, {256, 256}},
+                     ExrCompression::kZip, "zip", 7);
     TempDir dir;
-    const int sizes[][2] = {{1, 1}, {3, 5}, {257, 16}, {256, 17}, {1000, 40}, {256, 256}};
-    for (const auto& s : sizes) {
-        const int w = s[0], h = s[1];
-        const std::vector<float> img = awkwardImage(w, h, static_cast<uint32_t>(w * 7 + h));
-        const fs::path p =
-            dir.path() / ("z_" + std::to_string(w) + "x" + std::to_string(h) + ".exr");
-        writeBytes(p, encodeFloatExr(w, h, img.data(), "Y", false, ExrCompression::kZip));
-        EXPECT_TRUE(sameBits(readExr(p, w, h, "Y", "zip"), img)) << w << "x" << h;
-    }
     // HALF through ZIP: each value as Imath rounds it.
     const int w = 301, h = 40;
     std::vector<float> img = awkwardImage(w, h, 23);
