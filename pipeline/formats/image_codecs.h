@@ -47,9 +47,9 @@ std::string encodeRgbPng(int width, int height, const uint8_t* rgb);
 std::string encodeRgbaPng(int width, int height, const uint8_t* rgba);
 // 16-bit greyscale: one uint16 per pixel, row-major.
 std::string encodeGrey16Png(int width, int height, const uint16_t* pixels);
+enum class ExrCompression : uint8_t { kRle, kZip };
 // half: the channel as HALF (16-bit floats, Imath's round-to-nearest-even; relative error at
 // most 2⁻¹¹ ≈ 0.05 %, values above 65504 become infinity), half the bytes.
-enum class ExrCompression : uint8_t { kRle, kZip };
 std::string encodeFloatExr(int width, int height, const float* pixels,
                            const std::string& channel = "Y", bool half = false,
                            ExrCompression compression = ExrCompression::kRle);
