@@ -1,7 +1,8 @@
 """A small reader of single-part scanline OpenEXR files: the depth maps sylva writes.
 
 sylva's depth EXRs (pipeline/formats/image_codecs.cpp) are single-part scanline OpenEXR 2.0 files
-with one FLOAT channel, RLE compression and one scanline per chunk. This reader decodes that
+with one FLOAT or HALF channel, RLE compression with one scanline per chunk or ZIP with 16. This
+reader decodes those
 and the other lossless scanline layouts a re-saved file is likely to have: compression NONE,
 RLE, ZIPS (1 line per chunk) and ZIP (16 lines), channels of type UINT, HALF or FLOAT, any
 number of channels, any data window. The layout is the one in OpenEXR's "OpenEXR File Layout"
