@@ -2,15 +2,14 @@
 
 sylva's depth EXRs (pipeline/formats/image_codecs.cpp) are single-part scanline OpenEXR 2.0 files
 with one FLOAT or HALF channel, RLE compression with one scanline per chunk or ZIP with 16. This
-reader decodes those
-and the other lossless scanline layouts a re-saved file is likely to have: compression NONE,
-RLE, ZIPS (1 line per chunk) and ZIP (16 lines), channels of type UINT, HALF or FLOAT, any
-number of channels, any data window. The layout is the one in OpenEXR's "OpenEXR File Layout"
-document: magic number, version, header attributes, line offset table, then chunks of
-(y, data size, data), each scanline holding the channels in name order. For anything else (tiled,
-multi-part, deep, PIZ/PXR24/B44/DWA compression, subsampled channels) read_exr falls back on
-OpenImageIO's Python module when it is importable (Debian: python3-openimageio). Every reader
-takes a path or the file's bytes (a tar shard's member).
+reader decodes those and the other lossless scanline layouts a re-saved file is likely to have:
+compression NONE, RLE, ZIPS (1 line per chunk) and ZIP (16 lines), channels of type UINT, HALF
+or FLOAT, any number of channels, any data window. The layout is the one in OpenEXR's
+"OpenEXR File Layout" document: magic number, version, header attributes, line offset table,
+then chunks of (y, data size, data), each scanline holding the channels in name order. For
+anything else (tiled, multi-part, deep, PIZ/PXR24/B44/DWA compression, subsampled channels)
+read_exr falls back on OpenImageIO's Python module when it is importable (Debian:
+python3-openimageio). Every reader takes a path or the file's bytes (a tar shard's member).
 """
 
 import os

@@ -35,7 +35,7 @@ import draco3d from 'draco3dgltf';
 import { MeshoptDecoder } from 'meshoptimizer';
 import fs from 'node:fs';
 import path from 'node:path';
-import { glbJson, pairedFiles, triangleKey } from './gltf_node.mjs';
+import { exitIfFailed, glbJson, pairedFiles, triangleKey } from './gltf_node.mjs';
 import { decodePng } from './png.mjs';
 import { renderGlbViews } from './render_glb.mjs';
 
@@ -420,10 +420,6 @@ if (renderDir) {
     else fail(dracoRoot, 'no textured mesh.glb to draw');
 }
 if (files === 0) fail(dracoRoot, 'no GLB');
-if (failures.length) {
-    for (const f of failures.slice(0, 40)) console.error(f);
-    console.error(`check_draco: ${failures.length} problem(s) in ${files} GLB file(s)`);
-    process.exit(1);
-}
+exitIfFailed('check_draco', failures, files);
 console.log(`check_draco: ${files} GLB files, ${bytesDraco} bytes compressed vs ` +
             `${bytesPlain} plain (${(bytesDraco / bytesPlain).toFixed(3)}×)`);

@@ -20,7 +20,14 @@
 // Usage: node tests/js/check_instances.mjs INSTANCED_DATASET_DIR PLAIN_DATASET_DIR
 import { createRequire } from 'node:module';
 import { Matrix3, Matrix4, Vector3 } from 'three';
-import { decodeImagesWithPng, glbJson, pairedFiles, parseGlb, triangleKey } from './gltf_node.mjs';
+import {
+    decodeImagesWithPng,
+    exitIfFailed,
+    glbJson,
+    pairedFiles,
+    parseGlb,
+    triangleKey,
+} from './gltf_node.mjs';
 
 const validator = createRequire(import.meta.url)('gltf-validator');
 
@@ -175,10 +182,6 @@ for (const { rel, packed: inst, plain } of pairedFiles(instRoot, plainRoot, (n) 
                 `${worstC.toExponential(2)}; ${inst.length} bytes vs ${plain.length}`);
 }
 if (files === 0) fail(instRoot, 'no mesh.glb');
-if (failures.length) {
-    for (const f of failures.slice(0, 40)) console.error(f);
-    console.error(`check_instances: ${failures.length} problem(s) in ${files} GLB file(s)`);
-    process.exit(1);
-}
+exitIfFailed('check_instances', failures, files);
 console.log(`check_instances: ${files} GLB files, ${leavesChecked} leaves, ${bytesInst} bytes ` +
             `instanced vs ${bytesPlain} plain (${(bytesInst / bytesPlain).toFixed(3)}×)`);

@@ -16,7 +16,13 @@
 //
 // Usage: node tests/js/check_meshopt.mjs COMPRESSED_DATASET_DIR PLAIN_DATASET_DIR
 import { createRequire } from 'node:module';
-import { decodeImagesWithPng, pairedFiles, parseGlb, triangleKey } from './gltf_node.mjs';
+import {
+    decodeImagesWithPng,
+    exitIfFailed,
+    pairedFiles,
+    parseGlb,
+    triangleKey,
+} from './gltf_node.mjs';
 
 const validator = createRequire(import.meta.url)('gltf-validator');
 
@@ -142,10 +148,6 @@ for (const { rel, packed, plain } of pairedFiles(packedRoot, plainRoot, (n) => n
     }
 }
 if (files === 0) fail(packedRoot, 'no GLB');
-if (failures.length) {
-    for (const f of failures.slice(0, 40)) console.error(f);
-    console.error(`check_meshopt: ${failures.length} problem(s) in ${files} GLB file(s)`);
-    process.exit(1);
-}
+exitIfFailed('check_meshopt', failures, files);
 console.log(`check_meshopt: ${files} GLB files, ${bytesPacked} bytes compressed vs ` +
             `${bytesPlain} plain (${(bytesPacked / bytesPlain).toFixed(3)}×)`);

@@ -1,7 +1,7 @@
 // What the GLB checks share in Node.js: images decoded for three.js's GLTFLoader, the files of
-// a dataset by name (and paired with a plain dataset's), a GLB's JSON, and a GLB parsed by
-// GLTFLoader (with three's MeshoptDecoder for
-// EXT_meshopt_compression), its world matrices up to date.
+// a dataset by name (and paired with a plain dataset's), a GLB's JSON, a GLB parsed by
+// GLTFLoader (with three's MeshoptDecoder for EXT_meshopt_compression), its world matrices up
+// to date, and the failure report that ends a check.
 import fs from 'node:fs';
 import path from 'node:path';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
@@ -71,4 +71,13 @@ export async function parseGlb(bytes, meshopt) {
     const gltf = await new Promise((resolve, reject) => loader.parse(buffer, '', resolve, reject));
     gltf.scene.updateMatrixWorld(true);
     return gltf;
+}
+
+// The end of a check of paired GLB files: with problems, the first 40 of them and their count
+// on stderr, and exit status 1.
+export function exitIfFailed(name, failures, files) {
+    if (!failures.length) return;
+    for (const f of failures.slice(0, 40)) console.error(f);
+    console.error(`${name}: ${failures.length} problem(s) in ${files} GLB file(s)`);
+    process.exit(1);
 }
