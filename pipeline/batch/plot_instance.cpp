@@ -182,8 +182,7 @@ nlohmann::json writePlot(const GrownPlot& plot, const OutputOptions& o, const fs
             if (o.views.depth) {
                 vf.depthExr.push_back(stem + "_depth.exr");
                 put("", vf.depthExr.back(),
-                    encodeFloatExr(v.width, v.height, v.depth.data(), "Y", o.views.depthHalf,
-                                   o.views.depthZip ? ExrCompression::kZip : ExrCompression::kRle));
+                    depthExrBytes(v.width, v.height, v.depth, o.views.depthHalf, o.views.depthZip));
             }
             if (o.views.depthPng) {
                 vf.depthPng.push_back(stem + "_depth.png");

@@ -300,8 +300,8 @@ LinearRgb BarkTile::mean() const {
 namespace {
 
 // The bytes a bark tile is a function of.
-std::string barkKey(const Look& look, int size, char kind) {
-    std::string key(1, kind);
+std::string barkKey(const Look& look, int size) {
+    std::string key;
     auto put = [&](const void* p, size_t n) { key.append(static_cast<const char*>(p), n); };
     put(&look.bark, sizeof look.bark);
     put(&look.barkDark, sizeof look.barkDark);
@@ -312,8 +312,8 @@ std::string barkKey(const Look& look, int size, char kind) {
     return key;
 }
 
-// A bounded memo: made outside the lock (two threads asking at once may both make it; either
-// result is the same), kept under it.
+// A bounded memo, one per type: made outside the lock (two threads asking at once may both make
+// it; either result is the same), kept under it.
 template <class T, class Make>
 std::shared_ptr<const T> memoised(const std::string& key, Make make) {
     static std::mutex mutex;
@@ -334,13 +334,13 @@ std::shared_ptr<const T> memoised(const std::string& key, Make make) {
 }  // namespace
 
 std::shared_ptr<const std::vector<uint8_t>> sharedBarkTexture(const Look& look, int size) {
-    return memoised<std::vector<uint8_t>>(barkKey(look, size, 'T'), [&] {
+    return memoised<std::vector<uint8_t>>(barkKey(look, size), [&] {
         return std::make_shared<const std::vector<uint8_t>>(barkTexture(look, size));
     });
 }
 
 std::shared_ptr<const BarkTile> sharedBarkTile(const Look& look, int size) {
-    return memoised<BarkTile>(barkKey(look, size, 'L'),
+    return memoised<BarkTile>(barkKey(look, size),
                               [&] { return std::make_shared<const BarkTile>(look, size); });
 }
 
