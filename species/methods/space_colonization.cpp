@@ -352,6 +352,10 @@ void validate(const SpaceColonizationOptions& o) {
         bad("shedding needs allocation with light = shadow");
     }
     if (!(o.shedThreshold >= 0) || o.shedDelay < 1) bad("shed threshold ≥ 0, delay ≥ 1");
+    if (!(o.spaceMarkers >= 0)) bad("space markers must be ≥ 0");
+    if (o.spaceMarkers > 0 && o.allocation != Allocation::kBorchertHonda) {
+        bad("space markers need allocation");
+    }
     if (!(o.envelopeScaleSd >= 0) || !(o.envelopeNoise >= 0 && o.envelopeNoise <= 0.9)) {
         bad("envelope scale σ must be ≥ 0 and noise in [0, 0.9]");
     }
@@ -685,7 +689,8 @@ std::vector<Step> Grower::improvedSteps(int iteration) {
 
 // The extended Borchert–Honda model (Palubicki 2009 §4) on this iteration's competition: a
 // bud that won markers (steps[i].grow) has Q = 1 (light = "space") or its exposure in the
-// shadow grid (light = "shadow"), any other bud Q = 0. Lateral branches that do not pay off
+// shadow grid (light = "shadow"), scaled on lateral axes by the space it won (spaceMarkers),
+// any other bud Q = 0. Lateral branches that do not pay off
 // (mean exposure of their nodes) are shed first (nodes_, buds_ and `steps` compacted alike).
 // Returns each remaining bud's resource v.
 std::vector<double> Grower::allocate(std::vector<Step>& steps) {
@@ -700,7 +705,10 @@ std::vector<double> Grower::allocate(std::vector<Step>& steps) {
     std::vector<detail::AllocationBud> buds(buds_.size());
     for (size_t i = 0; i < buds_.size(); ++i) {
         const Bud& b = buds_[i];
-        const double q = !steps[i].grow ? 0.0 : shadow_ ? shadow_->exposure(b.position) : 1.0;
+        const double light = !steps[i].grow ? 0.0 : shadow_ ? shadow_->exposure(b.position) : 1.0;
+        const double q = b.order == 0
+                             ? light
+                             : detail::spaceLimitedQ(light, steps[i].won.size(), o_.spaceMarkers);
         buds[i] = {b.node, b.order != nodes_[b.node].order, q};
     }
     std::vector<double> light;
@@ -1135,6 +1143,11 @@ int64_t binomial(Rng& rng, int64_t n, double p) {
 }
 
 // Palubicki et al. 2009 §4, the extended Borchert–Honda model, and branch shedding.
+double spaceLimitedQ(double light, size_t won, double spaceMarkers) {
+    if (!(spaceMarkers > 0)) return light;
+    return light * std::min(1.0, static_cast<double>(won) / spaceMarkers);
+}
+
 AllocationResult borchertHonda(const std::vector<int32_t>& parent,
                                const std::vector<uint8_t>& lateralNode,
                                const std::vector<AllocationBud>& buds,

@@ -109,6 +109,11 @@ struct SpaceColonizationOptions {
     // row is cut off. 0 = never.
     double shedThreshold = 0.0;  // fraction of full light
     int shedDelay = 3;           // iterations
+    // Space-limited vigour (allocation; a realism addition, not Palubicki 2009's rule): a
+    // lateral-axis bud that won m markers has Q × min(1, m / spaceMarkers), so a bud at the
+    // edge of a nearly used-up region grows little; the order-0 bud keeps its full Q.
+    // 0 = off (the paper's Q: any won marker counts fully).
+    double spaceMarkers = 0.0;  // markers
 
     // Per-instance crown: markers (and the improved variant's bound) come from a deformed
     // copy of `crown`, drawn per tree: scaled about the root by s ~ N(1, scaleSd) (clamped to

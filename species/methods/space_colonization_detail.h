@@ -75,6 +75,10 @@ AllocationResult borchertHonda(const std::vector<int32_t>& parent,
                                const std::vector<double>& nodeLight, double lambda, double alpha,
                                double shedThreshold, int shedDelay, std::vector<int32_t>& starved);
 
+// A lateral-axis bud's Q under space-limited vigour (SpaceColonizationOptions::spaceMarkers):
+// light · min(1, won / spaceMarkers), or light itself when spaceMarkers is 0.
+double spaceLimitedQ(double light, size_t won, double spaceMarkers);
+
 // A deformed copy of a crown, one per tree (SpaceColonizationOptions::envelopeScaleSd,
 // envelopeNoise): image(p) = s·(c + (p − c)·(1 + a·f(u))), u the unit direction of p − c, c the
 // centre of the crown's bounds, f(u) = ¼ Σⱼ cos(π mⱼ (dⱼ·u) + φⱼ) ∈ [−1, 1] with random unit dⱼ,

@@ -129,6 +129,7 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
             o.shedDelay =
                 static_cast<int>(sp.integer("shed_delay", o.shedDelay, Range::closed(1, 1000)));
         }
+        o.spaceMarkers = sp.number("space_markers", o.spaceMarkers, Range::closed(0, 1e6));
         for (const char* k :
              {"shadow_strength", "shadow_decay", "shadow_depth", "shed_threshold", "shed_delay"}) {
             if (o.light == Light::kShadow || !sp.has(k)) continue;
@@ -136,8 +137,9 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
             sp.fail(k, "applies to light = \"shadow\" only");
         }
     } else {
-        for (const char* k : {"apical_control", "resource_coefficient", "light", "shadow_strength",
-                              "shadow_decay", "shadow_depth", "shed_threshold", "shed_delay"}) {
+        for (const char* k :
+             {"apical_control", "resource_coefficient", "light", "shadow_strength", "shadow_decay",
+              "shadow_depth", "shed_threshold", "shed_delay", "space_markers"}) {
             if (!sp.has(k)) continue;
             sp.raw(k);
             sp.fail(k, "applies to allocation = \"borchert-honda\" only");

@@ -754,6 +754,45 @@ TEST(SpaceColonizationAllocation, SheddingClearsTheShadedInterior) {
     }
 }
 
+TEST(SpaceColonizationAllocation, SpaceLimitedQScalesWithTheMarkersWon) {
+    EXPECT_DOUBLE_EQ(detail::spaceLimitedQ(0.8, 2, 8), 0.2);   // a quarter of the space
+    EXPECT_DOUBLE_EQ(detail::spaceLimitedQ(0.8, 8, 8), 0.8);   // enough: the light itself
+    EXPECT_DOUBLE_EQ(detail::spaceLimitedQ(0.8, 30, 8), 0.8);  // never above it
+    EXPECT_DOUBLE_EQ(detail::spaceLimitedQ(0.8, 0, 8), 0.0);
+    EXPECT_DOUBLE_EQ(detail::spaceLimitedQ(0.8, 3, 0), 0.8);  // off: the paper's Q
+}
+
+TEST(SpaceColonizationAllocation, SpaceMarkersLimitTheLateralsVigourOnly) {
+    SpaceColonizationOptions o = treeOptions();
+    o.light = Light::kShadow;
+    o.shadowStrength = 0.15;
+    const Tree paper = grow(o, 4);
+    // One marker is all a growing bud ever needs for min(1, m / 1) = 1: the paper's tree.
+    o.spaceMarkers = 1;
+    const Tree one = grow(o, 4);
+    ASSERT_EQ(one.nodes.size(), paper.nodes.size());
+    for (size_t i = 0; i < one.nodes.size(); ++i) {
+        EXPECT_EQ(one.nodes[i].position, paper.nodes[i].position);
+    }
+    auto lateral = [](const Tree& t) {
+        int n = 0;
+        for (const SkeletonNode& node : t.nodes) n += node.order > 0;
+        return n;
+    };
+    EXPECT_GT(lateral(paper), 100);
+    // Far more markers than any bud perceives: a lateral's Q is a few thousandths of its light,
+    // never worth a metamer, while the order-0 bud keeps its full Q. Only the stem grows.
+    o.spaceMarkers = 1e6;
+    const Tree stem = grow(o, 4);
+    EXPECT_EQ(lateral(stem), 0);
+    EXPECT_GT(stem.nodes.size(), 10u);
+    // In between, laterals grow but fewer of them.
+    o.spaceMarkers = 8;
+    const int some = lateral(grow(o, 4));
+    EXPECT_GT(some, 0);
+    EXPECT_LT(some, lateral(paper));
+}
+
 TEST(SpaceColonizationForm, LeaderStaysVerticalAndWhorlsHoldKLaterals) {
     // A conifer: the leader pulled to +y (w = 30), whorls of k = 5 at the top of each shoot.
     // With ξ huge every bud's first internode follows the bud's own direction, so the whorl's
@@ -982,6 +1021,10 @@ TEST(SpaceColonizationSpec, BadParametersNameFileLineAndKey) {
          "sc.toml:4:", "apical_control: expected a number in (0, 1), got 1"},
         {"allocation = \"borchert-honda\"\nshed_threshold = 0.3\n",
          "sc.toml:4:", "shed_threshold: applies to light = \"shadow\" only"},
+        {"space_markers = 8\n",
+         "sc.toml:3:", "space_markers: applies to allocation = \"borchert-honda\" only"},
+        {"allocation = \"borchert-honda\"\nspace_markers = -1\n",
+         "sc.toml:4:", "space_markers: expected a number in [0, 1000000], got -1"},
         {"allocation = \"borchert-honda\"\nlight = \"moon\"\n",
          "sc.toml:4:", "light: expected one of"},
         {"allocation = \"borchert-honda\"\nlight = \"shadow\"\nshadow_decay = 1\n",
