@@ -353,6 +353,7 @@ void validate(const SpaceColonizationOptions& o) {
     }
     if (!(o.shedThreshold >= 0) || o.shedDelay < 1) bad("shed threshold ≥ 0, delay ≥ 1");
     if (!(o.spaceMarkers >= 0)) bad("space markers must be ≥ 0");
+    if (!(o.turnSd >= 0 && o.turnSd <= kPi / 2)) bad("shoot turn σ must be in [0, π/2]");
     if (o.spaceMarkers > 0 && o.allocation != Allocation::kBorchertHonda) {
         bad("space markers need allocation");
     }
@@ -435,6 +436,7 @@ class Grower {
     void compact(const std::vector<uint8_t>& shed);
     bool shootDirection(const Bud& tip, const std::vector<int32_t>& won, Vec3& direction) const;
     void growShoot(const Bud& b, const Step& s, int metamers, int level, std::vector<Bud>& born);
+    Vec3 turned(const Vec3& g, const Rng& turns, uint64_t bud, int level, int k) const;
 
     const SpaceColonizationOptions& o_;
     Rng& rng_;
@@ -689,8 +691,9 @@ std::vector<Step> Grower::improvedSteps(int iteration) {
 
 // The extended Borchert–Honda model (Palubicki 2009 §4) on this iteration's competition: a
 // bud that won markers (steps[i].grow) has Q = 1 (light = "space") or its exposure in the
-// shadow grid (light = "shadow"), scaled on lateral axes by the space it won (spaceMarkers),
-// any other bud Q = 0. Lateral branches that do not pay off
+// shadow grid (light = "shadow"), any other bud Q = 0. With spaceMarkers, a lateral-axis
+// bud's share in the splits is its Q scaled by the space it won, while the base's resource
+// stays α·ΣQ: space steers the resource, light sets it. Lateral branches that do not pay off
 // (mean exposure of their nodes) are shed first (nodes_, buds_ and `steps` compacted alike).
 // Returns each remaining bud's resource v.
 std::vector<double> Grower::allocate(std::vector<Step>& steps) {
@@ -709,7 +712,7 @@ std::vector<double> Grower::allocate(std::vector<Step>& steps) {
         const double q = b.order == 0
                              ? light
                              : detail::spaceLimitedQ(light, steps[i].won.size(), o_.spaceMarkers);
-        buds[i] = {b.node, b.order != nodes_[b.node].order, q};
+        buds[i] = {b.node, b.order != nodes_[b.node].order, q, light};
     }
     std::vector<double> light;
     if (o_.shedThreshold > 0) {
@@ -789,6 +792,16 @@ bool Grower::shootDirection(const Bud& tip, const std::vector<int32_t>& won,
     return true;
 }
 
+// A lateral-axis metamer's direction g turned by a random angle ~ N(0, turnSd) about a random
+// axis ⊥ g, from the stream of (bud, iteration, metamer): the zigzag of real shoots, whose
+// buds do not grow exactly where the last shoot pointed.
+Vec3 Grower::turned(const Vec3& g, const Rng& turns, uint64_t bud, int level, int k) const {
+    Rng r = turns.derive(
+        hashCombine(hashCombine(bud, static_cast<uint64_t>(level)), static_cast<uint64_t>(k)));
+    const Vec3 axis = rotate(anyPerpendicular(g), g, r.uniform(0.0, 2 * kPi));
+    return normalize(rotate(g, axis, o_.turnSd * r.normal()));
+}
+
 // A shoot of up to `metamers` metamers from bud b, the first along g (Palubicki 2009 §3–4).
 // Every metamer ends in a node with a lateral bud (at branchAngle, turned about the axis by
 // the phyllotaxis angle from the previous one); the shoot's top node also gets the terminal
@@ -801,7 +814,9 @@ void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
     const bool whorled = o_.whorlLaterals > 0 && b.order == 0;
     const bool laterals = b.order + 1 <= o_.maxOrder;
     Bud tip = b;
+    const Rng turns = rng_.derive("shoot-turns");
     for (int k = 0; k < metamers; ++k) {
+        if (o_.turnSd > 0 && b.order > 0) g = turned(g, turns, b.id, level, k);
         const Vec3 p = tip.position + g * L_;
         const int32_t node = addNode(p, tip.node, tip.order, level);
         // Phyllotaxis: the previous lateral azimuth carried onto the plane ⊥ g, then turned.
@@ -1191,12 +1206,19 @@ AllocationResult borchertHonda(const std::vector<int32_t>& parent,
 
     // Acropetally: v_base = α·Q_base; at each node v_m = v·λQ_m / D, v_l = v·(1−λ)Q_l / D with
     // D = λQ_m + (1−λ)Q_l, the lateral side's share divided among its laterals by their Q.
+    double q = 0, vigour = 0;
+    for (const AllocationBud& b : buds) {
+        if (r.shed[b.node]) continue;
+        q += b.q;
+        vigour += b.vigour < 0 ? b.q : b.vigour;
+    }
+    const double base = q > 0 && vigour != q ? alpha * vigour / q : alpha;
     std::vector<double> perQMain(n, 0.0), perQLateral(n, 0.0);  // v_m / Q_m, v_l / Q_l
     for (size_t i = 0; i < n; ++i) {
         if (r.shed[i]) continue;
         const int32_t p = parent[i];
         r.nodeResource[i] =
-            p < 0 ? alpha * r.nodeQ[i] : (lateralNode[i] ? perQLateral : perQMain)[p] * r.nodeQ[i];
+            p < 0 ? base * r.nodeQ[i] : (lateralNode[i] ? perQLateral : perQMain)[p] * r.nodeQ[i];
         const double d = lambda * qMain[i] + (1 - lambda) * qLateral[i];
         if (d > 0) {
             perQMain[i] = r.nodeResource[i] * lambda / d;

@@ -110,10 +110,15 @@ struct SpaceColonizationOptions {
     double shedThreshold = 0.0;  // fraction of full light
     int shedDelay = 3;           // iterations
     // Space-limited vigour (allocation; a realism addition, not Palubicki 2009's rule): a
-    // lateral-axis bud that won m markers has Q × min(1, m / spaceMarkers), so a bud at the
-    // edge of a nearly used-up region grows little; the order-0 bud keeps its full Q.
-    // 0 = off (the paper's Q: any won marker counts fully).
+    // lateral-axis bud that won m markers shares in the splits with Q × min(1, m /
+    // spaceMarkers), so a bud at the edge of a nearly used-up region gets little; the order-0
+    // bud keeps its Q, and the base's resource stays α·ΣQ (the tree's light). 0 = off (the
+    // paper's Q: any won marker counts fully).
     double spaceMarkers = 0.0;  // markers
+    // Shoot zigzag (a realism addition): every metamer of a lateral axis grows along its
+    // direction turned by an angle ~ N(0, turnSd) about a random axis across it (keyed by bud,
+    // iteration and metamer), so axes wander as sympodial shoots do. 0 = off.
+    double turnSd = 0.0;  // radians
 
     // Per-instance crown: markers (and the improved variant's bound) come from a deformed
     // copy of `crown`, drawn per tree: scaled about the root by s ~ N(1, scaleSd) (clamped to

@@ -45,7 +45,8 @@ int64_t binomial(Rng& rng, int64_t n, double p);
 struct AllocationBud {
     int32_t node = 0;
     bool lateral = false;
-    double q = 0.0;
+    double q = 0.0;        // the bud's share in the splits
+    double vigour = -1.0;  // what it adds to the base's resource; < 0: q
 };
 
 // The extended Borchert–Honda model (Palubicki 2009 §4) on a skeleton given by `parent`
@@ -56,7 +57,9 @@ struct AllocationBud {
 //    shedThreshold has starved[i] raised by one (else reset to 0); at shedDelay it is cut off
 //    with its subtree (shed = 1 on every node removed, which then counts for nothing below);
 //  - basipetal: Q of a node = Σ Q of its buds and of its child nodes (nodeQ);
-//  - acropetal: the root receives α·Q_base; at every node the resource v splits between the
+//  - acropetal: the root receives α·Q_base — times V/Q, the unshed buds' summed vigour over
+//    their summed Q, when some bud's vigour differs from its Q (the tree's light then sets the
+//    resource and the buds' Q only where it goes); at every node the resource v splits between the
 //    main side (continuing child or terminal bud, Q_m) and the lateral side (lateral children
 //    and buds, Q_l = Σ of theirs) by v_m = v·λQ_m / (λQ_m + (1−λ)Q_l) and
 //    v_l = v·(1−λ)Q_l / (λQ_m + (1−λ)Q_l), each lateral taking v_l in proportion to its Q;

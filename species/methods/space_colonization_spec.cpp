@@ -155,6 +155,8 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
     o.envelopeScaleSd = sp.number("envelope_scale_sd", o.envelopeScaleSd, Range::closed(0, 0.5));
     o.envelopeNoise = sp.number("envelope_noise", o.envelopeNoise, Range::closed(0, 0.9));
 
+    o.turnSd = sp.number("shoot_turn_sd_deg", o.turnSd / kDeg, Range::closed(0, 90)) * kDeg;
+
     // Excurrent form: the leader, whorls on it, a bound on branch order.
     o.leaderWeight = sp.number("leader_weight", o.leaderWeight, Range::nonNegative());
     o.whorlLaterals =

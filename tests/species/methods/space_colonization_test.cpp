@@ -762,35 +762,80 @@ TEST(SpaceColonizationAllocation, SpaceLimitedQScalesWithTheMarkersWon) {
     EXPECT_DOUBLE_EQ(detail::spaceLimitedQ(0.8, 3, 0), 0.8);  // off: the paper's Q
 }
 
-TEST(SpaceColonizationAllocation, SpaceMarkersLimitTheLateralsVigourOnly) {
+TEST(SpaceColonizationAllocation, SpaceSteersTheResourceAndLightSetsIt) {
+    // Q (the shares) apart from the vigour (the light): the base receives α·Σvigour, split by
+    // the shares' closed form. Root 0 — node 1; on node 1 a terminal bud and a lateral bud.
+    const std::vector<int32_t> parent = {-1, 0};
+    const std::vector<uint8_t> lateral = {0, 0};
+    std::vector<int32_t> starved(2, 0);
+    const double lambda = 0.6, alpha = 2.0;
+    const double qm = 0.9, ql = 0.9 * 2 / 8.0;  // light 0.9 each; the lateral won 2 of 8
+    const auto r = borchertHonda(parent, lateral, {{1, false, qm, 0.9}, {1, true, ql, 0.9}}, {},
+                                 lambda, alpha, 0.0, 3, starved);
+    const double v = alpha * 1.8;
+    const double d = lambda * qm + (1 - lambda) * ql;
+    EXPECT_NEAR(r.nodeResource[0], v, 1e-12);
+    EXPECT_NEAR(r.budResource[0], v * lambda * qm / d, 1e-12);
+    EXPECT_NEAR(r.budResource[1], v * (1 - lambda) * ql / d, 1e-12);
+    EXPECT_NEAR(r.budResource[0] + r.budResource[1], v, 1e-12);
+}
+
+TEST(SpaceColonizationAllocation, SpaceMarkersChangeOnlyWhatTheyShould) {
     SpaceColonizationOptions o = treeOptions();
     o.light = Light::kShadow;
     o.shadowStrength = 0.15;
-    const Tree paper = grow(o, 4);
-    // One marker is all a growing bud ever needs for min(1, m / 1) = 1: the paper's tree.
+    std::map<std::string, double> paperStats, limitedStats;
+    const Tree paper = grow(o, 4, &paperStats);
+    // One marker is all a growing bud ever needs for min(1, m / 1) = 1: the paper's tree, bit
+    // for bit.
     o.spaceMarkers = 1;
     const Tree one = grow(o, 4);
     ASSERT_EQ(one.nodes.size(), paper.nodes.size());
     for (size_t i = 0; i < one.nodes.size(); ++i) {
         EXPECT_EQ(one.nodes[i].position, paper.nodes[i].position);
     }
-    auto lateral = [](const Tree& t) {
-        int n = 0;
-        for (const SkeletonNode& node : t.nodes) n += node.order > 0;
-        return n;
-    };
-    EXPECT_GT(lateral(paper), 100);
-    // Far more markers than any bud perceives: a lateral's Q is a few thousandths of its light,
-    // never worth a metamer, while the order-0 bud keeps its full Q. Only the stem grows.
-    o.spaceMarkers = 1e6;
-    const Tree stem = grow(o, 4);
-    EXPECT_EQ(lateral(stem), 0);
-    EXPECT_GT(stem.nodes.size(), 10u);
-    // In between, laterals grow but fewer of them.
+    // Eight: another tree, which still uses up its crown (the resource is the light's, so
+    // buds short of space do not stall growth).
     o.spaceMarkers = 8;
-    const int some = lateral(grow(o, 4));
-    EXPECT_GT(some, 0);
-    EXPECT_LT(some, lateral(paper));
+    const Tree limited = grow(o, 4, &limitedStats);
+    bool differs = limited.nodes.size() != paper.nodes.size();
+    for (size_t i = 0; !differs && i < limited.nodes.size(); ++i) {
+        differs = !(limited.nodes[i].position == paper.nodes[i].position);
+    }
+    EXPECT_TRUE(differs);
+    EXPECT_GT(limitedStats["markers_removed"], 0.9 * paperStats["markers_removed"]);
+}
+
+TEST(SpaceColonizationForm, LateralShootsTurnByTheirDrawnAngles) {
+    // ξ huge: without turns every metamer continues its bud's direction exactly, so an axis is
+    // straight. With σ = 10°, each lateral-axis metamer is turned by |θ|, θ ~ N(0, σ), from the
+    // one before: the mean angle between consecutive internodes is σ·√(2/π) = 7.98°; the
+    // order-0 axis stays straight.
+    SpaceColonizationOptions o = treeOptions();
+    o.budDirectionWeight = 1e9;
+    auto angles = [](const Tree& t, bool lateral) {
+        std::vector<double> a;
+        for (size_t i = 1; i < t.nodes.size(); ++i) {
+            const SkeletonNode& n = t.nodes[i];
+            const SkeletonNode& p = t.nodes[n.parent];
+            if (p.parent < 0 || p.order != n.order || t.nodes[p.parent].order != n.order) continue;
+            if ((n.order > 0) != lateral) continue;
+            a.push_back(
+                angleBetween(n.position - p.position, p.position - t.nodes[p.parent].position));
+        }
+        return a;
+    };
+    const Tree straight = grow(o, 6);
+    for (double a : angles(straight, true)) EXPECT_LT(a, 1e-6);
+    o.turnSd = 10 * kDeg;
+    const Tree zigzag = grow(o, 6);
+    const std::vector<double> lateral = angles(zigzag, true);
+    ASSERT_GT(lateral.size(), 200u);
+    double mean = 0;
+    for (double a : lateral) mean += a / static_cast<double>(lateral.size());
+    // The standard error of the mean is σ·0.60/√n < 0.5° here.
+    EXPECT_NEAR(mean / kDeg, 10 * std::sqrt(2 / kPi), 1.2);
+    for (double a : angles(zigzag, false)) EXPECT_LT(a, 1e-6);
 }
 
 TEST(SpaceColonizationForm, LeaderStaysVerticalAndWhorlsHoldKLaterals) {
@@ -1025,6 +1070,8 @@ TEST(SpaceColonizationSpec, BadParametersNameFileLineAndKey) {
          "sc.toml:3:", "space_markers: applies to allocation = \"borchert-honda\" only"},
         {"allocation = \"borchert-honda\"\nspace_markers = -1\n",
          "sc.toml:4:", "space_markers: expected a number in [0, 1000000], got -1"},
+        {"shoot_turn_sd_deg = 91\n",
+         "sc.toml:3:", "shoot_turn_sd_deg: expected a number in [0, 90]"},
         {"allocation = \"borchert-honda\"\nlight = \"moon\"\n",
          "sc.toml:4:", "light: expected one of"},
         {"allocation = \"borchert-honda\"\nlight = \"shadow\"\nshadow_decay = 1\n",
