@@ -1157,12 +1157,12 @@ int64_t binomial(Rng& rng, int64_t n, double p) {
     return total;
 }
 
-// Palubicki et al. 2009 §4, the extended Borchert–Honda model, and branch shedding.
 double spaceLimitedQ(double light, size_t won, double spaceMarkers) {
     if (!(spaceMarkers > 0)) return light;
     return light * std::min(1.0, static_cast<double>(won) / spaceMarkers);
 }
 
+// Palubicki et al. 2009 §4, the extended Borchert–Honda model, and branch shedding.
 AllocationResult borchertHonda(const std::vector<int32_t>& parent,
                                const std::vector<uint8_t>& lateralNode,
                                const std::vector<AllocationBud>& buds,
@@ -1204,7 +1204,8 @@ AllocationResult borchertHonda(const std::vector<int32_t>& parent,
         if (parent[i] >= 0) (lateralNode[i] ? qLateral : qMain)[parent[i]] += r.nodeQ[i];
     }
 
-    // Acropetally: v_base = α·Q_base; at each node v_m = v·λQ_m / D, v_l = v·(1−λ)Q_l / D with
+    // Acropetally: v_base = α·Q_base (times Σvigour / ΣQ over the unshed buds where their vigour
+    // is not their Q); at each node v_m = v·λQ_m / D, v_l = v·(1−λ)Q_l / D with
     // D = λQ_m + (1−λ)Q_l, the lateral side's share divided among its laterals by their Q.
     double q = 0, vigour = 0;
     for (const AllocationBud& b : buds) {

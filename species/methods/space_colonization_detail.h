@@ -59,8 +59,8 @@ struct AllocationBud {
 //  - basipetal: Q of a node = Σ Q of its buds and of its child nodes (nodeQ);
 //  - acropetal: the root receives α·Q_base — times V/Q, the unshed buds' summed vigour over
 //    their summed Q, when some bud's vigour differs from its Q (the tree's light then sets the
-//    resource and the buds' Q only where it goes); at every node the resource v splits between the
-//    main side (continuing child or terminal bud, Q_m) and the lateral side (lateral children
+//    resource and the buds' Q only where it goes); at every node the resource v splits between
+//    the main side (continuing child or terminal bud, Q_m) and the lateral side (lateral children
 //    and buds, Q_l = Σ of theirs) by v_m = v·λQ_m / (λQ_m + (1−λ)Q_l) and
 //    v_l = v·(1−λ)Q_l / (λQ_m + (1−λ)Q_l), each lateral taking v_l in proportion to its Q;
 //    budResource[b] is what bud b receives (0 on shed nodes).
