@@ -731,10 +731,16 @@ TEST(SpaceColonizationAllocation, ApicalControlFavoursTheMainAxes) {
     EXPECT_GT(axis0(0.7), axis0(0.35) * 1.2);
 }
 
-TEST(SpaceColonizationAllocation, SheddingClearsTheShadedInterior) {
+// treeOptions() under shadow-propagation light.
+SpaceColonizationOptions shadedTreeOptions() {
     SpaceColonizationOptions o = treeOptions();
     o.light = Light::kShadow;
     o.shadowStrength = 0.15;
+    return o;
+}
+
+TEST(SpaceColonizationAllocation, SheddingClearsTheShadedInterior) {
+    SpaceColonizationOptions o = shadedTreeOptions();
     std::map<std::string, double> kept, shed;
     const Tree full = grow(o, 5, &kept);
     o.shedThreshold = 0.5;
@@ -781,9 +787,7 @@ TEST(SpaceColonizationAllocation, SpaceSteersTheResourceAndLightSetsIt) {
 }
 
 TEST(SpaceColonizationAllocation, SpaceMarkersChangeOnlyWhatTheyShould) {
-    SpaceColonizationOptions o = treeOptions();
-    o.light = Light::kShadow;
-    o.shadowStrength = 0.15;
+    SpaceColonizationOptions o = shadedTreeOptions();
     std::map<std::string, double> paperStats, limitedStats;
     const Tree paper = grow(o, 4, &paperStats);
     // One marker is all a growing bud ever needs for min(1, m / 1) = 1: the paper's tree, bit
