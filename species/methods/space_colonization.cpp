@@ -383,6 +383,7 @@ class Grower {
            const std::vector<ShyBound>* territory = nullptr)
         : o_(o),
           rng_(rng),
+          turns_(rng.derive("shoot-turns")),
           guard_(guard),
           L_(o.internode),
           rho_(o.occupancy * o.internode),
@@ -436,10 +437,11 @@ class Grower {
     void compact(const std::vector<uint8_t>& shed);
     bool shootDirection(const Bud& tip, const std::vector<int32_t>& won, Vec3& direction) const;
     void growShoot(const Bud& b, const Step& s, int metamers, int level, std::vector<Bud>& born);
-    Vec3 turned(const Vec3& g, const Rng& turns, uint64_t bud, int level, int k) const;
+    Vec3 turned(const Vec3& g, uint64_t bud, int level, int k) const;
 
     const SpaceColonizationOptions& o_;
     Rng& rng_;
+    const Rng turns_;  // the shoot turns' stream (turned), keyed below by bud, iteration, metamer
     const GrowthGuard& guard_;
     const double L_, rho_, r_, cosTheta_;
     const VolumePtr crown_;                       // o_.crown, or its per-instance deformed copy
@@ -795,8 +797,8 @@ bool Grower::shootDirection(const Bud& tip, const std::vector<int32_t>& won,
 // A lateral-axis metamer's direction g turned by a random angle ~ N(0, turnSd) about a random
 // axis ⊥ g, from the stream of (bud, iteration, metamer): the zigzag of real shoots, whose
 // buds do not grow exactly where the last shoot pointed.
-Vec3 Grower::turned(const Vec3& g, const Rng& turns, uint64_t bud, int level, int k) const {
-    Rng r = turns.derive(
+Vec3 Grower::turned(const Vec3& g, uint64_t bud, int level, int k) const {
+    Rng r = turns_.derive(
         hashCombine(hashCombine(bud, static_cast<uint64_t>(level)), static_cast<uint64_t>(k)));
     const Vec3 axis = rotate(anyPerpendicular(g), g, r.uniform(0.0, 2 * kPi));
     return normalize(rotate(g, axis, o_.turnSd * r.normal()));
@@ -814,9 +816,8 @@ void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
     const bool whorled = o_.whorlLaterals > 0 && b.order == 0;
     const bool laterals = b.order + 1 <= o_.maxOrder;
     Bud tip = b;
-    const Rng turns = rng_.derive("shoot-turns");
     for (int k = 0; k < metamers; ++k) {
-        if (o_.turnSd > 0 && b.order > 0) g = turned(g, turns, b.id, level, k);
+        if (o_.turnSd > 0 && b.order > 0) g = turned(g, b.id, level, k);
         const Vec3 p = tip.position + g * L_;
         const int32_t node = addNode(p, tip.node, tip.order, level);
         // Phyllotaxis: the previous lateral azimuth carried onto the plane ⊥ g, then turned.
