@@ -302,6 +302,7 @@ struct Bud {
     int32_t order = 0;  // the branch order of the axis it grows
     uint64_t id = 0;    // creation number: keys its marker stream (improved)
     int failures = 0;   // improved: iterations in a row without space
+    Vec3 heading;       // a lateral axis' direction at its bud's birth (axisTurnMax); 0: none
 };
 
 // What a bud does this iteration.
@@ -354,6 +355,10 @@ void validate(const SpaceColonizationOptions& o) {
     if (!(o.shedThreshold >= 0) || o.shedDelay < 1) bad("shed threshold ≥ 0, delay ≥ 1");
     if (!(o.spaceMarkers >= 0)) bad("space markers must be ≥ 0");
     if (!(o.turnSd >= 0 && o.turnSd <= kPi / 2)) bad("shoot turn σ must be in [0, π/2]");
+    if (!(o.axisTurnMax >= 0 && o.axisTurnMax <= kPi)) bad("axis turn must be in [0, π]");
+    if (o.branchletAngle && !(*o.branchletAngle > 0 && *o.branchletAngle < kPi)) {
+        bad("branchlet angle must be in (0, π)");
+    }
     if (o.spaceMarkers > 0 && o.allocation != Allocation::kBorchertHonda) {
         bad("space markers need allocation");
     }
@@ -438,6 +443,7 @@ class Grower {
     bool shootDirection(const Bud& tip, const std::vector<int32_t>& won, Vec3& direction) const;
     void growShoot(const Bud& b, const Step& s, int metamers, int level, std::vector<Bud>& born);
     Vec3 turned(const Vec3& g, uint64_t bud, int level, int k) const;
+    Vec3 withinHeading(const Vec3& g, const Vec3& h) const;
 
     const SpaceColonizationOptions& o_;
     Rng& rng_;
@@ -804,26 +810,51 @@ Vec3 Grower::turned(const Vec3& g, uint64_t bud, int level, int k) const {
     return normalize(rotate(g, axis, o_.turnSd * r.normal()));
 }
 
+// g turned back onto the cone of half-angle axisTurnMax about the axis' heading h when it
+// points outside it (rotated toward h in the plane of the two); g itself when inside, or when
+// the axis has no heading yet.
+Vec3 Grower::withinHeading(const Vec3& g, const Vec3& h) const {
+    if (length2(h) == 0) return g;
+    if (angleBetween(g, h) <= o_.axisTurnMax) return g;
+    Vec3 n = cross(h, g);
+    n = length2(n) > 1e-24 ? normalize(n) : anyPerpendicular(h);
+    return normalize(rotate(h, n, o_.axisTurnMax));
+}
+
+// Flat sprays: the horizontal unit vector ⊥ g on the side of azimuth a; a itself when g is
+// (nearly) vertical and has no left or right.
+Vec3 sideways(const Vec3& a, const Vec3& g) {
+    const Vec3 s = cross(Vec3{0, 1, 0}, g);
+    if (length2(s) < 1e-6) return a;
+    return dot(s, a) >= 0 ? normalize(s) : -normalize(s);
+}
+
 // A shoot of up to `metamers` metamers from bud b, the first along g (Palubicki 2009 §3–4).
 // Every metamer ends in a node with a lateral bud (at branchAngle, turned about the axis by
 // the phyllotaxis angle from the previous one); the shoot's top node also gets the terminal
 // bud. On a whorled order-0 axis only the top node carries laterals: whorlLaterals of them,
 // 360°/k apart. No lateral buds beyond maxOrder. With one metamer and no whorls this is the
-// papers' metamer: the terminal bud, then the lateral bud.
+// papers' metamer: the terminal bud, then the lateral bud. Realism additions, each off by
+// default: on lateral axes the metamers zigzag (turnSd) and keep within axisTurnMax of the
+// direction the axis' bud was set at, and their laterals leave at branchletAngle, to the left
+// or right (flatSprays).
 void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
                        std::vector<Bud>& born) {
     Vec3 g = s.direction;
     const bool whorled = o_.whorlLaterals > 0 && b.order == 0;
     const bool laterals = b.order + 1 <= o_.maxOrder;
     Bud tip = b;
+    const bool held = o_.axisTurnMax > 0 && b.order > 0;
     for (int k = 0; k < metamers; ++k) {
         if (o_.turnSd > 0 && b.order > 0) g = turned(g, b.id, level, k);
+        if (held) g = withinHeading(g, tip.heading);
+        const Vec3 heading = held && length2(tip.heading) == 0 ? g : tip.heading;
         const Vec3 p = tip.position + g * L_;
         const int32_t node = addNode(p, tip.node, tip.order, level);
         // Phyllotaxis: the previous lateral azimuth carried onto the plane ⊥ g, then turned.
         Vec3 a = tip.reference - g * dot(tip.reference, g);
         a = length2(a) > 1e-12 ? normalize(a) : anyPerpendicular(g);
-        tip = {p, g, a, node, b.order, 0, 0};
+        tip = {p, g, a, node, b.order, 0, 0, heading};
         Vec3 next;
         const bool room = static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes;
         const bool top = k + 1 == metamers || !room || !shootDirection(tip, s.won, next);
@@ -835,11 +866,14 @@ void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
         }
         if (laterals && (!whorled || top)) {
             const int count = whorled ? o_.whorlLaterals : 1;
+            const double angle =
+                b.order > 0 && o_.branchletAngle ? *o_.branchletAngle : o_.branchAngle;
             for (int j = 0; j < count; ++j) {
-                const Vec3 aj = j == 0 ? a : rotate(a, g, 2 * kPi * j / count);
+                Vec3 aj = j == 0 ? a : rotate(a, g, 2 * kPi * j / count);
+                if (o_.flatSprays && b.order > 0) aj = sideways(aj, g);
                 const Vec3 lateral =
-                    normalize(g * std::cos(o_.branchAngle) + aj * std::sin(o_.branchAngle));
-                born.push_back({p, lateral, g, node, b.order + 1, nextBudId_++, 0});
+                    normalize(g * std::cos(angle) + aj * std::sin(angle));
+                born.push_back({p, lateral, g, node, b.order + 1, nextBudId_++, 0, lateral});
             }
         }
         if (top) return;
@@ -925,7 +959,8 @@ void Grower::plant() {
                      static_cast<int32_t>(nodes_.size() - 1),
                      0,
                      nextBudId_++,
-                     0});
+                     0,
+                     {}});
 }
 
 void Grower::beginIteration() {

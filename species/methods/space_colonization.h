@@ -80,6 +80,10 @@ struct SpaceColonizationOptions {
     // The tropism of axes of order ≥ 2 (branchlets: e.g. a spruce's hanging ones, Picea's
     // "comb" habit), when set; else `tropism` for every order.
     std::optional<Vec3> branchletTropism;
+    // The angle of lateral buds on axes of order ≥ 1 (so of the order ≥ 2 axes), when set;
+    // else branchAngle for every order: level whorl branches at 85° from the stem carrying
+    // sprays whose shoots leave them forward at 50°.
+    std::optional<double> branchletAngle;  // radians
     // ξ: the bud's own direction times ξ is added to v_opt (both variants) — a direction
     // memory that smooths the zig-zag of few markers (cf. Palubicki 2009, where a new
     // metamer's direction weighs the bud's default orientation against the optimal one).
@@ -119,6 +123,15 @@ struct SpaceColonizationOptions {
     // direction turned by an angle ~ N(0, turnSd) about a random axis across it (keyed by bud,
     // iteration and metamer), so axes wander as sympodial shoots do. 0 = off.
     double turnSd = 0.0;  // radians
+    // Held heading (a realism addition): a lateral axis grows within this angle of the
+    // direction its first metamer took; a metamer aimed further off is turned back onto the
+    // cone's edge. A plagiotropic branch keeps its heading instead of following a crown's rim
+    // round the stem. 0 = off.
+    double axisTurnMax = 0.0;  // radians
+    // Flat sprays (a realism addition): a lateral axis sets its own laterals in the horizontal
+    // plane, to its left or right (the side nearer the phyllotaxis azimuth), as the
+    // plagiotropic branches of firs and spruces do; off: all round the axis.
+    bool flatSprays = false;
 
     // Per-instance crown: markers (and the improved variant's bound) come from a deformed
     // copy of `crown`, drawn per tree: scaled about the root by s ~ N(1, scaleSd) (clamped to

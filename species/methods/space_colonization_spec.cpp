@@ -156,6 +156,9 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
     o.envelopeNoise = sp.number("envelope_noise", o.envelopeNoise, Range::closed(0, 0.9));
 
     o.turnSd = sp.number("shoot_turn_sd_deg", o.turnSd / kDeg, Range::closed(0, 90)) * kDeg;
+    o.axisTurnMax =
+        sp.number("axis_turn_max_deg", o.axisTurnMax / kDeg, Range::closed(0, 180)) * kDeg;
+    o.flatSprays = sp.boolean("flat_sprays", o.flatSprays);
 
     // Excurrent form: the leader, whorls on it, a bound on branch order.
     o.leaderWeight = sp.number("leader_weight", o.leaderWeight, Range::nonNegative());
@@ -164,6 +167,11 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
     o.maxOrder = static_cast<int>(sp.integer("max_order", o.maxOrder, Range::closed(0, 1000)));
 
     o.branchAngle = sp.number("branch_angle_deg", o.branchAngle / kDeg, open(0, 180)) * kDeg;
+    // Asked even when absent (it defaults to `branch_angle_deg`), as branchlet_tropism below.
+    const bool ownBranchletAngle = sp.has("branchlet_angle_deg");
+    const double branchletAngle =
+        sp.number("branchlet_angle_deg", o.branchAngle / kDeg, open(0, 180)) * kDeg;
+    if (ownBranchletAngle) o.branchletAngle = branchletAngle;
     o.phyllotaxis =
         sp.number("phyllotaxis_deg", o.phyllotaxis / kDeg, Range::closed(-360, 360)) * kDeg;
     o.tropism = sp.vec3("tropism", o.tropism);

@@ -842,6 +842,100 @@ TEST(SpaceColonizationForm, LateralShootsTurnByTheirDrawnAngles) {
     for (double a : angles(zigzag, false)) EXPECT_LT(a, 1e-6);
 }
 
+// A whorled conifer on a vertical leader (w = 30): its order-1 laterals set out at exactly
+// 70° from +y (the stem), the frame of the held-heading and flat-spray tests.
+SpaceColonizationOptions whorledOptions() {
+    SpaceColonizationOptions o = treeOptions();
+    o.crown = makePlaced(makeCone(1.0, 3.0), {{0, 0.2, 0}, {0, 1, 0}, {1, 1, 1}});
+    o.trunkLength = 0.3;
+    o.markers = 8000;
+    o.leaderWeight = 30;
+    o.whorlLaterals = 5;
+    o.branchAngle = 70 * kDeg;
+    return o;
+}
+
+// The largest angle to +y of any internode of order `order` grown in an iteration.
+double steepestFromUp(const Tree& t, int order) {
+    double worst = 0;
+    for (const SkeletonNode& n : t.nodes) {
+        if (n.parent < 0 || n.order != order || t.nodes[n.parent].order != order) continue;
+        worst = std::max(worst, angleBetween(n.position - t.nodes[n.parent].position, {0, 1, 0}));
+    }
+    return worst;
+}
+
+TEST(SpaceColonizationForm, AHeldAxisStaysWithinItsHeading) {
+    // Only order-1 axes, pulled down hard (tropism −0.8 ŷ on every step; the held leader
+    // leans at most a degree or two). Free, the laterals droop far below the level; held
+    // within 30° of the direction they set out in, 70° from the stem internode below them, no
+    // internode of theirs is more than 100° from +y, plus the stem's lean there.
+    SpaceColonizationOptions o = whorledOptions();
+    o.maxOrder = 1;
+    o.tropism = {0, -0.8, 0};
+    const Tree free = grow(o, 7);
+    EXPECT_GT(steepestFromUp(free, 1) / kDeg, 120);
+    o.axisTurnMax = 30 * kDeg;
+    const Tree held = grow(o, 7);
+    ASSERT_GT(held.nodes.size(), 300u);
+    const double lean = steepestFromUp(held, 0) / kDeg;
+    EXPECT_LT(lean, 3);
+    EXPECT_LE(steepestFromUp(held, 1) / kDeg, 100 + lean + 1e-6);
+    EXPECT_GT(steepestFromUp(held, 1) / kDeg, 99);  // the cone's edge is reached
+    // A cone of 180° holds nothing: the tree is the free one.
+    o.axisTurnMax = kPi;
+    EXPECT_TRUE(sameTree(free, grow(o, 7)));
+}
+
+TEST(SpaceColonizationForm, FlatSpraysSetShootsLeftOrRightAtTheBranchletAngle) {
+    // ξ huge: an axis' first internode is its bud's direction (to ~1/ξ). Order-1 laterals leave the stem
+    // at branch_angle (70°); their own laterals at branchlet_angle (40°) from the internode g
+    // they grow from, and with flat sprays across g horizontally: the part of the direction ⊥ g
+    // has no vertical component. Without flat sprays the laterals go all round their axis.
+    SpaceColonizationOptions o = whorledOptions();
+    o.maxOrder = 2;
+    o.budDirectionWeight = 1e9;
+    const Tree plain = grow(o, 5);
+    o.branchletAngle = o.branchAngle;  // the same angle set explicitly: the same tree
+    EXPECT_TRUE(sameTree(plain, grow(o, 5)));
+    o.branchletAngle = 40 * kDeg;
+    auto firstInternodes = [](const Tree& t, int order, auto&& check) {
+        int n = 0;
+        for (const SkeletonNode& c : t.nodes) {
+            if (c.parent < 0 || c.order != order || t.nodes[c.parent].order != order - 1) continue;
+            const SkeletonNode& p = t.nodes[c.parent];
+            if (p.parent < 0) continue;
+            check(normalize(c.position - p.position),
+                  normalize(p.position - t.nodes[p.parent].position));
+            ++n;
+        }
+        return n;
+    };
+    double steepestAcross = 0;
+    const Tree round = grow(o, 5);
+    EXPECT_GT(firstInternodes(round, 2,
+                              [&](const Vec3& d, const Vec3& g) {
+                                  EXPECT_NEAR(angleBetween(d, g), 40 * kDeg, 1e-6);
+                                  const Vec3 across = normalize(d - g * dot(d, g));
+                                  steepestAcross = std::max(steepestAcross, std::abs(across.y));
+                              }),
+              50);
+    EXPECT_GT(steepestAcross, 0.5);
+    o.flatSprays = true;
+    const Tree flat = grow(o, 5);
+    EXPECT_GT(firstInternodes(flat, 1,
+                              [](const Vec3& d, const Vec3& g) {
+                                  EXPECT_NEAR(angleBetween(d, g), 70 * kDeg, 1e-6);
+                              }),
+              10);
+    EXPECT_GT(firstInternodes(flat, 2,
+                              [](const Vec3& d, const Vec3& g) {
+                                  EXPECT_NEAR(angleBetween(d, g), 40 * kDeg, 1e-6);
+                                  EXPECT_NEAR(normalize(d - g * dot(d, g)).y, 0, 1e-6);
+                              }),
+              50);
+}
+
 TEST(SpaceColonizationForm, LeaderStaysVerticalAndWhorlsHoldKLaterals) {
     // A conifer: the leader pulled to +y (w = 30), whorls of k = 5 at the top of each shoot.
     // With ξ huge every bud's first internode follows the bud's own direction, so the whorl's
@@ -1076,6 +1170,11 @@ TEST(SpaceColonizationSpec, BadParametersNameFileLineAndKey) {
          "sc.toml:4:", "space_markers: expected a number in [0, 1000000], got -1"},
         {"shoot_turn_sd_deg = 91\n",
          "sc.toml:3:", "shoot_turn_sd_deg: expected a number in [0, 90]"},
+        {"axis_turn_max_deg = 181\n",
+         "sc.toml:3:", "axis_turn_max_deg: expected a number in [0, 180]"},
+        {"branchlet_angle_deg = 0\n",
+         "sc.toml:3:", "branchlet_angle_deg: expected a number in (0, 180), got 0"},
+        {"flat_sprays = 1\n", "sc.toml:3:", "flat_sprays: expected"},
         {"allocation = \"borchert-honda\"\nlight = \"moon\"\n",
          "sc.toml:4:", "light: expected one of"},
         {"allocation = \"borchert-honda\"\nlight = \"shadow\"\nshadow_decay = 1\n",
