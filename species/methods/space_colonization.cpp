@@ -871,8 +871,7 @@ void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
             for (int j = 0; j < count; ++j) {
                 Vec3 aj = j == 0 ? a : rotate(a, g, 2 * kPi * j / count);
                 if (o_.flatSprays && b.order > 0) aj = sideways(aj, g);
-                const Vec3 lateral =
-                    normalize(g * std::cos(angle) + aj * std::sin(angle));
+                const Vec3 lateral = normalize(g * std::cos(angle) + aj * std::sin(angle));
                 born.push_back({p, lateral, g, node, b.order + 1, nextBudId_++, 0, lateral});
             }
         }

@@ -888,8 +888,8 @@ TEST(SpaceColonizationForm, AHeldAxisStaysWithinItsHeading) {
 }
 
 TEST(SpaceColonizationForm, FlatSpraysSetShootsLeftOrRightAtTheBranchletAngle) {
-    // ξ huge: an axis' first internode is its bud's direction (to ~1/ξ). Order-1 laterals leave the stem
-    // at branch_angle (70°); their own laterals at branchlet_angle (40°) from the internode g
+    // ξ huge: an axis' first internode is its bud's direction (to ~1/ξ). Order-1 laterals leave the
+    // stem at branch_angle (70°); their own laterals at branchlet_angle (40°) from the internode g
     // they grow from, and with flat sprays across g horizontally: the part of the direction ⊥ g
     // has no vertical component. Without flat sprays the laterals go all round their axis.
     SpaceColonizationOptions o = whorledOptions();
