@@ -302,7 +302,8 @@ struct Bud {
     int32_t order = 0;  // the branch order of the axis it grows
     uint64_t id = 0;    // creation number: keys its marker stream (improved)
     int failures = 0;   // improved: iterations in a row without space
-    Vec3 heading;       // a lateral axis' direction at its bud's birth (axisTurnMax); 0: none
+    Vec3 heading;       // a lateral axis: the direction its bud was set at (axisTurnMax)
+    Vec3 limb;          // an axis of order ≥ 2: its order-1 ancestor's heading (limbTurnMax)
 };
 
 // What a bud does this iteration.
@@ -355,7 +356,10 @@ void validate(const SpaceColonizationOptions& o) {
     if (!(o.shedThreshold >= 0) || o.shedDelay < 1) bad("shed threshold ≥ 0, delay ≥ 1");
     if (!(o.spaceMarkers >= 0)) bad("space markers must be ≥ 0");
     if (!(o.turnSd >= 0 && o.turnSd <= kPi / 2)) bad("shoot turn σ must be in [0, π/2]");
-    if (!(o.axisTurnMax >= 0 && o.axisTurnMax <= kPi)) bad("axis turn must be in [0, π]");
+    if (!(o.axisTurnMax >= 0 && o.axisTurnMax <= kPi) ||
+        !(o.limbTurnMax >= 0 && o.limbTurnMax <= kPi)) {
+        bad("axis and limb turns must be in [0, π]");
+    }
     if (o.branchletAngle && !(*o.branchletAngle > 0 && *o.branchletAngle < kPi)) {
         bad("branchlet angle must be in (0, π)");
     }
@@ -443,7 +447,6 @@ class Grower {
     bool shootDirection(const Bud& tip, const std::vector<int32_t>& won, Vec3& direction) const;
     void growShoot(const Bud& b, const Step& s, int metamers, int level, std::vector<Bud>& born);
     Vec3 turned(const Vec3& g, uint64_t bud, int level, int k) const;
-    Vec3 withinHeading(const Vec3& g, const Vec3& h) const;
 
     const SpaceColonizationOptions& o_;
     Rng& rng_;
@@ -810,15 +813,13 @@ Vec3 Grower::turned(const Vec3& g, uint64_t bud, int level, int k) const {
     return normalize(rotate(g, axis, o_.turnSd * r.normal()));
 }
 
-// g turned back onto the cone of half-angle axisTurnMax about the axis' heading h when it
-// points outside it (rotated toward h in the plane of the two); g itself when inside, or when
-// the axis has no heading yet.
-Vec3 Grower::withinHeading(const Vec3& g, const Vec3& h) const {
-    if (length2(h) == 0) return g;
-    if (angleBetween(g, h) <= o_.axisTurnMax) return g;
+// g turned back onto the cone of half-angle `half` about h when it points outside it
+// (rotated toward h in the plane of the two); g itself when inside.
+Vec3 withinCone(const Vec3& g, const Vec3& h, double half) {
+    if (angleBetween(g, h) <= half) return g;
     Vec3 n = cross(h, g);
     n = length2(n) > 1e-24 ? normalize(n) : anyPerpendicular(h);
-    return normalize(rotate(h, n, o_.axisTurnMax));
+    return normalize(rotate(h, n, half));
 }
 
 // Flat sprays: the horizontal unit vector ⊥ g on the side of azimuth a; a itself when g is
@@ -836,8 +837,8 @@ Vec3 sideways(const Vec3& a, const Vec3& g) {
 // 360°/k apart. No lateral buds beyond maxOrder. With one metamer and no whorls this is the
 // papers' metamer: the terminal bud, then the lateral bud. Realism additions, each off by
 // default: on lateral axes the metamers zigzag (turnSd) and keep within axisTurnMax of the
-// direction the axis' bud was set at, and their laterals leave at branchletAngle, to the left
-// or right (flatSprays).
+// direction the axis' bud was set at (and, from order 2, within limbTurnMax of its limb's), and
+// their laterals leave at branchletAngle, to the left or right (flatSprays).
 void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
                        std::vector<Bud>& born) {
     Vec3 g = s.direction;
@@ -845,16 +846,17 @@ void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
     const bool laterals = b.order + 1 <= o_.maxOrder;
     Bud tip = b;
     const bool held = o_.axisTurnMax > 0 && b.order > 0;
+    const bool limbHeld = o_.limbTurnMax > 0 && b.order > 1;
     for (int k = 0; k < metamers; ++k) {
         if (o_.turnSd > 0 && b.order > 0) g = turned(g, b.id, level, k);
-        if (held) g = withinHeading(g, tip.heading);
-        const Vec3 heading = held && length2(tip.heading) == 0 ? g : tip.heading;
+        if (held) g = withinCone(g, b.heading, o_.axisTurnMax);
+        if (limbHeld) g = withinCone(g, b.limb, o_.limbTurnMax);
         const Vec3 p = tip.position + g * L_;
         const int32_t node = addNode(p, tip.node, tip.order, level);
         // Phyllotaxis: the previous lateral azimuth carried onto the plane ⊥ g, then turned.
         Vec3 a = tip.reference - g * dot(tip.reference, g);
         a = length2(a) > 1e-12 ? normalize(a) : anyPerpendicular(g);
-        tip = {p, g, a, node, b.order, 0, 0, heading};
+        tip = {p, g, a, node, b.order, 0, 0, b.heading, b.limb};
         Vec3 next;
         const bool room = static_cast<int>(nodes_.size()) - 1 < o_.maxInternodes;
         const bool top = k + 1 == metamers || !room || !shootDirection(tip, s.won, next);
@@ -872,7 +874,8 @@ void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
                 Vec3 aj = j == 0 ? a : rotate(a, g, 2 * kPi * j / count);
                 if (o_.flatSprays && b.order > 0) aj = sideways(aj, g);
                 const Vec3 lateral = normalize(g * std::cos(angle) + aj * std::sin(angle));
-                born.push_back({p, lateral, g, node, b.order + 1, nextBudId_++, 0, lateral});
+                const Vec3 limb = b.order == 0 ? lateral : b.limb;
+                born.push_back({p, lateral, g, node, b.order + 1, nextBudId_++, 0, lateral, limb});
             }
         }
         if (top) return;
@@ -959,6 +962,7 @@ void Grower::plant() {
                      0,
                      nextBudId_++,
                      0,
+                     {},
                      {}});
 }
 

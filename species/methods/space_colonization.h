@@ -128,6 +128,10 @@ struct SpaceColonizationOptions {
     // cone's edge. A plagiotropic branch keeps its heading instead of following a crown's rim
     // round the stem. 0 = off.
     double axisTurnMax = 0.0;  // radians
+    // Held limbs (a realism addition): every axis of order ≥ 2 also grows within this angle of
+    // the direction its limb — its order-1 ancestor — was set at, so a limb's sprays stay on
+    // its side of the stem instead of chaining, order after order, round it. 0 = off.
+    double limbTurnMax = 0.0;  // radians
     // Flat sprays (a realism addition): a lateral axis sets its own laterals in the horizontal
     // plane, to its left or right (the side nearer the phyllotaxis azimuth), as the
     // plagiotropic branches of firs and spruces do; off: all round the axis.

@@ -158,6 +158,8 @@ std::unique_ptr<GrowthMethod> makeSpaceColonizationMethod(Params& sp) {
     o.turnSd = sp.number("shoot_turn_sd_deg", o.turnSd / kDeg, Range::closed(0, 90)) * kDeg;
     o.axisTurnMax =
         sp.number("axis_turn_max_deg", o.axisTurnMax / kDeg, Range::closed(0, 180)) * kDeg;
+    o.limbTurnMax =
+        sp.number("limb_turn_max_deg", o.limbTurnMax / kDeg, Range::closed(0, 180)) * kDeg;
     o.flatSprays = sp.boolean("flat_sprays", o.flatSprays);
 
     // Excurrent form: the leader, whorls on it, a bound on branch order.

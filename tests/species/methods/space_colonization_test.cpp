@@ -887,6 +887,36 @@ TEST(SpaceColonizationForm, AHeldAxisStaysWithinItsHeading) {
     EXPECT_TRUE(sameTree(free, grow(o, 7)));
 }
 
+TEST(SpaceColonizationForm, AHeldLimbKeepsItsSpraysOnItsSide) {
+    // ξ huge: every axis grows straight along its bud's direction (to ~1/ξ), so a limb's
+    // first internode is its heading. Laterals leave their axis at 70° all round it: order-3
+    // axes may point up to 140° from their limb. Held limbs (90°) turn every internode of order
+    // ≥ 2 back within 90° of its limb's heading.
+    SpaceColonizationOptions o = whorledOptions();
+    o.maxOrder = 4;
+    o.budDirectionWeight = 1e9;
+    auto widest = [](const Tree& t) {
+        double worst = 0;
+        for (size_t i = 1; i < t.nodes.size(); ++i) {
+            const SkeletonNode& n = t.nodes[i];
+            if (n.order < 2) continue;
+            size_t limb = i;  // the order-1 ancestor's first node
+            while (!(t.nodes[limb].order == 1 && t.nodes[t.nodes[limb].parent].order == 0)) {
+                limb = t.nodes[limb].parent;
+            }
+            const Vec3 heading = t.nodes[limb].position - t.nodes[t.nodes[limb].parent].position;
+            worst = std::max(worst, angleBetween(n.position - t.nodes[n.parent].position, heading));
+        }
+        return worst / kDeg;
+    };
+    EXPECT_GT(widest(grow(o, 3)), 110);
+    o.limbTurnMax = 90 * kDeg;
+    const Tree held = grow(o, 3);
+    ASSERT_GT(held.nodes.size(), 300u);
+    EXPECT_LE(widest(held), 90 + 1e-4);
+    EXPECT_GT(widest(held), 89);
+}
+
 TEST(SpaceColonizationForm, FlatSpraysSetShootsLeftOrRightAtTheBranchletAngle) {
     // ξ huge: an axis' first internode is its bud's direction (to ~1/ξ). Order-1 laterals leave the
     // stem at branch_angle (70°); their own laterals at branchlet_angle (40°) from the internode g
@@ -1172,6 +1202,8 @@ TEST(SpaceColonizationSpec, BadParametersNameFileLineAndKey) {
          "sc.toml:3:", "shoot_turn_sd_deg: expected a number in [0, 90]"},
         {"axis_turn_max_deg = 181\n",
          "sc.toml:3:", "axis_turn_max_deg: expected a number in [0, 180]"},
+        {"limb_turn_max_deg = -1\n",
+         "sc.toml:3:", "limb_turn_max_deg: expected a number in [0, 180]"},
         {"branchlet_angle_deg = 0\n",
          "sc.toml:3:", "branchlet_angle_deg: expected a number in (0, 180), got 0"},
         {"flat_sprays = 1\n", "sc.toml:3:", "flat_sprays: expected"},
