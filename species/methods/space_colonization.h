@@ -81,8 +81,8 @@ struct SpaceColonizationOptions {
     // "comb" habit), when set; else `tropism` for every order.
     std::optional<Vec3> branchletTropism;
     // The angle of lateral buds on axes of order ≥ 1 (so of the order ≥ 2 axes), when set;
-    // else branchAngle for every order: level whorl branches at 85° from the stem carrying
-    // sprays whose shoots leave them forward at 50°.
+    // else branchAngle for every order: e.g. level whorl branches at 85° from the stem
+    // carrying sprays whose shoots leave them forward at 60°.
     std::optional<double> branchletAngle;  // radians
     // ξ: the bud's own direction times ξ is added to v_opt (both variants) — a direction
     // memory that smooths the zig-zag of few markers (cf. Palubicki 2009, where a new
@@ -124,8 +124,8 @@ struct SpaceColonizationOptions {
     // iteration and metamer), so axes wander as sympodial shoots do. 0 = off.
     double turnSd = 0.0;  // radians
     // Held heading (a realism addition): a lateral axis grows within this angle of the
-    // direction its first metamer took; a metamer aimed further off is turned back onto the
-    // cone's edge. A plagiotropic branch keeps its heading instead of following a crown's rim
+    // direction its bud was set at; a metamer aimed further off is turned back onto the cone's
+    // edge. A plagiotropic branch keeps its heading instead of following a crown's rim
     // round the stem. 0 = off.
     double axisTurnMax = 0.0;  // radians
     // Held limbs (a realism addition): every axis of order ≥ 2 also grows within this angle of
