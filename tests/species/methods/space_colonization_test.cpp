@@ -843,7 +843,7 @@ TEST(SpaceColonizationForm, LateralShootsTurnByTheirDrawnAngles) {
 }
 
 // A whorled conifer on a vertical leader (w = 30): its order-1 laterals set out at exactly
-// 70° from +y (the stem), the frame of the held-heading and flat-spray tests.
+// 70° from +y (the stem), the frame of the whorl, held-heading and flat-spray tests.
 SpaceColonizationOptions whorledOptions() {
     SpaceColonizationOptions o = treeOptions();
     o.crown = makePlaced(makeCone(1.0, 3.0), {{0, 0.2, 0}, {0, 1, 0}, {1, 1, 1}});
@@ -970,14 +970,8 @@ TEST(SpaceColonizationForm, LeaderStaysVerticalAndWhorlsHoldKLaterals) {
     // A conifer: the leader pulled to +y (w = 30), whorls of k = 5 at the top of each shoot.
     // With ξ huge every bud's first internode follows the bud's own direction, so the whorl's
     // laterals leave the stem at exactly branch_angle and 72° apart about it.
-    SpaceColonizationOptions o = treeOptions();
-    o.crown = makePlaced(makeCone(1.0, 3.0), {{0, 0.2, 0}, {0, 1, 0}, {1, 1, 1}});
-    o.trunkLength = 0.3;
-    o.markers = 8000;
-    o.leaderWeight = 30;
-    o.whorlLaterals = 5;
+    SpaceColonizationOptions o = whorledOptions();
     o.maxOrder = 2;
-    o.branchAngle = 70 * kDeg;
     o.budDirectionWeight = 1e9;
     const Tree t = grow(o, 7);
     const ChildIndex kids(t);
