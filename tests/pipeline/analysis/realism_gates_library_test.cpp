@@ -84,19 +84,9 @@ TEST(RealismGates, EveryLibrarySpeciesPasses) {
     std::cout << table;
     if (const char* path = std::getenv("SYLVA_GATES_TABLE")) std::ofstream(path) << table;
     EXPECT_EQ(gates.size(), presets.size());
-    // Open work: the first-order branch lengths of these species do not yet spread as the
-    // reference's (the ashoka's grammar grows short drooping branches of nearly one length
-    // along its column). They must fail only there, and still fail, so that the list shrinks
-    // as they are refitted.
-    const std::set<std::string> kLengthSpreadOpen = {"ashoka"};
     for (const SpeciesGates& s : gates) {
         EXPECT_EQ(s.instances, 16) << s.species;
         for (const GateResult& g : s.gates) {
-            if (g.gate == "spread" && kLengthSpreadOpen.count(s.species)) {
-                EXPECT_FALSE(g.pass) << s.species << " now passes: take it off the list";
-                EXPECT_EQ(g.detail.rfind("branch_length_order", 0), 0u) << s.species;
-                continue;
-            }
             EXPECT_TRUE(g.pass) << s.species << ": " << g.gate << " = " << g.value << " "
                                 << g.detail;
         }
