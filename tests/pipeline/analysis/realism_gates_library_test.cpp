@@ -96,10 +96,6 @@ TEST(RealismGates, EveryLibrarySpeciesPasses) {
     // record (at least 10 trees of a measure), where BAAD's trees reach the species' height:
     // saplings' proportions say nothing of grown trees (BAAD's european ash are 2–6 m
     // understorey saplings, its figs 19 forest saplings up to 10.7 m).
-    // Open-grown crowns: the library's Norway maple is a solitary tree, as wide as tall, where
-    // BAAD's Acer grew in stands (crown diameter at most 0.60 of the height). It must still be
-    // outside, so the list stays current.
-    const std::set<std::string> kOpenGrownCrown = {"norway-maple"};
     std::ifstream bin(source / "species/reference/baad-allometry.json");
     const nlohmann::json baad = nlohmann::json::parse(bin);
     int checked = 0;
@@ -115,10 +111,6 @@ TEST(RealismGates, EveryLibrarySpeciesPasses) {
         for (const char* key : {"height_m", "crown_diameter_ratio", "crown_depth_ratio"}) {
             if (!block->contains(key) || (*block)[key]["n"].get<int>() < 10) continue;
             const double v = measured.at(species).at(key);
-            if (kOpenGrownCrown.count(species) && std::string(key) == "crown_diameter_ratio") {
-                EXPECT_GT(v, (*block)[key]["max"].get<double>()) << species << " now inside";
-                continue;
-            }
             EXPECT_GE(v, (*block)[key]["min"].get<double>()) << species << " " << key;
             EXPECT_LE(v, (*block)[key]["max"].get<double>()) << species << " " << key;
             ++checked;
