@@ -1343,7 +1343,7 @@ TEST(SpaceColonizationPresets, EveryPresetGrowsARootedTreeInItsCrown) {
         // containment is checked for unguided presets only.
         EXPECT_EQ(outside, 0);
     }
-    EXPECT_EQ(grown, 12) << "the four sc-* species (species/papers/liu-2020) and the eight of "
+    EXPECT_EQ(grown, 14) << "the four sc-* species (species/papers/liu-2020) and the ten of "
                             "the library (species/presets)";
 }
 
