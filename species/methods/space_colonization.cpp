@@ -847,6 +847,7 @@ void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
     Bud tip = b;
     const bool held = o_.axisTurnMax > 0 && b.order > 0;
     const bool limbHeld = o_.limbTurnMax > 0 && b.order > 1;
+    const double angle = b.order > 0 && o_.branchletAngle ? *o_.branchletAngle : o_.branchAngle;
     for (int k = 0; k < metamers; ++k) {
         if (o_.turnSd > 0 && b.order > 0) g = turned(g, b.id, level, k);
         if (held) g = withinCone(g, b.heading, o_.axisTurnMax);
@@ -868,8 +869,6 @@ void Grower::growShoot(const Bud& b, const Step& s, int metamers, int level,
         }
         if (laterals && (!whorled || top)) {
             const int count = whorled ? o_.whorlLaterals : 1;
-            const double angle =
-                b.order > 0 && o_.branchletAngle ? *o_.branchletAngle : o_.branchAngle;
             for (int j = 0; j < count; ++j) {
                 Vec3 aj = j == 0 ? a : rotate(a, g, 2 * kPi * j / count);
                 if (o_.flatSprays && b.order > 0) aj = sideways(aj, g);
