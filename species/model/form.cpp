@@ -145,23 +145,28 @@ void pruneAtGround(Tree& tree) {
 }  // namespace
 
 void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper, double baseRadius,
-                    double exponentSd, const Rng* rng, ForkSpread spread, double logMedian) {
+                    double exponentSd, const Rng* rng, ForkSpread spread, double logMedian,
+                    double minChildRatio) {
     auto& nodes = tree.nodes;
     const int32_t n = static_cast<int32_t>(nodes.size());
     if (n == 0) return;
     const ChildIndex children(tree);
+    const bool drawn = exponentSd > 0 && rng != nullptr;
+    const bool logNormal = drawn && spread == ForkSpread::kLogNormal;
+    const bool bounded = logNormal && minChildRatio > 0;
+    // Right-skewed as measured forks are (the TreeQSM reference: median 2.8–3.0, a tenth at its
+    // bound of 6, where a child is nearly as thick as its parent); held at the reference's bounds
+    // rather than redrawn, so that tail stays.
+    auto logNormalDraw = [&](Rng& draw) {
+        const double median = logMedian > 0 ? logMedian : exponent;
+        return std::clamp(median * std::exp(exponentSd * draw.normal(0.0, 1.0)),
+                          kMinLogForkExponent, kMaxForkExponent);
+    };
     // The exponent of each fork: the mean, or a draw of its own keyed by the fork's index.
     auto forkExponent = [&](int32_t i) {
-        if (!(exponentSd > 0) || rng == nullptr) return exponent;
+        if (!drawn) return exponent;
         Rng draw = rng->derive(static_cast<uint64_t>(i));
-        if (spread == ForkSpread::kLogNormal) {
-            // Right-skewed as measured forks are (the TreeQSM reference: median 2.8–3.0, a
-            // tenth at its bound of 6, where a child is nearly as thick as its parent); held
-            // at the reference's bounds rather than redrawn, so that tail stays.
-            const double median = logMedian > 0 ? logMedian : exponent;
-            return std::clamp(median * std::exp(exponentSd * draw.normal(0.0, 1.0)),
-                              kMinLogForkExponent, kMaxForkExponent);
-        }
+        if (logNormal) return logNormalDraw(draw);
         for (int attempt = 0; attempt < 8; ++attempt) {
             const double e = draw.normal(exponent, exponentSd);
             if (e >= kMinForkExponent && e <= kMaxForkExponent) return e;
@@ -171,7 +176,34 @@ void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
     // Radii from the tips with the exponents `exponentAt` gives; children have larger indices
     // than their parents, so one reverse sweep sees them first.
     std::vector<double> r(n, 0.0);
-    auto sweep = [&](auto&& exponentAt) {
+    auto forkRadius = [&](int32_t i, double e) {
+        double sum = 0.0;
+        for (int32_t k = children.offset[i]; k < children.offset[i + 1]; ++k) {
+            const int32_t c = children.child[k];
+            if (isShoot(nodes[c])) sum += std::pow(r[c], e);
+        }
+        return std::pow(sum, 1.0 / e);
+    };
+    // A fork under the bound on its thickest child (measured forks keep it: of the TreeQSM trees'
+    // forks at least 2 cm thick, 0.4 % have their thickest child under half the fork's radius):
+    // the fork's own stream draws again while its radius would exceed it, then the fork is held
+    // to it. `mean`: the rescaling sweep, whose exponent is the species' n.
+    auto boundedForkRadius = [&](int32_t i, bool mean) {
+        double thickest = 0.0;
+        for (int32_t k = children.offset[i]; k < children.offset[i + 1]; ++k) {
+            const int32_t c = children.child[k];
+            if (isShoot(nodes[c])) thickest = std::max(thickest, r[c]);
+        }
+        const double limit = thickest / minChildRatio;
+        if (mean) return std::min(forkRadius(i, exponent), limit);
+        Rng draw = rng->derive(static_cast<uint64_t>(i));
+        for (int attempt = 0; attempt < kChildRatioDraws; ++attempt) {
+            const double radius = forkRadius(i, logNormalDraw(draw));
+            if (radius <= limit) return radius;
+        }
+        return limit;
+    };
+    auto sweep = [&](auto&& exponentAt, bool mean) {
         for (int32_t i = n - 1; i >= 0; --i) {
             if (!isShoot(nodes[i]) && i != 0) continue;
             int shootChildren = 0;
@@ -189,23 +221,19 @@ void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
             } else if (shootChildren == 1) {
                 r[i] =
                     only * (1.0 + taper * distance(nodes[i].position, nodes[onlyChild].position));
+            } else if (bounded) {
+                r[i] = boundedForkRadius(i, mean);
             } else {
-                const double e = exponentAt(i);
-                double sum = 0.0;
-                for (int32_t k = children.offset[i]; k < children.offset[i + 1]; ++k) {
-                    const int32_t c = children.child[k];
-                    if (isShoot(nodes[c])) sum += std::pow(r[c], e);
-                }
-                r[i] = std::pow(sum, 1.0 / e);
+                r[i] = forkRadius(i, exponentAt(i));
             }
         }
     };
     double base = baseRadius;
-    if (exponentSd > 0 && rng != nullptr && !(baseRadius > 0)) {
-        sweep([&](int32_t) { return exponent; });
+    if (drawn && !(baseRadius > 0)) {
+        sweep([&](int32_t) { return exponent; }, true);
         base = r[0];
     }
-    sweep(forkExponent);
+    sweep(forkExponent, false);
     const double k = base > 0 && r[0] > 0 ? base / r[0] : 1.0;
     for (int32_t i = 0; i < n; ++i) {
         if (isShoot(nodes[i]) || i == 0) nodes[i].radius = r[i] * k;
@@ -347,7 +375,7 @@ void applyForm(Tree& tree, const FormOptions& o, const Rng& rng) {
         pipeModelRadii(tree, o.pipeExponent, o.tipRadius, o.pipeTaper, o.baseRadius,
                        logNormal ? o.pipeExponentLogSd : o.pipeExponentSd, &forks,
                        logNormal ? ForkSpread::kLogNormal : ForkSpread::kNormal,
-                       o.pipeExponentLogMedian);
+                       o.pipeExponentLogMedian, o.pipeMinChildRatio);
     }
     // Where each node was before the branches turned: a hanging root follows its node from there.
     std::vector<Vec3> grown;

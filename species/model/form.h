@@ -54,6 +54,10 @@ struct FormOptions {
                                      // continuations); excludes pipeExponentSd
     double pipeExponentLogMedian = 0.0;  // the log-normal draws' median; 0: pipeExponent (the base
                                          // keeps pipeExponent's radius either way)
+    double pipeMinChildRatio = 0.0;  // with log-normal forks: the thickest child of a fork is at
+                                     // least this fraction of the fork's radius (a draw that would
+                                     // make the fork thicker is drawn again, then the fork held to
+                                     // it); 0: off
     double angleSdRad = 0.0;     // per branch leaving the stem: its insertion angle + N(0, sd),
                                  // radians
     double angleShiftRad = 0.0;  // and + this mean (radians; > 0 wider from the stem), both
@@ -86,6 +90,7 @@ constexpr double kMinForkExponent = 1.2;
 constexpr double kMaxForkExponent = 6.0;
 // The log-normal draw's floor: the reference's own (a parent of two equal children 4 × as thick).
 constexpr double kMinLogForkExponent = 0.5;
+constexpr int kChildRatioDraws = 8;  // draws of a fork's exponent under pipeMinChildRatio
 
 // How a fork's own exponent is drawn about the species' n.
 enum class ForkSpread {
@@ -104,9 +109,14 @@ void applyForm(Tree& tree, const FormOptions& options, const Rng& rng);
 // without a base radius the radii are then rescaled so the base keeps the radius the mean
 // exponent gives it (the spread changes the forks, not the tree's thickness). A log-normal
 // spread draws about `logMedian` when it is > 0, about `exponent` otherwise.
+// With minChildRatio > 0 (log-normal spread only) a fork's radius is at most its thickest child's
+// ÷ minChildRatio: while the drawn exponent would make it thicker, the fork's stream draws again
+// (up to kChildRatioDraws draws in all), and then the fork is held to that radius. The rescaling
+// sweep with the mean exponent obeys the same bound.
 void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper, double baseRadius,
                     double exponentSd = 0.0, const Rng* rng = nullptr,
-                    ForkSpread spread = ForkSpread::kNormal, double logMedian = 0.0);
+                    ForkSpread spread = ForkSpread::kNormal, double logMedian = 0.0,
+                    double minChildRatio = 0.0);
 
 // Step 3 alone, exposed for tests: every branch (a node whose order is above its parent's and
 // that does not continue it — the continuing child as the reference distributions define it,

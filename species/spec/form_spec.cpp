@@ -31,6 +31,11 @@ FormOptions readForm(Params& species) {
     if (o.pipeExponentLogMedian > 0 && o.pipeExponentLogMedian < 1) {
         f->fail("pipe_exponent_log_median", "expected 0 (pipe_exponent) or a value in [1, 4]");
     }
+    o.pipeMinChildRatio =
+        f->number("pipe_min_child_ratio", o.pipeMinChildRatio, Range::closed(0, 0.9));
+    if (o.pipeMinChildRatio > 0 && !(o.pipeExponentLogSd > 0)) {
+        f->fail("pipe_min_child_ratio", "needs pipe_exponent_log_sd (the forks it bounds)");
+    }
     if (o.pipeExponentLogSd > 0 && o.pipeExponentSd > 0) {
         f->fail("pipe_exponent_log_sd", "set either pipe_exponent_sd or pipe_exponent_log_sd");
     }

@@ -325,6 +325,52 @@ TEST(Form, LogNormalExponentSpreadIsSkewedAndHeldAtTheReferenceBounds) {
     EXPECT_NEAR(own.nodes[0].radius, fixed.nodes[0].radius, 1e-12);
 }
 
+// The bound on a fork's thickest child (half the fork's radius here). Each fork's first draw is
+// its stream's first normal, n = 2.3 · e^(0.7z) held to [0.5, 6]: a fork whose first draw keeps
+// its thickest child at half its radius or more has exactly that exponent; the others drew again
+// and keep the bound.
+TEST(Form, ThickestChildBoundRedrawsOnlyTheForksThatBreakIt) {
+    Tree t = binaryTree(11);
+    const Rng rng(11);
+    pipeModelRadii(t, 2.3, 0.01, 0.0, 0.0, 0.7, &rng, ForkSpread::kLogNormal, 0.0, 0.5);
+    const ChildIndex kids(t);
+    int redrawn = 0, forks = 0;
+    for (int32_t i = 0; i < static_cast<int32_t>(t.nodes.size()); ++i) {
+        if (kids.offset[i + 1] - kids.offset[i] != 2) continue;
+        ++forks;
+        std::vector<double> rc;
+        double thickest = 0.0;
+        for (int32_t k = kids.offset[i]; k < kids.offset[i + 1]; ++k) {
+            rc.push_back(t.nodes[kids.child[k]].radius);
+            thickest = std::max(thickest, rc.back());
+        }
+        EXPECT_GE(thickest, 0.5 * t.nodes[i].radius * (1 - 1e-12)) << "fork " << i;
+        Rng draw = rng.derive(static_cast<uint64_t>(i));
+        const double first = std::clamp(2.3 * std::exp(0.7 * draw.normal(0.0, 1.0)), 0.5, 6.0);
+        const double firstRadius =
+            std::pow(std::pow(rc[0], first) + std::pow(rc[1], first), 1 / first);
+        if (firstRadius <= thickest / 0.5) {
+            EXPECT_NEAR(radiusExponent(t.nodes[i].radius, rc), first, 1e-9) << "fork " << i;
+        } else {
+            ++redrawn;
+        }
+    }
+    ASSERT_EQ(forks, 2047);
+    EXPECT_GE(redrawn, 20);  // the bound is exercised (n < 1 at near-equal children: ~10 %)
+
+    // A fork no draw can satisfy is held to the bound: four equal tips under n ≈ 0.6 would make
+    // it 4^(1/0.6) = 10.1 × as thick as each; held at 2 ×.
+    Tree star;
+    addNode(star, -1, {0, 0, 0});
+    addNode(star, 0, {0, 1, 0});
+    for (double x : {-0.3, -0.1, 0.1, 0.3}) addNode(star, 1, {x, 1.5, 0}, 0.01, 1);
+    Tree loose = star;
+    pipeModelRadii(loose, 2.3, 0.01, 0.0, 0.0, 0.01, &rng, ForkSpread::kLogNormal, 0.6);
+    EXPECT_NEAR(loose.nodes[1].radius / loose.nodes[2].radius, std::pow(4.0, 1 / 0.6), 0.5);
+    pipeModelRadii(star, 2.3, 0.01, 0.0, 0.0, 0.01, &rng, ForkSpread::kLogNormal, 0.6, 0.5);
+    EXPECT_NEAR(star.nodes[1].radius / star.nodes[2].radius, 2.0, 1e-12);
+}
+
 double elevationDeg(const Vec3& a, const Vec3& b) {
     const Vec3 d = b - a;
     return std::asin(d.y / length(d)) * 180 / kPi;
@@ -680,6 +726,12 @@ TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
                 "pipe_exponent_log_median = 0.5\n"),
         "s.toml:4:28: form.pipe_exponent_log_median: expected 0 (pipe_exponent) or a value in "
         "[1, 4]");
+    EXPECT_EQ(errorOf("[form]\npipe_exponent = 2\npipe_min_child_ratio = 0.5\n"),
+              "s.toml:3:24: form.pipe_min_child_ratio: needs pipe_exponent_log_sd (the forks it "
+              "bounds)");
+    EXPECT_EQ(errorOf("[form]\npipe_exponent = 2\npipe_exponent_log_sd = 0.5\n"
+                      "pipe_min_child_ratio = 1\n"),
+              "s.toml:4:24: form.pipe_min_child_ratio: expected a number in [0, 0.9], got 1");
     EXPECT_EQ(errorOf("[form]\nangle_shift_deg = 60\n"),
               "s.toml:2:19: form.angle_shift_deg: expected a number in [-45, 45], got 60");
     EXPECT_EQ(errorOf("[form]\nscael = 1.1\n"),
