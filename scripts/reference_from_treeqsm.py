@@ -117,6 +117,7 @@ SOURCES = {
 }
 MIN_VALUES = 5  # a tree joins a distribution with at least this many values of it
 CAP_RATIO = 0.949  # TreeQSM's 0.95 cap on a branch's radius relative to its parent cylinder
+THICK_FORK = 0.02  # m: forks this thick or more are counted for the thickest child's share
 DISTRIBUTIONS = [
     ("radius_ratio", "-", "r_lateral / r_parent at uncapped forks, per lateral child"),
     ("radius_exponent", "-", "n in [0.5, 6] with r_parent^n = sum r_child^n, per uncapped fork"),
@@ -197,7 +198,7 @@ def measure(q):
     base = q.start[roots[0]]
     height = max(end[:, 2].max(), q.start[:, 2].max()) - base[2]
     out = {k: [] for k, _, _ in DISTRIBUTIONS}
-    forks = capped = 0
+    forks = capped = thick = steps = 0
     for c in range(n):
         if len(kids[c]) < 2:
             continue
@@ -208,6 +209,9 @@ def measure(q):
         if any(r >= CAP_RATIO for r in ratios):
             capped += 1
             continue
+        if rp >= THICK_FORK:
+            thick += 1
+            steps += max(q.radius[j] for j in kids[c]) < 0.5 * rp
         out["radius_ratio"] += ratios
         e = radius_exponent(rp, [q.radius[j] for j in kids[c]])
         if math.isfinite(e):
@@ -240,7 +244,7 @@ def measure(q):
         if 1 <= o <= 3:
             out["branch_length_order%d" % o].append(l / height)
     counts = {"cylinders": n, "forks": forks, "capped_forks": capped, "height_m": height,
-              "branches": len(blen)}
+              "branches": len(blen), "thick_forks": thick, "step_forks": steps}
     return out, counts
 
 
@@ -490,6 +494,14 @@ def main():
     for src, s in source_counts(records).items():
         print("%-16s trees %3d  cylinders %6d  forks %5d (capped %d)" %
               (src, s["trees"], s["cylinders"], s["forks"], s["capped_forks"]))
+
+    # A fork whose thickest child is under half its radius is a step in the axis (a stub under
+    # sprouts); the library bounds its forks there (docs/specs.md, pipe_min_child_ratio).
+    shares = [r["counts"]["step_forks"] / r["counts"]["thick_forks"] for r in records
+              if r["counts"]["thick_forks"] >= MIN_VALUES]
+    print("uncapped forks >= %g m whose thickest child is under half their radius: %.2f %% "
+          "tree-weighted over %d trees (median tree %.2f %%)" %
+          (THICK_FORK, 100 * np.mean(shares), len(shares), 100 * np.median(shares)))
 
     if args.per_tree:
         keys = list(rows[0].keys())
