@@ -203,7 +203,8 @@ void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
         }
         return limit;
     };
-    auto sweep = [&](auto&& exponentAt, bool mean) {
+    // `mean`: every fork takes the species' n (the sweep the rescaling measures the base with).
+    auto sweep = [&](bool mean) {
         for (int32_t i = n - 1; i >= 0; --i) {
             if (!isShoot(nodes[i]) && i != 0) continue;
             int shootChildren = 0;
@@ -224,16 +225,16 @@ void pipeModelRadii(Tree& tree, double exponent, double tipRadius, double taper,
             } else if (bounded) {
                 r[i] = boundedForkRadius(i, mean);
             } else {
-                r[i] = forkRadius(i, exponentAt(i));
+                r[i] = forkRadius(i, mean ? exponent : forkExponent(i));
             }
         }
     };
     double base = baseRadius;
     if (drawn && !(baseRadius > 0)) {
-        sweep([&](int32_t) { return exponent; }, true);
+        sweep(true);
         base = r[0];
     }
-    sweep(forkExponent, false);
+    sweep(false);
     const double k = base > 0 && r[0] > 0 ? base / r[0] : 1.0;
     for (int32_t i = 0; i < n; ++i) {
         if (isShoot(nodes[i]) || i == 0) nodes[i].radius = r[i] * k;

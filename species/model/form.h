@@ -58,10 +58,10 @@ struct FormOptions {
                                      // least this fraction of the fork's radius (a draw that would
                                      // make the fork thicker is drawn again, then the fork held to
                                      // it); 0: off
-    double angleSdRad = 0.0;     // per branch leaving the stem: its insertion angle + N(0, sd),
-                                 // radians
-    double angleShiftRad = 0.0;  // and + this mean (radians; > 0 wider from the stem), both
-                                 // weighted by the branch's spread weight
+    double angleSdRad = 0.0;         // per branch leaving the stem: its insertion angle + N(0, sd),
+                                     // radians
+    double angleShiftRad = 0.0;      // and + this mean (radians; > 0 wider from the stem), both
+                                     // weighted by the branch's spread weight
     double lengthSd = 0.0;       // per branch: its length × e^(σ(0.674 − |z|)), z ~ N(0, 1),
                                  // at least 0.25: the median branch keeps the method's length,
                                  // none grows past e^(0.674σ) of it, and the shortened half has
