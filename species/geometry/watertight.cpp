@@ -48,10 +48,13 @@ constexpr int kLeafDim = static_cast<int>(LeafT::DIM);  // 8 voxels per leaf edg
 constexpr int kLeafLog2 = static_cast<int>(LeafT::LOG2DIM);
 
 // Twigs are thickened to this many voxels of radius so that they survive sampling at voxel
-// centres: √3/2, the covering radius of the voxel lattice, so every point of a segment's axis
-// has a voxel centre inside the capsule. At 0.75 about one thin diagonal twig in six broke
-// into separate beads; at √3/2 none of 2000 random ones did.
-constexpr double kMinRadiusVoxels = 0.8660254037844386;
+// centres. √3/2, the covering radius of the voxel lattice, puts a voxel centre inside the
+// capsule at every point of a segment's axis, which keeps twigs whole (at 0.75 about one thin
+// diagonal twig in six broke into separate beads), but the dual-contoured surface of a twig one
+// to five voxels long then passed as close as 0.03 voxel to its end nodes, and a library tree's
+// tip fell outside. At 1 voxel every cell corner within √3/2 of a node lies inside and the
+// shallowest of 3,000 random twig ends was 0.26 voxel deep.
+constexpr double kMinRadiusVoxels = 1.0;
 
 // Distances closer to zero than this many voxels are pushed to ± it: a surface through a
 // voxel centre makes volumeToMesh emit coincident vertices and degenerate triangles (a
