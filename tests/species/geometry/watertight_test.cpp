@@ -303,9 +303,9 @@ TEST(Watertight, ThinTwigsAreThickenedAndStayWhole) {
 // The ends of thin twigs too: a node of radius 0 lies inside the mesh, and not on a knife's
 // edge, wherever it falls in its voxel and whichever way its twig points. 400 twigs 1 to 5
 // voxels long: directions on a golden-angle spiral over the sphere, tips spread over one voxel
-// by a low-discrepancy sequence. At a minimum radius of √3/2 voxel every tip was inside but
-// some only 0.03 voxel deep (one tip of a library tree fell outside); at 1 voxel the
-// shallowest is 0.26 voxel deep.
+// by a low-discrepancy sequence. At a minimum radius of √3/2 voxel every end here was inside
+// but the shallowest only 0.053 voxel deep (and one tip of a library tree fell outside); at 1
+// voxel the shallowest is 0.26 voxel deep.
 TEST(Watertight, ThinTwigEndsAreInside) {
     using Primitive = CGAL::AABB_face_graph_triangle_primitive<SurfaceMesh>;
     using AabbTree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, Primitive>>;
