@@ -71,6 +71,33 @@ TEST(DeflateRuns, CodesDeeperThanFifteenBitsAreLimited) {
     expectRoundTrip(data, "Fibonacci frequencies");
 }
 
+// The checksum is summed over runs with its reductions deferred: on megabytes of short bright
+// runs (the sums grow fastest), runs across the points where it reduces, and runs longer than
+// its deferral, the stream's last four bytes are zlib's own adler32 of the data.
+TEST(DeflateRuns, ChecksumIsZlibsOverManyMegabytes) {
+    std::mt19937 rng(11);
+    std::vector<uint8_t> data;
+    auto shortRuns = [&](size_t bytes) {
+        for (size_t end = data.size() + bytes; data.size() < end;) {
+            const size_t len = 1 + rng() % 700;
+            data.insert(data.end(), len, data.size() % 2 ? 254 : 255);
+        }
+    };
+    shortRuns(3u << 20);
+    data.insert(data.end(), (1u << 20) - 1, 255);  // just under the deferral
+    data.insert(data.end(), 1u << 20, 17);         // at it
+    shortRuns(1u << 20);
+    data.insert(data.end(), 5u << 20, 255);  // far over it
+    shortRuns(2u << 20);
+    const std::string z = zlibRuns(data.data(), data.size());
+    uLong expected = adler32(0L, Z_NULL, 0);
+    expected = adler32(expected, data.data(), static_cast<uInt>(data.size()));
+    const auto* tail = reinterpret_cast<const uint8_t*>(z.data() + z.size() - 4);
+    const uLong ours = (uLong(tail[0]) << 24) | (uLong(tail[1]) << 16) | (uLong(tail[2]) << 8) | tail[3];
+    EXPECT_EQ(ours, expected);
+    EXPECT_EQ(inflateAll(z, data.size()), data);
+}
+
 // Rows with a filter byte each: the PNG layout.
 TEST(DeflateRuns, RowsArePrefixedByTheFilterByte) {
     const size_t w = 97, h = 31;
