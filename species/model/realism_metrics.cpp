@@ -241,14 +241,22 @@ void addRealismMetrics(const Tree& tree, TreeStats& s) {
     }
     if (shoot > 0) s.belowGroundFraction = static_cast<double>(below) / static_cast<double>(shoot);
 
-    // Stems: shoot segments leaving the base ball outward.
+    // Stems: shoot segments leaving the base ball outward from a node reached from the root
+    // within the ball (a twig hanging down into the ball from the crown and out again is no
+    // stem). Parents come before their children, so one pass settles which nodes are reached.
     const Vec3 root = nodes[0].position;
     const double baseRadius = std::max(nodes[0].radius, kMinBaseRadius);
+    std::vector<char> fromBase(nodes.size(), 0);
+    fromBase[0] = 1;
     for (size_t i = 1; i < nodes.size(); ++i) {
         const SkeletonNode& n = nodes[i];
-        if (n.part != kShootPart || nodes[n.parent].part != kShootPart) continue;
-        if (distance(nodes[n.parent].position, root) <= baseRadius &&
-            distance(n.position, root) > baseRadius) {
+        if (n.part != kShootPart || nodes[n.parent].part != kShootPart ||
+            !fromBase[n.parent]) {
+            continue;
+        }
+        if (distance(n.position, root) <= baseRadius) {
+            fromBase[i] = 1;
+        } else {
             ++s.stemsAtBase;
         }
     }

@@ -54,6 +54,14 @@ TEST(RealismMetrics, StemsLeavingTheBase) {
     addNode(u, inside, {0, 1, 0}, 0.08);
     addNode(u, inside, {0.5, 1, 0}, 0.05, 1);
     EXPECT_EQ(computeStats(u).stemsAtBase, 2);
+    // A twig hanging from a limb down past the foot of the trunk, into the base ball and out
+    // again: still one stem.
+    Tree v = trunk(3);
+    const int32_t limb = addNode(v, 2, {0.5, 1.5, 0}, 0.03, 1);
+    const int32_t low = addNode(v, limb, {0.3, 0.2, 0}, 0.01, 2);
+    const int32_t in = addNode(v, low, {0.05, 0.02, 0}, 0.005, 2);  // inside r = 0.1 m
+    addNode(v, in, {-0.3, 0.01, 0}, 0.004, 2);                      // and out
+    EXPECT_EQ(computeStats(v).stemsAtBase, 1);
 }
 
 TEST(RealismMetrics, LeaderLeanFromTheTopFifthOfTheOrderZeroAxis) {
