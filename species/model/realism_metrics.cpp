@@ -250,8 +250,7 @@ void addRealismMetrics(const Tree& tree, TreeStats& s) {
     fromBase[0] = 1;
     for (size_t i = 1; i < nodes.size(); ++i) {
         const SkeletonNode& n = nodes[i];
-        if (n.part != kShootPart || nodes[n.parent].part != kShootPart ||
-            !fromBase[n.parent]) {
+        if (n.part != kShootPart || nodes[n.parent].part != kShootPart || !fromBase[n.parent]) {
             continue;
         }
         if (distance(n.position, root) <= baseRadius) {

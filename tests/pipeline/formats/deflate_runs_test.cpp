@@ -93,7 +93,8 @@ TEST(DeflateRuns, ChecksumIsZlibsOverManyMegabytes) {
     uLong expected = adler32(0L, Z_NULL, 0);
     expected = adler32(expected, data.data(), static_cast<uInt>(data.size()));
     const auto* tail = reinterpret_cast<const uint8_t*>(z.data() + z.size() - 4);
-    const uLong ours = (uLong(tail[0]) << 24) | (uLong(tail[1]) << 16) | (uLong(tail[2]) << 8) | tail[3];
+    const uLong ours =
+        (uLong(tail[0]) << 24) | (uLong(tail[1]) << 16) | (uLong(tail[2]) << 8) | tail[3];
     EXPECT_EQ(ours, expected);
     EXPECT_EQ(inflateAll(z, data.size()), data);
 }
