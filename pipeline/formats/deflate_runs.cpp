@@ -212,27 +212,22 @@ void forEachToken(uint64_t length, Copy&& copy, Literal&& literal) {
 
 // The Adler-32 of the data (RFC 1950 §8.2) a run at a time: a run of L bytes v adds v·L to a
 // and a·L + v·L(L+1)/2 to b. The sums are taken modulo 65521 only once kDeferBytes bytes have
-// gone in since the last reduction (as zlib defers its own, there every 5,552 bytes): below that
-// a < 65521 + 255·2^21 and b < 65521 + 2^21·a + 255·2^41, far inside 64 bits. A run as long as
-// kDeferBytes is reduced at once. (Reducing after every run was 40 % of the encoder's time on
-// label images, whose runs are short.)
+// gone in since the last reduction (as zlib defers its own, there every 5,552 bytes), a longer
+// run going in as pieces of at most kDeferBytes: between reductions fewer than 2^21 bytes go
+// in, so a < 65521 + 255·2^21 and b < 65521 + 2^21·a + 255·2^41, far inside 64 bits.
+// (Reducing after every run was 40 % of the encoder's time on label images, whose runs are
+// short.)
 class RunAdler {
   public:
     void add(uint64_t v, uint64_t length) {
-        if (length >= kDeferBytes) {
-            reduce();
-            const uint64_t l = length % kAdlerMod;
-            const uint64_t triangle = length % 2 == 0
-                                          ? (length / 2) % kAdlerMod * ((length + 1) % kAdlerMod)
-                                          : l * (((length + 1) / 2) % kAdlerMod);
-            b_ = (b_ + l * a_ + v * (triangle % kAdlerMod)) % kAdlerMod;
-            a_ = (a_ + v * l) % kAdlerMod;
-            return;
+        while (length > 0) {
+            const uint64_t l = std::min(length, kDeferBytes);
+            b_ += l * a_ + v * (l * (l + 1) / 2);
+            a_ += v * l;
+            pending_ += l;
+            if (pending_ >= kDeferBytes) reduce();
+            length -= l;
         }
-        b_ += length * a_ + v * (length * (length + 1) / 2);
-        a_ += v * length;
-        pending_ += length;
-        if (pending_ >= kDeferBytes) reduce();
     }
     uint32_t value() {
         reduce();
