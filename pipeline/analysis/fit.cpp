@@ -11,9 +11,6 @@
 #include <cstdlib>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <pagmo/algorithms/cmaes.hpp>
-#include <pagmo/population.hpp>
-#include <pagmo/problem.hpp>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -22,6 +19,7 @@
 #include "core/budget.h"
 #include "core/input_file.h"
 #include "core/rng.h"
+#include "pipeline/analysis/cmaes_module.h"
 #include "pipeline/analysis/dataset_stats.h"
 #include "pipeline/formats/atomic_file.h"
 #include "species/model/reference_metrics.h"
@@ -360,18 +358,6 @@ FitSpec readFitSpec(const std::string& speciesPath, KeyLog* keyLog,
 
 // --- the optimiser ----------------------------------------------------------------------------
 
-namespace {
-
-// pagmo's user-defined problem around a std::function (called serially by cmaes).
-struct FunctionProblem {
-    const std::function<double(const std::vector<double>&)>* f = nullptr;
-    pagmo::vector_double lo, hi;
-    pagmo::vector_double fitness(const pagmo::vector_double& x) const { return {(*f)(x)}; }
-    std::pair<pagmo::vector_double, pagmo::vector_double> get_bounds() const { return {lo, hi}; }
-};
-
-}  // namespace
-
 CmaesResult minimiseCmaes(const std::function<double(const std::vector<double>&)>& f,
                           const std::vector<double>& lo, const std::vector<double>& hi,
                           const CmaesOptions& options,
@@ -388,56 +374,34 @@ CmaesResult minimiseCmaes(const std::function<double(const std::vector<double>&)
                                     std::to_string(lambda));
     }
     const unsigned seed32 = static_cast<unsigned>(hashCombine(options.seed, hashString("cmaes")));
-    FunctionProblem udp;
-    udp.f = &f;
-    udp.lo = lo;
-    udp.hi = hi;
-    pagmo::problem prob(udp);
-    pagmo::population pop(prob, 0u, seed32);
     Rng initial = Rng(options.seed).derive("cmaes-initial-population");
+    std::vector<std::vector<double>> population(lambda, std::vector<double>(dim));
+    for (int i = 0; i < lambda; ++i) {
+        for (size_t j = 0; j < dim; ++j) {
+            population[i][j] = (i == 0 && options.x0.size() == dim)
+                                   ? std::clamp(options.x0[j], lo[j], hi[j])
+                                   : initial.uniform(lo[j], hi[j]);
+        }
+    }
     CmaesResult r;
-    auto record = [&](int generation) {
-        const auto best = pop.best_idx();
-        const double fb = pop.get_f()[best][0];
-        if (r.bestX.empty() || fb < r.best) {
-            r.best = fb;
-            r.bestX = pop.get_x()[best];
+    int generation = 0;
+    auto step = [&](int64_t made, const std::vector<double>& x, double fx) {
+        r.evaluations += made;
+        if (r.bestX.empty() || fx < r.best) {
+            r.best = fx;
+            r.bestX = x;
         }
         CmaesGeneration g;
-        g.generation = generation;
+        g.generation = generation++;
         g.evaluations = r.evaluations;
         g.best = r.best;
         g.bestX = r.bestX;
         r.generations.push_back(g);
         if (onGeneration) onGeneration(g);
     };
-    for (int i = 0; i < lambda; ++i) {
-        std::vector<double> x(dim);
-        for (size_t j = 0; j < dim; ++j) {
-            x[j] = (i == 0 && options.x0.size() == dim) ? std::clamp(options.x0[j], lo[j], hi[j])
-                                                        : initial.uniform(lo[j], hi[j]);
-        }
-        pop.push_back(x);
-        ++r.evaluations;
-    }
-    record(0);
-    // One generation per evolve() call; memory = true keeps the mean, step and covariance
-    // between calls, so this is one CMA-ES run of `generations` generations.
-    // ftol = xtol = 0: no early stop on a flat population. With force_bounds a generation can
-    // put every candidate on the same bound, with equal objectives, which is no convergence.
-    pagmo::cmaes cma(1u, -1, -1, -1, -1, options.sigma0, 0.0, 0.0, true, true, seed32);
     const int64_t generations = (options.evaluations - lambda) / lambda;
-    for (int64_t g = 1; g <= generations; ++g) {
-        const auto before = pop.get_problem().get_fevals();
-        pop = cma.evolve(pop);
-        const auto made = pop.get_problem().get_fevals() - before;
-        if (made == 0) {  // CMA-ES's own stop (a step of 0): it returned without a generation
-            r.converged = true;
-            break;
-        }
-        r.evaluations += static_cast<int64_t>(made);
-        record(static_cast<int>(g));
-    }
+    r.converged =
+        cmaesModule().run(f, lo, hi, population, options.sigma0, seed32, generations, step);
     return r;
 }
 
@@ -887,6 +851,7 @@ FitResult runFit(const std::string& speciesPath, const FitOptions& options) {
         spec.evaluations = *options.evaluations;
     }
     const FitObjective objective(spec);  // reads the reference: bad input throws here
+    cmaesModule();  // a missing optimiser fails here, before any file is written
 
     FitResult r;
     r.out =

@@ -1,0 +1,20 @@
+// Shared modules built beside the executable and opened on first use: a library that is costly
+// to load (its own dependencies, its static initialisers) then costs only the processes that
+// need it. volumes/oiio_module.h (OpenImageIO) and pipeline/analysis/cmaes_module.h (pagmo2)
+// are such modules; each is compiled by the same build as its callers, so their tables pass
+// C++ types.
+#pragma once
+
+#include <string>
+
+namespace sylva {
+
+// Opens the module `fileName` — the path in the environment variable `envVar` when that is set
+// and not empty, else the file of that name beside the running executable — with its symbols
+// kept out of the executable's scope, and returns what its C entry point `entryPoint` returns.
+// Throws std::runtime_error in one line naming the module, `purpose`, what was tried and why it
+// failed, and how to fix it.
+const void* openModule(const char* fileName, const char* envVar, const char* entryPoint,
+                       const std::string& purpose);
+
+}  // namespace sylva
