@@ -22,8 +22,9 @@ using sylva::test::TempDir;
 
 const fs::path kSource = SYLVA_SOURCE_DIR;
 
-// The dynamic loader lists every library it loads (LD_DEBUG=libs, on stderr).
-TEST(CliOiioModule, StartUpLoadsNoOpenImageIO) {
+// The dynamic loader lists every library it loads (LD_DEBUG=libs, on stderr): neither module
+// (nor its library) is loaded at start — OpenImageIO here, pagmo2 (cmaes_module_test.cpp).
+TEST(CliOiioModule, StartUpLoadsNoModule) {
     TempDir t;
     CliOptions o;
     o.env = {"LD_DEBUG=libs"};
@@ -32,6 +33,8 @@ TEST(CliOiioModule, StartUpLoadsNoOpenImageIO) {
     EXPECT_NE(r.err.find("libtbb"), std::string::npos) << "LD_DEBUG printed no library list";
     EXPECT_EQ(r.err.find("libOpenImageIO"), std::string::npos);
     EXPECT_EQ(r.err.find("libsylva_oiio"), std::string::npos);
+    EXPECT_EQ(r.err.find("libpagmo"), std::string::npos);
+    EXPECT_EQ(r.err.find("libsylva_cmaes"), std::string::npos);
 }
 
 // xm-mask-oak with its mask as a JPEG (written here through OpenImageIO): grown through the
