@@ -1,8 +1,8 @@
 // Shared modules built beside the executable and opened on first use: a library that is costly
-// to load (its own dependencies, its static initialisers) then costs only the processes that
-// need it. volumes/oiio_module.h (OpenImageIO) and pipeline/analysis/cmaes_module.h (pagmo2)
-// are such modules; each is compiled by the same build as its callers, so their tables pass
-// C++ types.
+// to load (its own dependencies, its static initialisers, its relocations) then costs only the
+// processes that need it. volumes/oiio_module.h (OpenImageIO), volumes/vdb_module.h (OpenVDB) and
+// pipeline/analysis/cmaes_module.h (pagmo2) are such modules; each is compiled by the same build
+// as its callers, so their tables pass C++ types.
 #pragma once
 
 #include <string>

@@ -1,20 +1,14 @@
-// @brief Any Volume sampled into an OpenVDB narrow-band level set grid.
-// Includes OpenVDB: include it only from .cpp files that link OpenVDB (volumes/, the
-// pipeline's volume output, tests).
+// @brief Any Volume sampled into an OpenVDB narrow-band level set grid. The grid is an opaque
+// VdbGrid; its OpenVDB calls are the module of volumes/vdb_module.h, loaded on first use.
 #pragma once
-
-#include <openvdb/openvdb.h>
 
 #include <string>
 #include <utility>
 
+#include "volumes/vdb_module.h"
 #include "volumes/volume.h"
 
 namespace sylva {
-
-// Calls openvdb::initialize() once per process (thread-safe). levelSetGrid calls it; call it
-// yourself before reading .vdb files.
-void initializeOpenVdbOnce();
 
 // The signed distance of `v` sampled at voxel centres into a FloatGrid of class
 // GRID_LEVEL_SET, unnamed:
@@ -29,10 +23,10 @@ void initializeOpenVdbOnce();
 // the grid is identical for any thread count. An empty volume gives an empty grid.
 // Throws std::invalid_argument for a voxel that is not finite and > 0, a halfWidth < 1, or a
 // grid over 10⁷ voxels along an axis.
-openvdb::FloatGrid::Ptr levelSetGrid(const Volume& v, double voxel, double halfWidth = 3.0);
+VdbGridPtr levelSetGrid(const Volume& v, double voxel, double halfWidth = 3.0);
 
 // The number of voxels (tiles counted by their voxels) whose value is ≤ 0: inside.
-double interiorVoxelCount(const openvdb::FloatGrid& grid);
+double interiorVoxelCount(const VdbGrid& grid);
 
 // A level-set grid (linear transform of edge `voxel`, index (i, j, k) at (i, j, k)·voxel) as
 // a Volume: the signed distance is trilinear in the narrow band and ±band beyond it (the
@@ -40,7 +34,7 @@ double interiorVoxelCount(const openvdb::FloatGrid& grid);
 // measure and describe() are given by the maker (e.g. a voxel count or a closed form).
 class GridVolume final : public Volume {
   public:
-    GridVolume(openvdb::FloatGrid::Ptr grid, double voxel, const Aabb& bounds, double measure,
+    GridVolume(VdbGridPtr grid, double voxel, const Aabb& bounds, double measure,
                std::string description)
         : grid_(std::move(grid)),
           voxel_(voxel),
@@ -54,7 +48,7 @@ class GridVolume final : public Volume {
     std::string describe() const override { return description_; }
 
   private:
-    openvdb::FloatGrid::Ptr grid_;
+    VdbGridPtr grid_;
     double voxel_;
     Aabb bounds_;
     double measure_;

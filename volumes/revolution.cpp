@@ -8,8 +8,6 @@
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/boost/graph/helpers.h>
-#include <openvdb/openvdb.h>
-#include <openvdb/tools/MeshToVolume.h>
 
 #include <algorithm>
 #include <cctype>
@@ -327,20 +325,19 @@ namespace {
 // about a voxel; distances are trilinear within ±3 voxels of the surface and ±3 voxels beyond
 // (sign right).
 VolumePtr revolvedLevelSet(const std::vector<Vec2>& profile, double voxel, int segments) {
-    initializeOpenVdbOnce();
     const TriangleSoup soup = revolveProfile(profile, segments);
-    std::vector<openvdb::Vec3s> points;
-    points.reserve(soup.points.size());
+    std::vector<float> points;
+    points.reserve(3 * soup.points.size());
     Aabb bounds;
     for (const Vec3& p : soup.points) {
-        points.emplace_back(float(p.x), float(p.y), float(p.z));
+        points.insert(points.end(), {float(p.x), float(p.y), float(p.z)});
         bounds.extend(p);
     }
-    std::vector<openvdb::Vec3I> triangles;
-    triangles.reserve(soup.triangles.size());
-    for (const auto& t : soup.triangles) triangles.emplace_back(t[0], t[1], t[2]);
-    const auto xform = openvdb::math::Transform::createLinearTransform(voxel);
-    auto grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, points, triangles, 3.0f);
+    std::vector<uint32_t> triangles;
+    triangles.reserve(3 * soup.triangles.size());
+    for (const auto& t : soup.triangles)
+        triangles.insert(triangles.end(), {uint32_t(t[0]), uint32_t(t[1]), uint32_t(t[2])});
+    VdbGridPtr grid = vdbModule().meshToLevelSet(voxel, points, triangles, 3.0f);
     // The realised surface can sit up to a voxel outside the mesh's bounds.
     const Vec3 pad{voxel, voxel, voxel};
     bounds.lo -= pad;

@@ -13,9 +13,6 @@
 //  - volumes.json: the summaries, bounds and extents in metres, and the preview layout.
 #include "pipeline/analysis/volume_output.h"
 
-#include <openvdb/io/File.h>
-#include <openvdb/openvdb.h>
-#include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -52,13 +49,9 @@ constexpr float kZeroNudgeVoxels = 1e-3f;
 
 // The zero level set as a closed triangle mesh, counter-clockwise seen from outside, with
 // area-weighted vertex normals.
-Mesh meshLevelSet(const openvdb::FloatGrid& grid, double voxel) {
-    openvdb::FloatGrid::Ptr g = grid.deepCopy();
-    const float nudge = kZeroNudgeVoxels * static_cast<float>(voxel);
-    for (auto it = g->tree().beginValueOn(); it; ++it) {
-        // ≤ 0 is inside (Volume::inside), so a value of exactly 0 goes inwards.
-        if (std::abs(*it) < nudge) it.setValue(*it <= 0.0f ? -nudge : nudge);
-    }
+Mesh meshLevelSet(const VdbGrid& grid, double voxel) {
+    // ≤ 0 is inside (Volume::inside), so a value of exactly 0 goes inwards.
+    const VdbGridPtr g = vdbModule().nudgedCopy(grid, kZeroNudgeVoxels * static_cast<float>(voxel));
     return levelSetMesh(*g);
 }
 
@@ -75,22 +68,14 @@ double enclosedVolume(const Mesh& m) {
     return v / 6.0;
 }
 
-double interiorMeasure(const openvdb::FloatGrid& grid, double voxel) {
+double interiorMeasure(const VdbGrid& grid, double voxel) {
     return interiorVoxelCount(grid) * voxel * voxel * voxel;
 }
 
-void writeVdb(const openvdb::FloatGrid::Ptr& grid, const fs::path& path) {
-    const fs::path tmp = uniqueTempPath(path, ".vdb");
-    try {
-        openvdb::io::File file(tmp.string());
-        file.write({grid});
-        file.close();
-    } catch (const std::exception& e) {
-        std::error_code ec;
-        fs::remove(tmp, ec);
-        throw std::runtime_error("cannot write " + path.string() + ": " + e.what());
-    }
-    commitTempFile(tmp, path);
+// The bytes openvdb::io::File::write would write, serialised by the module into memory and
+// written atomically with every error checked.
+void writeVdb(const VdbGrid& grid, const fs::path& path) {
+    writeFileAtomic(path, vdbModule().fileBytes(grid));
 }
 
 // --- preview ---------------------------------------------------------------------------------
@@ -324,7 +309,8 @@ VolumeOutputResult writeSpeciesVolumes(const std::string& speciesPath, const fs:
     }
 
     // Everything is computed before the first write.
-    std::vector<openvdb::FloatGrid::Ptr> grids;
+    const VdbModule& vdb = vdbModule();
+    std::vector<VdbGridPtr> grids;
     std::vector<Mesh> meshes;
     for (size_t i = 0; i < named.size(); ++i) {
         const auto& [name, v] = named[i];
@@ -335,11 +321,11 @@ VolumeOutputResult writeSpeciesVolumes(const std::string& speciesPath, const fs:
         s.measure = v->measure();
         s.voxel = voxels[i];
         auto t = std::chrono::steady_clock::now();
-        openvdb::FloatGrid::Ptr grid = levelSetGrid(*v, s.voxel, kHalfWidth);
+        VdbGridPtr grid = levelSetGrid(*v, s.voxel, kHalfWidth);
         s.gridMs = msSince(t);
-        grid->setName(name);
-        grid->insertMeta("description", openvdb::StringMetadata(s.kind));
-        s.activeVoxels = static_cast<size_t>(grid->activeVoxelCount());
+        vdb.setName(*grid, name);
+        vdb.setStringMeta(*grid, "description", s.kind);
+        s.activeVoxels = vdb.activeVoxelCount(*grid);
         s.levelSetMeasure = interiorMeasure(*grid, s.voxel);
         t = std::chrono::steady_clock::now();
         meshes.push_back(meshLevelSet(*grid, s.voxel));
@@ -360,7 +346,7 @@ VolumeOutputResult writeSpeciesVolumes(const std::string& speciesPath, const fs:
     nlohmann::json vols = nlohmann::json::array();
     for (size_t i = 0; i < named.size(); ++i) {
         const VolumeSummary& s = result.volumes[i];
-        writeVdb(grids[i], dir / (s.name + ".vdb"));
+        writeVdb(*grids[i], dir / (s.name + ".vdb"));
         writeFileAtomic(dir / (s.name + ".ply"), meshPly(TreeMesh{meshes[i], Mesh{}}));
         const Vec3 e = s.bounds.size();
         vols.push_back({{"name", s.name},

@@ -1,10 +1,9 @@
-// The zero level set of an OpenVDB grid as a triangle mesh (shared by the watertight tree
-// mesh and `sylva volume`). Includes OpenVDB: include it only from .cpp files that link it.
+// The zero level set of a level-set grid as a triangle mesh (shared by the watertight tree
+// mesh and `sylva volume`); its OpenVDB call is the module of volumes/vdb_module.h.
 #pragma once
 
-#include <openvdb/openvdb.h>
-
 #include "species/geometry/mesh.h"
+#include "volumes/vdb_module.h"
 
 namespace sylva {
 
@@ -13,6 +12,6 @@ namespace sylva {
 // checked by the signed volume of a sphere in the tests), quads split along their 0–2
 // diagonal; area-weighted vertex normals summed in triangle order (deterministic). Only
 // positions, normals and indices are filled.
-Mesh levelSetMesh(const openvdb::FloatGrid& grid);
+Mesh levelSetMesh(const VdbGrid& grid);
 
 }  // namespace sylva

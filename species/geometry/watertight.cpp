@@ -15,37 +15,28 @@
 #include "species/geometry/watertight.h"
 
 #include <fcntl.h>
-#include <openvdb/io/File.h>
-#include <openvdb/openvdb.h>
-#include <openvdb/tools/SignedFloodFill.h>
-#include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <limits>
 #include <memory>
-#include <mutex>
-#include <sstream>
 #include <stdexcept>
 #include <string>
-#include <unordered_map>
 
 #include "core/errors.h"
 #include "species/geometry/level_set_mesh.h"
+#include "volumes/vdb_module.h"
 
 namespace sylva {
 namespace {
 
-using LeafT = openvdb::FloatTree::LeafNodeType;
-constexpr int kLeafDim = static_cast<int>(LeafT::DIM);  // 8 voxels per leaf edge
-constexpr int kLeafLog2 = static_cast<int>(LeafT::LOG2DIM);
+constexpr int kLeafDim = VdbBlock::kDim;  // 8 voxels per leaf edge
 
 // Twigs are thickened to this many voxels of radius so that they survive sampling at voxel
 // centres. √3/2, the covering radius of the voxel lattice, puts a voxel centre inside the
@@ -61,11 +52,6 @@ constexpr double kMinRadiusVoxels = 1.0;
 // sphere of radius 20 voxels centred on a voxel had 42 of them, all flagged as
 // self-intersections). Moves the surface by at most 0.001 voxel.
 constexpr double kZeroNudgeVoxels = 1e-3;
-
-void initializeOpenVdbOnce() {
-    static std::once_flag once;
-    std::call_once(once, [] { openvdb::initialize(); });
-}
 
 int floorDiv(int v, int d) { return static_cast<int>(std::floor(v / double(d))); }
 
@@ -152,16 +138,11 @@ struct BlockRef {
     }
 };
 
-openvdb::FloatGrid::Ptr rasterise(const std::vector<RoundCone>& segments, double voxel,
-                                  double band) {
+VdbGridPtr rasterise(const std::vector<RoundCone>& segments, double voxel, double band) {
     const float background = static_cast<float>(band);
     const float nudge = static_cast<float>(kZeroNudgeVoxels * voxel);
-    auto grid = openvdb::FloatGrid::create(background);
-    grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel));
-    grid->setGridClass(openvdb::GRID_LEVEL_SET);
-    grid->setName("tree_sdf");
-    grid->insertMeta("voxel_size", openvdb::DoubleMetadata(voxel));
-    if (segments.empty()) return grid;
+    const VdbModule& vdb = vdbModule();
+    if (segments.empty()) return vdb.gridFromBlocks(voxel, background, 0, {});
 
     const double inv = 1.0 / voxel;
     // Block centre to its farthest voxel centre: 3.5 voxels along each axis.
@@ -210,199 +191,49 @@ openvdb::FloatGrid::Ptr rasterise(const std::vector<RoundCone>& segments, double
     const size_t blocks = starts.size() - 1;
 
     // 2. Every block: the minimum over its segments, clamped to the band (parallel per block;
-    // a block depends only on its own inputs).
-    std::vector<std::unique_ptr<LeafT>> leaves(blocks);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks), [&](const auto& range) {
-        float values[LeafT::SIZE];
-        for (size_t b = range.begin(); b != range.end(); ++b) {
-            const size_t first = starts[b], last = starts[b + 1];
-            bool interior = false;
-            for (size_t r = first; r < last && !interior; ++r) interior = refs[r].interior;
-            if (interior) continue;  // no active voxel: flood fill makes it inside
-            const openvdb::Coord origin(refs[first].bx * kLeafDim, refs[first].by * kLeafDim,
-                                        refs[first].bz * kLeafDim);
-            std::fill(values, values + LeafT::SIZE, background);
-            for (size_t r = first; r < last; ++r) {
-                const RoundCone& seg = segments[refs[r].segment];
-                const IndexBox box = voxelBox(seg, inv, band);
-                int lo[3], hi[3];
-                for (int a = 0; a < 3; ++a) {
-                    lo[a] = std::max(box.lo[a], origin[a]) - origin[a];
-                    hi[a] = std::min(box.hi[a], origin[a] + kLeafDim - 1) - origin[a];
-                }
-                for (int i = lo[0]; i <= hi[0]; ++i)
-                    for (int j = lo[1]; j <= hi[1]; ++j)
-                        for (int k = lo[2]; k <= hi[2]; ++k) {
-                            const Vec3 p{(origin.x() + i) * voxel, (origin.y() + j) * voxel,
-                                         (origin.z() + k) * voxel};
-                            const float d = static_cast<float>(
-                                std::max(seg.distance(p), -band));  // union: keep the min
-                            float& v = values[(i << (2 * kLeafLog2)) | (j << kLeafLog2) | k];
-                            if (d < v) v = d;
-                        }
+    // a block depends only on its own inputs, and the module keeps the blocks in this order).
+    return vdb.gridFromBlocks(voxel, background, blocks, [&](size_t b, VdbBlock& block) {
+        const size_t first = starts[b], last = starts[b + 1];
+        for (size_t r = first; r < last; ++r)
+            if (refs[r].interior) return false;  // no active voxel: flood fill makes it inside
+        const int origin[3] = {refs[first].bx * kLeafDim, refs[first].by * kLeafDim,
+                               refs[first].bz * kLeafDim};
+        float* values = block.values;
+        std::fill(values, values + VdbBlock::kSize, background);
+        for (size_t r = first; r < last; ++r) {
+            const RoundCone& seg = segments[refs[r].segment];
+            const IndexBox box = voxelBox(seg, inv, band);
+            int lo[3], hi[3];
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = std::max(box.lo[a], origin[a]) - origin[a];
+                hi[a] = std::min(box.hi[a], origin[a] + kLeafDim - 1) - origin[a];
             }
-            auto leaf = std::make_unique<LeafT>(origin, background, false);
-            bool any = false;
-            for (openvdb::Index n = 0; n < LeafT::SIZE; ++n) {
-                float v = values[n];
-                // Keep values off zero (kZeroNudgeVoxels).
-                if (std::abs(v) < nudge) v = v < 0 ? -nudge : nudge;
-                if (v > -background && v < background) {
-                    leaf->setValueOn(n, v);
-                    any = true;
-                } else {
-                    leaf->setValueOff(n, v < 0 ? -background : background);
-                }
-            }
-            if (any) leaves[b] = std::move(leaf);
+            for (int i = lo[0]; i <= hi[0]; ++i)
+                for (int j = lo[1]; j <= hi[1]; ++j)
+                    for (int k = lo[2]; k <= hi[2]; ++k) {
+                        const Vec3 p{(origin[0] + i) * voxel, (origin[1] + j) * voxel,
+                                     (origin[2] + k) * voxel};
+                        const float d = static_cast<float>(
+                            std::max(seg.distance(p), -band));  // union: keep the min
+                        float& v = values[(i * kLeafDim + j) * kLeafDim + k];
+                        if (d < v) v = d;
+                    }
         }
+        for (int a = 0; a < 3; ++a) block.origin[a] = origin[a];
+        bool any = false;
+        for (int n = 0; n < VdbBlock::kSize; ++n) {
+            float v = values[n];
+            // Keep values off zero (kZeroNudgeVoxels).
+            if (std::abs(v) < nudge) v = v < 0 ? -nudge : nudge;
+            if (v > -background && v < background) {
+                block.set(n, v, true);
+                any = true;
+            } else {
+                block.set(n, v < 0 ? -background : background, false);
+            }
+        }
+        return any;
     });
-    openvdb::FloatTree& tree = grid->tree();
-    for (auto& leaf : leaves)
-        if (leaf) tree.addLeaf(leaf.release());  // the tree takes ownership
-    // Tiles and inactive voxels enclosed by the band become −background.
-    openvdb::tools::signedFloodFill(tree);
-    return grid;
-}
-
-// Fills enclosed cavities: pockets of outside (>= 0) voxels that merging capsules cap off
-// from the exterior. They would become extra inward-facing shells (often tiny, degenerate
-// ones around a single voxel). A flood fill over the leaf voxels, 6-connected through
-// outside values, starts from every outside voxel next to an outside tile (the exterior);
-// outside voxels it does not reach become inside (−background, inactive). Outside voxels
-// reached only through a diagonal count as cavities, which only closes hairline pockets.
-// Cavities wide enough to hold outside tiles (more than about 2·halfWidth + 8 voxels across)
-// are left as they are. The visited set does not depend on visiting order: deterministic.
-size_t fillCavities(openvdb::FloatGrid& grid) {
-    openvdb::FloatTree& tree = grid.tree();
-    const float background = tree.background();
-    std::vector<LeafT*> leaves;
-    tree.getNodes(leaves);
-    if (leaves.empty()) return 0;
-    constexpr int32_t kOutsideTile = -1, kInsideTile = -2;
-    auto outside = [](float v) { return v >= 0.0f; };
-
-    // Face neighbours of every leaf: another leaf (its index) or a tile (a whole 8³ block
-    // lies in one tile, so one probe per face tells its side).
-    std::vector<std::array<int32_t, 6>> neighbour(leaves.size());
-    {
-        std::unordered_map<const LeafT*, int32_t> leafIndex;
-        leafIndex.reserve(leaves.size());
-        for (size_t i = 0; i < leaves.size(); ++i) leafIndex.emplace(leaves[i], int32_t(i));
-        openvdb::tree::ValueAccessor<const openvdb::FloatTree> acc(tree);
-        for (size_t l = 0; l < leaves.size(); ++l)
-            for (int f = 0; f < 6; ++f) {
-                openvdb::Coord ijk = leaves[l]->origin();
-                ijk[f / 2] += (f % 2 == 0) ? kLeafDim : -kLeafDim;
-                if (const LeafT* other = acc.probeConstLeaf(ijk))
-                    neighbour[l][f] = leafIndex.at(other);
-                else
-                    neighbour[l][f] = outside(acc.getValue(ijk)) ? kOutsideTile : kInsideTile;
-            }
-    }
-
-    // Bit masks per leaf: word x holds the 8×8 (y, z) slab, bit y·8 + z (OpenVDB's voxel
-    // offset is x·64 + y·8 + z). `open`: outside voxels; `reach`: those reached so far.
-    using Slabs = std::array<uint64_t, kLeafDim>;
-    std::vector<Slabs> open(leaves.size()), reach(leaves.size());
-    for (size_t l = 0; l < leaves.size(); ++l)
-        for (int x = 0; x < kLeafDim; ++x) {
-            uint64_t bits = 0;
-            for (int b = 0; b < 64; ++b)
-                if (outside(leaves[l]->getValue(uint32_t(x * 64 + b)))) bits |= uint64_t(1) << b;
-            open[l][x] = bits;
-            reach[l][x] = 0;
-        }
-    constexpr uint64_t kZ0 = 0x0101010101010101ull, kZ7 = kZ0 << 7;  // z = 0, z = 7 rows
-    constexpr uint64_t kY0 = 0xFFull, kY7 = kY0 << 56;               // y = 0, y = 7 rows
-    const Slabs full = [] {
-        Slabs f;
-        f.fill(~uint64_t(0));
-        return f;
-    }();
-    // Face f of a leaf as the bits that enter the neighbour across it (in the neighbour's
-    // layout): 0 +x, 1 −x, 2 +y, 3 −y, 4 +z, 5 −z.
-    auto across = [&](const Slabs& r, int f) {
-        Slabs out{};
-        switch (f) {
-            case 0:
-                out[0] = r[kLeafDim - 1];
-                break;
-            case 1:
-                out[kLeafDim - 1] = r[0];
-                break;
-            case 2:
-                for (int x = 0; x < kLeafDim; ++x) out[x] = (r[x] & kY7) >> 56;
-                break;
-            case 3:
-                for (int x = 0; x < kLeafDim; ++x) out[x] = (r[x] & kY0) << 56;
-                break;
-            case 4:
-                for (int x = 0; x < kLeafDim; ++x) out[x] = (r[x] & kZ7) >> 7;
-                break;
-            default:
-                for (int x = 0; x < kLeafDim; ++x) out[x] = (r[x] & kZ0) << 7;
-                break;
-        }
-        return out;
-    };
-
-    std::vector<int32_t> work;
-    std::vector<uint8_t> queued(leaves.size(), 0);
-    // Adds bits to a leaf's reached set (within its open voxels); queues it if any are new.
-    auto add = [&](int32_t l, const Slabs& bits) {
-        bool grew = false;
-        for (int x = 0; x < kLeafDim; ++x) {
-            const uint64_t more = bits[x] & open[l][x] & ~reach[l][x];
-            if (more) {
-                reach[l][x] |= more;
-                grew = true;
-            }
-        }
-        if (grew && !queued[l]) {
-            queued[l] = 1;
-            work.push_back(l);
-        }
-    };
-    // Seeds: open voxels on a face next to an outside tile (the tile's face, seen from the
-    // leaf, is the leaf's own face layer: the opposite face of a full neighbour).
-    for (size_t l = 0; l < leaves.size(); ++l)
-        for (int f = 0; f < 6; ++f)
-            if (neighbour[l][f] == kOutsideTile) add(int32_t(l), across(full, f ^ 1));
-    while (!work.empty()) {
-        const int32_t l = work.back();
-        work.pop_back();
-        queued[l] = 0;
-        // Grow inside the leaf to a fixed point (6-connected, through open voxels).
-        Slabs& r = reach[l];
-        for (bool grew = true; grew;) {
-            grew = false;
-            Slabs next;
-            for (int x = 0; x < kLeafDim; ++x) {
-                uint64_t g =
-                    r[x] | ((r[x] << 1) & ~kZ0) | ((r[x] >> 1) & ~kZ7) | (r[x] << 8) | (r[x] >> 8);
-                if (x > 0) g |= r[x - 1];
-                if (x < kLeafDim - 1) g |= r[x + 1];
-                next[x] = g & open[l][x];
-                grew |= next[x] != r[x];
-            }
-            r = next;
-        }
-        for (int f = 0; f < 6; ++f)
-            if (neighbour[l][f] >= 0) add(neighbour[l][f], across(r, f));
-    }
-    size_t filled = 0;
-    for (size_t l = 0; l < leaves.size(); ++l)
-        for (int x = 0; x < kLeafDim; ++x) {
-            const uint64_t cavity = open[l][x] & ~reach[l][x];
-            if (!cavity) continue;
-            for (int b = 0; b < 64; ++b)
-                if (cavity >> b & 1) {
-                    leaves[l]->setValueOff(uint32_t(x * 64 + b), -background);
-                    ++filled;
-                }
-        }
-    return filled;
 }
 
 // Segments bucketed on a coarse grid (cells of 8 voxels, larger if there would be more than
@@ -484,21 +315,11 @@ struct SegmentBuckets {
     }
 };
 
-// io::File::write ignores a failed stream (a full disk leaves a truncated .vdb and no error), so
-// the grid is serialised exactly as it does (Archive::write, seekable) into memory and the bytes
-// are written with every write(2) checked.
-class VdbSerialiser : public openvdb::io::File {
-  public:
-    VdbSerialiser() : openvdb::io::File("") {}
-    std::string bytes(const openvdb::GridCPtrVec& grids) const {
-        std::ostringstream os(std::ios_base::out | std::ios_base::binary);
-        Archive::write(os, grids, /*seekable=*/true, openvdb::MetaMap());
-        return os.str();
-    }
-};
-
-void writeVdbAtomically(const openvdb::FloatGrid::Ptr& grid, const std::string& path) {
-    const std::string bytes = VdbSerialiser().bytes({grid});
+// The module serialises the grid into memory (openvdb::io::File::write ignores a failed stream:
+// a full disk would leave a truncated .vdb and no error); the bytes are written with every
+// write(2) checked.
+void writeVdbAtomically(const VdbGrid& grid, const std::string& path) {
+    const std::string bytes = vdbModule().fileBytes(grid);
     // A temporary name in the same directory (so rename is atomic), unique per process;
     // ".tmp." marks it for removal by a resumed build should this process be killed.
     const std::string tmp = path + ".tmp." + std::to_string(::getpid());
@@ -536,7 +357,6 @@ Mesh watertightMesh(const Tree& tree, const WatertightOptions& options,
         throw std::invalid_argument("watertightMesh: voxelSize must be finite and > 0");
     if (!(options.halfWidth >= 1.0) || !std::isfinite(options.halfWidth))
         throw std::invalid_argument("watertightMesh: halfWidth must be finite and >= 1 voxel");
-    initializeOpenVdbOnce();
     const double band = options.halfWidth * voxel;
     const double minRadius = kMinRadiusVoxels * voxel;
 
@@ -568,9 +388,12 @@ Mesh watertightMesh(const Tree& tree, const WatertightOptions& options,
             throw std::invalid_argument("watertightMesh: grid would be too large");
     }
 
-    openvdb::FloatGrid::Ptr grid = rasterise(segments, voxel, band);
-    fillCavities(*grid);
-    if (!vdbPath.empty()) writeVdbAtomically(grid, vdbPath);
+    VdbGridPtr grid = rasterise(segments, voxel, band);
+    const VdbModule& vdb = vdbModule();
+    vdb.setName(*grid, "tree_sdf");
+    vdb.setDoubleMeta(*grid, "voxel_size", voxel);
+    vdb.fillCavities(*grid);
+    if (!vdbPath.empty()) writeVdbAtomically(*grid, vdbPath);
 
     Mesh mesh;
     if (segments.empty()) return mesh;

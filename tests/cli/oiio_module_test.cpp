@@ -22,8 +22,9 @@ using sylva::test::TempDir;
 
 const fs::path kSource = SYLVA_SOURCE_DIR;
 
-// The dynamic loader lists every library it loads (LD_DEBUG=libs, on stderr): neither module
-// (nor its library) is loaded at start — OpenImageIO here, pagmo2 (cmaes_module_test.cpp).
+// The dynamic loader lists every library it loads (LD_DEBUG=libs, on stderr): no module (nor
+// its library) is loaded at start — OpenImageIO here, pagmo2 (cmaes_module_test.cpp), OpenVDB
+// (vdb_module_test.cpp).
 TEST(CliOiioModule, StartUpLoadsNoModule) {
     TempDir t;
     CliOptions o;
@@ -35,6 +36,8 @@ TEST(CliOiioModule, StartUpLoadsNoModule) {
     EXPECT_EQ(r.err.find("libsylva_oiio"), std::string::npos);
     EXPECT_EQ(r.err.find("libpagmo"), std::string::npos);
     EXPECT_EQ(r.err.find("libsylva_cmaes"), std::string::npos);
+    EXPECT_EQ(r.err.find("libopenvdb"), std::string::npos);
+    EXPECT_EQ(r.err.find("libsylva_vdb"), std::string::npos);
 }
 
 // xm-mask-oak with its mask as a JPEG (written here through OpenImageIO): grown through the

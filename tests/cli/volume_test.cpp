@@ -24,6 +24,7 @@
 #include "tests/cli/cli_support.h"
 #include "tests/test_support.h"
 #include "volumes/level_set_grid.h"
+#include "volumes/vdb/grid.h"
 
 namespace {
 
@@ -113,7 +114,7 @@ PlyMesh readPly(const fs::path& path) {
 }
 
 openvdb::FloatGrid::Ptr readVdb(const fs::path& path, const std::string& name) {
-    initializeOpenVdbOnce();
+    openvdb::initialize();
     openvdb::io::File file(path.string());
     file.open();
     openvdb::GridBase::Ptr base = file.readGrid(name);
@@ -354,7 +355,7 @@ TEST(VolumeOutput, LevelSetGridMatchesTheLevelSetVolume) {
     // makeLevelSet answers from the same grid levelSetGrid builds.
     VolumePtr sphere = makePlaced(makeSphere(1.0), Placement{{0.3, 2, -0.1}, {0, 1, 0}, {1, 1, 1}});
     const double voxel = 0.05;
-    openvdb::FloatGrid::Ptr g = levelSetGrid(*sphere, voxel);
+    const openvdb::FloatGrid::Ptr g = levelSetGrid(*sphere, voxel)->grid;
     VolumePtr ls = makeLevelSet(*sphere, voxel);
     auto acc = g->getConstAccessor();
     int compared = 0;
