@@ -119,6 +119,44 @@ TEST(DatasetReader, NestingBeyondTheLimitIsRefusedAtAnyPlace) {
         "");
 }
 
+// Nesting is counted by the parser's own levels: brackets inside strings are text, and an array
+// nested 33 deep (its innermost level holding no value) is the deepest accepted.
+TEST(DatasetReader, NestingIsTheParsersAndBracketsInStringsAreText) {
+    EXPECT_EQ(recordError(with(R"("stats":{"height_m":9.5})",
+                               R"("stats":{"s":")" + std::string(200, '[') + R"(\"{"})")),
+              "");
+    auto nested = [](int levels) {
+        return with(
+            R"("stats":{"height_m":9.5})",
+            R"("stats":{"d":)" + std::string(levels - 2, '[') + std::string(levels - 2, ']') + "}");
+    };
+    EXPECT_EQ(recordError(nested(kMaxRecordDepth + 1)), "");
+    EXPECT_EQ(recordError(nested(kMaxRecordDepth + 2)),
+              "m.jsonl:7: nested more than 32 deep (not a manifest record)");
+    EXPECT_EQ(
+        recordError(std::string(kMaxRecordDepth + 1, '[') + std::string(kMaxRecordDepth + 1, ']')),
+        "m.jsonl:7: not a manifest record (a JSON object with id, index and species or plot)");
+}
+
+// A packed record's shard: a relative path inside the dataset whose last element ends in ".tar"
+// after at least one other character (what std::filesystem::path's extension() says).
+TEST(DatasetReader, APackIsARelativeTarPathInsideTheDataset) {
+    const std::string pack = R"("timing":{"grow_ms":3})";
+    for (const char* p : {"shards/000001.tar", "x.tar", "shards/..tar", "a//b/c.tar"}) {
+        EXPECT_EQ(recordError(with(pack, pack + R"(,"pack":")" + p + "\"")), "") << p;
+    }
+    for (const char* p :
+         {"shards/.tar", ".tar", "shards/x.tarx", "shards/x.TAR", "shards/", "shards/x.tar/",
+          "/shards/x.tar", "../x.tar", "a//..//x.tar", "a/../x.tar", ""}) {
+        EXPECT_EQ(recordError(with(pack, pack + R"(,"pack":")" + p + "\"")),
+                  "m.jsonl:7: pack: expected a relative path inside the dataset to a .tar shard")
+            << p;
+    }
+    EXPECT_TRUE(isPathInside("a/..b/c"));
+    EXPECT_TRUE(isPathInside("a/"));
+    EXPECT_FALSE(isPathInside("a/.."));
+}
+
 TEST(DatasetReader, ManifestsInShardOrderWithTornLastLinesCountedAndDuplicatesOnce) {
     TempDir t;
     spit(t / "manifest.shard-1-of-2.jsonl", with("oak-p000-00001", "b") + "\n" + "{\"id\":");
