@@ -41,6 +41,8 @@
 #include "pipeline/batch/run_log.h"
 #include "pipeline/formats/atomic_file.h"
 #include "pipeline/formats/view_writers.h"
+#include "volumes/oiio_module.h"
+#include "volumes/vdb_module.h"
 #include "volumes/versions.h"
 
 namespace sylva {
@@ -744,6 +746,11 @@ BuildSummary buildDataset(const DatasetSpec& spec, const BuildOptions& o) {
     // Contiguous blocks of the instance order; of whole tar shards when packing.
     const auto [lo, hi] =
         shardPositions(instances.size(), o.shardIndex, o.shardCount, spec.outputs.packInstances);
+
+    // The modules these outputs need, opened before anything is written: without one the build
+    // is one line, not a failure per tree.
+    if (spec.outputs.watertight) vdbModule();
+    if (spec.outputs.colour.enabled && spec.outputs.colour.jpeg) oiioModule();
 
     // --out: checked before anything is written and created only once every check passed;
     // then this shard of it is locked for the whole build (another build, merge, stats or
