@@ -5,6 +5,7 @@
 // as its callers, so their tables pass C++ types.
 #pragma once
 
+#include <mutex>
 #include <string>
 
 namespace sylva {
@@ -16,5 +17,18 @@ namespace sylva {
 // failed, and how to fix it.
 const void* openModule(const char* fileName, const char* envVar, const char* entryPoint,
                        const std::string& purpose);
+
+// The table `Table` of a module, opened by openModule on the first call (thread-safe); later
+// calls return the same table. A failed open throws and lets a later call try again.
+template <class Table>
+const Table& moduleTable(const char* fileName, const char* envVar, const char* entryPoint,
+                         const char* purpose) {
+    static std::once_flag once;
+    static const Table* table = nullptr;
+    std::call_once(once, [&] {
+        table = static_cast<const Table*>(openModule(fileName, envVar, entryPoint, purpose));
+    });
+    return *table;
+}
 
 }  // namespace sylva
