@@ -9,6 +9,7 @@
 
 #include "core/errors.h"
 #include "core/input_file.h"
+#include "pipeline/batch/pack.h"
 
 namespace sylva {
 
@@ -94,15 +95,6 @@ constexpr std::array<std::string_view, 17> kRecordKeys = {
     "id",     "index", "species", "plot",          "habit", "method", "kind",  "seed", "sweep",
     "params", "stats", "timing",  "bytes_written", "trees", "pack",   "files", "scan"};
 
-// What std::filesystem::path(s).extension() == ".tar" says, without making the path: the last
-// element (after the last '/') ends in ".tar" after at least one other character.
-bool hasTarExtension(const std::string& s) {
-    const size_t slash = s.rfind('/');
-    const std::string_view name =
-        slash == std::string::npos ? std::string_view(s) : std::string_view(s).substr(slash + 1);
-    return name.size() > 4 && name.substr(name.size() - 4) == ".tar";
-}
-
 void needs(bool ok, const std::string& where, const std::string& key, const char* expected) {
     if (!ok) fail(where, key + ": expected " + expected);
 }
@@ -169,10 +161,9 @@ ManifestRecord parseManifestRecord(const std::string& line, const std::string& w
         if (const json* v = get(key)) needs(isCount(*v), where, key, "an integer >= 0");
     }
     if (const json* pack = get("pack")) {
-        needs(pack->is_string() && isPathInside(pack->get<std::string>()) &&
-                  hasTarExtension(pack->get<std::string>()),
-              where, "pack", "a relative path inside the dataset to a .tar shard");
-        r.pack = pack->get<std::string>();
+        if (pack->is_string()) r.pack = pack->get<std::string>();
+        needs(pack->is_string() && isPathInside(r.pack) && hasTarExtension(r.pack), where, "pack",
+              "a relative path inside the dataset to a .tar shard");
     }
     if (const json* files = get("files")) {
         needs(files->is_object(), where, "files", "an object");

@@ -157,6 +157,11 @@ std::pair<int64_t, int64_t> shardPositions(int64_t datasetSize, int index, int c
             std::min(static_cast<int64_t>(uhi) * perShard, datasetSize)};
 }
 
+bool hasTarExtension(std::string_view path) {
+    const std::string_view name = path.substr(path.rfind('/') + 1);  // npos + 1 is 0
+    return name.size() > 4 && name.substr(name.size() - 4) == ".tar";
+}
+
 std::string packMemberName(std::string_view id, std::string_view relPath) {
     if (relPath == kPackRecordFile) return std::string(id) + ".json";
     std::string name = std::string(id) + "." + std::string(relPath);
@@ -355,7 +360,7 @@ void writePackIndex(const fs::path& out, const std::string& datasetName, const s
     std::error_code ec;
     for (fs::directory_iterator it(out / "shards", ec), end; !ec && it != end; it.increment(ec)) {
         const std::string name = it->path().filename().string();
-        if (name.size() < 5 || name.substr(name.size() - 4) != ".tar") continue;
+        if (!hasTarExtension(name)) continue;
         if (const auto k = shardInRange(name, layout, lo, hi)) tars.emplace_back(*k, it->path());
     }
     std::sort(tars.begin(), tars.end());

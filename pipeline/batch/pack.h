@@ -63,6 +63,10 @@ std::filesystem::path packIndexPath(const std::filesystem::path& tar);
 std::pair<int64_t, int64_t> shardPositions(int64_t datasetSize, int index, int count,
                                            int64_t perShard);
 
+// Whether `path`'s last element (after its last '/') ends in ".tar" after at least one other
+// character: what std::filesystem::path(path).extension() == ".tar" says, without making a path.
+bool hasTarExtension(std::string_view path);
+
 // The member a file of an instance becomes: "<id>." + its path in the instance directory with
 // "/" as "." ("views/000.png" → "<id>.views.000.png"); record.json becomes "<id>.json".
 std::string packMemberName(std::string_view id, std::string_view relPath);
