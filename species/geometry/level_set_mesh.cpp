@@ -1,5 +1,6 @@
 #include "species/geometry/level_set_mesh.h"
 
+#include <utility>
 #include <vector>
 
 #include "core/math.h"
@@ -23,14 +24,15 @@ Mesh levelSetMesh(const VdbGrid& grid) {
         mesh.indices.insert(mesh.indices.end(), r, r + 3);
     }
     const size_t nv = points.size() / 3;
-    mesh.positions = points;
+    mesh.positions = std::move(points);
+    const std::vector<float>& p = mesh.positions;
 
     std::vector<double> acc(3 * nv, 0.0);
     for (size_t t = 0; t < mesh.indices.size(); t += 3) {
         const uint32_t i0 = mesh.indices[t], i1 = mesh.indices[t + 1], i2 = mesh.indices[t + 2];
-        const Vec3 p0{points[3 * i0], points[3 * i0 + 1], points[3 * i0 + 2]};
-        const Vec3 p1{points[3 * i1], points[3 * i1 + 1], points[3 * i1 + 2]};
-        const Vec3 p2{points[3 * i2], points[3 * i2 + 1], points[3 * i2 + 2]};
+        const Vec3 p0{p[3 * i0], p[3 * i0 + 1], p[3 * i0 + 2]};
+        const Vec3 p1{p[3 * i1], p[3 * i1 + 1], p[3 * i1 + 2]};
+        const Vec3 p2{p[3 * i2], p[3 * i2 + 1], p[3 * i2 + 2]};
         const Vec3 n = cross(p1 - p0, p2 - p0);
         for (uint32_t i : {i0, i1, i2})
             for (int a = 0; a < 3; ++a) acc[3 * i + a] += n[a];
