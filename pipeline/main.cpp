@@ -31,7 +31,7 @@
 #include "pipeline/batch/estimate.h"
 #include "pipeline/batch/grow_one.h"
 #include "pipeline/batch/output_lock.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 #include "species/spec/species.h"
 
 namespace fs = std::filesystem;

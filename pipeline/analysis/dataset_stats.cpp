@@ -18,7 +18,7 @@
 #include "pipeline/analysis/quantile_sketch.h"
 #include "pipeline/batch/output_lock.h"
 #include "pipeline/batch/pack.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 #include "pipeline/formats/skeleton_reader.h"
 #include "pipeline/formats/skeleton_writers.h"
 #include "species/model/reference_metrics.h"

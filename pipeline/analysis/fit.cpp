@@ -21,7 +21,7 @@
 #include "core/rng.h"
 #include "pipeline/analysis/cmaes_module.h"
 #include "pipeline/analysis/dataset_stats.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 #include "species/model/reference_metrics.h"
 #include "species/model/tree_stats.h"
 #include "species/spec/species.h"

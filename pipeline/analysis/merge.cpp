@@ -19,7 +19,7 @@
 #include "pipeline/batch/output_lock.h"
 #include "pipeline/batch/pack.h"
 #include "pipeline/batch/run_log.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 #include "pipeline/formats/view_writers.h"
 
 namespace sylva {

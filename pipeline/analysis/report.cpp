@@ -21,7 +21,7 @@
 #include "pipeline/analysis/dataset_stats.h"
 #include "pipeline/analysis/quantile_sketch.h"
 #include "pipeline/batch/output_lock.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 
 namespace fs = std::filesystem;
 using nlohmann::json;

@@ -26,7 +26,7 @@
 #include <stdexcept>
 
 #include "core/clock.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/view_writers.h"
 #include "species/geometry/level_set_mesh.h"

@@ -39,7 +39,7 @@
 #include "pipeline/batch/progress.h"
 #include "pipeline/batch/resume.h"
 #include "pipeline/batch/run_log.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 #include "pipeline/formats/view_writers.h"
 #include "volumes/oiio_module.h"
 #include "volumes/vdb_module.h"

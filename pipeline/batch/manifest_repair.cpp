@@ -7,7 +7,7 @@
 #include <unordered_set>
 
 #include "core/errors.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 
 namespace sylva {
 

@@ -8,7 +8,7 @@
 #include "core/input_file.h"
 #include "pipeline/batch/build.h"
 #include "pipeline/batch/instance.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 
 namespace sylva {
 

@@ -9,7 +9,7 @@
 #include "core/rng.h"
 #include "pipeline/batch/instance.h"
 #include "pipeline/batch/scan_instance.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 #include "pipeline/formats/image_codecs.h"
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/plot_tables.h"

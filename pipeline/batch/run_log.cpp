@@ -7,7 +7,7 @@
 #include "core/input_file.h"
 #include "pipeline/batch/build.h"
 #include "pipeline/batch/output_lock.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 
 namespace sylva {
 

@@ -15,7 +15,7 @@
 #include <string_view>
 #include <vector>
 
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 #include "pipeline/formats/image_codecs.h"
 #include "pipeline/formats/little_endian.h"
 #include "species/geometry/leaf_mesh.h"

@@ -147,7 +147,7 @@ struct SceneLooks {
 };
 std::string sceneGlb(const PlotScene& scene, const SceneLooks* looks = nullptr);
 
-// scenePly and sceneGlb streamed into `path` (temp + rename, pipeline/formats/atomic_file.h
+// scenePly and sceneGlb streamed into `path` (temp + rename, core/atomic_file.h
 // AtomicFileWriter): the same bytes, written piece by piece from the scene — counts, offsets and
 // bounds first, then each tree's vertices, faces or buffer views in file order — so no copy of
 // the scene (a hectare's is gigabytes) is ever held in memory. Return the bytes written. A GLB

@@ -4,7 +4,7 @@
 #include <cstdio>
 
 #include "core/params.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 
 namespace sylva {
 

@@ -13,7 +13,7 @@
 #include <string_view>
 
 #include "core/params.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 
 namespace sylva {
 

@@ -7,7 +7,7 @@
 // survey (x, y, z) = scene (x, −z, y) (surveyFrame()). Headings are compass degrees
 // (0 = north = survey +y, 90 = east = +x), as the scanner reports them.
 //
-// Every file is written atomically (temp + rename, pipeline/formats/atomic_file.h) and the
+// Every file is written atomically (temp + rename, core/atomic_file.h) and the
 // same ScanResult and options give the same bytes. Bad points (a non-finite coordinate, a
 // return number outside 1 … number of returns ≤ 15, a channel > 3) are a programmer error of
 // the scanner: std::invalid_argument, nothing written.

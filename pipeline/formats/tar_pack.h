@@ -14,7 +14,7 @@
 #include <string_view>
 #include <vector>
 
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 
 namespace sylva {
 

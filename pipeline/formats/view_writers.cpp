@@ -49,7 +49,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 #include "pipeline/formats/image_codecs.h"
 #include "pipeline/formats/little_endian.h"
 #include "pipeline/render/preview.h"

@@ -14,22 +14,17 @@
 // segment with the smallest signed distance at the vertex; colour 0; no uvs.
 #include "species/geometry/watertight.h"
 
-#include <fcntl.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
 #include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
 
-#include "core/errors.h"
+#include "core/atomic_file.h"
 #include "species/geometry/level_set_mesh.h"
 #include "volumes/vdb_module.h"
 
@@ -316,36 +311,10 @@ struct SegmentBuckets {
 };
 
 // The module serialises the grid into memory (openvdb::io::File::write ignores a failed stream:
-// a full disk would leave a truncated .vdb and no error); the bytes are written with every
-// write(2) checked.
+// a full disk would leave a truncated .vdb and no error); writeFileAtomic writes the bytes with
+// every write(2) checked.
 void writeVdbAtomically(const VdbGrid& grid, const std::string& path) {
-    const std::string bytes = vdbModule().fileBytes(grid);
-    // A temporary name in the same directory (so rename is atomic), unique per process;
-    // ".tmp." marks it for removal by a resumed build should this process be killed.
-    const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-    int err = 0;
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd < 0) {
-        err = errno;
-    } else {
-        for (size_t done = 0; done < bytes.size() && err == 0;) {
-            const ssize_t w = ::write(fd, bytes.data() + done, bytes.size() - done);
-            if (w < 0 && errno != EINTR) err = errno;
-            if (w > 0) done += static_cast<size_t>(w);
-        }
-        if (::close(fd) != 0 && err == 0) err = errno;
-    }
-    if (err != 0) {
-        std::remove(tmp.c_str());
-        const std::string message =
-            "watertightMesh: cannot write " + path + ": " + std::strerror(err);
-        if (isResourceErrno(err)) throw ResourceError(err, path, message);
-        throw std::runtime_error(message);
-    }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-        std::remove(tmp.c_str());
-        throw std::runtime_error("watertightMesh: cannot rename " + tmp + " to " + path);
-    }
+    writeFileAtomic(path, vdbModule().fileBytes(grid));
 }
 
 }  // namespace

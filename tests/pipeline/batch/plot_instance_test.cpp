@@ -7,7 +7,7 @@
 #include <fstream>
 #include <map>
 
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 #include "pipeline/formats/image_codecs.h"
 #include "pipeline/render/plot_render.h"
 #include "tests/plot_fixture.h"

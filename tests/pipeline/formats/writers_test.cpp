@@ -15,7 +15,7 @@
 #include <thread>
 
 #include "core/errors.h"
-#include "pipeline/formats/atomic_file.h"
+#include "core/atomic_file.h"
 #include "pipeline/formats/skeleton_writers.h"
 #include "pipeline/formats/stats_json.h"
 #include "tests/test_support.h"
