@@ -549,6 +549,10 @@ Scene buildScene(const TreePrep& prep, const View& view, const RenderOptions& op
                 chunk.cut.push_back(static_cast<uint32_t>(id));
                 continue;
             }
+            // A third of them are tubes' back faces: settled by the sign of their area, the
+            // set-up's first test, before anything else.
+            const bool wood = id < scene.woodTriangles;
+            if (wood && !((b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x) < 0.0)) continue;
             // Most of a tree's triangles are smaller than a pixel and hold no pixel centre:
             // those are settled by their extent alone, before the set-up (which would find
             // the same: pixelBox is these two tests).
@@ -558,7 +562,7 @@ Scene buildScene(const TreePrep& prep, const View& view, const RenderOptions& op
                 continue;
             }
             Triangle t;
-            if (!setupTriangle(a, b, d, 0, w, h, id < scene.woodTriangles, t)) continue;
+            if (!setupTriangle(a, b, d, 0, w, h, wood, t)) continue;
             if ((t.box.x1 - t.box.x0 + 1) * (t.box.y1 - t.box.y0 + 1) > kSmallBox) {
                 chunk.big.push_back(static_cast<uint32_t>(id));
                 continue;
