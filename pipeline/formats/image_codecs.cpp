@@ -2,6 +2,7 @@
 #include "pipeline/formats/image_codecs.h"
 
 #include <Imath/half.h>
+#include <immintrin.h>
 #include <png.h>
 #include <zlib.h>
 
@@ -31,6 +32,29 @@ void checkSize(int width, int height, const char* what) {
                                     "x" + std::to_string(height) + " is not positive");
     }
 }
+
+// Floats to halves as Imath's imath_float_to_half converts them (round to nearest even, overflow
+// to infinity, subnormals kept). Imath itself uses the F16C instruction when it is compiled for
+// it; Debian's build is for baseline x86-64, where its scalar conversion is about ten
+// instructions with branches per pixel. Measured with callgrind on 10 ez-size trees with half
+// depth (80 maps at 256²): the EXR encoder 128.5 → 77.3 M instructions, 1.61 → 0.97 M a map.
+// The instruction gives the same bits for every number; NaNs (whose payloads the two treat
+// differently) go through Imath's conversion.
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target("avx,f16c"))) void halvesF16c(const float* in, uint16_t* out, size_t n) {
+    size_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+        const __m256 v = _mm256_loadu_ps(in + i);
+        if (_mm256_movemask_ps(_mm256_cmp_ps(v, v, _CMP_UNORD_Q)) != 0) {
+            for (size_t k = i; k < i + 8; ++k) out[k] = imath_float_to_half(in[k]);
+            continue;
+        }
+        const __m128i h = _mm256_cvtps_ph(v, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i), h);
+    }
+    for (; i < n; ++i) out[i] = imath_float_to_half(in[i]);
+}
+#endif
 
 // ---- PNG ----------------------------------------------------------------------------------
 
@@ -190,6 +214,17 @@ size_t rleEncode(const uint8_t* in, size_t n, std::vector<uint8_t>& out) {
 
 }  // namespace
 
+void floatsToHalves(const float* in, uint16_t* out, size_t n) {
+#if defined(__x86_64__) && defined(__GNUC__)
+    static const bool f16c = __builtin_cpu_supports("avx") && __builtin_cpu_supports("f16c");
+    if (f16c) {
+        halvesF16c(in, out, n);
+        return;
+    }
+#endif
+    for (size_t i = 0; i < n; ++i) out[i] = imath_float_to_half(in[i]);
+}
+
 std::string encodeGreyPng(int width, int height, const uint8_t* pixels) {
     checkSize(width, height, "encodeGreyPng");
     return encodeRunsPng(width, height, pixels);
@@ -303,7 +338,7 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
             if (half) {
                 // Imath's conversion: round to nearest even, overflow to infinity.
                 uint16_t* h = halves.data() + static_cast<size_t>(i) * width;
-                for (int x = 0; x < width; ++x) h[x] = imath_float_to_half(row[x]);
+                floatsToHalves(row, h, static_cast<size_t>(width));
                 for (int x = 0; x < width; ++x) {
                     even[x] = static_cast<uint8_t>(h[x]);
                     odd[x] = static_cast<uint8_t>(h[x] >> 8);

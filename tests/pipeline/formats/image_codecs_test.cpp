@@ -177,6 +177,46 @@ TEST(ImageCodecs, HalfExrRoundTripsAsImathsRoundingInHalfTheBytes) {
     EXPECT_LT(halfSize, full * 6 / 10) << halfSize << " vs " << full;
 }
 
+// floatsToHalves (eight at a time with F16C where the CPU has it) gives Imath's scalar
+// conversion bit for bit: over every 4093rd float bit pattern (both signs, zeros, subnormals,
+// every exponent, NaNs and infinities), the halves' rounding ties (odd multiples of half a
+// half-ulp, at normal and subnormal scales) and the overflow threshold, at every offset of an
+// 8-wide block so that NaNs land in vector and tail positions.
+TEST(ImageCodecs, FloatsToHalvesIsImathsConversionBitForBit) {
+    std::vector<float> in;
+    for (uint64_t bits = 0; bits <= 0xffffffffull; bits += 4093) {
+        float f;
+        const uint32_t b = static_cast<uint32_t>(bits);
+        std::memcpy(&f, &b, 4);
+        in.push_back(f);
+    }
+    for (int e = -26; e <= 16; ++e) {
+        for (int m = 0; m < 64; ++m) {
+            const float tie = std::ldexp(static_cast<float>(2 * m + 1), e - 12);  // x.5 ulp
+            in.push_back(tie);
+            in.push_back(-tie);
+            in.push_back(std::nextafter(tie, 0.0f));
+            in.push_back(std::nextafter(tie, 1e30f));
+        }
+    }
+    for (float f :
+         {65504.0f, 65519.0f, 65520.0f, 65536.0f, 6.1035156e-05f, 5.9604645e-08f, 2.9802322e-08f,
+          2.9802326e-08f, std::numeric_limits<float>::infinity(),
+          -std::numeric_limits<float>::infinity(), std::numeric_limits<float>::quiet_NaN(),
+          std::numeric_limits<float>::signaling_NaN(), -0.0f, 0.0f}) {
+        in.push_back(f);
+    }
+    for (size_t offset = 0; offset < 8; ++offset) {
+        std::vector<uint16_t> out(in.size() - offset);
+        floatsToHalves(in.data() + offset, out.data(), out.size());
+        size_t wrong = 0;
+        for (size_t k = 0; k < out.size(); ++k) {
+            wrong += out[k] != imath_float_to_half(in[offset + k]);
+        }
+        EXPECT_EQ(wrong, 0u) << "offset " << offset << " of " << out.size();
+    }
+}
+
 // ZIP: chunks of 16 lines (the last one shorter), read back bit for bit by OpenEXR (through
 // OIIO) for FLOAT and HALF; incompressible chunks stored raw; a depth map in fewer bytes than
 // RLE's.
