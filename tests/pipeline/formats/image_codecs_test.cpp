@@ -114,6 +114,25 @@ TEST(ImageCodecs, ExrRoundTripsBitExactThroughOpenExr) {
                      ExrCompression::kRle, "rle", 131);
 }
 
+// Only +0.0 is background: rows of -0.0, and rows of +0.0 with one other value at the start, in
+// the second 64 bytes or in the last (tail) pixel, are coded as pixels, each read back bit for bit
+// (RLE and ZIP, 37 pixels a row: two 64-byte blocks and a 20-byte tail).
+TEST(ImageCodecs, ExrBackgroundRowsAreExactlyThePositiveZeroOnes) {
+    TempDir dir;
+    const int w = 37, h = 6;
+    std::vector<float> img(static_cast<size_t>(w) * h, 0.0f);
+    for (int x = 0; x < w; ++x) img[1 * w + x] = -0.0f;
+    img[2 * w + 0] = std::numeric_limits<float>::denorm_min();
+    img[3 * w + 16] = -0.0f;
+    img[4 * w + w - 1] = std::numeric_limits<float>::denorm_min();
+    for (auto [compression, word] :
+         {std::pair{ExrCompression::kRle, "rle"}, std::pair{ExrCompression::kZip, "zip"}}) {
+        const fs::path p = dir.path() / (std::string(word) + ".exr");
+        writeBytes(p, encodeFloatExr(w, h, img.data(), "Y", false, compression));
+        EXPECT_TRUE(sameBits(readExr(p, w, h, "Y", word), img)) << word;
+    }
+}
+
 TEST(ImageCodecs, ExrChannelNameAndCompressionPayOff) {
     TempDir dir;
     const int w = 256, h = 256;
