@@ -438,8 +438,11 @@ void writeContactSheet(const fs::path& path, const std::vector<ViewImage>& views
     for (size_t i = 0; i < views.size(); ++i) {
         const ViewImage& v = views[i];
         sheet.put(i, v.width, v.height, [&](int y, uint8_t* dst) {
-            const uint8_t* src = v.silhouette.data() + static_cast<size_t>(y) * v.width;
-            for (int x = 0; x < v.width; ++x) dst[x] = src[x] ? 0 : 255;
+            // The width held in a local: a byte store may alias v.width, which the loop would
+            // then reload at every pixel instead of being vectorised (7 instructions a pixel).
+            const int n = v.width;
+            const uint8_t* src = v.silhouette.data() + static_cast<size_t>(y) * n;
+            for (int x = 0; x < n; ++x) dst[x] = src[x] ? 0 : 255;
         });
     }
     writeGreyPng(path, sheet.width, sheet.height, sheet.pixels);

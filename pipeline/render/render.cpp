@@ -881,10 +881,34 @@ ViewImage renderView(const Tree& tree, const Camera& camera, bool wantDepth, boo
     return renderView(tree, wood, nodes, camera, wantDepth, wantLabels, options);
 }
 
+namespace {
+
+// Pixels counted in 16-bit sums over stretches of 65,535 (none can overflow), which the compiler
+// vectorises eight to a register. Summed straight into a size_t, the loops ran a pixel at a
+// time: over ez-size's label images 4.3 instructions a pixel, with 32-bit sums 2.2, with 16-bit
+// sums 1.2 (callgrind).
+constexpr size_t kCountStretch = 65535;
+
+// Pixels of `p` that are not 0 (the tree's) and that are `label`.
+void countPixels(const std::vector<uint8_t>& p, uint8_t label, size_t& tree, size_t& labelled) {
+    for (size_t start = 0; start < p.size(); start += kCountStretch) {
+        const size_t end = std::min(p.size(), start + kCountStretch);
+        uint16_t t = 0, l = 0;
+        for (size_t k = start; k < end; ++k) {
+            t += p[k] != 0;
+            l += p[k] == label;
+        }
+        tree += t;
+        labelled += l;
+    }
+}
+
+}  // namespace
+
 double silhouetteCoverage(const ViewImage& view) {
     if (view.silhouette.empty()) return 0.0;
-    size_t tree = 0;
-    for (uint8_t v : view.silhouette) tree += v != 0;
+    size_t tree = 0, background = 0;
+    countPixels(view.silhouette, 0, tree, background);
     return static_cast<double>(tree) / view.silhouette.size();
 }
 
@@ -910,13 +934,9 @@ std::vector<uint8_t> colourLabels(const std::vector<uint8_t>& labels) {
 }
 
 double leafPixelFraction(const std::vector<ViewImage>& views) {
+    static_assert(kLabelBackground == 0, "countPixels counts the non-zero pixels as the tree's");
     size_t leaf = 0, tree = 0;
-    for (const ViewImage& v : views) {
-        for (uint8_t l : v.labels) {
-            leaf += l == kLabelLeaf;
-            tree += l != kLabelBackground;
-        }
-    }
+    for (const ViewImage& v : views) countPixels(v.labels, kLabelLeaf, tree, leaf);
     return tree > 0 ? static_cast<double>(leaf) / static_cast<double>(tree)
                     : std::numeric_limits<double>::quiet_NaN();
 }

@@ -601,6 +601,29 @@ ViewImage blank(int w, int h) {
     return v;
 }
 
+// The pixel counts are summed in short stretches: images of 65,536 and 90,000 pixels, all the
+// tree's (and all leaves, or leaves on every third pixel), count every pixel.
+TEST(ViewStats, PixelCountsHoldOverLargeImages) {
+    for (int side : {256, 300}) {
+        ViewImage v = blank(side, side);
+        std::fill(v.silhouette.begin(), v.silhouette.end(), uint8_t{255});
+        EXPECT_DOUBLE_EQ(silhouetteCoverage(v), 1.0) << side;
+        v.labels.assign(v.silhouette.size(), kLabelLeaf);
+        std::vector<ViewImage> views(3, v);
+        EXPECT_DOUBLE_EQ(leafPixelFraction(views), 1.0) << side;
+        size_t leaves = 0;
+        for (size_t k = 0; k < v.labels.size(); ++k) {
+            v.labels[k] = k % 3 == 0 ? kLabelLeaf : uint8_t{2};
+            leaves += k % 3 == 0;
+        }
+        v.silhouette[7] = 0;  // background in the silhouette only
+        EXPECT_DOUBLE_EQ(silhouetteCoverage(v), (v.silhouette.size() - 1.0) / v.silhouette.size());
+        EXPECT_DOUBLE_EQ(leafPixelFraction({v}),
+                         static_cast<double>(leaves) / static_cast<double>(v.labels.size()));
+    }
+    EXPECT_TRUE(std::isnan(leafPixelFraction({blank(4, 4)})));  // no label image
+}
+
 TEST(ViewStats, CoverageAndBoxCountingKnownAnswers) {
     ViewImage v = blank(256, 256);
     EXPECT_EQ(silhouetteCoverage(v), 0.0);
