@@ -163,6 +163,20 @@ bool setupTriangle(const Corner& a, const Corner& b, const Corner& c, uint8_t la
     return pixelBox(lox, hix, loy, hiy, w, h, t.box);
 }
 
+// setupTriangle for a triangle whose pixel box the caller has found already (the same box:
+// pixelBox of its extent), so only the area's test and the copies remain.
+inline bool setupTriangleInBox(const Corner& a, const Corner& b, const Corner& c, bool frontOnly,
+                               const Box& box, Triangle& t) {
+    t.area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (!(frontOnly ? t.area < 0.0 : t.area != 0.0)) return false;  // (NaN area: false)
+    t.x[0] = a.x, t.x[1] = b.x, t.x[2] = c.x;
+    t.y[0] = a.y, t.y[1] = b.y, t.y[2] = c.y;
+    t.z[0] = a.z, t.z[1] = b.z, t.z[2] = c.z;
+    t.zmin = static_cast<float>(std::min(std::min(a.depth, b.depth), c.depth));
+    t.box = box;
+    return true;
+}
+
 // True when the triangle's box holds at most four pixel centres and each is clearly outside
 // it (a barycentric weight below −1e-9), so drawing it would change no pixel: most triangles of
 // twigs and shaped leaves are smaller than a pixel, and skipping them keeps the bins small.
@@ -554,15 +568,17 @@ Scene buildScene(const TreePrep& prep, const View& view, const RenderOptions& op
             const bool wood = id < scene.woodTriangles;
             if (wood && !((b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x) < 0.0)) continue;
             // Most of a tree's triangles are smaller than a pixel and hold no pixel centre:
-            // those are settled by their extent alone, before the set-up (which would find
-            // the same: pixelBox is these two tests).
-            int first, last;
-            if (!centreSpan(std::min({a.x, b.x, d.x}), std::max({a.x, b.x, d.x}), w, first, last) ||
-                !centreSpan(std::min({a.y, b.y, d.y}), std::max({a.y, b.y, d.y}), h, first, last)) {
+            // those are settled by their extent alone, and the pixel box found on the way is
+            // the set-up's (pixelBox is these two tests).
+            Box box;
+            if (!centreSpan(std::min({a.x, b.x, d.x}), std::max({a.x, b.x, d.x}), w, box.x0,
+                            box.x1) ||
+                !centreSpan(std::min({a.y, b.y, d.y}), std::max({a.y, b.y, d.y}), h, box.y0,
+                            box.y1)) {
                 continue;
             }
             Triangle t;
-            if (!setupTriangle(a, b, d, 0, w, h, wood, t)) continue;
+            if (!setupTriangleInBox(a, b, d, wood, box, t)) continue;
             if ((t.box.x1 - t.box.x0 + 1) * (t.box.y1 - t.box.y0 + 1) > kSmallBox) {
                 chunk.big.push_back(static_cast<uint32_t>(id));
                 continue;
