@@ -17,6 +17,7 @@
 #include <optional>
 #include <set>
 
+#include "core/atomic_file.h"
 #include "core/budget.h"
 #include "core/params.h"
 #include "pipeline/analysis/dataset_stats.h"
@@ -31,7 +32,6 @@
 #include "pipeline/batch/estimate.h"
 #include "pipeline/batch/grow_one.h"
 #include "pipeline/batch/output_lock.h"
-#include "core/atomic_file.h"
 #include "species/spec/species.h"
 
 namespace fs = std::filesystem;

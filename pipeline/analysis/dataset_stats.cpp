@@ -13,12 +13,12 @@
 #include <sstream>
 #include <unordered_set>
 
+#include "core/atomic_file.h"
 #include "core/input_file.h"
 #include "pipeline/analysis/dataset_reader.h"
 #include "pipeline/analysis/quantile_sketch.h"
 #include "pipeline/batch/output_lock.h"
 #include "pipeline/batch/pack.h"
-#include "core/atomic_file.h"
 #include "pipeline/formats/skeleton_reader.h"
 #include "pipeline/formats/skeleton_writers.h"
 #include "species/model/reference_metrics.h"

@@ -16,12 +16,12 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/atomic_file.h"
 #include "core/budget.h"
 #include "core/input_file.h"
 #include "core/rng.h"
 #include "pipeline/analysis/cmaes_module.h"
 #include "pipeline/analysis/dataset_stats.h"
-#include "core/atomic_file.h"
 #include "species/model/reference_metrics.h"
 #include "species/model/tree_stats.h"
 #include "species/spec/species.h"

@@ -13,13 +13,13 @@
 #include <set>
 #include <string_view>
 
+#include "core/atomic_file.h"
 #include "core/input_file.h"
 #include "pipeline/analysis/dataset_reader.h"
 #include "pipeline/batch/build.h"
 #include "pipeline/batch/output_lock.h"
 #include "pipeline/batch/pack.h"
 #include "pipeline/batch/run_log.h"
-#include "core/atomic_file.h"
 #include "pipeline/formats/view_writers.h"
 
 namespace sylva {

@@ -15,13 +15,13 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/atomic_file.h"
 #include "core/errors.h"
 #include "core/input_file.h"
 #include "pipeline/analysis/dataset_reader.h"
 #include "pipeline/analysis/dataset_stats.h"
 #include "pipeline/analysis/quantile_sketch.h"
 #include "pipeline/batch/output_lock.h"
-#include "core/atomic_file.h"
 
 namespace fs = std::filesystem;
 using nlohmann::json;

@@ -25,8 +25,8 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "core/clock.h"
 #include "core/atomic_file.h"
+#include "core/clock.h"
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/view_writers.h"
 #include "species/geometry/level_set_mesh.h"

@@ -31,6 +31,7 @@
 #include <tuple>
 #include <unordered_map>
 
+#include "core/atomic_file.h"
 #include "core/input_file.h"
 #include "pipeline/batch/instance.h"
 #include "pipeline/batch/manifest_repair.h"
@@ -39,7 +40,6 @@
 #include "pipeline/batch/progress.h"
 #include "pipeline/batch/resume.h"
 #include "pipeline/batch/run_log.h"
-#include "core/atomic_file.h"
 #include "pipeline/formats/view_writers.h"
 #include "volumes/oiio_module.h"
 #include "volumes/vdb_module.h"

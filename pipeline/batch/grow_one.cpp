@@ -3,8 +3,8 @@
 #include <chrono>
 #include <nlohmann/json.hpp>
 
-#include "pipeline/batch/output_lock.h"
 #include "core/atomic_file.h"
+#include "pipeline/batch/output_lock.h"
 #include "pipeline/formats/skeleton_writers.h"
 #include "pipeline/formats/stats_json.h"
 #include "pipeline/formats/view_writers.h"

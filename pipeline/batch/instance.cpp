@@ -5,10 +5,10 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/atomic_file.h"
 #include "core/clock.h"
 #include "pipeline/batch/pack.h"
 #include "pipeline/batch/plot_instance.h"
-#include "core/atomic_file.h"
 #include "pipeline/formats/glb_meshopt.h"
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/skeleton_writers.h"

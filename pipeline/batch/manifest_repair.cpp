@@ -6,8 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <unordered_set>
 
-#include "core/errors.h"
 #include "core/atomic_file.h"
+#include "core/errors.h"
 
 namespace sylva {
 

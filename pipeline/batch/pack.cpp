@@ -4,11 +4,11 @@
 #include <cstdio>
 #include <set>
 
+#include "core/atomic_file.h"
 #include "core/errors.h"
 #include "core/input_file.h"
 #include "pipeline/batch/build.h"
 #include "pipeline/batch/instance.h"
-#include "core/atomic_file.h"
 
 namespace sylva {
 

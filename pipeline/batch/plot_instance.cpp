@@ -6,10 +6,10 @@
 #include <optional>
 #include <set>
 
+#include "core/atomic_file.h"
 #include "core/rng.h"
 #include "pipeline/batch/instance.h"
 #include "pipeline/batch/scan_instance.h"
-#include "core/atomic_file.h"
 #include "pipeline/formats/image_codecs.h"
 #include "pipeline/formats/mesh_writers.h"
 #include "pipeline/formats/plot_tables.h"

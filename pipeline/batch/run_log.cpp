@@ -4,10 +4,10 @@
 
 #include <vector>
 
+#include "core/atomic_file.h"
 #include "core/input_file.h"
 #include "pipeline/batch/build.h"
 #include "pipeline/batch/output_lock.h"
-#include "core/atomic_file.h"
 
 namespace sylva {
 

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "core/params.h"
 #include "core/atomic_file.h"
+#include "core/params.h"
 
 namespace sylva {
 

@@ -12,8 +12,8 @@
 #include <stdexcept>
 #include <string_view>
 
-#include "core/params.h"
 #include "core/atomic_file.h"
+#include "core/params.h"
 
 namespace sylva {
 

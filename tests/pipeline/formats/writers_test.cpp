@@ -14,8 +14,8 @@
 #include <sstream>
 #include <thread>
 
-#include "core/errors.h"
 #include "core/atomic_file.h"
+#include "core/errors.h"
 #include "pipeline/formats/skeleton_writers.h"
 #include "pipeline/formats/stats_json.h"
 #include "tests/test_support.h"
