@@ -152,7 +152,7 @@ void PackedPointGrid::pairsWithin(double radius, int32_t iEnd,
                             if (bx < 0 || bx >= dx || by < 0 || by >= dy || bz >= dz) continue;
                             const size_t cellB = cells_.index(bx, by, bz);
                             const int32_t b0 = start_[cellB], b1 = start_[cellB + 1];
-                            if (b0 == b1) continue;  // (most neighbours are empty)
+                            if (b0 == b1) continue;  // an empty neighbour: no pairs
                             const size_t most = size_t(a1 - a0) * (b1 - b0);
                             if (found_.size() < m + most) found_.resize(2 * (m + most));
                             for (int32_t sa = a0; sa < a1; ++sa)

@@ -563,8 +563,8 @@ Scene buildScene(const TreePrep& prep, const View& view, const RenderOptions& op
                 chunk.cut.push_back(static_cast<uint32_t>(id));
                 continue;
             }
-            // A third of them are tubes' back faces: settled by the sign of their area, the
-            // set-up's first test, before anything else.
+            // About a third of them are tubes' back faces: settled by the sign of their area,
+            // the set-up's first test, before anything else.
             const bool wood = id < scene.woodTriangles;
             if (wood && !((b.x - a.x) * (d.y - a.y) - (b.y - a.y) * (d.x - a.x) < 0.0)) continue;
             // Most of a tree's triangles are smaller than a pixel and hold no pixel centre:
