@@ -846,12 +846,17 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     for (const SkeletonNode& n : tree.nodes) box.extend(n.position);
     box.extend(box.lo - Vec3{reach, reach, reach});
     box.extend(box.hi + Vec3{reach, reach, reach});
-    // Markers are fixed: packed by cell (the grid is rebuilt with the markers still waiting
-    // whenever half of them are carried). Nodes are added as twigs grow.
+    // Markers are fixed: packed by cell, and the grid is rebuilt with the markers still
+    // waiting whenever a tenth of them have been carried (a carried marker only costs its
+    // distance test; a rebuild costs one pass over those waiting). Cells a quarter of the
+    // reach: a query reads about 11 reach³ of cells for its 4.2 reach³ ball, against 16 at
+    // half the reach. Which markers the grid holds, and in what order it lists them, change
+    // nothing: each marker keeps the lowest (distance, node) of those that reach it.
+    // Nodes are added as twigs grow.
     PackedPointGrid markerGrid;
     std::vector<int32_t> gridMarker(markerCount);  // grid id → marker
     std::iota(gridMarker.begin(), gridMarker.end(), 0);
-    markerGrid.assign(marker, 0.5 * reach);
+    markerGrid.assign(marker, reach / 4);
     PointGrid nodeGrid(box, 0.5 * reach);
     nodeGrid.reserve(tree.nodes.size() * 2);
     for (size_t i = 0; i < tree.nodes.size(); ++i) {
@@ -964,11 +969,11 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
             if (closest[i] < 0 || better(mk.d2, k, m[closest[i]].d2, closest[i])) closest[i] = k;
         }
         active.resize(alive);
-        if (2 * active.size() < gridMarker.size()) {  // pack the markers still waiting
+        if (10 * active.size() < 9 * gridMarker.size()) {  // pack the markers still waiting
             gridMarker = active;
             std::vector<Vec3> waiting;
             for (int32_t k : active) waiting.push_back(marker[k]);
-            markerGrid.assign(waiting, 0.5 * reach);
+            markerGrid.assign(waiting, reach / 4);
         }
         if (touched.empty()) break;
         std::sort(touched.begin(), touched.end());
