@@ -259,7 +259,7 @@ TEST(PackedPointGrid, RadiusQueriesListWhatAPointGridListsInItsOrder) {
         found += a.size();
     }
     EXPECT_GT(found, 3000u);  // the queries do find points
-    PackedPointGrid never;  // never assigned: nothing to visit, no out-of-range read
+    PackedPointGrid never;    // never assigned: nothing to visit, no out-of-range read
     int n = 0;
     never.forEachWithin({0, 0, 0}, 1.0, [&](int32_t, const Vec3&) { ++n; });
     EXPECT_EQ(n, 0);
