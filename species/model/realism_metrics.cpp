@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstring>
 #include <limits>
 
 #include "species/model/tree_metrics.h"
@@ -212,13 +211,6 @@ std::vector<double> woodDistances(const Tree& tree, const std::vector<Vec3>& poi
     out.reserve(points.size());
     for (size_t k = 0; k < points.size(); ++k) {
         const int32_t i = k < near.size() ? near[k] : -1;
-        // The leaves of a cluster follow each other with one attachment point and one carrier:
-        // the query is theirs alike (the same bits in, the same distance out).
-        if (k > 0 && i == (k - 1 < near.size() ? near[k - 1] : -1) &&
-            std::memcmp(&points[k], &points[k - 1], sizeof(Vec3)) == 0) {
-            out.push_back(out.back());
-            continue;
-        }
         double hint = kInf;
         if (i > 0 && static_cast<size_t>(i) < tree.nodes.size()) {
             const SkeletonNode& n = tree.nodes[i];
