@@ -3,6 +3,7 @@
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Exact_rational.h>
+#include <CGAL/Mpzf.h>
 #include <CGAL/Polygon_mesh_processing/measure.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/convex_hull_3.h>
@@ -116,13 +117,18 @@ double convexHullVolume(const std::vector<Vec3>& points) {
     if (hull.number_of_faces() < 4 || !CGAL::is_closed(hull)) return 0.0;
     // Sum the tetrahedra exactly: the hull's face order and the triangulation of coplanar
     // facets depend on the heap state, and a floating-point sum would differ in the last bits
-    // between runs; the exact volume of the hull polytope does not.
-    using Q = CGAL::Exact_rational;
+    // between runs; the exact volume of the hull polytope does not. The sum only adds,
+    // subtracts and multiplies doubles, so it runs in CGAL's Mpzf (exact binary floating
+    // point, no fractions to reduce: the rational type's canonicalisation was most of this
+    // function's time); the exact total becomes a rational once, for the rounding to double
+    // the rational sum always had (mpq_get_d).
+    using Z = CGAL::Mpzf;
     const Point& o = hull.point(*hull.vertices().begin());
-    auto rel = [&](const Point& p) -> std::array<Q, 3> {
-        return {Q(p.x()) - o.x(), Q(p.y()) - o.y(), Q(p.z()) - o.z()};
+    const Z ox(o.x()), oy(o.y()), oz(o.z());
+    auto rel = [&](const Point& p) -> std::array<Z, 3> {
+        return {Z(p.x()) - ox, Z(p.y()) - oy, Z(p.z()) - oz};
     };
-    Q vol6 = 0;
+    Z vol6 = 0;
     for (auto f : hull.faces()) {
         auto h = hull.halfedge(f);
         auto [ax, ay, az] = rel(hull.point(hull.target(h)));
@@ -130,7 +136,8 @@ double convexHullVolume(const std::vector<Vec3>& points) {
         auto [cx, cy, cz] = rel(hull.point(hull.source(h)));
         vol6 += ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
     }
-    return std::abs(CGAL::to_double(vol6)) / 6.0;
+    const CGAL::Exact_rational exact = static_cast<CGAL::Exact_rational>(vol6);
+    return std::abs(CGAL::to_double(exact)) / 6.0;
 }
 
 TreeStats computeStats(const Tree& tree) {

@@ -218,6 +218,52 @@ TEST(TreeStats, HullIgnoresInteriorPointsToTheBit) {
     }
 }
 
+// The hull's tetrahedra summed in doubles, in face order: what the exact sum is there to avoid.
+double hullDoubleSum(const std::vector<Vec3>& points) {
+    using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+    std::vector<K::Point_3> pts;
+    for (const Vec3& p : points) pts.emplace_back(p.x, p.y, p.z);
+    CGAL::Surface_mesh<K::Point_3> hull;
+    CGAL::convex_hull_3(pts.begin(), pts.end(), hull);
+    const K::Point_3& o = hull.point(*hull.vertices().begin());
+    double vol6 = 0;
+    for (auto f : hull.faces()) {
+        auto h = hull.halfedge(f);
+        const K::Point_3& a = hull.point(hull.target(h));
+        const K::Point_3& b = hull.point(hull.target(hull.next(h)));
+        const K::Point_3& c = hull.point(hull.source(h));
+        const double ax = a.x() - o.x(), ay = a.y() - o.y(), az = a.z() - o.z();
+        const double bx = b.x() - o.x(), by = b.y() - o.y(), bz = b.z() - o.z();
+        const double cx = c.x() - o.x(), cy = c.y() - o.y(), cz = c.z() - o.z();
+        vol6 += ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
+    }
+    return std::abs(vol6) / 6.0;
+}
+
+// The exact sum runs in binary floating point (Mpzf) and becomes a rational once: the same
+// double as summing in rationals throughout, also where a double sum loses bits — small, thin
+// or flat clouds far from the origin, their coordinates using every mantissa bit.
+TEST(TreeStats, HullSumIsTheRationalSumToTheBit) {
+    Rng rng(17);
+    int roundedApart = 0;
+    for (int trial = 0; trial < 12; ++trial) {
+        const double offset = std::ldexp(1.0, 3 * trial) * (1.0 + rng.uniform());
+        const Vec3 scale{rng.uniform(1e-3, 2.0), rng.uniform(1e-6, 2.0), rng.uniform(1e-3, 2.0)};
+        std::vector<Vec3> cloud;
+        for (int i = 0; i < 400; ++i) {
+            const Vec3 u = rng.unitVector();
+            cloud.push_back(
+                {offset + u.x * scale.x, -offset + u.y * scale.y, offset + u.z * scale.z});
+        }
+        const double v = convexHullVolume(cloud);
+        EXPECT_EQ(v, hullOfAll(cloud)) << "trial " << trial;
+        EXPECT_GT(v, 0.0) << "trial " << trial;
+        roundedApart += v != hullDoubleSum(cloud);
+    }
+    // The clouds exercise the rounding: a double sum gets most of them wrong in the last bits.
+    EXPECT_GE(roundedApart, 6);
+}
+
 TEST(TreeStats, DegenerateHullsAreZero) {
     EXPECT_EQ(convexHullVolume({}), 0.0);
     EXPECT_EQ(convexHullVolume({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}), 0.0);
