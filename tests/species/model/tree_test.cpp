@@ -170,15 +170,16 @@ TEST(TreeStats, HullOfUnitCubeCornersPlusCentreIsOne) {
     EXPECT_NEAR(computeStats(t).crownHullVolume, 1.0, 1e-12);
 }
 
-// The exact volume of the hull of every point, as convexHullVolume computed it before it threw
-// away the points inside the polytope of 26 extreme points: the reference for the throw-away.
-double hullOfAll(const std::vector<Vec3>& points) {
+// The hull of every point (CGAL, no throw-away), its tetrahedra summed in `Number` in face
+// order, |sum| / 6 as a double.
+template <class Number>
+double hullOfAllIn(const std::vector<Vec3>& points) {
     using K = CGAL::Exact_predicates_inexact_constructions_kernel;
     std::vector<K::Point_3> pts;
     for (const Vec3& p : points) pts.emplace_back(p.x, p.y, p.z);
     CGAL::Surface_mesh<K::Point_3> hull;
     CGAL::convex_hull_3(pts.begin(), pts.end(), hull);
-    using Q = CGAL::Exact_rational;
+    using Q = Number;
     const K::Point_3& o = hull.point(*hull.vertices().begin());
     Q vol6 = 0;
     for (auto f : hull.faces()) {
@@ -192,6 +193,13 @@ double hullOfAll(const std::vector<Vec3>& points) {
         vol6 += ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
     }
     return std::abs(CGAL::to_double(vol6)) / 6.0;
+}
+
+// The exact volume of the hull of every point, summed in rationals throughout, as
+// convexHullVolume computed it before it threw away the points inside the polytope of 26
+// extreme points and before it summed in Mpzf: the reference for both.
+double hullOfAll(const std::vector<Vec3>& points) {
+    return hullOfAllIn<CGAL::Exact_rational>(points);
 }
 
 TEST(TreeStats, HullIgnoresInteriorPointsToTheBit) {
@@ -218,28 +226,6 @@ TEST(TreeStats, HullIgnoresInteriorPointsToTheBit) {
     }
 }
 
-// The hull's tetrahedra summed in doubles, in face order: what the exact sum is there to avoid.
-double hullDoubleSum(const std::vector<Vec3>& points) {
-    using K = CGAL::Exact_predicates_inexact_constructions_kernel;
-    std::vector<K::Point_3> pts;
-    for (const Vec3& p : points) pts.emplace_back(p.x, p.y, p.z);
-    CGAL::Surface_mesh<K::Point_3> hull;
-    CGAL::convex_hull_3(pts.begin(), pts.end(), hull);
-    const K::Point_3& o = hull.point(*hull.vertices().begin());
-    double vol6 = 0;
-    for (auto f : hull.faces()) {
-        auto h = hull.halfedge(f);
-        const K::Point_3& a = hull.point(hull.target(h));
-        const K::Point_3& b = hull.point(hull.target(hull.next(h)));
-        const K::Point_3& c = hull.point(hull.source(h));
-        const double ax = a.x() - o.x(), ay = a.y() - o.y(), az = a.z() - o.z();
-        const double bx = b.x() - o.x(), by = b.y() - o.y(), bz = b.z() - o.z();
-        const double cx = c.x() - o.x(), cy = c.y() - o.y(), cz = c.z() - o.z();
-        vol6 += ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx);
-    }
-    return std::abs(vol6) / 6.0;
-}
-
 // The exact sum runs in binary floating point (Mpzf) and becomes a rational once: the same
 // double as summing in rationals throughout, also where a double sum loses bits — small, thin
 // or flat clouds far from the origin, their coordinates using every mantissa bit.
@@ -258,7 +244,7 @@ TEST(TreeStats, HullSumIsTheRationalSumToTheBit) {
         const double v = convexHullVolume(cloud);
         EXPECT_EQ(v, hullOfAll(cloud)) << "trial " << trial;
         EXPECT_GT(v, 0.0) << "trial " << trial;
-        roundedApart += v != hullDoubleSum(cloud);
+        roundedApart += v != hullOfAllIn<double>(cloud);  // what the exact sum avoids
     }
     // The clouds exercise the rounding: a double sum gets most of them wrong in the last bits.
     EXPECT_GE(roundedApart, 6);
