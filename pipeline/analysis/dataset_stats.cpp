@@ -213,9 +213,10 @@ Reference readReference(const fs::path& file) {
     for (const char* k : kReferenceDistributionNames)
         known += (known.empty() ? "" : ", ") + std::string(k);
     for (const auto& [key, v] : j["distributions"].items()) {
-        const std::string where = "distributions." + key;
+        const std::string& name = key;  // C++17 lambdas cannot capture a structured binding
+        const std::string where = "distributions." + name;
         if (std::find_if(kReferenceDistributionNames.begin(), kReferenceDistributionNames.end(),
-                         [&](const char* k) { return key == k; }) ==
+                         [&](const char* k) { return name == k; }) ==
             kReferenceDistributionNames.end()) {
             fail(where + ": unknown distribution; expected one of " + known);
         }

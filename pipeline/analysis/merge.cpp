@@ -260,8 +260,9 @@ MergeSummary mergeShards(const MergeOptions& o) {
         };
     for (const Shard* s : byIndex) {
         const auto [lo, hi] = shardPositions(total, s->index, s->count, perShard);
-        int64_t next = lo;     // the position the next record must have
-        std::string packSeen;  // the last tar found (a tar shard's records are consecutive)
+        const int64_t end = hi;  // C++17 lambdas cannot capture a structured binding
+        int64_t next = lo;       // the position the next record must have
+        std::string packSeen;    // the last tar found (a tar shard's records are consecutive)
         const fs::path mpath = forEachLine(*s, [&](const std::string&, const ManifestRecord& m) {
             const std::string& where = m.where;
             const std::optional<int64_t> p = positionOf(m.id);
@@ -269,7 +270,7 @@ MergeSummary mergeShards(const MergeOptions& o) {
             if (*p < next) {
                 fail(where + ": instance " + m.id + " recorded twice, or out of order");
             }
-            if (*p >= hi) fail(where + ": instance " + m.id + " is not in this shard's block");
+            if (*p >= end) fail(where + ": instance " + m.id + " is not in this shard's block");
             if (*p > next) {
                 fail(where + ": " + std::to_string(*p - next) + " instance(s) before " + m.id +
                      " not recorded (failed trees: rerun that shard's build)");

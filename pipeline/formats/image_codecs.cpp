@@ -2,6 +2,7 @@
 #include "pipeline/formats/image_codecs.h"
 
 #include <Imath/half.h>
+#include <cpuid.h>
 #include <immintrin.h>
 #include <png.h>
 #include <zlib.h>
@@ -53,6 +54,13 @@ __attribute__((target("avx,f16c"))) void halvesF16c(const float* in, uint16_t* o
         _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i), h);
     }
     for (; i < n; ++i) out[i] = imath_float_to_half(in[i]);
+}
+
+// AVX (with the operating system's support for its registers) and F16C. F16C is read from
+// CPUID itself: clang 14's __builtin_cpu_supports does not know the name.
+bool hasF16c() {
+    unsigned a = 0, b = 0, c = 0, d = 0;
+    return __builtin_cpu_supports("avx") && __get_cpuid(1, &a, &b, &c, &d) && (c & bit_F16C) != 0;
 }
 #endif
 
@@ -216,7 +224,7 @@ size_t rleEncode(const uint8_t* in, size_t n, std::vector<uint8_t>& out) {
 
 void floatsToHalves(const float* in, uint16_t* out, size_t n) {
 #if defined(__x86_64__) && defined(__GNUC__)
-    static const bool f16c = __builtin_cpu_supports("avx") && __builtin_cpu_supports("f16c");
+    static const bool f16c = hasF16c();
     if (f16c) {
         halvesF16c(in, out, n);
         return;

@@ -101,6 +101,7 @@ inline Outcome readSpec(const Sandbox& box, const uint8_t* data, size_t size) {
             for (const SpeciesEntry& e : spec.species) {
                 total += e.count * static_cast<int64_t>(e.points.size());
             }
+            for (const PlotSpec& p : spec.plots) total += p.count;  // one job per plot instance
             if (total <= kMaxExpandedInstances) {
                 const std::vector<InstanceJob> jobs = expandJobs(spec);
                 if (static_cast<int64_t>(jobs.size()) != total) {
