@@ -104,21 +104,15 @@ class PackedPointGrid {
     void assign(const std::vector<Vec3>& points, double cellSize);
     size_t size() const { return ids_.size(); }
 
-    // Calls f(id, position) for every point with |q - p| < radius. A row of cells is one
-    // packed run of slots, read in one loop: the same points in the same order as cell by cell.
+    // Calls f(id, position) for every point with |q - p| < radius: the box query over the
+    // ball's box (a row of cells one packed run), in its order — the order cell by cell.
     template <class F>
     void forEachWithin(const Vec3& q, double radius, F&& f) const {
-        if (ids_.empty()) return;
         const double r2 = radius * radius;
-        int lo[3], hi[3];
-        cells_.range(q, radius, lo, hi);
-        for (int z = lo[2]; z <= hi[2]; ++z)
-            for (int y = lo[1]; y <= hi[1]; ++y) {
-                const size_t row = cells_.index(0, y, z);
-                for (int32_t s = start_[row + lo[0]], end = start_[row + hi[0] + 1]; s < end; ++s) {
-                    if (distance2(pos_[s], q) < r2) f(ids_[s], pos_[s]);
-                }
-            }
+        const Vec3 pad{radius, radius, radius};
+        forEachInBox(q - pad, q + pad, [&](int32_t id, const Vec3& p) {
+            if (distance2(p, q) < r2) f(id, p);
+        });
     }
     // Calls f(id, position) for every point in the cells the box [lo, hi] touches (a superset
     // of the points inside it): cell by cell, z slowest, each row of cells one packed run.

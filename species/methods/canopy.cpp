@@ -853,10 +853,11 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
     // half the reach. Which markers the grid holds, and in what order it lists them, change
     // nothing: each marker keeps the lowest (distance, node) of those that reach it.
     // Nodes are added as twigs grow.
+    const double markerCell = reach / 4;
     PackedPointGrid markerGrid;
     std::vector<int32_t> gridMarker(markerCount);  // grid id → marker
     std::iota(gridMarker.begin(), gridMarker.end(), 0);
-    markerGrid.assign(marker, reach / 4);
+    markerGrid.assign(marker, markerCell);
     PointGrid nodeGrid(box, 0.5 * reach);
     nodeGrid.reserve(tree.nodes.size() * 2);
     for (size_t i = 0; i < tree.nodes.size(); ++i) {
@@ -973,7 +974,7 @@ int64_t growSupportTwigs(Tree& tree, const std::vector<char>& sprouts,
             gridMarker = active;
             std::vector<Vec3> waiting;
             for (int32_t k : active) waiting.push_back(marker[k]);
-            markerGrid.assign(waiting, reach / 4);
+            markerGrid.assign(waiting, markerCell);
         }
         if (touched.empty()) break;
         std::sort(touched.begin(), touched.end());
