@@ -53,6 +53,7 @@
 #include "species/model/leaf_shape.h"
 #include "species/spec/species.h"
 #include "species/spec/volume_spec.h"
+#include "volumes/poisson.h"
 
 namespace fs = std::filesystem;
 using namespace sylva;
@@ -611,6 +612,42 @@ SYLVA_VOLUME_BENCH(mask_revolution);
 SYLVA_VOLUME_BENCH(visual_hull);
 SYLVA_VOLUME_BENCH(canopy_envelope);
 SYLVA_VOLUME_BENCH(crown_refinement);
+
+// Xu & Mould's node sampling as xm-l's first level draws it: 2,500 Poisson-disc points in a
+// cone 3 m wide and 10 m high at spacing 0.7·(V/2,500)^(1/3), by dart throwing (seeds 1, 2, …
+// per iteration). Items are darts; counter darts_per_point.
+static void PoissonCone(benchmark::State& state) {
+    const VolumePtr cone = makeCone(3.0, 10.0, 0.0);
+    PoissonOptions po;
+    po.count = 2500;
+    po.minDistance = 0.7 * std::cbrt(cone->measure() / po.count);
+    // Counting sampler: the same cone, the darts counted.
+    struct Counting final : Volume {
+        const Volume& v;
+        mutable int64_t draws = 0;
+        explicit Counting(const Volume& of) : v(of) {}
+        double signedDistance(const Vec3& p) const override { return v.signedDistance(p); }
+        Aabb bounds() const override { return v.bounds(); }
+        std::optional<Vec3> sample(Rng& rng, int tries) const override {
+            ++draws;
+            return v.sample(rng, tries);
+        }
+        double measure() const override { return v.measure(); }
+        std::string describe() const override { return v.describe(); }
+    } counting(*cone);
+    uint64_t seed = 1;
+    std::vector<Vec3> points;
+    for (auto _ : state) {
+        Rng rng(seed++);
+        points.clear();
+        poissonSample(counting, po, rng, points);
+        benchmark::DoNotOptimize(points.data());
+    }
+    state.SetItemsProcessed(counting.draws);
+    state.counters["darts_per_point"] =
+        static_cast<double>(counting.draws) / (static_cast<double>(state.iterations()) * po.count);
+}
+BENCHMARK(PoissonCone)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 
 // Liu 2020 Fig. 17: time per tree of Palubicki's method and the improved variant on the same
 // crown and marker budget. The crown (an ellipsoid 10 × 8 × 10 m over a 1 m bole, internodes

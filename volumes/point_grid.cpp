@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace sylva {
 
@@ -41,7 +42,10 @@ GridCells::GridCells(const Aabb& bounds, double cellSize) {
 }
 
 PointGrid::PointGrid(const Aabb& bounds, double cellSize)
-    : cells_(bounds, cellSize), head_(cells_.count(), -1) {}
+    : cells_(bounds, cellSize), head_(cells_.count(), kEnd) {
+    constexpr double kFar = std::numeric_limits<double>::infinity();
+    slots_.push_back({{kFar, kFar, kFar}, -1, kEnd});
+}
 
 void PointGrid::insert(int32_t id, const Vec3& p) {
     const size_t cell = cells_.indexOf(p);
@@ -49,28 +53,32 @@ void PointGrid::insert(int32_t id, const Vec3& p) {
     head_[cell] = static_cast<int32_t>(slots_.size()) - 1;
 }
 
-void PointGrid::reserve(size_t n) { slots_.reserve(n); }
+void PointGrid::reserve(size_t n) { slots_.reserve(n + 1); }
 
 bool PointGrid::anyWithin(const Vec3& q, double radius) const {
     const double r2 = radius * radius;
-    auto near = [&](size_t cell) {
-        for (int32_t s = head_[cell]; s >= 0; s = slots_[s].next)
-            if (distance2(slots_[s].pos, q) < r2) return true;
-        return false;
-    };
     int lo[3], hi[3];
     cells_.range(q, radius, lo, hi);
     // The middle cell first (the query's own when the radius is the cell size): when a dart
     // is rejected it is most often by a point there. The answer does not depend on the order.
     const size_t own = cells_.index((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2);
-    if (near(own)) return true;
+    for (int32_t s = head_[own]; s != kEnd; s = slots_[s].next)
+        if (distance2(slots_[s].pos, q) < r2) return true;
+    // Then a row of cells at a time, without a branch on whether a cell is empty (an empty
+    // one reads the end slot, at infinity): at Poisson densities about half the cells are
+    // empty, and that branch was mispredicted (perf: the slowest instructions of the query).
+    // Points at infinity are never within, nor is anything of a NaN query (as before).
     for (int z = lo[2]; z <= hi[2]; ++z)
         for (int y = lo[1]; y <= hi[1]; ++y) {
             const size_t row = cells_.index(0, y, z);
+            bool hit = false;
             for (int x = lo[0]; x <= hi[0]; ++x) {
-                const size_t cell = row + x;
-                if (cell != own && near(cell)) return true;
+                const Slot& first = slots_[head_[row + x]];
+                hit |= distance2(first.pos, q) < r2;
+                for (int32_t s = first.next; s != kEnd; s = slots_[s].next)
+                    hit |= distance2(slots_[s].pos, q) < r2;
             }
+            if (hit) return true;
         }
     return false;
 }

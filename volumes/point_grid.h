@@ -67,7 +67,7 @@ class PointGrid {
     void insert(int32_t id, const Vec3& p);
     // Pre-allocates room for n points (avoids regrowth when the count is known).
     void reserve(size_t n);
-    size_t size() const { return slots_.size(); }
+    size_t size() const { return slots_.size() - 1; }
 
     // Calls f(id, position) for every stored point with |q - p| < radius, cell by cell (z
     // slowest), the latest insertion first within a cell.
@@ -75,7 +75,7 @@ class PointGrid {
     void forEachWithin(const Vec3& q, double radius, F&& f) const {
         const double r2 = radius * radius;
         cells_.forEachCell(q, radius, [&](size_t cell) {
-            for (int32_t s = head_[cell]; s >= 0; s = slots_[s].next) {
+            for (int32_t s = head_[cell]; s != kEnd; s = slots_[s].next) {
                 if (distance2(slots_[s].pos, q) < r2) f(slots_[s].id, slots_[s].pos);
             }
         });
@@ -87,10 +87,13 @@ class PointGrid {
     struct Slot {
         Vec3 pos;
         int32_t id;
-        int32_t next;  // next slot in the same cell, -1 at the end
+        int32_t next;  // next slot in the same cell, kEnd at the end
     };
+    // Slot 0 ends every list: a point at infinity, which no query is within. anyWithin reads
+    // it for an empty cell instead of branching on emptiness.
+    static constexpr int32_t kEnd = 0;
     GridCells cells_;
-    std::vector<int32_t> head_;  // first slot per cell, -1 if empty
+    std::vector<int32_t> head_;  // first slot per cell, kEnd if empty
     std::vector<Slot> slots_;
 };
 

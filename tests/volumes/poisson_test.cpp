@@ -155,28 +155,37 @@ TEST(Poisson, Capacity) {
 
 TEST(PointGrid, QueriesMatchBruteForce) {
     const Aabb box{{0, 0, 0}, {4, 2, 3}};
-    PointGrid grid(box, 0.3);
-    Rng rng(12);
-    std::vector<Vec3> pts;
-    for (int i = 0; i < 2000; ++i) {
-        // Some points lie outside the bounds: they are clamped into border cells.
-        Vec3 p{rng.uniform(-1, 5), rng.uniform(-1, 3), rng.uniform(-1, 4)};
-        pts.push_back(p);
-        grid.insert(i * 3, p);  // ids need not be dense
-    }
-    EXPECT_EQ(grid.size(), pts.size());
-    for (int k = 0; k < 200; ++k) {
-        Vec3 q{rng.uniform(-2, 6), rng.uniform(-2, 4), rng.uniform(-2, 5)};
-        const double r = rng.uniform(0.05, 1.0);
-        std::set<int> expected, got;
-        for (size_t i = 0; i < pts.size(); ++i)
-            if (distance(pts[i], q) < r) expected.insert(static_cast<int>(i) * 3);
-        grid.forEachWithin(q, r, [&](int32_t id, const Vec3& p) {
-            got.insert(id);
-            EXPECT_EQ(p, pts[id / 3]);
-        });
-        EXPECT_EQ(got, expected);
-        EXPECT_EQ(grid.anyWithin(q, r), !expected.empty());
+    // Dense (several points a cell) and sparse (most cells empty), and empty.
+    for (int n : {2000, 40, 0}) {
+        PointGrid grid(box, 0.3);
+        Rng rng(12 + n);
+        std::vector<Vec3> pts;
+        for (int i = 0; i < n; ++i) {
+            // Some points lie outside the bounds: they are clamped into border cells.
+            Vec3 p{rng.uniform(-1, 5), rng.uniform(-1, 3), rng.uniform(-1, 4)};
+            pts.push_back(p);
+            grid.insert(i * 3, p);  // ids need not be dense
+        }
+        EXPECT_EQ(grid.size(), pts.size());
+        int hits = 0;
+        for (int k = 0; k < 300; ++k) {
+            Vec3 q{rng.uniform(-2, 6), rng.uniform(-2, 4), rng.uniform(-2, 5)};
+            const double r = rng.uniform(0.05, 1.0);
+            std::set<int> expected, got;
+            for (size_t i = 0; i < pts.size(); ++i)
+                if (distance(pts[i], q) < r) expected.insert(static_cast<int>(i) * 3);
+            grid.forEachWithin(q, r, [&](int32_t id, const Vec3& p) {
+                got.insert(id);
+                EXPECT_EQ(p, pts[id / 3]);
+            });
+            EXPECT_EQ(got, expected);
+            EXPECT_EQ(grid.anyWithin(q, r), !expected.empty()) << n << " points, query " << k;
+            hits += !expected.empty();
+        }
+        if (n > 0) {  // both answers are exercised
+            EXPECT_GT(hits, 10) << n;
+            EXPECT_LT(hits, 290) << n;
+        }
     }
 }
 
