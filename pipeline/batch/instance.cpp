@@ -137,7 +137,8 @@ void renderStage(InstanceWork& w, const OutputOptions& o) {
     if (o.views.count <= 0 || w.job.plot) return;  // writePlot renders a plot's views
     auto t0 = Clock::now();
     Rng camRng = Rng(w.job.seed).derive("cameras");
-    w.cameras = makeCameras(w.grown.tree, o.views, camRng);
+    w.sphere = treeBoundingSphere(w.grown.tree);
+    w.cameras = makeCameras(w.sphere, o.views, camRng);
     // The views show the tubes as meshed: the mesh stage's, or made here when no mesh is written.
     Mesh ownWood;
     std::vector<int32_t> ownNodes;
@@ -308,7 +309,7 @@ void writeStage(InstanceWork& w, const OutputOptions& o, const fs::path& out) {
         }
         files["views"] = (rel / "views").generic_string();
         put("transforms", "transforms.json",
-            transformsJson(w.cameras, vf, ngpPlacement(w.grown.tree)).dump(2) + "\n");
+            transformsJson(w.cameras, vf, ngpPlacement(w.sphere)).dump(2) + "\n");
         if (o.views.pointCloud) put("points_ply", "points.ply", pointCloudPly(w.cameras, w.views));
         if (o.views.contactSheet) {
             int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(w.views.size()))));

@@ -28,6 +28,7 @@ struct InstanceWork {
     std::vector<int32_t> woodNodes;  // per tube triangle, its skeleton node (tubeMesh)
     Mesh watertight;                 // when asked for
     std::vector<Camera> cameras;
+    BoundingSphere sphere;  // the tree's, which the cameras frame (render stage)
     std::vector<ViewImage> views;
     std::vector<ColourImage> colours;  // [views] colour: one per view
     double growMs = 0, meshMs = 0, renderMs = 0, writeMs = 0;

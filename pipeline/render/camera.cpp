@@ -111,6 +111,12 @@ Vec3 Camera::unproject(double px, double py, double depth, double f) const {
 }
 
 std::vector<Camera> makeCameras(const Tree& tree, const ViewOptions& options, Rng& rng) {
+    if (options.count <= 0) return {};
+    return makeCameras(treeBoundingSphere(tree), options, rng);
+}
+
+std::vector<Camera> makeCameras(const BoundingSphere& sphere, const ViewOptions& options,
+                                Rng& rng) {
     std::vector<Camera> cameras;
     if (options.count <= 0) return cameras;
     if (options.width <= 0 || options.height <= 0) {
@@ -132,7 +138,6 @@ std::vector<Camera> makeCameras(const Tree& tree, const ViewOptions& options, Rn
         throw std::invalid_argument("views: margin must be positive");
     }
 
-    const BoundingSphere sphere = treeBoundingSphere(tree);
     const Vec3 centre = sphere.centre;
     const double radius = sphere.radius;
     const double framed = radius * options.margin;

@@ -66,6 +66,8 @@ struct BoundingSphere {
     double radius = 1.0;
 };
 BoundingSphere treeBoundingSphere(const Tree& tree);
+// makeCameras around `sphere` (treeBoundingSphere(tree)), for a caller that needs it too.
+std::vector<Camera> makeCameras(const BoundingSphere& sphere, const ViewOptions& options, Rng& rng);
 
 // How instant-ngp's loader (src/nerf_loader.cu, nerf_matrix_to_ngp) places the scene: a
 // transforms.json position p (metres, sylva's axes) becomes p · scale + offset, whose axes it

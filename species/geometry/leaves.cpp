@@ -30,6 +30,7 @@ void placeLeaves(Tree& tree, const LeafOptions& o, Rng& rng, const GrowthGuard& 
     guard.leaves(static_cast<int64_t>(tree.leaves.size()) + tips * o.perTip,
                  " ([leaves] per_tip = " + std::to_string(o.perTip) + " at " +
                      std::to_string(tips) + " tips)");
+    tree.leaves.reserve(tree.leaves.size() + static_cast<size_t>(tips) * std::max(0, o.perTip));
     double yLo, ySpan;
     shootHeights(tree, yLo, ySpan);
     const Vec3 sun = normalize(o.sun);

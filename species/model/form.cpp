@@ -39,6 +39,7 @@ std::vector<int32_t> compact(Tree& tree, const std::vector<char>& keep) {
     }
     tree.nodes = std::move(nodes);
     std::vector<Leaf> leaves;
+    leaves.reserve(tree.leaves.size());
     for (Leaf leaf : tree.leaves) {
         if (leaf.node >= 0) {
             if (index[leaf.node] < 0) continue;
@@ -125,6 +126,7 @@ void pruneAtGround(Tree& tree) {
         if (shootLeaf && leaf.position.y < 0) leaf.node = -2;  // dropped below
     }
     std::vector<Leaf> leaves;
+    leaves.reserve(tree.leaves.size());
     for (const Leaf& leaf : tree.leaves) {
         if (leaf.node != -2) leaves.push_back(leaf);
     }
