@@ -67,7 +67,8 @@ bool PointGrid::anyWithin(const Vec3& q, double radius) const {
     // Then a row of cells at a time, without a branch on whether a cell is empty (an empty
     // one reads the end slot, at infinity): at Poisson densities about half the cells are
     // empty, and that branch was mispredicted (perf: the slowest instructions of the query).
-    // Points at infinity are never within, nor is anything of a NaN query (as before).
+    // Points at infinity are never within, nor is anything of a NaN query (as before). The
+    // middle cell is read again in its row: one more distance test, and no branch to skip it.
     for (int z = lo[2]; z <= hi[2]; ++z)
         for (int y = lo[1]; y <= hi[1]; ++y) {
             const size_t row = cells_.index(0, y, z);
