@@ -21,6 +21,15 @@ then
     /usr/bin/python3 scripts/reference_from_treeqsm.py DATA \
         --out species/reference/treeqsm-broadleaf.json --markdown TABLE.md --split
 
+The temperate set (species/reference/treeqsm-temperate.json, 21 Wytham Woods trees; no split:
+no species is fitted to it, so all of it is held out) comes from one zip in
+TobyDJackson/WindAndTrees_FEM:
+
+    git -C WindAndTrees_FEM show HEAD:Wytham_QSMs_GitHub.zip > w.zip
+    unzip -q w.zip -d DATA/WindAndTrees_FEM
+    /usr/bin/python3 scripts/reference_from_treeqsm.py DATA --set temperate \
+        --out species/reference/treeqsm-temperate.json --markdown TABLE.md
+
 With --split it also writes treeqsm-broadleaf-fit.json and treeqsm-broadleaf-holdout.json next
 to --out: the same tables over two fixed halves of the trees (SPLIT_RULE below: stratified by
 source and height, 26 trees fit, 25 held out; each file's "split" names the rule and its trees,
@@ -105,6 +114,20 @@ TREES += [
     ("ITSMe", "tests_qsms_qsm_tree_v240.mat", "QSM", "broadleaf", ""),
 ]
 
+# A second, separate reference (--set temperate, species/reference/treeqsm-temperate.json): 21
+# temperate broadleaves of Wytham Woods (Oxfordshire, UK) that Jackson et al. 2019 fitted with
+# TreeQSM for their finite-element study, from TobyDJackson/WindAndTrees_FEM's
+# Wytham_QSMs_GitHub.zip (unzipped into DATA/WindAndTrees_FEM/, paths as in the zip). Each model
+# is a TreeQSM 2.x cylinder matrix CylData_updated. Seven trees were modelled from a leaf-off and
+# a leaf-on scan; the leaf-off model is used (the leaf-on ones fit leaves as extra twigs). The
+# site's trees are ash, sycamore and English oak (Jackson et al. 2018, Front. For. Glob. Change
+# 1:13); the repository does not say which tree is which.
+_WY = ["Wytham_QSMs_GitHub/cyl_data_Tf%s_Validation_1_1.mat" % t
+       for t in ["1_LeafOff", "2_LeafOff", "3_LeafOff"] + [str(i) for i in range(4, 18)]
+       + ["18_LeafOff", "19_LeafOff", "20_LeafOff", "21_LeafOff"]]
+TEMPERATE = [("WindAndTrees_FEM", f, "CylData_updated",
+              "temperate broadleaf (Wytham Woods, UK: ash, sycamore, oak)", "") for f in _WY]
+
 SOURCES = {
     "treeRchitecture": ("TobyDJackson/treeRchitecture",
                         "Jackson et al. 2021, Biotropica 53(1):110-120; Verbeeck et al. 2019, "
@@ -114,6 +137,9 @@ SOURCES = {
                                     "doi:10.1093/forestry/cpae046"),
     "ITSMe": ("lmterryn/ITSMe", "Terryn et al. 2020, ISPRS J. Photogramm. Remote Sens. "
                                 "168:170-181"),
+    "WindAndTrees_FEM": ("TobyDJackson/WindAndTrees_FEM",
+                         "Jackson et al. 2019, Agric. For. Meteorol. 265:137-144, "
+                         "doi:10.1016/j.agrformet.2018.11.014"),
 }
 MIN_VALUES = 5  # a tree joins a distribution with at least this many values of it
 CAP_RATIO = 0.949  # TreeQSM's 0.95 cap on a branch's radius relative to its parent cylinder
@@ -148,6 +174,14 @@ class Qsm:
 
 def load_qsm(path, var):
     m = sio.loadmat(path, squeeze_me=True, struct_as_record=False)
+    if var == "CylData_updated" and var in m:
+        # TreeQSM 2.x's cylinder matrix, one row per cylinder: radius, length, start (3), axis
+        # (3), parent, extension, branch, order, position in branch, added (14 columns).
+        c = np.asarray(m[var], float)
+        if c.ndim != 2 or c.shape[1] < 13:
+            raise SystemExit("%s: %s is %s, not a 13+ column cylinder matrix" %
+                             (path, var, c.shape))
+        return Qsm(c[:, 0], c[:, 1], c[:, 2:5], c[:, 5:8], c[:, 8], c[:, 10], c[:, 11])
     if var in m:
         q = m[var]
         if isinstance(q, np.ndarray):
@@ -470,14 +504,20 @@ def main():
     ap.add_argument("--random-splits", type=int, default=0,
                     help="with --split: also KS over this many random splits of the same "
                          "sizes per source (seed 1)")
+    ap.add_argument("--set", choices=["broadleaf", "temperate"], default="broadleaf",
+                    help="broadleaf: the 51 trees of treeqsm-broadleaf.json (DATA holds "
+                         "treeRchitecture/ ... ITSMe/); temperate: the 21 Wytham Woods trees of "
+                         "treeqsm-temperate.json (DATA holds WindAndTrees_FEM/)")
     args = ap.parse_args()
     if args.split and not args.out:
         ap.error("--split needs --out")
+    if args.split and args.set != "broadleaf":
+        ap.error("--split splits the broadleaf set only")
 
     probs = [round(k * args.step, 10) for k in range(int(round(1 / args.step)) + 1)]
     records = []
     rows = []
-    for source, name, var, species, note in TREES:
+    for source, name, var, species, note in (TREES if args.set == "broadleaf" else TEMPERATE):
         path = os.path.join(args.data, source, name)
         if not os.path.exists(path):
             raise SystemExit("%s: missing (see the recipe at the top of this script)" % path)
@@ -514,9 +554,16 @@ def main():
         with open(args.markdown, "w") as f:
             f.write(markdown_table(dists))
     if args.out:
-        ref = reference_json(records, dists, "treeqsm-broadleaf",
-                             "Broadleaf tree architecture from published TreeQSM models "
-                             "(terrestrial laser scans); see README.md for the sources")
+        if args.set == "broadleaf":
+            ref = reference_json(records, dists, "treeqsm-broadleaf",
+                                 "Broadleaf tree architecture from published TreeQSM models "
+                                 "(terrestrial laser scans); see README.md for the sources")
+        else:
+            ref = reference_json(records, dists, "treeqsm-temperate",
+                                 "Temperate broadleaf tree architecture: 21 trees of Wytham "
+                                 "Woods (UK; ash, sycamore, oak) modelled by TreeQSM from "
+                                 "terrestrial laser scans; never used to fit a species; see "
+                                 "README.md")
         with open(args.out, "w") as f:
             f.write(compact_json(ref) + "\n")
     if args.split:

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "pipeline/batch/build.h"
@@ -358,6 +359,31 @@ TEST(ReferenceStats, TheShippedReferenceHoldsEveryDistribution) {
     EXPECT_LT(ref.distributions.at("radius_ratio").table.q.back(), kReferenceCapRatio);
     EXPECT_GE(ref.distributions.at("branch_angle_deg").table.q.front(), 0.0);
     EXPECT_LE(ref.distributions.at("branch_angle_deg").table.q.back(), 180.0);
+}
+
+// Every TreeQSM table shipped (the pooled broadleaf trees, its two halves and the temperate
+// trees of Wytham Woods) reads, is named after its file, holds the seven distributions on the
+// same 2 % grid over enough trees, and its sample of its own quantiles is at D = 0 from it.
+TEST(ReferenceStats, EveryShippedTreeqsmTableReads) {
+    const fs::path dir = fs::path(SYLVA_SOURCE_DIR) / "species" / "reference";
+    const std::vector<std::pair<std::string, size_t>> files = {{"treeqsm-broadleaf", 51},
+                                                               {"treeqsm-broadleaf-fit", 26},
+                                                               {"treeqsm-broadleaf-holdout", 25},
+                                                               {"treeqsm-temperate", 21}};
+    for (const auto& [stem, trees] : files) {
+        const Reference ref = readReference(dir / (stem + ".json"));
+        EXPECT_EQ(ref.name, stem);
+        ASSERT_EQ(ref.distributions.size(), static_cast<size_t>(kReferenceDistributions)) << stem;
+        for (const char* name : kReferenceDistributionNames) {
+            const Reference::Distribution& d = ref.distributions.at(name);
+            EXPECT_EQ(d.table.p.size(), 51u) << stem << " " << name;
+            EXPECT_GE(d.trees, 16u) << stem << " " << name;
+            EXPECT_LE(d.trees, trees) << stem << " " << name;
+            EXPECT_GE(d.n, 400u) << stem << " " << name;
+            EXPECT_EQ(ksDistance(sampleTable(d.table.q), d.table), 0.0) << stem << " " << name;
+        }
+        EXPECT_LT(ref.distributions.at("radius_ratio").table.q.back(), kReferenceCapRatio) << stem;
+    }
 }
 
 TEST(ReferenceStats, BadReferenceFilesAreOneLineInputErrors) {
