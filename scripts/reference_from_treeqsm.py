@@ -68,6 +68,8 @@ docs/metrics.md "Reference distributions"):
                           its start on the parent's axis, not at the parent's end.
   (e) branch_length_order{1,2,3}  per branch of that order: the sum of its cylinders' lengths
                           over the tree height.
+  (f) tip_height_ratio    per tip: the height of the tip's end above the base over the tree
+                          height (with (d): how far a tip's path exceeds its height).
   tree height     highest cylinder end (or start) above the base, along z.
 
 Pooling: every tree has the same total weight (a tree's values weigh 1/n_tree each), so the
@@ -152,6 +154,7 @@ DISTRIBUTIONS = [
     ("branch_length_order1", "-", "length of an order-1 branch / tree height"),
     ("branch_length_order2", "-", "length of an order-2 branch / tree height"),
     ("branch_length_order3", "-", "length of an order-3 branch / tree height"),
+    ("tip_height_ratio", "-", "height of a tip's end above the base / tree height, per tip"),
 ]
 
 
@@ -269,6 +272,7 @@ def measure(q):
     for c in range(n):
         if not kids[c]:
             out["tip_path_ratio"].append((dist[c] + q.length[c]) / height)
+            out["tip_height_ratio"].append((end[c, 2] - base[2]) / height)
     # (e) branch lengths by order.
     blen = {}
     for j in range(n):

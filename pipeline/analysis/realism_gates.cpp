@@ -26,6 +26,7 @@ const std::array<double, kReferenceDistributions> kSpreadGateIqr = {
     0.192226,   // branch_length_order1: 0.032–0.224
     0.0909515,  // branch_length_order2: 0.024–0.115
     0,          // branch_length_order3: the finest twigs, which a skeleton may not model
+    0,          // tip_height_ratio: per tip
 };
 
 namespace {

@@ -12,8 +12,8 @@
 namespace sylva {
 
 const std::array<const char*, kReferenceDistributions> kReferenceDistributionNames = {
-    "radius_ratio",         "radius_exponent",      "branch_angle_deg",    "tip_path_ratio",
-    "branch_length_order1", "branch_length_order2", "branch_length_order3"};
+    "radius_ratio",         "radius_exponent",      "branch_angle_deg",     "tip_path_ratio",
+    "branch_length_order1", "branch_length_order2", "branch_length_order3", "tip_height_ratio"};
 
 namespace {
 constexpr double kPi = 3.14159265358979323846;
@@ -145,12 +145,15 @@ ReferenceValues referenceValues(const Tree& tree) {
     const double height = top - nodes[0].position.y;
     if (!(height > 0)) return out;
 
-    // (d): path length from the root node to every tip, over the height.
+    // (d), (f): path length from the root node to every tip, and the tip's height above the
+    // root node, over the height.
     std::vector<double> path(n, 0.0);
     for (int32_t i = 1; i < n; ++i) {
         if (!isSegment(i)) continue;
         path[i] = path[nodes[i].parent] + segLength(i);
-        if (kids[i].empty()) out[kTipPathRatio].push_back(path[i] / height);
+        if (!kids[i].empty()) continue;
+        out[kTipPathRatio].push_back(path[i] / height);
+        out[kTipHeightRatio].push_back((nodes[i].position.y - nodes[0].position.y) / height);
     }
 
     // (e): every branch of order 1–3: the segment from the node it leaves plus its chain.

@@ -1,9 +1,9 @@
 // The architecture distributions that `sylva stats --reference` compares with measured trees
 // (published TreeQSM cylinder models; species/reference/): radius ratio and radius exponent at
-// forks, first-order branch angle from the stem, path length from the base to each tip and
-// branch length by order, both relative to the tree's height. Defined on the skeleton exactly
-// as scripts/reference_from_treeqsm.py defines them on the cylinders (docs/metrics.md,
-// "Reference distributions"). Metres and degrees; +y up.
+// forks, first-order branch angle from the stem, path length from the base to each tip,
+// branch length by order and each tip's height above the base, relative to the tree's height.
+// Defined on the skeleton exactly as scripts/reference_from_treeqsm.py defines them on the
+// cylinders (docs/metrics.md, "Reference distributions"). Metres and degrees; +y up.
 #pragma once
 
 #include <array>
@@ -21,6 +21,7 @@ enum ReferenceDistribution : int {
     kBranchLengthOrder1,  // length of an order-1 branch / tree height
     kBranchLengthOrder2,
     kBranchLengthOrder3,
+    kTipHeightRatio,         // a tip's height above the root node / tree height
     kReferenceDistributions  // count
 };
 
@@ -47,7 +48,7 @@ using ReferenceValues = std::array<std::vector<double>, kReferenceDistributions>
 // (TreeQSM's numbering; a method may keep its order field at a fork where two children go on).
 // A fork's *laterals* are its children other than the continuing one. The tree height is max y over
 // shoot nodes − the root node's y. Empty distributions for an empty tree or one whose root node is
-// not a shoot node; (d) and (e) are empty when the height is not positive. Throws
+// not a shoot node; (d), (e) and (f) are empty when the height is not positive. Throws
 // std::invalid_argument when a parent index is not smaller than its child's (as ChildIndex does).
 ReferenceValues referenceValues(const Tree& tree);
 

@@ -408,7 +408,8 @@ TEST(ReferenceStats, BadReferenceFilesAreOneLineInputErrors) {
               pre +
                   "distributions.radius_ratios: unknown distribution; expected one of "
                   "radius_ratio, radius_exponent, branch_angle_deg, tip_path_ratio, "
-                  "branch_length_order1, branch_length_order2, branch_length_order3");
+                  "branch_length_order1, branch_length_order2, branch_length_order3, "
+                  "tip_height_ratio");
     EXPECT_EQ(message(R"({"distributions": {"radius_ratio": {"p": [0, 1]}}})"),
               pre + "distributions.radius_ratio: expected an array \"q\"");
     EXPECT_EQ(message(R"({"distributions": {"radius_ratio": {"p": [0, 1], "q": [0, "x"]}}})"),

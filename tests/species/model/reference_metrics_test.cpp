@@ -40,6 +40,7 @@ TEST(ReferenceMetrics, NamesInEnumOrder) {
     EXPECT_STREQ(kReferenceDistributionNames[kTipPathRatio], "tip_path_ratio");
     EXPECT_STREQ(kReferenceDistributionNames[kBranchLengthOrder1], "branch_length_order1");
     EXPECT_STREQ(kReferenceDistributionNames[kBranchLengthOrder3], "branch_length_order3");
+    EXPECT_STREQ(kReferenceDistributionNames[kTipHeightRatio], "tip_height_ratio");
 }
 
 TEST(ReferenceMetrics, YForkWithKnownRadiiAnglesAndLengths) {
@@ -57,6 +58,10 @@ TEST(ReferenceMetrics, YForkWithKnownRadiiAnglesAndLengths) {
     ASSERT_EQ(v[kTipPathRatio].size(), 2u);
     EXPECT_NEAR(v[kTipPathRatio][0], 2 / h, 1e-12);
     EXPECT_NEAR(v[kTipPathRatio][1], 1.5 / h, 1e-12);
+    // Their heights: the limb's tip is the top (1), the branch's 1 + 0.5 cos 45° up.
+    ASSERT_EQ(v[kTipHeightRatio].size(), 2u);
+    EXPECT_NEAR(v[kTipHeightRatio][0], 1.0, 1e-12);
+    EXPECT_NEAR(v[kTipHeightRatio][1], (1 + 0.5 * std::cos(45 * kPi / 180)) / h, 1e-12);
     ASSERT_EQ(v[kBranchLengthOrder1].size(), 1u);
     EXPECT_NEAR(v[kBranchLengthOrder1][0], 0.5 / h, 1e-12);
     EXPECT_TRUE(v[kBranchLengthOrder2].empty());
@@ -123,6 +128,13 @@ TEST(ReferenceMetrics, StraightStemWithTwoLateralsAtKnownAnglesAndLengths) {
     EXPECT_NEAR(v[kTipPathRatio][1], 2.0 / 4, 1e-12);
     EXPECT_NEAR(v[kTipPathRatio][2], 4.0 / 4, 1e-12);
     EXPECT_NEAR(v[kTipPathRatio][3], 3.5 / 4, 1e-12);
+    // Their heights: 4, 1 + 0.5 (cos 60° of 1 m), 2 (the horizontal branch), 2 + 0.2; the
+    // horizontal branch's tip has a path twice its height.
+    ASSERT_EQ(v[kTipHeightRatio].size(), 4u);
+    EXPECT_NEAR(v[kTipHeightRatio][0], 4.0 / 4, 1e-12);
+    EXPECT_NEAR(v[kTipHeightRatio][1], 1.5 / 4, 1e-12);
+    EXPECT_NEAR(v[kTipHeightRatio][2], 2.0 / 4, 1e-12);
+    EXPECT_NEAR(v[kTipHeightRatio][3], 2.2 / 4, 1e-12);
     // Forks: stem[1] (0.1 → 0.1, 0.02), stem[2] (0.1 → 0.1, 0.03), m (0.03 → 0.02, 0.01). The
     // stem forks have a continuing child as thick as the parent: ratios of the laterals only.
     ASSERT_EQ(v[kRadiusRatio].size(), 3u);
@@ -231,6 +243,7 @@ TEST(ReferenceMetrics, RootSystemIgnoredAndDegenerateTrees) {
     addNode(flat, 0, {-1, 0, 0}, 0.005, 1);
     const ReferenceValues f = referenceValues(flat);
     EXPECT_TRUE(f[kTipPathRatio].empty());
+    EXPECT_TRUE(f[kTipHeightRatio].empty());
     EXPECT_TRUE(f[kBranchLengthOrder1].empty());
     EXPECT_EQ(f[kBranchAngle].size(), 1u);
 
