@@ -829,7 +829,7 @@ TEST(CliStatsReference, TinyDatasetAgainstTheShippedReference) {
     ASSERT_EQ(r.code, 0) << describeRun(r);
     EXPECT_NE(r.out.find("reference treeqsm-broadleaf: "), std::string::npos) << r.out;
     const std::vector<std::string> lines = readLines(t / "ds" / "stats" / "reference.csv");
-    ASSERT_EQ(lines.size(), 1u + 2 * 7) << slurp(t / "ds" / "stats" / "reference.csv");
+    ASSERT_EQ(lines.size(), 1u + 2 * 8) << slurp(t / "ds" / "stats" / "reference.csv");  // 8 tables
     EXPECT_EQ(lines[0],
               "species,habit,distribution,instances,n,d,median,reference_n,reference_median");
     for (size_t i = 1; i < lines.size(); ++i) {
@@ -846,7 +846,7 @@ TEST(CliStatsReference, TinyDatasetAgainstTheShippedReference) {
     auto j = nlohmann::json::parse(slurp(t / "ds" / "stats" / "reference.json"));
     EXPECT_EQ(j["reference"]["name"], "treeqsm-broadleaf");
     EXPECT_EQ(j["species"]["tiny"]["habit"], "tree");
-    EXPECT_EQ(j["species"]["tiny"]["distributions"].size(), 7u);
+    EXPECT_EQ(j["species"]["tiny"]["distributions"].size(), 8u);
 
     fs::remove_all(t / "ds" / "stats");
     spit(t / "bad.json", R"({"distributions": {"radius_ratio": {"p": [0, 1], "q": [1, 0]}}})");
