@@ -362,7 +362,7 @@ TEST(ReferenceStats, TheShippedReferenceHoldsEveryDistribution) {
 }
 
 // Every TreeQSM table shipped (the pooled broadleaf trees, its two halves and the temperate
-// trees of Wytham Woods) reads, is named after its file, holds the seven distributions on the
+// trees of Wytham Woods) reads, is named after its file, holds the eight distributions on the
 // same 2 % grid over enough trees, and its sample of its own quantiles is at D = 0 from it.
 TEST(ReferenceStats, EveryShippedTreeqsmTableReads) {
     const fs::path dir = fs::path(SYLVA_SOURCE_DIR) / "species" / "reference";
