@@ -10,7 +10,6 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "pipeline/batch/build.h"
@@ -283,9 +282,6 @@ TEST(DatasetStats, MissingOrEmptyDirectoryIsBadInput) {
 
 // --- comparison with a reference (sylva stats --reference) -----------------------------------
 
-const fs::path kReferenceFile =
-    fs::path(SYLVA_SOURCE_DIR) / "species" / "reference" / "treeqsm-broadleaf.json";
-
 QuantileTable uniformTable(double lo, double hi, int steps = 50) {
     QuantileTable t;
     for (int k = 0; k <= steps; ++k) {
@@ -324,12 +320,7 @@ TEST(ReferenceStats, QuantileTableCdfIsPiecewiseLinearWithJumpsAtRepeatedQuantil
 }
 
 TEST(ReferenceStats, KsDistanceToAQuantileTableByHand) {
-    // A sample equal to the reference's quantiles (evenly spaced p) has the same CDF: D = 0, for
-    // every distribution of the shipped reference (radius_exponent has point masses at 0.5, 6).
-    const Reference ref = readReference(kReferenceFile);
-    for (const auto& [name, d] : ref.distributions) {
-        EXPECT_EQ(ksDistance(sampleTable(d.table.q), d.table), 0.0) << name;
-    }
+    // (A shipped table against its own quantiles, D = 0: EveryShippedTreeqsmTable, below.)
     // Uniform on [0.2, 1.2] against uniform on [0, 1]: F_ref − F = 0.2 on [0.2, 1].
     const QuantileTable u = uniformTable(0, 1);
     std::vector<double> shifted;
@@ -345,44 +336,36 @@ TEST(ReferenceStats, KsDistanceToAQuantileTableByHand) {
     EXPECT_EQ(ksDistance(sampleTable({2, 3}), u), 1.0);
 }
 
-TEST(ReferenceStats, TheShippedReferenceHoldsEveryDistribution) {
-    const Reference ref = readReference(kReferenceFile);
-    EXPECT_EQ(ref.name, "treeqsm-broadleaf");
-    ASSERT_EQ(ref.distributions.size(), static_cast<size_t>(kReferenceDistributions));
-    for (const char* name : kReferenceDistributionNames) {
-        const Reference::Distribution& d = ref.distributions.at(name);
-        EXPECT_EQ(d.table.p.size(), 51u) << name;  // every 2 %
-        EXPECT_GE(d.n, 800u) << name;
-        EXPECT_GE(d.trees, 30u) << name;
-    }
-    // Radius ratios lie below TreeQSM's cap; angles within [0, 180].
-    EXPECT_LT(ref.distributions.at("radius_ratio").table.q.back(), kReferenceCapRatio);
-    EXPECT_GE(ref.distributions.at("branch_angle_deg").table.q.front(), 0.0);
-    EXPECT_LE(ref.distributions.at("branch_angle_deg").table.q.back(), 180.0);
-}
-
 // Every TreeQSM table shipped (the pooled broadleaf trees, its two halves and the temperate
-// trees of Wytham Woods) reads, is named after its file, holds the eight distributions on the
-// same 2 % grid over enough trees, and its sample of its own quantiles is at D = 0 from it.
-TEST(ReferenceStats, EveryShippedTreeqsmTableReads) {
+// trees of Wytham Woods) reads, is named after its file and holds the eight distributions on the
+// same 2 % grid over enough trees and values; radius ratios lie below TreeQSM's cap, angles in
+// [0, 180]; and a sample equal to a table's quantiles (evenly spaced p) has its CDF: D = 0 (the
+// exponent's tables have point masses at 0.5 and 6).
+TEST(ReferenceStats, EveryShippedTreeqsmTable) {
+    struct File {
+        std::string stem;
+        size_t trees, minTrees, minValues;  // the file's trees; per distribution, at least
+    };
     const fs::path dir = fs::path(SYLVA_SOURCE_DIR) / "species" / "reference";
-    const std::vector<std::pair<std::string, size_t>> files = {{"treeqsm-broadleaf", 51},
-                                                               {"treeqsm-broadleaf-fit", 26},
-                                                               {"treeqsm-broadleaf-holdout", 25},
-                                                               {"treeqsm-temperate", 21}};
-    for (const auto& [stem, trees] : files) {
-        const Reference ref = readReference(dir / (stem + ".json"));
-        EXPECT_EQ(ref.name, stem);
-        ASSERT_EQ(ref.distributions.size(), static_cast<size_t>(kReferenceDistributions)) << stem;
+    for (const File& f : std::vector<File>{{"treeqsm-broadleaf", 51, 30, 800},
+                                           {"treeqsm-broadleaf-fit", 26, 16, 400},
+                                           {"treeqsm-broadleaf-holdout", 25, 16, 400},
+                                           {"treeqsm-temperate", 21, 16, 400}}) {
+        const Reference ref = readReference(dir / (f.stem + ".json"));
+        EXPECT_EQ(ref.name, f.stem);
+        ASSERT_EQ(ref.distributions.size(), static_cast<size_t>(kReferenceDistributions)) << f.stem;
         for (const char* name : kReferenceDistributionNames) {
             const Reference::Distribution& d = ref.distributions.at(name);
-            EXPECT_EQ(d.table.p.size(), 51u) << stem << " " << name;
-            EXPECT_GE(d.trees, 16u) << stem << " " << name;
-            EXPECT_LE(d.trees, trees) << stem << " " << name;
-            EXPECT_GE(d.n, 400u) << stem << " " << name;
-            EXPECT_EQ(ksDistance(sampleTable(d.table.q), d.table), 0.0) << stem << " " << name;
+            EXPECT_EQ(d.table.p.size(), 51u) << f.stem << " " << name;  // every 2 %
+            EXPECT_GE(d.trees, f.minTrees) << f.stem << " " << name;
+            EXPECT_LE(d.trees, f.trees) << f.stem << " " << name;
+            EXPECT_GE(d.n, f.minValues) << f.stem << " " << name;
+            EXPECT_EQ(ksDistance(sampleTable(d.table.q), d.table), 0.0) << f.stem << " " << name;
         }
-        EXPECT_LT(ref.distributions.at("radius_ratio").table.q.back(), kReferenceCapRatio) << stem;
+        EXPECT_LT(ref.distributions.at("radius_ratio").table.q.back(), kReferenceCapRatio)
+            << f.stem;
+        EXPECT_GE(ref.distributions.at("branch_angle_deg").table.q.front(), 0.0) << f.stem;
+        EXPECT_LE(ref.distributions.at("branch_angle_deg").table.q.back(), 180.0) << f.stem;
     }
 }
 
