@@ -66,6 +66,7 @@
 
 #include "species/methods/space_colonization_detail.h"
 #include "volumes/point_grid.h"
+#include "volumes/shadow_grid.h"
 
 namespace sylva {
 
@@ -453,9 +454,9 @@ class Grower {
     const Rng turns_;  // the shoot turns' stream (turned), keyed below by bud, iteration, metamer
     const GrowthGuard& guard_;
     const double L_, rho_, r_, cosTheta_;
-    const VolumePtr crown_;                       // o_.crown, or its per-instance deformed copy
-    const bool allocating_;                       // Borchert–Honda allocation
-    std::unique_ptr<detail::ShadowGrid> shadow_;  // light = "shadow" only
+    const VolumePtr crown_;               // o_.crown, or its per-instance deformed copy
+    const bool allocating_;               // Borchert–Honda allocation
+    std::unique_ptr<ShadowGrid> shadow_;  // light = "shadow" only
     std::vector<SkeletonNode> nodes_;
     HashGrid nodeGrid_;
     MarkerSet own_;          // the tree's markers when it grows alone
@@ -913,8 +914,8 @@ void Grower::addMarkers() {
         const double margin = (o_.shadowDepth + 2) * L_ + r_;
         box.lo = world(box.lo - Vec3{margin, margin, margin});
         box.hi = world(box.hi + Vec3{margin, margin, margin});
-        shadow_ = std::make_unique<detail::ShadowGrid>(box, L_, o_.shadowStrength, o_.shadowDecay,
-                                                       o_.shadowDepth);
+        shadow_ = std::make_unique<ShadowGrid>(box, L_, o_.shadowStrength, o_.shadowDecay,
+                                               o_.shadowDepth);
     }
     generated_ += static_cast<double>(o_.guides.size());
     if (!improved) {
@@ -1309,49 +1310,6 @@ double PerturbedCrown::signedDistance(const Vec3& q) const {
 }
 
 std::string PerturbedCrown::describe() const { return "perturbed " + base_->describe(); }
-
-ShadowGrid::ShadowGrid(const Aabb& box, double voxel, double strength, double decay, int depth)
-    : strength_(strength), decay_(decay), depth_(depth) {
-    // At most 2^24 voxels: a coarser grid for a huge box rather than gigabytes of shade.
-    const Vec3 size = box.size();
-    voxel = std::max(voxel, std::cbrt(size.x * size.y * size.z / double(1 << 24)));
-    inv_ = 1.0 / voxel;
-    lo_ = box.lo;
-    nx_ = static_cast<int64_t>(std::ceil(size.x * inv_)) + 1;
-    ny_ = static_cast<int64_t>(std::ceil(size.y * inv_)) + 1;
-    nz_ = static_cast<int64_t>(std::ceil(size.z * inv_)) + 1;
-    shade_.assign(static_cast<size_t>(nx_ * ny_ * nz_), 0.0);
-}
-
-bool ShadowGrid::index(const Vec3& p, int64_t& i, int64_t& j, int64_t& k) const {
-    const Vec3 g = (p - lo_) * inv_;
-    if (!(g.x >= 0 && g.y >= 0 && g.z >= 0)) return false;
-    i = static_cast<int64_t>(g.x);
-    j = static_cast<int64_t>(g.y);
-    k = static_cast<int64_t>(g.z);
-    return i < nx_ && j < ny_ && k < nz_;
-}
-
-void ShadowGrid::cast(const Vec3& p, double sign) {
-    int64_t i, j, k;
-    if (!index(p, i, j, k)) return;
-    double s = sign * strength_;
-    for (int q = 0; q <= depth_ && j - q >= 0; ++q, s /= decay_) {
-        const int64_t y = j - q;
-        for (int64_t x = std::max<int64_t>(0, i - q); x <= std::min(nx_ - 1, i + q); ++x) {
-            for (int64_t z = std::max<int64_t>(0, k - q); z <= std::min(nz_ - 1, k + q); ++z) {
-                shade_[static_cast<size_t>((x * ny_ + y) * nz_ + z)] += s;
-            }
-        }
-    }
-}
-
-double ShadowGrid::exposure(const Vec3& p) const {
-    int64_t i, j, k;
-    if (!index(p, i, j, k)) return 1.0;
-    const double s = shade_[static_cast<size_t>((i * ny_ + j) * nz_ + k)];
-    return std::clamp(1.0 - s + strength_, 0.0, 1.0);
-}
 
 std::vector<std::vector<std::pair<int32_t, double>>> perceivedMarkers(
     const std::vector<PerceivingBud>& buds, const std::vector<Vec3>& markers,

@@ -6,6 +6,7 @@
 
 #include "species/model/reference_metrics.h"
 #include "volumes/point_grid.h"
+#include "volumes/shadow_grid.h"
 
 namespace sylva {
 
@@ -15,8 +16,8 @@ bool FormOptions::turnsBranches() const {
 }
 
 bool FormOptions::active() const {
-    return clearBole > 0 || pipeExponent > 0 || turnsBranches() || scale != 1.0 || width != 1.0 ||
-           asymmetry > 0 || leanRad > 0 || ground != GroundRule::kNone;
+    return clearBole > 0 || shadeShed > 0 || pipeExponent > 0 || turnsBranches() || scale != 1.0 ||
+           width != 1.0 || asymmetry > 0 || leanRad > 0 || ground != GroundRule::kNone;
 }
 
 namespace {
@@ -73,6 +74,81 @@ void clearBole(Tree& tree, double height) {
     }
     if (removed) compact(tree, keep);
 }
+
+// Nodes that lose every child when `keep` drops some are tips afterwards: endpoints, as the
+// method's tips are.
+void compactKeepingTips(Tree& tree, const std::vector<char>& keep) {
+    const auto& nodes = tree.nodes;
+    std::vector<char> hadChild(nodes.size(), 0), hasChild(nodes.size(), 0);
+    for (size_t i = 1; i < nodes.size(); ++i) {
+        hadChild[nodes[i].parent] = 1;
+        if (keep[i]) hasChild[nodes[i].parent] = 1;
+    }
+    const std::vector<int32_t> index = compact(tree, keep);
+    for (size_t i = 0; i < index.size(); ++i) {
+        if (index[i] >= 0 && hadChild[i] && !hasChild[i]) tree.endpoints.push_back(index[i]);
+    }
+}
+
+}  // namespace
+
+ShadeShedResult shedShadedBranches(Tree& tree, const FormOptions& o) {
+    ShadeShedResult result;
+    auto& nodes = tree.nodes;
+    const size_t n = nodes.size();
+    if (!(o.shadeShed > 0) || n < 2) return result;
+    // The tips: shoot nodes with no shoot child. Each casts Palubicki et al. 2009's shadow
+    // pyramid (§4, shadow propagation), the light a tip's foliage intercepts from the sky above.
+    std::vector<char> hasShootChild(n, 0);
+    Aabb box;
+    for (size_t i = 0; i < n; ++i) {
+        if (!isShoot(nodes[i])) continue;
+        box.extend(nodes[i].position);
+        if (i > 0 && isShoot(nodes[nodes[i].parent])) hasShootChild[nodes[i].parent] = 1;
+    }
+    const Vec3 pad{o.shadeVoxel, o.shadeVoxel, o.shadeVoxel};
+    box.lo = box.lo - pad;
+    box.hi = box.hi + pad;
+    ShadowGrid grid(box, o.shadeVoxel, o.shadeStrength, o.shadeDecay, o.shadeDepth);
+    auto isTip = [&](size_t i) { return i > 0 && isShoot(nodes[i]) && !hasShootChild[i]; };
+    for (size_t i = 0; i < n; ++i) {
+        if (isTip(i)) grid.cast(nodes[i].position, +1);
+    }
+    // Each node's sum and count of the exposures of the tips it carries (children after their
+    // parents, so one sweep from the end).
+    std::vector<double> sum(n, 0.0);
+    std::vector<int32_t> count(n, 0);
+    for (size_t i = n; i-- > 1;) {
+        if (!isShoot(nodes[i]) || !isShoot(nodes[nodes[i].parent])) continue;
+        if (isTip(i)) {
+            sum[i] += grid.exposure(nodes[i].position);
+            count[i] += 1;
+        }
+        sum[nodes[i].parent] += sum[i];
+        count[nodes[i].parent] += count[i];
+    }
+    // A branch (a shoot node of higher order than its parent: where a lateral leaves) whose tips
+    // see less than the threshold on average is shed with everything it carries (§4's shedding,
+    // here once, on the grown tree). The stem (order 0) always stays.
+    std::vector<char> keep(n, 1);
+    for (size_t i = 1; i < n; ++i) {
+        const SkeletonNode& node = nodes[i];
+        const SkeletonNode& parent = nodes[node.parent];
+        if (!keep[node.parent]) {
+            keep[i] = 0;
+        } else if (isShoot(node) && isShoot(parent) && node.order > parent.order &&
+                   node.order >= o.shadeMinOrder && count[i] > 0 &&
+                   sum[i] < o.shadeShed * count[i]) {
+            keep[i] = 0;
+            result.branches += 1;
+        }
+        if (!keep[i]) result.nodes += 1;
+    }
+    if (result.nodes > 0) compactKeepingTips(tree, keep);
+    return result;
+}
+
+namespace {
 
 // Steps 3–5 as one map of shoot positions; `turn` is the lean alone (for leaf offsets and
 // directions).
@@ -132,16 +208,8 @@ void pruneAtGround(Tree& tree) {
     }
     tree.leaves = std::move(leaves);
     // A node that loses every child to the ground (a branch cut there, or one whose children
-    // went below) is a tip now: an endpoint, as the method's tips are.
-    std::vector<char> hadChild(nodes.size(), 0), hasChild(nodes.size(), 0);
-    for (size_t i = 1; i < nodes.size(); ++i) {
-        hadChild[nodes[i].parent] = 1;
-        if (keep[i]) hasChild[nodes[i].parent] = 1;
-    }
-    const std::vector<int32_t> index = compact(tree, keep);
-    for (size_t i = 0; i < index.size(); ++i) {
-        if (index[i] >= 0 && hadChild[i] && !hasChild[i]) tree.endpoints.push_back(index[i]);
-    }
+    // went below) is a tip now.
+    compactKeepingTips(tree, keep);
 }
 
 }  // namespace
@@ -372,6 +440,7 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
 void applyForm(Tree& tree, const FormOptions& o, const Rng& rng) {
     if (!o.active() || tree.nodes.empty()) return;
     if (o.clearBole > 0) clearBole(tree, o.clearBole);
+    if (o.shadeShed > 0) shedShadedBranches(tree, o);
     if (o.pipeExponent > 0) {
         const Rng forks = rng.derive("form-forks");
         const bool logNormal = o.pipeExponentLogSd > 0;

@@ -3,6 +3,9 @@
 // papers; each step is off by default, so the papers' reproductions keep the papers' rules.
 //
 //  1. clear bole    branches leaving the trunk (the order-0 axis) below a height are removed
+//  1b. shade       a branch whose tips are shaded by the crown above them (Palubicki et al. 2009
+//                   §4's shadow propagation, cast by every shoot tip) is shed: the self-pruning
+//                   that clears a crown's lower and inner shoots
 //  2. pipe model    radii from the tips: r_parent^n = Σ r_child^n at forks (Shinozaki et al.
 //                   1964's pipe model; n = 2 is Leonardo's rule, measured 1.8–2.3 across
 //                   species by Eloy 2011, n = 3 Murray's law), a tip radius, an optional taper
@@ -40,6 +43,13 @@ enum class GroundRule {
 
 struct FormOptions {
     double clearBole = 0.0;       // metres (before scaling); 0: keep every branch
+    double shadeShed = 0.0;       // fraction of full light: a branch whose tips' mean exposure
+                                  // is below it is shed; 0: off
+    double shadeVoxel = 0.5;      // metres (before scaling): the shadow grid's voxel edge
+    double shadeStrength = 0.1;   // a: the shade one tip casts into its own voxel (full light 1)
+    double shadeDecay = 2.0;      // b > 1: the shade divided by b per voxel layer below
+    int shadeDepth = 6;           // voxel layers the shade reaches below a tip
+    int shadeMinOrder = 1;        // the lowest branch order shed (2: first-order limbs stay)
     double pipeExponent = 0.0;    // n of the pipe model; 0: the method's own radii
     double tipRadius = 0.003;     // metres (before scaling): radius at every shoot tip
     double pipeTaper = 0.0;       // per metre: radius × (1 + taper · segment length) per segment
@@ -103,6 +113,21 @@ enum class ForkSpread {
 // keyed per fork and per branch by the node index). Removed nodes are dropped with their subtrees,
 // leaves and endpoints; indices stay parent-before-child.
 void applyForm(Tree& tree, const FormOptions& options, const Rng& rng);
+
+// What shade shedding removed: the branches shed (each with its subtree) and the nodes in all.
+struct ShadeShedResult {
+    int64_t branches = 0;
+    int64_t nodes = 0;
+};
+
+// Step 1b alone, exposed for tests: every shoot tip casts shade a·b^(−q) into the (2q + 1)²
+// voxels q layers below it (q = 0 … depth; Palubicki et al. 2009 §4), a tip's exposure is
+// max(1 − s + a, 0) of its voxel's shade s, and every branch (a shoot node of higher order than
+// its parent, of order ≥ shadeMinOrder; never the order-0 stem) whose tips' mean exposure is
+// under `shadeShed` is removed with its subtree, its leaves and endpoints; a node left without
+// children becomes an endpoint. Computed once on the tree as grown (before step 3's turns); no
+// randomness.
+ShadeShedResult shedShadedBranches(Tree& tree, const FormOptions& options);
 
 // The pipe model alone (step 2), exposed for tests: shoot radii from the tips. With
 // exponentSd > 0 each fork draws its own exponent from `rng` (keyed by the fork's node index);

@@ -7,6 +7,19 @@ FormOptions readForm(Params& species) {
     auto f = species.optionalTable("form");
     if (!f) return o;
     o.clearBole = f->number("clear_bole", o.clearBole, Range::nonNegative());
+    o.shadeShed = f->number("shade_shed", o.shadeShed, Range::closed(0, 1));
+    o.shadeVoxel = f->number("shade_voxel", o.shadeVoxel, Range::closed(0.01, 10));
+    o.shadeStrength = f->number("shade_strength", o.shadeStrength, Range::leftOpen(0, 1));
+    o.shadeDecay = f->number("shade_decay", o.shadeDecay, Range::leftOpen(1, 100));
+    o.shadeDepth = static_cast<int>(f->integer("shade_depth", o.shadeDepth, Range::closed(0, 64)));
+    o.shadeMinOrder =
+        static_cast<int>(f->integer("shade_min_order", o.shadeMinOrder, Range::closed(1, 64)));
+    if (!(o.shadeShed > 0)) {
+        for (const char* key :
+             {"shade_voxel", "shade_strength", "shade_decay", "shade_depth", "shade_min_order"}) {
+            if (f->has(key)) f->fail(key, "needs shade_shed (the light under which branches go)");
+        }
+    }
     o.pipeExponent = f->number("pipe_exponent", o.pipeExponent, Range::closed(0, 4));
     if (o.pipeExponent > 0 && o.pipeExponent < 1) {
         f->fail("pipe_exponent", "expected 0 (off) or a value in [1, 4]");

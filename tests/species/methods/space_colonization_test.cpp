@@ -29,6 +29,7 @@
 #include "species/model/tree_stats.h"
 #include "species/spec/species.h"
 #include "tests/test_support.h"
+#include "volumes/shadow_grid.h"
 #include "volumes/volume.h"
 
 namespace sylva {
@@ -594,7 +595,7 @@ TEST(SpaceColonizationAllocation, ShadowPyramidHasTheClosedFormShade) {
     Aabb box;
     box.extend(Vec3{0, 0, 0});
     box.extend(Vec3{1, 1, 1});
-    detail::ShadowGrid grid(box, 0.1, a, b, 3);
+    ShadowGrid grid(box, 0.1, a, b, 3);
     const Vec3 p{0.55, 0.55, 0.55};
     grid.cast(p, +1);
     EXPECT_DOUBLE_EQ(grid.exposure(p), 1.0);  // a lone node sees full light

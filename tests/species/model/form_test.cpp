@@ -660,11 +660,139 @@ TEST(Form, InactiveOptionsLeaveTheTreeAsGrown) {
     EXPECT_EQ(t.leaves[0].position, before.leaves[0].position);
 }
 
+// A stem with two laterals at 1 m: one under a crown of 25 tips, one out beside it. Voxels of
+// 1 m, a = 0.1, b = 2, depth 6: the crown's tips, one to a voxel in a 5 × 5 layer at 6.5 m, see
+// full light, and shade the voxel five layers below them by 25 · 0.1 / 2⁵ = 0.078 (the pyramid
+// reaches ±5 voxels there), so the lateral under them has its tip at 1 − 0.078 = 0.92 (its own
+// share given back); the lateral 8 m out is 6 voxels from the nearest and sees full light.
+Tree shadedAndOpen(int32_t& under, int32_t& beside) {
+    Tree t;
+    addNode(t, -1, {0.5, 0, 0.5});
+    const int32_t low = addNode(t, 0, {0.5, 1.0, 0.5});
+    int32_t top = addNode(t, low, {0.5, 6.2, 0.5});
+    for (int i = 0; i < 5; ++i) {
+        for (int k = 0; k < 5; ++k) addNode(t, top, {i - 1.5, 6.5, k - 1.5}, 0.01, 1);
+    }
+    under = addNode(t, low, {0.6, 1.2, 0.5}, 0.01, 1);
+    addNode(t, under, {0.7, 1.4, 0.5}, 0.01, 1);
+    beside = addNode(t, low, {8.5, 1.2, 0.5}, 0.01, 1);
+    addNode(t, beside, {8.6, 1.4, 0.5}, 0.01, 1);
+    return t;
+}
+
+TEST(Form, ShadeShedsTheBranchUnderTheCrownAndKeepsTheOneInTheLight) {
+    FormOptions o;
+    o.shadeVoxel = 1.0;
+    o.shadeStrength = 0.1;
+    o.shadeDecay = 2.0;
+    o.shadeDepth = 6;
+    int32_t under = 0, beside = 0;
+    {
+        // Under 0.92 of full light: the shaded lateral (two nodes) goes, the open one stays.
+        Tree t = shadedAndOpen(under, beside);
+        t.leaves = {leafAt(under + 1, {0.7, 1.45, 0.5}), leafAt(beside + 1, {8.6, 1.45, 0.5})};
+        t.endpoints = {under + 1, beside + 1};
+        const size_t before = t.nodes.size();
+        o.shadeShed = 0.93;
+        const ShadeShedResult r = shedShadedBranches(t, o);
+        EXPECT_EQ(r.branches, 1);
+        EXPECT_EQ(r.nodes, 2);
+        ASSERT_EQ(t.nodes.size(), before - 2);
+        // The open lateral, its leaf and its endpoint are kept (indices moved down by two).
+        EXPECT_EQ(t.nodes[beside - 2].position, (Vec3{8.5, 1.2, 0.5}));
+        ASSERT_EQ(t.leaves.size(), 1u);
+        EXPECT_EQ(t.leaves[0].node, beside - 1);
+        EXPECT_EQ(t.endpoints, (std::vector<int32_t>{beside - 1}));
+    }
+    {
+        // Just below its exposure nothing goes; and the top tips, in full light, never do.
+        Tree t = shadedAndOpen(under, beside);
+        o.shadeShed = 0.91;
+        EXPECT_EQ(shedShadedBranches(t, o).branches, 0);
+        o.shadeShed = 0.0;
+        EXPECT_EQ(shedShadedBranches(t, o).nodes, 0);
+    }
+    {
+        // Twice the decay: the shade five layers down is 25 · 0.1 / 4⁵ = 0.0024 and the lateral
+        // stays at 0.93.
+        Tree t = shadedAndOpen(under, beside);
+        o.shadeShed = 0.93;
+        o.shadeDecay = 4.0;
+        EXPECT_EQ(shedShadedBranches(t, o).branches, 0);
+        // A pyramid only four layers deep does not reach it either.
+        o.shadeDecay = 2.0;
+        o.shadeDepth = 4;
+        EXPECT_EQ(shedShadedBranches(t, o).branches, 0);
+    }
+}
+
+TEST(Form, ShadeNeverShedsTheStemAndLeavesABareStemTipAnEndpoint) {
+    // The stem's side shoot at 1 m carries the only tip below a dense top: shed, the stem
+    // stays, and a stem node left without children becomes an endpoint.
+    Tree t;
+    addNode(t, -1, {0.5, 0, 0.5});
+    const int32_t stub = addNode(t, 0, {0.5, 1.0, 0.5});
+    const int32_t side = addNode(t, stub, {0.6, 1.3, 0.5}, 0.01, 1);
+    // The stem's own tips, 40 in one voxel: shaded to nothing by each other, and kept.
+    const int32_t top = addNode(t, 0, {0.5, 3.2, 0.5});
+    for (int k = 0; k < 40; ++k) addNode(t, top, {0.5, 3.5, 0.5});
+    FormOptions o;
+    o.shadeVoxel = 1.0;
+    o.shadeShed = 0.5;  // the side shoot two layers below: 1 − 40 · 0.1 / 2² < 0
+    const ShadeShedResult r = shedShadedBranches(t, o);
+    EXPECT_EQ(r.branches, 1);
+    ASSERT_EQ(t.nodes.size(), 43u);
+    EXPECT_EQ(t.nodes[stub].order, 0);
+    EXPECT_EQ(t.endpoints, (std::vector<int32_t>{stub}));
+    (void)side;
+}
+
+TEST(Form, ShadeMinOrderKeepsTheLimbsAndShedsTheirShadedShoots) {
+    // Under the crown of shadedAndOpen, a first-order limb carrying a second-order shoot.
+    int32_t under = 0, beside = 0;
+    Tree t = shadedAndOpen(under, beside);
+    const int32_t shoot = addNode(t, under + 1, {0.8, 1.45, 0.5}, 0.01, 2);
+    FormOptions o;
+    o.shadeVoxel = 1.0;
+    o.shadeShed = 0.93;
+    o.shadeMinOrder = 2;  // the limb (order 1) stays; its shoot (order 2) is shed
+    const size_t before = t.nodes.size();
+    const ShadeShedResult r = shedShadedBranches(t, o);
+    EXPECT_EQ(r.branches, 1);
+    EXPECT_EQ(r.nodes, 1);
+    ASSERT_EQ(t.nodes.size(), before - 1);
+    EXPECT_EQ(t.nodes[under].order, 1);
+    EXPECT_EQ(t.nodes[under + 1].position, (Vec3{0.7, 1.4, 0.5}));
+    (void)shoot;
+    // The default, 1: the limb goes with its shoot.
+    Tree u = shadedAndOpen(under, beside);
+    addNode(u, under + 1, {0.8, 1.45, 0.5}, 0.01, 2);
+    o.shadeMinOrder = 1;
+    EXPECT_EQ(shedShadedBranches(u, o).nodes, 3);
+}
+
+TEST(Form, ShadeSheddingThroughApplyFormIsDeterministicAndOffByDefault) {
+    int32_t under = 0, beside = 0;
+    Tree a = shadedAndOpen(under, beside), b = a, c = a;
+    FormOptions o;
+    o.shadeVoxel = 1.0;
+    EXPECT_FALSE(o.active());
+    o.shadeShed = 0.93;
+    EXPECT_TRUE(o.active());
+    applyForm(a, o, Rng(1));
+    applyForm(b, o, Rng(2));  // no randomness in it
+    EXPECT_EQ(a.nodes.size(), c.nodes.size() - 2);
+    ASSERT_EQ(a.nodes.size(), b.nodes.size());
+    for (size_t i = 0; i < a.nodes.size(); ++i) EXPECT_EQ(a.nodes[i].position, b.nodes[i].position);
+}
+
 TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
     const toml::table good = toml::parse(
         "[form]\nclear_bole = 2\npipe_exponent = 2.3\nlean_deg = 4\nground = \"prune\"\n"
         "pipe_exponent_sd = 0.5\nangle_sd_deg = 12\nbend_deg_per_m = -3\nbend_sd_deg_per_m = 2\n"
-        "width = 1.1\nlength_sd = 0.3\nangle_shift_deg = -7\n");
+        "width = 1.1\nlength_sd = 0.3\nangle_shift_deg = -7\nshade_shed = 0.4\n"
+        "shade_voxel = 0.3\nshade_strength = 0.2\nshade_decay = 1.5\nshade_depth = 8\n"
+        "shade_min_order = 2\n");
     const toml::table logNormal =
         toml::parse("[form]\npipe_exponent = 2.3\npipe_exponent_log_sd = 0.7\n");
     DrawContext draw;
@@ -681,6 +809,12 @@ TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
     EXPECT_EQ(o.width, 1.1);
     EXPECT_EQ(o.lengthSd, 0.3);
     EXPECT_NEAR(o.angleShiftRad, -7 * kPi / 180, 1e-15);
+    EXPECT_EQ(o.shadeShed, 0.4);
+    EXPECT_EQ(o.shadeVoxel, 0.3);
+    EXPECT_EQ(o.shadeStrength, 0.2);
+    EXPECT_EQ(o.shadeDecay, 1.5);
+    EXPECT_EQ(o.shadeDepth, 8);
+    EXPECT_EQ(o.shadeMinOrder, 2);
     EXPECT_TRUE(o.active());
     EXPECT_EQ(o.pipeExponentLogSd, 0.0);
     {
@@ -716,6 +850,11 @@ TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
         "pipe_exponent_log_sd");
     EXPECT_EQ(errorOf("[form]\npipe_exponent = 2\npipe_exponent_log_sd = 2\n"),
               "s.toml:3:24: form.pipe_exponent_log_sd: expected a number in [0, 1.5], got 2");
+    EXPECT_EQ(errorOf("[form]\nshade_voxel = 0.3\n"),
+              "s.toml:2:15: form.shade_voxel: needs shade_shed (the light under which branches "
+              "go)");
+    EXPECT_EQ(errorOf("[form]\nshade_shed = 0.4\nshade_decay = 1\n"),
+              "s.toml:3:15: form.shade_decay: expected a number in (1, 100], got 1");
     EXPECT_EQ(errorOf("[form]\nangle_sd_deg = 50\n"),
               "s.toml:2:16: form.angle_sd_deg: expected a number in [0, 45], got 50");
     EXPECT_EQ(errorOf("[form]\npipe_exponent = 2\npipe_exponent_log_median = 2.8\n"),
