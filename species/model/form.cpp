@@ -144,7 +144,32 @@ ShadeShedResult shedShadedBranches(Tree& tree, const FormOptions& o) {
         }
         if (!keep[i]) result.nodes += 1;
     }
-    if (result.nodes > 0) compactKeepingTips(tree, keep);
+    if (result.nodes == 0) return result;
+    // The shed shoots' pipes stay in what carried them (run after the pipe model: Shinozaki et
+    // al.'s disused pipes), except that under pipeMinChildRatio no node that lost a child stays
+    // thicker than its thickest remaining child ÷ the ratio, nor any ancestor that the thinning
+    // of such a node leaves so: the bound the pipe model keeps at every fork.
+    std::vector<char> lost(n, 0);
+    for (size_t i = 1; i < n; ++i) {
+        if (!keep[i] && keep[nodes[i].parent]) lost[nodes[i].parent] = 1;
+    }
+    if (o.pipeMinChildRatio > 0) {
+        std::vector<double> thickest(n, 0.0);
+        for (size_t i = n; i-- > 0;) {
+            if (!keep[i] || !isShoot(nodes[i])) continue;
+            if (lost[i] && thickest[i] > 0) {
+                const double bound = thickest[i] / o.pipeMinChildRatio;
+                if (nodes[i].radius > bound) {
+                    nodes[i].radius = bound;
+                    if (i > 0) lost[nodes[i].parent] = 1;  // its parent is checked in turn
+                }
+            }
+            if (i > 0 && isShoot(nodes[nodes[i].parent])) {
+                thickest[nodes[i].parent] = std::max(thickest[nodes[i].parent], nodes[i].radius);
+            }
+        }
+    }
+    compactKeepingTips(tree, keep);
     return result;
 }
 
@@ -440,7 +465,6 @@ void turnBranches(Tree& tree, const FormOptions& o, const Rng& rng) {
 void applyForm(Tree& tree, const FormOptions& o, const Rng& rng) {
     if (!o.active() || tree.nodes.empty()) return;
     if (o.clearBole > 0) clearBole(tree, o.clearBole);
-    if (o.shadeShed > 0) shedShadedBranches(tree, o);
     if (o.pipeExponent > 0) {
         const Rng forks = rng.derive("form-forks");
         const bool logNormal = o.pipeExponentLogSd > 0;
@@ -449,6 +473,7 @@ void applyForm(Tree& tree, const FormOptions& o, const Rng& rng) {
                        logNormal ? ForkSpread::kLogNormal : ForkSpread::kNormal,
                        o.pipeExponentLogMedian, o.pipeMinChildRatio);
     }
+    if (o.shadeShed > 0) shedShadedBranches(tree, o);
     // Where each node was before the branches turned: a hanging root follows its node from there.
     std::vector<Vec3> grown;
     if (o.turnsBranches()) {

@@ -3,15 +3,16 @@
 // papers; each step is off by default, so the papers' reproductions keep the papers' rules.
 //
 //  1. clear bole    branches leaving the trunk (the order-0 axis) below a height are removed
-//  1b. shade       a branch whose tips are shaded by the crown above them (Palubicki et al. 2009
-//                   §4's shadow propagation, cast by every shoot tip) is shed: the self-pruning
-//                   that clears a crown's lower and inner shoots
 //  2. pipe model    radii from the tips: r_parent^n = Σ r_child^n at forks (Shinozaki et al.
 //                   1964's pipe model; n = 2 is Leonardo's rule, measured 1.8–2.3 across
 //                   species by Eloy 2011, n = 3 Murray's law), a tip radius, an optional taper
 //                   along the branch between forks, optionally rescaled to a base radius; n may
 //                   be drawn per fork around the species' mean (real forks spread widely about
 //                   it: Eloy 2011, Fig. 2; the TreeQSM reference's interquartile range 1.9–4.5)
+//  2b. shade       a branch whose tips are shaded by the crown above them (Palubicki et al. 2009
+//                   §4's shadow propagation, cast by every shoot tip) is shed: the self-pruning
+//                   that clears a crown's lower and inner shoots; after the pipe model, so the
+//                   shed shoots' pipes stay in what carried them (Shinozaki's disused pipes)
 //  3. branches      each branch leaving the stem turned at its insertion by an angle drawn per
 //                   branch; every branch's length × a factor drawn per branch (its vigour: the
 //                   median branch keeps its length, suppressed ones fall well short) and bent along
@@ -120,13 +121,15 @@ struct ShadeShedResult {
     int64_t nodes = 0;
 };
 
-// Step 1b alone, exposed for tests: every shoot tip casts shade a·b^(−q) into the (2q + 1)²
+// Step 2b alone, exposed for tests: every shoot tip casts shade a·b^(−q) into the (2q + 1)²
 // voxels q layers below it (q = 0 … depth; Palubicki et al. 2009 §4), a tip's exposure is
 // max(1 − s + a, 0) of its voxel's shade s, and every branch (a shoot node of higher order than
 // its parent, of order ≥ shadeMinOrder; never the order-0 stem) whose tips' mean exposure is
 // under `shadeShed` is removed with its subtree, its leaves and endpoints; a node left without
 // children becomes an endpoint. Computed once on the tree as grown (before step 3's turns); no
-// randomness.
+// randomness. The radii stay (the shed shoots' disused pipes), but with pipeMinChildRatio a node
+// that lost a child is held to its thickest remaining child ÷ the ratio, and its ancestors in turn
+// where that thins them.
 ShadeShedResult shedShadedBranches(Tree& tree, const FormOptions& options);
 
 // The pipe model alone (step 2), exposed for tests: shoot radii from the tips. With

@@ -786,6 +786,77 @@ TEST(Form, ShadeSheddingThroughApplyFormIsDeterministicAndOffByDefault) {
     for (size_t i = 0; i < a.nodes.size(); ++i) EXPECT_EQ(a.nodes[i].position, b.nodes[i].position);
 }
 
+TEST(Form, ShadeSheddingBoundsAForkThatLostItsThickChildAsThePipeModelDoes) {
+    // A limb under a dense top carries two shoots: 30 tips crowded in one voxel (exposure 0,
+    // shed) and one tip out in the open (kept). With pipe radii (n = 2, tips 0.01 m) the limb is
+    // √31 · 0.01 thick; left with the open shoot (0.01) it is held to 0.01 / 0.5 under a child
+    // ratio of 0.5, and keeps √31 · 0.01 without one.
+    auto build = [] {
+        Tree t;
+        addNode(t, -1, {0.5, 0, 0.5});
+        const int32_t n1 = addNode(t, 0, {0.5, 1.0, 0.5});
+        const int32_t top = addNode(t, n1, {0.5, 6.2, 0.5});
+        for (int i = 0; i < 5; ++i) {
+            for (int k = 0; k < 5; ++k) addNode(t, top, {i - 1.5, 6.5, k - 1.5}, 0.01, 1);
+        }
+        const int32_t limb = addNode(t, n1, {0.6, 1.1, 0.5}, 0.01, 1);
+        const int32_t crowded = addNode(t, limb, {0.6, 1.2, 0.5}, 0.01, 2);
+        for (int k = 0; k < 30; ++k) addNode(t, crowded, {0.6 + 0.01 * k, 1.4, 0.5}, 0.01, 2);
+        const int32_t open = addNode(t, limb, {8.5, 1.2, 0.5}, 0.01, 2);
+        addNode(t, open, {8.6, 1.4, 0.5}, 0.01, 2);
+        return std::make_pair(t, limb);
+    };
+    FormOptions o;
+    o.pipeExponent = 2.0;
+    o.tipRadius = 0.01;
+    o.shadeVoxel = 1.0;
+    o.shadeShed = 0.5;
+    o.shadeMinOrder = 2;
+    {
+        auto [t, limb] = build();
+        applyForm(t, o, Rng(1));
+        EXPECT_NEAR(t.nodes[limb].radius, std::sqrt(31.0) * 0.01, 1e-12);  // disused pipes
+        EXPECT_NEAR(t.nodes[1].radius, std::sqrt(56.0) * 0.01, 1e-12);
+    }
+    {
+        auto [t, limb] = build();
+        o.pipeExponentLogSd = 1e-9;  // the bound needs drawn forks; these draw n = 2
+        o.pipeMinChildRatio = 0.5;
+        const size_t before = t.nodes.size();
+        applyForm(t, o, Rng(1));
+        ASSERT_EQ(t.nodes.size(), before - 31);
+        EXPECT_NEAR(t.nodes[limb].radius, 0.02, 1e-9);
+        // And no node is left thicker than twice its thickest child.
+        std::vector<double> thickest(t.nodes.size(), 0.0);
+        for (size_t i = 1; i < t.nodes.size(); ++i) {
+            thickest[t.nodes[i].parent] = std::max(thickest[t.nodes[i].parent], t.nodes[i].radius);
+        }
+        for (size_t i = 0; i < t.nodes.size(); ++i) {
+            if (thickest[i] > 0) EXPECT_LE(t.nodes[i].radius, 2 * thickest[i] * (1 + 1e-12)) << i;
+        }
+    }
+}
+
+TEST(Form, ShadeSheddingKeepsTheShedShootsPipesInWhatCarriedThem) {
+    // After the pipe model: the stem below the shed lateral keeps the radius its pipes gave it
+    // (Shinozaki's disused pipes), and so does the base.
+    int32_t under = 0, beside = 0;
+    const Tree grown = shadedAndOpen(under, beside);
+    FormOptions o;
+    o.pipeExponent = 2.0;
+    o.tipRadius = 0.01;
+    Tree kept = grown, shed = grown;
+    applyForm(kept, o, Rng(1));
+    o.shadeVoxel = 1.0;
+    o.shadeShed = 0.93;
+    applyForm(shed, o, Rng(1));
+    ASSERT_EQ(shed.nodes.size(), kept.nodes.size() - 2);
+    // Root and the stem node at 1 m, where the lateral left: 27 tips' pipes, √27 · 0.01.
+    EXPECT_NEAR(kept.nodes[1].radius, std::sqrt(27.0) * 0.01, 1e-12);
+    EXPECT_EQ(shed.nodes[0].radius, kept.nodes[0].radius);
+    EXPECT_EQ(shed.nodes[1].radius, kept.nodes[1].radius);
+}
+
 TEST(FormSpec, ReadsKeysAndRejectsBadValues) {
     const toml::table good = toml::parse(
         "[form]\nclear_bole = 2\npipe_exponent = 2.3\nlean_deg = 4\nground = \"prune\"\n"
