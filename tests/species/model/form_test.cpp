@@ -832,7 +832,9 @@ TEST(Form, ShadeSheddingBoundsAForkThatLostItsThickChildAsThePipeModelDoes) {
             thickest[t.nodes[i].parent] = std::max(thickest[t.nodes[i].parent], t.nodes[i].radius);
         }
         for (size_t i = 0; i < t.nodes.size(); ++i) {
-            if (thickest[i] > 0) EXPECT_LE(t.nodes[i].radius, 2 * thickest[i] * (1 + 1e-12)) << i;
+            if (thickest[i] > 0) {
+                EXPECT_LE(t.nodes[i].radius, 2 * thickest[i] * (1 + 1e-12)) << i;
+            }
         }
     }
 }
