@@ -11,7 +11,7 @@ FormOptions readForm(Params& species) {
     o.shadeVoxel = f->number("shade_voxel", o.shadeVoxel, Range::closed(0.01, 10));
     o.shadeStrength = f->number("shade_strength", o.shadeStrength, Range::leftOpen(0, 1));
     o.shadeDecay = f->number("shade_decay", o.shadeDecay, Range::leftOpen(1, 100));
-    o.shadeDepth = static_cast<int>(f->integer("shade_depth", o.shadeDepth, Range::closed(0, 64)));
+    o.shadeDepth = static_cast<int>(f->integer("shade_depth", o.shadeDepth, Range::closed(0, 16)));
     o.shadeMinOrder =
         static_cast<int>(f->integer("shade_min_order", o.shadeMinOrder, Range::closed(1, 64)));
     if (!(o.shadeShed > 0)) {
