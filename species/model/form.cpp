@@ -97,8 +97,8 @@ ShadeShedResult shedShadedBranches(Tree& tree, const FormOptions& o) {
     auto& nodes = tree.nodes;
     const size_t n = nodes.size();
     if (!(o.shadeShed > 0) || n < 2) return result;
-    // The tips: shoot nodes with no shoot child. Each casts Palubicki et al. 2009's shadow
-    // pyramid (§4, shadow propagation), the light a tip's foliage intercepts from the sky above.
+    // The tips: shoot nodes with no shoot child, where the foliage is. Each casts Palubicki et
+    // al. 2009's shadow pyramid (§4, shadow propagation) on what grows below it.
     std::vector<char> hasShootChild(n, 0);
     Aabb box;
     for (size_t i = 0; i < n; ++i) {
@@ -149,11 +149,11 @@ ShadeShedResult shedShadedBranches(Tree& tree, const FormOptions& o) {
     // al.'s disused pipes), except that under pipeMinChildRatio no node that lost a child stays
     // thicker than its thickest remaining child ÷ the ratio, nor any ancestor that the thinning
     // of such a node leaves so: the bound the pipe model keeps at every fork.
-    std::vector<char> lost(n, 0);
-    for (size_t i = 1; i < n; ++i) {
-        if (!keep[i] && keep[nodes[i].parent]) lost[nodes[i].parent] = 1;
-    }
     if (o.pipeMinChildRatio > 0) {
+        std::vector<char> lost(n, 0);
+        for (size_t i = 1; i < n; ++i) {
+            if (!keep[i] && keep[nodes[i].parent]) lost[nodes[i].parent] = 1;
+        }
         std::vector<double> thickest(n, 0.0);
         for (size_t i = n; i-- > 0;) {
             if (!keep[i] || !isShoot(nodes[i])) continue;
