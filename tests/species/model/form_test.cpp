@@ -665,14 +665,32 @@ TEST(Form, InactiveOptionsLeaveTheTreeAsGrown) {
 // full light, and shade the voxel five layers below them by 25 · 0.1 / 2⁵ = 0.078 (the pyramid
 // reaches ±5 voxels there), so the lateral under them has its tip at 1 − 0.078 = 0.92 (its own
 // share given back); the lateral 8 m out is 6 voxels from the nearest and sees full light.
+// The shade options these known answers are worked out with: 1-m voxels, a = 0.1, b = 2,
+// depth 6, and branches shed under `shed` of full light.
+FormOptions shadeInMetreVoxels(double shed) {
+    FormOptions o;
+    o.shadeVoxel = 1.0;
+    o.shadeStrength = 0.1;
+    o.shadeDecay = 2.0;
+    o.shadeDepth = 6;
+    o.shadeShed = shed;
+    return o;
+}
+
+// The crown above: a stem node at 6.2 m over `stem` carrying 25 first-order tips, one to a
+// voxel in a 5 × 5 layer at 6.5 m.
+void addCrownOfTips(Tree& t, int32_t stem) {
+    const int32_t top = addNode(t, stem, {0.5, 6.2, 0.5});
+    for (int i = 0; i < 5; ++i) {
+        for (int k = 0; k < 5; ++k) addNode(t, top, {i - 1.5, 6.5, k - 1.5}, 0.01, 1);
+    }
+}
+
 Tree shadedAndOpen(int32_t& under, int32_t& beside) {
     Tree t;
     addNode(t, -1, {0.5, 0, 0.5});
     const int32_t low = addNode(t, 0, {0.5, 1.0, 0.5});
-    int32_t top = addNode(t, low, {0.5, 6.2, 0.5});
-    for (int i = 0; i < 5; ++i) {
-        for (int k = 0; k < 5; ++k) addNode(t, top, {i - 1.5, 6.5, k - 1.5}, 0.01, 1);
-    }
+    addCrownOfTips(t, low);
     under = addNode(t, low, {0.6, 1.2, 0.5}, 0.01, 1);
     addNode(t, under, {0.7, 1.4, 0.5}, 0.01, 1);
     beside = addNode(t, low, {8.5, 1.2, 0.5}, 0.01, 1);
@@ -681,11 +699,7 @@ Tree shadedAndOpen(int32_t& under, int32_t& beside) {
 }
 
 TEST(Form, ShadeShedsTheBranchUnderTheCrownAndKeepsTheOneInTheLight) {
-    FormOptions o;
-    o.shadeVoxel = 1.0;
-    o.shadeStrength = 0.1;
-    o.shadeDecay = 2.0;
-    o.shadeDepth = 6;
+    FormOptions o = shadeInMetreVoxels(0.93);
     int32_t under = 0, beside = 0;
     {
         // Under 0.92 of full light: the shaded lateral (two nodes) goes, the open one stays.
@@ -693,7 +707,6 @@ TEST(Form, ShadeShedsTheBranchUnderTheCrownAndKeepsTheOneInTheLight) {
         t.leaves = {leafAt(under + 1, {0.7, 1.45, 0.5}), leafAt(beside + 1, {8.6, 1.45, 0.5})};
         t.endpoints = {under + 1, beside + 1};
         const size_t before = t.nodes.size();
-        o.shadeShed = 0.93;
         const ShadeShedResult r = shedShadedBranches(t, o);
         EXPECT_EQ(r.branches, 1);
         EXPECT_EQ(r.nodes, 2);
@@ -732,29 +745,24 @@ TEST(Form, ShadeNeverShedsTheStemAndLeavesABareStemTipAnEndpoint) {
     Tree t;
     addNode(t, -1, {0.5, 0, 0.5});
     const int32_t stub = addNode(t, 0, {0.5, 1.0, 0.5});
-    const int32_t side = addNode(t, stub, {0.6, 1.3, 0.5}, 0.01, 1);
+    addNode(t, stub, {0.6, 1.3, 0.5}, 0.01, 1);
     // The stem's own tips, 40 in one voxel: shaded to nothing by each other, and kept.
     const int32_t top = addNode(t, 0, {0.5, 3.2, 0.5});
     for (int k = 0; k < 40; ++k) addNode(t, top, {0.5, 3.5, 0.5});
-    FormOptions o;
-    o.shadeVoxel = 1.0;
-    o.shadeShed = 0.5;  // the side shoot two layers below: 1 − 40 · 0.1 / 2² < 0
-    const ShadeShedResult r = shedShadedBranches(t, o);
+    // The side shoot two layers below: 1 − 40 · 0.1 / 2² < 0.
+    const ShadeShedResult r = shedShadedBranches(t, shadeInMetreVoxels(0.5));
     EXPECT_EQ(r.branches, 1);
     ASSERT_EQ(t.nodes.size(), 43u);
     EXPECT_EQ(t.nodes[stub].order, 0);
     EXPECT_EQ(t.endpoints, (std::vector<int32_t>{stub}));
-    (void)side;
 }
 
 TEST(Form, ShadeMinOrderKeepsTheLimbsAndShedsTheirShadedShoots) {
     // Under the crown of shadedAndOpen, a first-order limb carrying a second-order shoot.
     int32_t under = 0, beside = 0;
     Tree t = shadedAndOpen(under, beside);
-    const int32_t shoot = addNode(t, under + 1, {0.8, 1.45, 0.5}, 0.01, 2);
-    FormOptions o;
-    o.shadeVoxel = 1.0;
-    o.shadeShed = 0.93;
+    addNode(t, under + 1, {0.8, 1.45, 0.5}, 0.01, 2);
+    FormOptions o = shadeInMetreVoxels(0.93);
     o.shadeMinOrder = 2;  // the limb (order 1) stays; its shoot (order 2) is shed
     const size_t before = t.nodes.size();
     const ShadeShedResult r = shedShadedBranches(t, o);
@@ -763,7 +771,6 @@ TEST(Form, ShadeMinOrderKeepsTheLimbsAndShedsTheirShadedShoots) {
     ASSERT_EQ(t.nodes.size(), before - 1);
     EXPECT_EQ(t.nodes[under].order, 1);
     EXPECT_EQ(t.nodes[under + 1].position, (Vec3{0.7, 1.4, 0.5}));
-    (void)shoot;
     // The default, 1: the limb goes with its shoot.
     Tree u = shadedAndOpen(under, beside);
     addNode(u, under + 1, {0.8, 1.45, 0.5}, 0.01, 2);
@@ -774,8 +781,7 @@ TEST(Form, ShadeMinOrderKeepsTheLimbsAndShedsTheirShadedShoots) {
 TEST(Form, ShadeSheddingThroughApplyFormIsDeterministicAndOffByDefault) {
     int32_t under = 0, beside = 0;
     Tree a = shadedAndOpen(under, beside), b = a, c = a;
-    FormOptions o;
-    o.shadeVoxel = 1.0;
+    FormOptions o = shadeInMetreVoxels(0.0);
     EXPECT_FALSE(o.active());
     o.shadeShed = 0.93;
     EXPECT_TRUE(o.active());
@@ -795,10 +801,7 @@ TEST(Form, ShadeSheddingBoundsAForkThatLostItsThickChildAsThePipeModelDoes) {
         Tree t;
         addNode(t, -1, {0.5, 0, 0.5});
         const int32_t n1 = addNode(t, 0, {0.5, 1.0, 0.5});
-        const int32_t top = addNode(t, n1, {0.5, 6.2, 0.5});
-        for (int i = 0; i < 5; ++i) {
-            for (int k = 0; k < 5; ++k) addNode(t, top, {i - 1.5, 6.5, k - 1.5}, 0.01, 1);
-        }
+        addCrownOfTips(t, n1);
         const int32_t limb = addNode(t, n1, {0.6, 1.1, 0.5}, 0.01, 1);
         const int32_t crowded = addNode(t, limb, {0.6, 1.2, 0.5}, 0.01, 2);
         for (int k = 0; k < 30; ++k) addNode(t, crowded, {0.6 + 0.01 * k, 1.4, 0.5}, 0.01, 2);
@@ -806,11 +809,9 @@ TEST(Form, ShadeSheddingBoundsAForkThatLostItsThickChildAsThePipeModelDoes) {
         addNode(t, open, {8.6, 1.4, 0.5}, 0.01, 2);
         return std::make_pair(t, limb);
     };
-    FormOptions o;
+    FormOptions o = shadeInMetreVoxels(0.5);
     o.pipeExponent = 2.0;
     o.tipRadius = 0.01;
-    o.shadeVoxel = 1.0;
-    o.shadeShed = 0.5;
     o.shadeMinOrder = 2;
     {
         auto [t, limb] = build();
@@ -844,12 +845,11 @@ TEST(Form, ShadeSheddingKeepsTheShedShootsPipesInWhatCarriedThem) {
     // (Shinozaki's disused pipes), and so does the base.
     int32_t under = 0, beside = 0;
     const Tree grown = shadedAndOpen(under, beside);
-    FormOptions o;
+    FormOptions o = shadeInMetreVoxels(0.0);
     o.pipeExponent = 2.0;
     o.tipRadius = 0.01;
     Tree kept = grown, shed = grown;
     applyForm(kept, o, Rng(1));
-    o.shadeVoxel = 1.0;
     o.shadeShed = 0.93;
     applyForm(shed, o, Rng(1));
     ASSERT_EQ(shed.nodes.size(), kept.nodes.size() - 2);
