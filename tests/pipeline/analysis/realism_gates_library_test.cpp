@@ -1,7 +1,8 @@
 // The realism gates over the library itself (pipeline/analysis/realism_gates.h): 16 trees of
 // every species in species/presets/ built from datasets/realism-gates.toml, every gate passed,
-// and each species' size and crown proportions inside those measured on its species (or
-// genus) in the Biomass And Allometry Database (species/reference/baad-allometry.json).
+// each species' size and crown proportions inside those measured on its species (or genus) in
+// the Biomass And Allometry Database (species/reference/baad-allometry.json), and the broadleaves
+// as near the measured trees held out of fitting as docs/library.md says they are.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -15,6 +16,7 @@
 #include <set>
 #include <vector>
 
+#include "pipeline/analysis/dataset_stats.h"
 #include "pipeline/analysis/realism_gates.h"
 #include "pipeline/batch/build.h"
 #include "pipeline/batch/dataset.h"
@@ -112,6 +114,18 @@ TEST(RealismGates, EveryLibrarySpeciesPasses) {
     const std::vector<SpeciesGates> gates = evaluateGates(out);
     const auto measured = allometry(out / "manifest.jsonl");
     const auto steps = forkSteps(out / "manifest.jsonl", out);
+    DatasetStatsOptions statsOptions;
+    statsOptions.timing = false;
+    statsOptions.reference = source / "species/reference/treeqsm-broadleaf-holdout.json";
+    const DatasetStatsResult held = computeDatasetStats(out, statsOptions);
+    std::set<std::string> broadleaves;
+    {
+        std::ifstream in(out / "manifest.jsonl");
+        for (std::string line; std::getline(in, line);) {
+            const nlohmann::json r = nlohmann::json::parse(line);
+            if (r.value("habit", "") == "tree") broadleaves.insert(r["species"].get<std::string>());
+        }
+    }
     fs::remove_all(out);
     EXPECT_GE(steps.size(), 30u);
     for (const auto& [species, n] : steps) EXPECT_EQ(n, 0) << species << ": forks thicker than 2 x";
@@ -152,6 +166,37 @@ TEST(RealismGates, EveryLibrarySpeciesPasses) {
         }
     }
     EXPECT_GE(checked, 20);
+
+    // Against the 25 measured trees held out of fitting, on the six distributions of the aim
+    // (docs/library.md: D < 0.2 on four of six and < 0.3 on all six): every broadleaf but the two
+    // whose form conflicts with the measured trees' (a draped column, a fastigiate column) meets
+    // it, and the mean D and the count below 0.2 are no worse than docs/library.md and the README
+    // give. The build is deterministic, so these are the same numbers on every run.
+    const std::vector<std::string> six = {"radius_ratio",         "radius_exponent",
+                                          "branch_angle_deg",     "tip_path_ratio",
+                                          "branch_length_order1", "branch_length_order2"};
+    const std::set<std::string> outOfAim = {"ashoka", "lombardy-poplar"};
+    double sum = 0.0;
+    int count = 0, below = 0;
+    std::set<std::string> missing;
+    for (const std::string& species : broadleaves) {
+        int under02 = 0;
+        bool under03 = true;
+        for (const std::string& d : six) {
+            const auto& c = held.reference.at(species).at(d);
+            ASSERT_TRUE(c.d.has_value()) << species << " " << d;
+            sum += *c.d;
+            ++count;
+            below += *c.d < 0.2;
+            under02 += *c.d < 0.2;
+            under03 = under03 && *c.d < 0.3;
+        }
+        if (!(under02 >= 4 && under03)) missing.insert(species);
+    }
+    EXPECT_EQ(broadleaves.size(), 27u);
+    EXPECT_EQ(missing, outOfAim) << "broadleaves out of the aim against the held-out trees";
+    EXPECT_LE(sum / count, 0.150) << "mean held-out D";
+    EXPECT_GE(below, 137) << "held-out distances below 0.2, of " << count;
 }
 
 }  // namespace
