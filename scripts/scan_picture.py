@@ -5,7 +5,10 @@ splatted orthographically (2 × 2 pixels); a pixel's colour is its most frequent
 tree's), laid over white by how many points fell in it (NumPy and OpenCV: Debian's
 python3-numpy and python3-opencv; reads the LAS with python/sylva_dataset).
 
-usage: scripts/scan_picture.py SCAN.las OUT.png [PANEL_PX]
+usage: scripts/scan_picture.py SCAN.las OUT.png [PANEL_PX] [--side SLAB_M]
+
+--side draws the first panel alone, of the points within SLAB_M metres north or south of the
+origin (the plot centre, or a single tree's stem) instead of 2 m.
 """
 import os
 import sys
@@ -50,20 +53,31 @@ def splat(u, v, key, colours_of, lo, hi, px):
 
 
 def main():
-    if len(sys.argv) not in (3, 4):
+    args = sys.argv[1:]
+    slab_m = None
+    if "--side" in args:
+        k = args.index("--side")
+        if k + 1 >= len(args):
+            sys.exit(__doc__)
+        slab_m = float(args[k + 1])
+        del args[k:k + 2]
+    if len(args) not in (2, 3):
         sys.exit(__doc__)
-    las = read_las(sys.argv[1])
-    px = int(sys.argv[3]) if len(sys.argv) == 4 else 400
+    las = read_las(args[0])
+    px = int(args[2]) if len(args) == 3 else 400
     x, y, z = las.positions.T
     cls = las.fields["classification"]
     tree = las.fields["treeID"].astype(np.int64)
     half = max(np.abs(x).max(), np.abs(y).max())
     cc = lambda keys: [CLASSES.get(int(k), (120, 120, 120)) for k in keys]
-    slab = np.abs(y) < 2.0
+    slab = np.abs(y) < (2.0 if slab_m is None else slab_m)
     side = splat(x[slab], z[slab] - z.min() - half, cls[slab], cc, -half, half, px)  # ground at the foot
+    if slab_m is not None:
+        cv2.imwrite(args[1], cv2.cvtColor(side, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_PNG_COMPRESSION, 9])
+        return
     top = splat(x, y, cls, cc, -half, half, px)
     ids = splat(x, y, tree, lambda t: by_tree(t, zero=(160, 160, 160)), -half, half, px)
-    cv2.imwrite(sys.argv[2], cv2.cvtColor(np.hstack([side, top, ids]), cv2.COLOR_RGB2BGR),
+    cv2.imwrite(args[1], cv2.cvtColor(np.hstack([side, top, ids]), cv2.COLOR_RGB2BGR),
                 [cv2.IMWRITE_PNG_COMPRESSION, 9])
 
 
