@@ -33,10 +33,12 @@ namespace sylva {
 namespace {
 
 // The distributions a fit compares when [fit] lists none: every one a broadleaf tree is held
-// to but order-3 branch lengths (docs/metrics.md), plus the radius exponent.
-const std::vector<std::string> kDefaultDistributions = {
-    "radius_ratio",   "radius_exponent",      "branch_angle_deg",
-    "tip_path_ratio", "branch_length_order1", "branch_length_order2"};
+// to but order-3 branch lengths (docs/metrics.md), plus the radius exponent — the reference's
+// radius ratio … order-2 branch length.
+const std::vector<std::string> kDefaultDistributions(kReferenceDistributionNames.begin() +
+                                                         kRadiusRatio,
+                                                     kReferenceDistributionNames.begin() +
+                                                         kBranchLengthOrder2 + 1);
 
 int distributionIndex(const std::string& name) {
     for (int k = 0; k < kReferenceDistributions; ++k) {

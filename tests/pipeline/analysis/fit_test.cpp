@@ -412,6 +412,27 @@ TEST(FitSpec, ElementsOfAGrammarArrayAreFitted) {
 // the trees' values (one per tree, crownHeight / height) to it — here recomputed by hand at
 // every knot of both CDFs; quantiles above every tree give D = 1; the key without `allometry`,
 // and a species the file does not hold, are errors at their keys.
+TEST(FitSpec, WithoutDistributionsTheSixBroadleafOnesAreCompared) {
+    TempDir t;
+    std::string text = slurp(kTinyPipe);
+    for (const char* key : {"distributions = ", "weights = "}) {
+        const size_t at = text.find(key);
+        ASSERT_NE(at, std::string::npos) << key;
+        text.erase(at, text.find('\n', at) + 1 - at);
+    }
+    text.replace(
+        text.find("reference = \""), text.find("trees = 8") - text.find("reference = \""),
+        "reference = \"" +
+            (fs::path(SYLVA_SOURCE_DIR) / "species/reference/treeqsm-broadleaf.json").string() +
+            "\"\n");
+    spit(t / "s.toml", text);
+    const FitSpec spec = readFitSpec((t / "s.toml").string());
+    EXPECT_EQ(spec.distributions,
+              (std::vector<std::string>{"radius_ratio", "radius_exponent", "branch_angle_deg",
+                                        "tip_path_ratio", "branch_length_order1",
+                                        "branch_length_order2"}));
+}
+
 TEST(FitSpec, AllometryDistributionsComeFromTheAllometryFile) {
     TempDir t;
     auto allometry = [&](const std::string& species, const std::vector<double>& q) {
