@@ -31,6 +31,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -277,7 +281,10 @@ inline double weight(const Triangle& t, int j, double px, double py, double inv)
 // Appends the pixels of a triangle whose box holds few centres: each centre inside it (every
 // weight ≥ 0, edges inclusive) at its perspective-correct depth. The same arithmetic as
 // weight(), with the per-row and per-triangle terms hoisted; every centre of the box is
-// written and kept only if inside (no branch to mispredict: most centres are outside).
+// written and kept only if inside (no branch to mispredict: most centres are outside). Two
+// centres of a row at a time in SSE2's two double lanes (x86-64's baseline): each lane does the
+// scalar code's operations in its order, so the weights and depths are the same bits, and the
+// compiler left the scalar loop unvectorised (≈ 70 instructions a centre).
 void appendFragments(const Triangle& t, int w, Fragments& out) {
     const double inv = 1.0 / t.area;
     double dx[3], dy[3];
@@ -289,12 +296,42 @@ void appendFragments(const Triangle& t, int w, Fragments& out) {
     Fragment* f =
         out.grow(static_cast<size_t>(t.box.x1 - t.box.x0 + 1) * (t.box.y1 - t.box.y0 + 1));
     size_t n = 0;
+#if defined(__SSE2__)
+    const __m128d vInv = _mm_set1_pd(inv), zero = _mm_setzero_pd();
+    const __m128d dy0 = _mm_set1_pd(dy[0]), dy1 = _mm_set1_pd(dy[1]), dy2 = _mm_set1_pd(dy[2]);
+    const __m128d x0 = _mm_set1_pd(t.x[0]), x1 = _mm_set1_pd(t.x[1]), x2 = _mm_set1_pd(t.x[2]);
+    const __m128d z0 = _mm_set1_pd(t.z[0]), z1 = _mm_set1_pd(t.z[1]), z2 = _mm_set1_pd(t.z[2]);
+#endif
     for (int y = t.box.y0; y <= t.box.y1; ++y) {
         const double pyc = y + 0.5;
         const double r0 = dx[0] * (pyc - t.y[1]), r1 = dx[1] * (pyc - t.y[2]),
                      r2 = dx[2] * (pyc - t.y[0]);
         const size_t rowOff = static_cast<size_t>(y) * w;
-        for (int x = t.box.x0; x <= t.box.x1; ++x) {
+        int x = t.box.x0;
+#if defined(__SSE2__)
+        const __m128d vr0 = _mm_set1_pd(r0), vr1 = _mm_set1_pd(r1), vr2 = _mm_set1_pd(r2);
+        for (; x < t.box.x1; x += 2) {
+            const __m128d pxc = _mm_set_pd(x + 1.5, x + 0.5);  // (x + 1) + 0.5 exactly
+            const __m128d b0 =
+                _mm_mul_pd(_mm_sub_pd(vr0, _mm_mul_pd(dy0, _mm_sub_pd(pxc, x1))), vInv);
+            const __m128d b1 =
+                _mm_mul_pd(_mm_sub_pd(vr1, _mm_mul_pd(dy1, _mm_sub_pd(pxc, x2))), vInv);
+            const __m128d b2 =
+                _mm_mul_pd(_mm_sub_pd(vr2, _mm_mul_pd(dy2, _mm_sub_pd(pxc, x0))), vInv);
+            const __m128d zi =
+                _mm_add_pd(_mm_add_pd(_mm_mul_pd(b0, z0), _mm_mul_pd(b1, z1)), _mm_mul_pd(b2, z2));
+            const int inside = _mm_movemask_pd(
+                _mm_and_pd(_mm_and_pd(_mm_cmpge_pd(b0, zero), _mm_cmpge_pd(b1, zero)),
+                           _mm_cmpge_pd(b2, zero)));
+            double z[2];
+            _mm_storeu_pd(z, zi);
+            f[n] = {static_cast<uint32_t>(rowOff + x), t.label, t.id, z[0]};
+            n += inside & 1;
+            f[n] = {static_cast<uint32_t>(rowOff + x + 1), t.label, t.id, z[1]};
+            n += inside >> 1;
+        }
+#endif
+        for (; x <= t.box.x1; ++x) {
             const double pxc = x + 0.5;
             const double b0 = (r0 - dy[0] * (pxc - t.x[1])) * inv;
             const double b1 = (r1 - dy[1] * (pxc - t.x[2])) * inv;
