@@ -368,7 +368,26 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
                     odd[x] = static_cast<uint8_t>(h[x] >> 8);
                 }
             } else {
-                for (int x = 0; x < width; ++x) {
+                int x = 0;
+#if defined(__SSE2__)
+                // Eight floats at a time: a float's bytes b0 b1 b2 b3 (x86 is little-endian)
+                // are two 16-bit lanes; their low bytes (b0, b2) packed go to `even`, their high
+                // bytes (b1, b3) to `odd` — what the scalar loop below stores, 16 at a time (it
+                // was 16 instructions a pixel, a third of the encoder's on ez-size's maps).
+                const __m128i lowBytes = _mm_set1_epi16(0x00ff);
+                for (; x + 8 <= width; x += 8) {
+                    const __m128i v0 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + x));
+                    const __m128i v1 =
+                        _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + x + 4));
+                    const __m128i lo =
+                        _mm_packus_epi16(_mm_and_si128(v0, lowBytes), _mm_and_si128(v1, lowBytes));
+                    const __m128i hi =
+                        _mm_packus_epi16(_mm_srli_epi16(v0, 8), _mm_srli_epi16(v1, 8));
+                    _mm_storeu_si128(reinterpret_cast<__m128i*>(even + 2 * x), lo);
+                    _mm_storeu_si128(reinterpret_cast<__m128i*>(odd + 2 * x), hi);
+                }
+#endif
+                for (; x < width; ++x) {
                     uint32_t bits;
                     std::memcpy(&bits, &row[x], 4);
                     const size_t e = 2 * static_cast<size_t>(x);
@@ -379,9 +398,13 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
                 }
             }
         }
-        delta[0] = split[0];
+        // Through restrict pointers: with the two vectors' bytes possibly aliasing, the compiler
+        // kept this loop scalar.
+        const uint8_t* __restrict from = split.data();
+        uint8_t* __restrict to = delta.data();
+        to[0] = from[0];
         for (size_t k = 1; k < blockBytes; ++k) {
-            delta[k] = static_cast<uint8_t>(split[k] - split[k - 1] + 128);
+            to[k] = static_cast<uint8_t>(from[k] - from[k - 1] + 128);
         }
         size_t size = blockBytes;  // (no smaller: stored raw)
         if (zip) {
