@@ -46,6 +46,22 @@ TEST(DeflateRuns, EveryKindOfInputInflatesBack) {
     expectRoundTrip(runs, "runs of 1…800");
 }
 
+// The encoder reuses its run list from call to call on a thread and gives a large one back:
+// each stream must hold its own input only, around a list of more than 2^18 runs (600,000
+// alternating bytes) and after it.
+TEST(DeflateRuns, SuccessiveInputsOnOneThreadAreIndependent) {
+    std::vector<uint8_t> alternating(600000);
+    for (size_t k = 0; k < alternating.size(); ++k) alternating[k] = k % 2 ? 9 : 4;
+    const std::vector<uint8_t> small = {1, 1, 1, 1, 2};
+    expectRoundTrip(small, "small, first");
+    expectRoundTrip(alternating, "600,000 runs");
+    expectRoundTrip(small, "small, after a large list");
+    expectRoundTrip(alternating, "600,000 runs again");
+    const std::vector<uint8_t> rows = {5, 5, 6, 6};  // two rows of two pixels
+    const std::string z = zlibRunsOfRows(rows.data(), 2, 2, 0);
+    EXPECT_EQ(inflateAll(z, 6), (std::vector<uint8_t>{0, 5, 5, 0, 6, 6}));
+}
+
 // Symbol frequencies in a Fibonacci sequence make a Huffman tree as deep as there are symbols:
 // 25 literal values whose counts are 2, 3, 5, 8 … 196418, each alone (no runs), with the end of
 // block's count of 1, need codes of up to 24 bits before the limit cuts them to 15. (Counts from
