@@ -398,13 +398,9 @@ std::string encodeFloatExr(int width, int height, const float* pixels, const std
                 }
             }
         }
-        // Through restrict pointers: with the two vectors' bytes possibly aliasing, the compiler
-        // kept this loop scalar.
-        const uint8_t* __restrict from = split.data();
-        uint8_t* __restrict to = delta.data();
-        to[0] = from[0];
+        delta[0] = split[0];
         for (size_t k = 1; k < blockBytes; ++k) {
-            to[k] = static_cast<uint8_t>(from[k] - from[k - 1] + 128);
+            delta[k] = static_cast<uint8_t>(split[k] - split[k - 1] + 128);
         }
         size_t size = blockBytes;  // (no smaller: stored raw)
         if (zip) {
