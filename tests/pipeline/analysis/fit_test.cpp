@@ -407,11 +407,16 @@ TEST(FitSpec, ElementsOfAGrammarArrayAreFitted) {
     }
 }
 
-// Crown depth ÷ height from an allometry file: the file's quantiles of the species make a
-// piecewise-linear CDF (min, p5, p25, p50, p75, p95, max at 0 … 1) and D is the KS distance of
-// the trees' values (one per tree, crownHeight / height) to it — here recomputed by hand at
-// every knot of both CDFs; quantiles above every tree give D = 1; the key without `allometry`,
-// and a species the file does not hold, are errors at their keys.
+// The fixture's text with its reference file given by absolute path, for a copy of it written
+// elsewhere.
+void pointAtBroadleafReference(std::string& text) {
+    text.replace(
+        text.find("reference = \""), text.find("trees = 8") - text.find("reference = \""),
+        "reference = \"" +
+            (fs::path(SYLVA_SOURCE_DIR) / "species/reference/treeqsm-broadleaf.json").string() +
+            "\"\n");
+}
+
 TEST(FitSpec, WithoutDistributionsTheSixBroadleafOnesAreCompared) {
     TempDir t;
     std::string text = slurp(kTinyPipe);
@@ -420,11 +425,7 @@ TEST(FitSpec, WithoutDistributionsTheSixBroadleafOnesAreCompared) {
         ASSERT_NE(at, std::string::npos) << key;
         text.erase(at, text.find('\n', at) + 1 - at);
     }
-    text.replace(
-        text.find("reference = \""), text.find("trees = 8") - text.find("reference = \""),
-        "reference = \"" +
-            (fs::path(SYLVA_SOURCE_DIR) / "species/reference/treeqsm-broadleaf.json").string() +
-            "\"\n");
+    pointAtBroadleafReference(text);
     spit(t / "s.toml", text);
     const FitSpec spec = readFitSpec((t / "s.toml").string());
     EXPECT_EQ(spec.distributions,
@@ -433,6 +434,11 @@ TEST(FitSpec, WithoutDistributionsTheSixBroadleafOnesAreCompared) {
                                         "branch_length_order2"}));
 }
 
+// Crown depth ÷ height from an allometry file: the file's quantiles of the species make a
+// piecewise-linear CDF (min, p5, p25, p50, p75, p95, max at 0 … 1) and D is the KS distance of
+// the trees' values (one per tree, crownHeight / height) to it — here recomputed by hand at
+// every knot of both CDFs; quantiles above every tree give D = 1; the key without `allometry`,
+// and a species the file does not hold, are errors at their keys.
 TEST(FitSpec, AllometryDistributionsComeFromTheAllometryFile) {
     TempDir t;
     auto allometry = [&](const std::string& species, const std::vector<double>& q) {
@@ -448,11 +454,7 @@ TEST(FitSpec, AllometryDistributionsComeFromTheAllometryFile) {
                  text.find("[[fit.parameter]]") - text.find("distributions = "),
                  "distributions = [\"radius_ratio\", \"crown_depth_ratio\"]\n"
                  "allometry = \"allometry.json\"\n\n");
-    text.replace(
-        text.find("reference = \""), text.find("trees = 8") - text.find("reference = \""),
-        "reference = \"" +
-            (fs::path(SYLVA_SOURCE_DIR) / "species/reference/treeqsm-broadleaf.json").string() +
-            "\"\n");
+    pointAtBroadleafReference(text);
     spit(t / "s.toml", text);
     const std::vector<double> q = {0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.95};
     allometry("tiny-pipe", q);
