@@ -842,9 +842,28 @@ ViewImage finishImage(int w, int h, std::vector<float>& zbuf, std::vector<uint8_
     out.height = h;
     out.silhouette.resize(n);
     constexpr float kInf = std::numeric_limits<float>::infinity();
-    uint8_t* sil = out.silhouette.data();  // plain pointers: the loop vectorises
+    uint8_t* sil = out.silhouette.data();
     float* z = zbuf.data();
-    for (size_t k = 0; k < n; ++k) {
+    size_t k = 0;
+#if defined(__SSE2__)
+    // Sixteen pixels at a time: a drawn pixel's mask is all ones (z ≠ ∞, also for NaN, as
+    // below), which keeps its depth and, packed to bytes with signed saturation, is 255. The
+    // compiler left the loop scalar at 3.5 instructions a pixel (its two element widths).
+    const __m128 inf = _mm_set1_ps(kInf);
+    for (; k + 16 <= n; k += 16) {
+        __m128i drawn[4];
+        for (int q = 0; q < 4; ++q) {
+            const __m128 d = _mm_loadu_ps(z + k + 4 * q);
+            const __m128 m = _mm_cmpneq_ps(d, inf);
+            _mm_storeu_ps(z + k + 4 * q, _mm_and_ps(d, m));
+            drawn[q] = _mm_castps_si128(m);
+        }
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(sil + k),
+                         _mm_packs_epi16(_mm_packs_epi32(drawn[0], drawn[1]),
+                                         _mm_packs_epi32(drawn[2], drawn[3])));
+    }
+#endif
+    for (; k < n; ++k) {
         const bool drawn = z[k] != kInf;
         sil[k] = drawn ? 255 : 0;
         z[k] = drawn ? z[k] : 0.0f;
