@@ -387,7 +387,8 @@ TEST(ViewRender, PixelsAreRayCastsOfTheMeshTriangles) {
         Rng rng(5);
         ViewOptions o = ringOptions(ortho);
         o.count = 4;
-        o.width = o.height = 72;
+        o.width = 72;
+        o.height = 71;  // 5,112 pixels: not a multiple of the 16 the image is finished in
         for (const Camera& c : makeCameras(t, o, rng)) {
             const ViewImage v = renderView(t, wood, nodes, c, true, true);
             int drawn = 0;
@@ -397,6 +398,13 @@ TEST(ViewRender, PixelsAreRayCastsOfTheMeshTriangles) {
                     const size_t k = at(v, x, y);
                     const bool on = v.silhouette[k] == 255;
                     drawn += on;
+                    // The silhouette is 0 or 255, and the depth 0 exactly off it.
+                    ASSERT_TRUE(on || v.silhouette[k] == 0) << x << "," << y;
+                    if (on) {
+                        ASSERT_GT(v.depth[k], 0.0f) << x << "," << y;
+                    } else {
+                        ASSERT_EQ(v.depth[k], 0.0f) << x << "," << y;
+                    }
                     if (hit.strict) {
                         ASSERT_TRUE(on) << x << "," << y << " ortho " << ortho;
                     }
