@@ -134,26 +134,27 @@ std::vector<uint16_t> canonicalCodes(const std::vector<uint8_t>& lengths) {
     return codes;
 }
 
-// Bits packed from the least significant bit of each byte, into a buffer sized beforehand.
+// Bits packed from the least significant bit of each byte, into a buffer sized beforehand
+// with at least 8 bytes to spare past the last bit. Each put stores the whole accumulator and
+// moves on by the bytes it completed, so no branch depends on the data (the loop that flushed
+// 32 bits at a time mispredicted on the short runs of label images).
 class BitWriter {
   public:
     explicit BitWriter(char* out) : out_(out) {}
-    // count ≤ 32: fewer than 32 bits wait in the accumulator, so nothing passes bit 63.
+    // count ≤ 56: fewer than 8 bits wait in the accumulator, so nothing passes bit 63.
     void put(uint64_t bits, int count) {
-        acc_ |= static_cast<uint64_t>(bits) << used_;
+        acc_ |= bits << used_;
         used_ += count;
-        while (used_ >= 32) {
-            out_ = storeU32(out_, static_cast<uint32_t>(acc_));
-            acc_ >>= 32;
-            used_ -= 32;
-        }
+        storeU64(out_, acc_);
+        const int bytes = used_ >> 3;
+        out_ += bytes;
+        acc_ >>= 8 * bytes;  // bytes ≤ 7, as used_ ≤ 7 + 56
+        used_ &= 7;
     }
     // Pads the last byte with zero bits; returns the end of the output.
     char* finish() {
-        for (; used_ > 0; used_ -= 8) {
-            *out_++ = static_cast<char>(acc_ & 0xff);
-            acc_ >>= 8;
-        }
+        if (used_ > 0) *out_++ = static_cast<char>(acc_ & 0xff);
+        acc_ = 0;
         used_ = 0;
         return out_;
     }
@@ -263,17 +264,26 @@ std::string deflateRuns(const std::vector<Run>& runs) {
     RunAdler adler;
     for (const Run& r : runs) {
         const uint64_t v = r.value;
-        forEachToken(
-            r.length,
-            [&](size_t len) {
-                ++litFreq[257 + lengthCode[len]];
-                ++distFreq[0];
-                tokenBits += 15 + 5 + 15;
-            },
-            [&] {
-                ++litFreq[v];
-                tokenBits += 15;
-            });
+        const uint64_t rest = r.length - 1;
+        if (rest <= kMaxCopy) {  // forEachToken's tokens for such a run, without its loops
+            const bool copy = rest >= 3;
+            litFreq[v] += copy ? 1 : static_cast<uint32_t>(1 + rest);
+            litFreq[257 + lengthCode[rest]] += copy;  // lengthCode[0…2] is 0: adds nothing
+            distFreq[0] += copy;
+            tokenBits += copy ? 15 + 15 + 5 + 15 : 15 * (1 + rest);
+        } else {
+            forEachToken(
+                r.length,
+                [&](size_t len) {
+                    ++litFreq[257 + lengthCode[len]];
+                    ++distFreq[0];
+                    tokenBits += 15 + 5 + 15;
+                },
+                [&] {
+                    ++litFreq[v];
+                    tokenBits += 15;
+                });
+        }
         adler.add(v, r.length);
     }
     litFreq[kEndOfBlock] = 1;
@@ -322,8 +332,8 @@ std::string deflateRuns(const std::vector<Run>& runs) {
     size_t hclen = 19;
     while (hclen > 4 && clLen[kCodeLengthOrder[hclen - 1]] == 0) --hclen;
 
-    // The header under 400 bytes, then the tokens.
-    std::string z(2 + 400 + tokenBits / 8 + 8, '\0');
+    // The header under 400 bytes, then the tokens, and BitWriter's 8 bytes to spare.
+    std::string z(2 + 400 + tokenBits / 8 + 16, '\0');
     z[0] = static_cast<char>(0x78);  // RFC 1950: deflate, 32 KiB window
     z[1] = static_cast<char>(0x01);  // no dictionary, "fastest"; 0x7801 is a multiple of 31
     BitWriter bits(z.data() + 2);
@@ -340,7 +350,7 @@ std::string deflateRuns(const std::vector<Run>& runs) {
     }
     // A copy at distance 1 as one bit string: the length's code, its extra bits, then
     // distance code 0. The distance code has exactly two symbols (0, and 1 added by
-    // atLeastTwo), so code 0 is one bit: at most 15 + 5 + 1 bits, within BitWriter's 32.
+    // atLeastTwo), so code 0 is one bit: at most 15 + 5 + 1 bits, within BitWriter's 56.
     std::array<uint64_t, kMaxCopy + 1> copyCode{};
     std::array<uint8_t, kMaxCopy + 1> copyBits{};
     for (size_t len = 3; len <= kMaxCopy; ++len) {
@@ -352,11 +362,26 @@ std::string deflateRuns(const std::vector<Run>& runs) {
         copyBits[len] = static_cast<uint8_t>(codeBits + kLengthExtra[c] + distLen[0]);
     }
     for (const Run& r : runs) {
-        const uint32_t literalCode = litCode[r.value];
+        const uint64_t literalCode = litCode[r.value];
         const int literalBits = litLen[r.value];
-        forEachToken(
-            r.length, [&](size_t len) { bits.put(copyCode[len], copyBits[len]); },
-            [&] { bits.put(literalCode, literalBits); });
+        const uint64_t rest = r.length - 1;
+        if (rest <= kMaxCopy) {
+            // The run's tokens in one put, as forEachToken has them: its literal, then one copy
+            // of the rest (3…258) or the rest as literals (0…2). At most 15 + 21 or 3 × 15
+            // bits; the choices are selects, not branches (run lengths are not predictable).
+            const uint64_t two = literalCode | literalCode << literalBits;
+            const uint64_t literals = rest == 0   ? literalCode
+                                      : rest == 1 ? two
+                                                  : two | literalCode << (2 * literalBits);
+            const bool copy = rest >= 3;
+            bits.put(copy ? literalCode | copyCode[rest] << literalBits : literals,
+                     literalBits * (copy ? 1 : static_cast<int>(1 + rest)) +
+                         (copy ? copyBits[rest] : 0));
+        } else {
+            forEachToken(
+                r.length, [&](size_t len) { bits.put(copyCode[len], copyBits[len]); },
+                [&] { bits.put(literalCode, literalBits); });
+        }
     }
     bits.put(litCode[kEndOfBlock], litLen[kEndOfBlock]);
     char* end = bits.finish();
