@@ -85,6 +85,16 @@ TEST(DeflateRuns, CodesDeeperThanFifteenBitsAreLimited) {
     }
     ASSERT_GT(data.size(), 250000u);
     expectRoundTrip(data, "Fibonacci frequencies");
+
+    // The same values as runs of 1 to 4 bytes and, every 97th, of 259: the encoder writes a
+    // run's tokens at once, so a run of three carries three of the longest (15-bit) literal
+    // codes and a run of four one with a copy. The rarest values get the longest codes.
+    std::vector<uint8_t> runs;
+    for (size_t k = 0; k < data.size(); ++k) {
+        const size_t length = k % 97 == 0 ? 259 : 1 + k % 4;
+        runs.insert(runs.end(), length, data[k]);
+    }
+    expectRoundTrip(runs, "Fibonacci frequencies in runs of 1 to 4 and 259");
 }
 
 // The checksum is summed over runs with its reductions deferred: on megabytes of short bright
